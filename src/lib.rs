@@ -1,0 +1,11 @@
+//! goniospec: a virtual goniospectrometer. It traces an explicit microgeometry sample
+//! with coherent spectral ray optics and accumulates what leaves it into a BRDF.
+//!
+//! The modules follow the pipeline (see ARCHITECTURE.md):
+//! [`sample`] (geometry, media) → [`accel`] (Embree, obvhs) → … → [`bench`] and the CLI.
+
+pub mod accel;
+pub mod bench;
+pub mod io;
+pub mod rng;
+pub mod sample;

@@ -1,0 +1,105 @@
+//! Triangle meshes in nanometres (f64), as interfaces of a sample are made of.
+
+use std::io::Write;
+use std::path::Path;
+
+use crate::accel::TriangleSoup;
+
+/// An indexed triangle mesh. Positions in nanometres in the sample frame (z up); the
+/// front of a triangle is the side `(v1 - v0) x (v2 - v0)` points to.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    pub positions_nm: Vec<[f64; 3]>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    /// Twice the area of triangle `i` as a vector: `(v1 - v0) x (v2 - v0)`, in nm².
+    pub fn area_vector(&self, i: usize) -> [f64; 3] {
+        let [a, b, c] = self.triangles[i].map(|k| self.positions_nm[k as usize]);
+        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ]
+    }
+
+    /// Whether triangle `i` has (numerically) no area: repeated corners, or corners on one
+    /// line. The test is relative, `|e1 x e2| <= 1e-12 * max_edge²`, so it does not
+    /// depend on the unit.
+    pub fn is_degenerate(&self, i: usize) -> bool {
+        let [a, b, c] = self.triangles[i].map(|k| self.positions_nm[k as usize]);
+        let d2 = |p: [f64; 3], q: [f64; 3]| {
+            (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)
+        };
+        let max_edge2 = d2(a, b).max(d2(b, c)).max(d2(c, a));
+        let n = self.area_vector(i);
+        let cross = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        max_edge2 == 0.0 || cross <= 1e-12 * max_edge2
+    }
+
+    /// Indices of the degenerate triangles.
+    pub fn degenerate_triangles(&self) -> Vec<usize> {
+        (0..self.triangles.len())
+            .filter(|&i| self.is_degenerate(i))
+            .collect()
+    }
+
+    /// Axis-aligned bounds `(min, max)` in nm, or `None` for an empty mesh.
+    pub fn bounds(&self) -> Option<([f64; 3], [f64; 3])> {
+        let mut it = self.positions_nm.iter();
+        let first = *it.next()?;
+        Some(it.fold((first, first), |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1]), lo[2].min(p[2])],
+                [hi[0].max(p[0]), hi[1].max(p[1]), hi[2].max(p[2])],
+            )
+        }))
+    }
+
+    /// Appends `other`, offsetting its indices.
+    pub fn append(&mut self, other: &Mesh) {
+        let off = self.positions_nm.len() as u32;
+        self.positions_nm.extend_from_slice(&other.positions_nm);
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|i| i + off)));
+    }
+
+    /// The mesh as f32 triangles for an accelerator.
+    pub fn to_soup(&self) -> TriangleSoup {
+        TriangleSoup {
+            vertices: self
+                .positions_nm
+                .iter()
+                .map(|p| p.map(|c| c as f32))
+                .collect(),
+            triangles: self.triangles.clone(),
+        }
+    }
+
+    /// Writes the mesh as a Wavefront OBJ with coordinates in `unit` (nm per file unit),
+    /// atomically (temporary file, then rename).
+    pub fn write_obj(&self, path: &Path, nm_per_unit: f64, comment: &str) -> std::io::Result<()> {
+        crate::io::write_atomic(path, |w| {
+            for line in comment.lines() {
+                writeln!(w, "# {line}")?;
+            }
+            for p in &self.positions_nm {
+                // 17 significant digits round-trip an f64 exactly.
+                writeln!(
+                    w,
+                    "v {:.17e} {:.17e} {:.17e}",
+                    p[0] / nm_per_unit,
+                    p[1] / nm_per_unit,
+                    p[2] / nm_per_unit
+                )?;
+            }
+            for t in &self.triangles {
+                writeln!(w, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+            }
+            Ok(())
+        })
+    }
+}
