@@ -95,7 +95,10 @@ fn main() {
     println!("cargo::rustc-link-lib=dylib=embree{major}");
     println!("cargo::rustc-cfg=embree");
     println!("cargo::rustc-cfg=embree_major=\"{major}\"");
-    println!("cargo::rustc-env=GONIOSPEC_EMBREE_HEADER={}", header.display());
+    println!(
+        "cargo::rustc-env=GONIOSPEC_EMBREE_HEADER={}",
+        header.display()
+    );
 }
 
 /// The include folder holding `embree4/rtcore.h` or `embree3/rtcore.h`, and which major.

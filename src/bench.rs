@@ -28,7 +28,10 @@ pub fn default_surface(triangles: usize, seed: u64) -> Mesh {
 /// its top, directions uniform in solid angle within 75° of -z. Deterministic in `seed`.
 pub fn random_rays(mesh: &Mesh, count: usize, seed: u64) -> Vec<Ray> {
     let (lo, hi) = mesh.bounds().unwrap_or(([0.0; 3], [1.0; 3]));
-    let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(hi[2] - lo[2]).max(1e-9);
+    let extent = (hi[0] - lo[0])
+        .max(hi[1] - lo[1])
+        .max(hi[2] - lo[2])
+        .max(1e-9);
     let z0 = hi[2] + 0.01 * extent;
     let cos_max = 75f64.to_radians().cos();
     (0..count)
@@ -222,7 +225,8 @@ pub fn trace_bench(
         }
     }
     if let Some(h) = first_hits.first() {
-        report.hit_fraction = h.iter().filter(|x| x.is_hit()).count() as f64 / h.len().max(1) as f64;
+        report.hit_fraction =
+            h.iter().filter(|x| x.is_hit()).count() as f64 / h.len().max(1) as f64;
     }
     if first_hits.len() >= 2 {
         report.agreement = Some(agreement(&first_hits[0], &first_hits[1]));

@@ -75,12 +75,16 @@ struct TraceArgs {
     /// Thread counts to measure, comma-separated.
     #[arg(long, value_delimiter = ',', default_value = "1,2")]
     threads: Vec<usize>,
-    /// Backends to measure, comma-separated (default: every available one).
-    #[arg(long, value_delimiter = ',')]
+    /// Backends to measure, comma-separated: embree, obvhs (default: every available one).
+    #[arg(long, value_delimiter = ',', value_parser = parse_backend)]
     backend: Vec<Backend>,
     /// Seed of the surface and the rays.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+}
+
+fn parse_backend(s: &str) -> Result<Backend, String> {
+    s.parse::<Backend>().map_err(|e| e.to_string())
 }
 
 fn main() -> ExitCode {
@@ -116,7 +120,10 @@ fn backends() -> Result<ExitCode> {
                 } else {
                     ""
                 };
-                println!("{} {}{}  [{}]", info.backend, info.version, default, info.detail);
+                println!(
+                    "{} {}{}  [{}]",
+                    info.backend, info.version, default, info.detail
+                );
             }
             Err(msg) => println!("unavailable: {msg}"),
         }
@@ -153,7 +160,12 @@ fn check(a: CheckArgs) -> Result<ExitCode> {
             itf.mesh.triangles.len(),
             s.media[itf.front].name,
             s.media[itf.back].name,
-            lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]
+            lo[0],
+            lo[1],
+            lo[2],
+            hi[0],
+            hi[1],
+            hi[2]
         );
     }
     Ok(ExitCode::SUCCESS)
@@ -167,7 +179,10 @@ fn bench_trace(a: TraceArgs) -> Result<ExitCode> {
         bail!("--threads needs positive thread counts, e.g. --threads 1,2");
     }
     let backends: Vec<Backend> = if a.backend.is_empty() {
-        Backend::ALL.into_iter().filter(|b| b.is_available()).collect()
+        Backend::ALL
+            .into_iter()
+            .filter(|b| b.is_available())
+            .collect()
     } else {
         for b in &a.backend {
             if !b.is_available() {
@@ -186,7 +201,10 @@ fn bench_trace(a: TraceArgs) -> Result<ExitCode> {
             if a.triangles < 2 {
                 bail!("--triangles must be at least 2");
             }
-            eprintln!("generating a periodic height field of about {} triangles", a.triangles);
+            eprintln!(
+                "generating a periodic height field of about {} triangles",
+                a.triangles
+            );
             bench::default_surface(a.triangles, a.seed)
         }
     };
@@ -194,7 +212,11 @@ fn bench_trace(a: TraceArgs) -> Result<ExitCode> {
         "bench trace: {} triangles, {} rays, backends {}",
         mesh.triangles.len(),
         a.rays,
-        backends.iter().map(|b| b.name()).collect::<Vec<_>>().join(", ")
+        backends
+            .iter()
+            .map(|b| b.name())
+            .collect::<Vec<_>>()
+            .join(", ")
     );
     let cfg = bench::TraceBenchConfig {
         rays: a.rays,

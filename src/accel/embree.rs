@@ -187,7 +187,9 @@ unsafe extern "C" fn error_callback(user: *mut c_void, code: sys::RTCError, msg:
             String::new()
         } else {
             // SAFETY: Embree passes a NUL-terminated C string valid for this call.
-            unsafe { CStr::from_ptr(msg) }.to_string_lossy().into_owned()
+            unsafe { CStr::from_ptr(msg) }
+                .to_string_lossy()
+                .into_owned()
         };
         let mut first = slot.first.lock().unwrap_or_else(|p| p.into_inner());
         if first.is_none() {
@@ -375,7 +377,10 @@ impl TriangleGeometry {
     }
 
     /// A geometry holding `soup`'s vertices and triangles, committed.
-    pub fn from_soup(device: &Device, soup: &TriangleSoup) -> Result<TriangleGeometry, EmbreeError> {
+    pub fn from_soup(
+        device: &Device,
+        soup: &TriangleSoup,
+    ) -> Result<TriangleGeometry, EmbreeError> {
         let mut g = TriangleGeometry::new(device)?;
         let verts: Vec<u32> = soup
             .vertices
@@ -401,7 +406,8 @@ impl TriangleGeometry {
         byte_stride: usize,
         count: usize,
     ) -> Result<(), EmbreeError> {
-        let during = format!("setting the {kind:?} buffer ({count} elements, stride {byte_stride} B)");
+        let during =
+            format!("setting the {kind:?} buffer ({count} elements, stride {byte_stride} B)");
         let elem_bytes = 12usize;
         let needed = if count == 0 {
             0
@@ -558,13 +564,13 @@ impl EmbreeScene {
     }
 }
 
-/// Embree reports `Ng = (v0 - v1) x (v2 - v0)` (its triangle intersector's convention),
-/// the opposite of ours; flip and normalise.
+/// Embree's unnormalised `Ng` of a triangle points where `(v1 - v0) x (v2 - v0)` points
+/// (the brute-force tests in `tests/accel.rs` check the sign); normalise it.
 #[inline]
 fn unit_normal(x: f32, y: f32, z: f32) -> [f32; 3] {
     let l = (x * x + y * y + z * z).sqrt();
     if l > 0.0 {
-        [-x / l, -y / l, -z / l]
+        [x / l, y / l, z / l]
     } else {
         [0.0; 3]
     }

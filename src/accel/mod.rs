@@ -45,7 +45,11 @@ impl TriangleSoup {
 
     /// Checks what every backend relies on: indices in range and finite coordinates.
     pub fn validate(&self) -> Result<(), AccelError> {
-        if let Some(i) = self.vertices.iter().position(|v| v.iter().any(|c| !c.is_finite())) {
+        if let Some(i) = self
+            .vertices
+            .iter()
+            .position(|v| v.iter().any(|c| !c.is_finite()))
+        {
             return Err(AccelError::InvalidInput(format!(
                 "vertex {i} has a non-finite coordinate {:?}",
                 self.vertices[i]

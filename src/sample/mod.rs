@@ -195,7 +195,11 @@ struct RawInterface {
 
 /// 1-based line of byte offset `pos` in `text`.
 fn line_of(text: &str, pos: usize) -> usize {
-    text[..pos.min(text.len())].bytes().filter(|&b| b == b'\n').count() + 1
+    text[..pos.min(text.len())]
+        .bytes()
+        .filter(|&b| b == b'\n')
+        .count()
+        + 1
 }
 
 /// Nanometres per unit for the sample's declared unit.
@@ -217,7 +221,8 @@ pub fn load(path: &Path, opts: MeshOptions) -> Result<Sample, SampleError> {
 /// Parses a sample description whose text was read from `path` (meshes are resolved
 /// relative to `path`'s folder).
 pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, SampleError> {
-    let at = |span: std::ops::Range<usize>, kind| SampleError::at(path, line_of(text, span.start), kind);
+    let at =
+        |span: std::ops::Range<usize>, kind| SampleError::at(path, line_of(text, span.start), kind);
     let raw: RawSample = toml::from_str(text).map_err(|e| {
         let kind = SampleErrorKind::Toml(e.message().trim().to_string());
         match e.span() {
@@ -227,8 +232,12 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
     })?;
 
     let unit = raw.sample.unit.get_ref();
-    let scale = nm_per_unit(unit)
-        .ok_or_else(|| at(raw.sample.unit.span(), SampleErrorKind::BadUnit(unit.clone())))?;
+    let scale = nm_per_unit(unit).ok_or_else(|| {
+        at(
+            raw.sample.unit.span(),
+            SampleErrorKind::BadUnit(unit.clone()),
+        )
+    })?;
     let [tx, ty] = *raw.sample.tile.get_ref();
     if !(tx.is_finite() && ty.is_finite() && tx > 0.0 && ty > 0.0) {
         return Err(at(raw.sample.tile.span(), SampleErrorKind::BadTile(tx, ty)));
@@ -263,19 +272,26 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         if media.is_empty() {
             "no media".to_string()
         } else {
-            media.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
+            media
+                .iter()
+                .map(|m| m.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
         }
     };
     let medium = |s: &Spanned<String>| -> Result<usize, SampleError> {
-        media.iter().position(|m| &m.name == s.get_ref()).ok_or_else(|| {
-            at(
-                s.span(),
-                SampleErrorKind::UnknownMedium {
-                    name: s.get_ref().clone(),
-                    known: known(),
-                },
-            )
-        })
+        media
+            .iter()
+            .position(|m| &m.name == s.get_ref())
+            .ok_or_else(|| {
+                at(
+                    s.span(),
+                    SampleErrorKind::UnknownMedium {
+                        name: s.get_ref().clone(),
+                        known: known(),
+                    },
+                )
+            })
     };
 
     if raw.interface.is_empty() {

@@ -136,7 +136,11 @@ pub fn load_obj(path: &Path, nm_per_unit: f64, opts: MeshOptions) -> Result<Mesh
         };
         mesh.append(&part);
     }
-    if let Some(bad) = mesh.positions_nm.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+    if let Some(bad) = mesh
+        .positions_nm
+        .iter()
+        .position(|p| p.iter().any(|c| !c.is_finite()))
+    {
         // Finite in the file but not after scaling: coordinates too large.
         return Err(SampleError::file(
             path,
