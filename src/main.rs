@@ -29,10 +29,13 @@ struct Cli {
 enum Command {
     /// List the ray-tracing backends this build offers, with their library versions.
     Backends,
-    /// Load a sample description and its meshes, and report what was loaded.
+    /// Load a sample and look for defects before a long simulation.
     ///
-    /// Reports triangle counts, bounding boxes and media; exits with status 1 when the
-    /// sample cannot be loaded (the error names the file and line).
+    /// Reports triangle counts, bounding boxes, media and interface orientation, and checks
+    /// that closed bodies are watertight, that no interfaces cut through each other, that
+    /// sheets tile periodically, and (with random walks that track the current medium) that
+    /// no ray ever crosses an interface from the wrong medium. Exits with status 1 when it
+    /// finds a defect or cannot load the sample (the error names the file and line).
     Check(CheckArgs),
     /// Benchmarks; each prints its figures.
     #[command(subcommand)]
@@ -46,6 +49,16 @@ struct CheckArgs {
     /// Drop degenerate (zero-area) triangles instead of refusing the mesh.
     #[arg(long)]
     drop_degenerate: bool,
+    /// Accelerator for the intersection and leak tests: embree or obvhs (default: embree
+    /// where available).
+    #[arg(long, value_parser = parse_backend)]
+    backend: Option<Backend>,
+    /// Random walks of the leak test.
+    #[arg(long, default_value_t = 20_000)]
+    leak_rays: usize,
+    /// Seed of the leak test.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
 }
 
 #[derive(Subcommand)]
@@ -140,35 +153,35 @@ fn check(a: CheckArgs) -> Result<ExitCode> {
         drop_degenerate: a.drop_degenerate,
     };
     let s = sample::load(&a.sample, opts)?;
-    println!("sample '{}' ({})", s.name, s.path.display());
-    println!(
-        "tile: {} nm x {} nm, {} media, {} interfaces, {} triangles",
-        s.tile_nm[0],
-        s.tile_nm[1],
-        s.media.len(),
-        s.interfaces.len(),
-        s.triangle_count()
-    );
-    for m in &s.media {
-        println!("  medium {:<12} n = {}  k = {}", m.name, m.n, m.k);
+    let copts = sample::check::CheckOptions {
+        backend: resolve_backend(a.backend)?,
+        leak_rays: a.leak_rays,
+        seed: a.seed,
+        ..Default::default()
+    };
+    let report = sample::check::check(&s, &copts)?;
+    for f in &report.facts {
+        println!("{f}");
     }
-    for (i, itf) in s.interfaces.iter().enumerate() {
-        let (lo, hi) = itf.mesh.bounds().expect("loaded meshes are non-empty");
-        println!(
-            "  interface {i}: {} ({} triangles), front {} / back {}, bounds [{:.1}, {:.1}, {:.1}] .. [{:.1}, {:.1}, {:.1}] nm",
-            itf.mesh_path.display(),
-            itf.mesh.triangles.len(),
-            s.media[itf.front].name,
-            s.media[itf.back].name,
-            lo[0],
-            lo[1],
-            lo[2],
-            hi[0],
-            hi[1],
-            hi[2]
-        );
+    if report.defects.is_empty() {
+        println!("no defects found");
+        Ok(ExitCode::SUCCESS)
+    } else {
+        for d in &report.defects {
+            println!("DEFECT: {d}");
+        }
+        println!("{} defects found", report.defects.len());
+        Ok(ExitCode::from(1))
     }
-    Ok(ExitCode::SUCCESS)
+}
+
+/// The requested backend, or the default; refuses one this build lacks.
+fn resolve_backend(b: Option<Backend>) -> Result<Backend> {
+    let b = b.unwrap_or_else(Backend::default_available);
+    if !b.is_available() {
+        bail!(accel::AccelError::EmbreeUnavailable);
+    }
+    Ok(b)
 }
 
 fn bench_trace(a: TraceArgs) -> Result<ExitCode> {

@@ -1,37 +1,50 @@
-//! Procedural periodic surfaces, written as ordinary meshes (and OBJ files) so every
+//! Procedural periodic microgeometry, written as ordinary meshes (and OBJ files) so every
 //! generated sample can be shared and re-imported.
+//!
+//! Every generator works on the periodic tile `[0, Lx) x [0, Ly)` in nanometres. Sheets
+//! (height fields, films, microfacets, grooves) span the whole tile and their opposite
+//! boundary edges coincide after a shift by the tile size; bodies (pigments, flakes) are
+//! closed meshes kept inside the tile. Every generator is deterministic in its seed.
+//!
+//! Resolution parameters say what they control: `resolution` is grid cells per tile side
+//! for height fields (the mesh has `2 * resolution^2` triangles), `subdivisions` the
+//! icosphere level of a pigment (20 * 4^level triangles).
+
+use std::collections::HashMap;
+use std::f64::consts::{PI, TAU};
+
+use serde::Deserialize;
 
 use super::mesh::Mesh;
 use crate::rng::Rng;
 
-/// A regular height field over the periodic tile `[0, Lx) x [0, Ly)`: `cells[0] x
-/// cells[1]` grid cells, two triangles each, normals pointing up (+z). The boundary rows
-/// repeat the opposite side's heights, so opposite edges coincide and the tile repeats
-/// seamlessly provided `height` is periodic.
+/// A regular height field over the periodic tile: `cells[0] x cells[1]` grid cells, two
+/// triangles each, normals pointing up (+z). The last row and column repeat the first
+/// one's heights (sampled at the wrapped position), so opposite edges coincide.
 ///
 /// # Panics
 /// When a cell count is zero.
-pub fn height_field(
-    cells: [usize; 2],
-    tile_nm: [f64; 2],
-    height: impl Fn(f64, f64) -> f64,
-) -> Mesh {
+pub fn height_field(cells: [usize; 2], tile_nm: [f64; 2], height: impl Fn(f64, f64) -> f64) -> Mesh {
     let [nx, ny] = cells;
     assert!(nx > 0 && ny > 0, "a height field needs at least one cell");
     let mut positions_nm = Vec::with_capacity((nx + 1) * (ny + 1));
     for j in 0..=ny {
         for i in 0..=nx {
-            // Wrap the sampling position so both boundary rows use bit-identical heights.
-            let (iw, jw) = (i % nx, j % ny);
             let (xs, ys) = (
-                iw as f64 * tile_nm[0] / nx as f64,
-                jw as f64 * tile_nm[1] / ny as f64,
+                (i % nx) as f64 * tile_nm[0] / nx as f64,
+                (j % ny) as f64 * tile_nm[1] / ny as f64,
             );
             let x = i as f64 * tile_nm[0] / nx as f64;
             let y = j as f64 * tile_nm[1] / ny as f64;
             positions_nm.push([x, y, height(xs, ys)]);
         }
     }
+    height_field_from_grid(cells, positions_nm)
+}
+
+/// Triangulates a `(nx+1) x (ny+1)` grid of points (row-major, x fastest).
+fn height_field_from_grid(cells: [usize; 2], positions_nm: Vec<[f64; 3]>) -> Mesh {
+    let [nx, ny] = cells;
     let idx = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
     let mut triangles = Vec::with_capacity(2 * nx * ny);
     for j in 0..ny {
@@ -49,8 +62,8 @@ pub fn height_field(
 }
 
 /// A smooth periodic surface: a sum of `modes` cosines with integer wave numbers (so it
-/// tiles), random phases and a 1/|q| amplitude fall-off, scaled to the given RMS height
-/// (nm). Deterministic in `seed`.
+/// tiles), random phases and a 1/|q| amplitude fall-off, scaled to about the given RMS
+/// height (nm). Deterministic in `seed`. Used for benchmarks.
 pub fn cosine_surface(
     seed: u64,
     tile_nm: [f64; 2],
@@ -67,16 +80,15 @@ pub fn cosine_surface(
             continue;
         }
         let q = f64::from(m * m + n * n).sqrt();
-        let phase = rng.range(0.0, std::f64::consts::TAU);
+        let phase = rng.range(0.0, TAU);
         terms.push((
-            std::f64::consts::TAU * f64::from(m) / tile_nm[0],
-            std::f64::consts::TAU * f64::from(n) / tile_nm[1],
+            TAU * f64::from(m) / tile_nm[0],
+            TAU * f64::from(n) / tile_nm[1],
             1.0 / q,
             phase,
         ));
     }
-    // RMS of a sum of cosines with distinct (m, n) is sqrt(sum a^2 / 2); distinct pairs are
-    // not enforced, so normalise by that nominal value (close for few repeats).
+    // RMS of a sum of cosines with distinct (m, n) is sqrt(sum a^2 / 2).
     let nominal = (terms.iter().map(|t| t.2 * t.2).sum::<f64>() / 2.0).sqrt();
     let scale = if nominal > 0.0 { rms_nm / nominal } else { 0.0 };
     move |x, y| {
@@ -85,5 +97,941 @@ pub fn cosine_surface(
                 .iter()
                 .map(|&(kx, ky, a, p)| a * (kx * x + ky * y + p).cos())
                 .sum::<f64>()
+    }
+}
+
+/// A periodic Gaussian random surface on a grid, by random-phase spectral synthesis.
+///
+/// Target: RMS height `rms_nm` and Gaussian autocorrelation
+/// `C(r) = rms^2 exp(-r^2 / l^2)` with correlation length `l = corr_nm`, whose 2-D power
+/// spectrum is `W(q) = rms^2 l^2 / (4 pi) exp(-q^2 l^2 / 4)` (Ogilvy, Theory of Wave
+/// Scattering from Random Rough Surfaces, 1991, §2.2). Each wave vector `q = 2 pi (m/Lx,
+/// n/Ly)` of the half plane gets amplitude `sqrt(2 W(q) dqx dqy)` and a random phase, so the
+/// tile-averaged autocorrelation is exactly the discretised `C(r)`; the sum is then
+/// normalised to the exact requested RMS. Returns heights on the `(n+1) x (n+1)` grid.
+pub fn gaussian_heights(
+    seed: u64,
+    tile_nm: [f64; 2],
+    resolution: usize,
+    rms_nm: f64,
+    corr_nm: f64,
+) -> Result<Vec<f64>, String> {
+    if !(rms_nm.is_finite() && rms_nm >= 0.0) {
+        return Err(format!("rms must be finite and >= 0, got {rms_nm}"));
+    }
+    if !(corr_nm.is_finite() && corr_nm > 0.0) {
+        return Err(format!("correlation_length must be positive, got {corr_nm}"));
+    }
+    let n = resolution;
+    let spacing = tile_nm[0].max(tile_nm[1]) / n as f64;
+    if corr_nm < 3.0 * spacing {
+        return Err(format!(
+            "resolution {n} gives a grid spacing of {spacing:.1} nm, too coarse for a correlation length of {corr_nm} nm (need spacing <= l/3: resolution >= {})",
+            (3.0 * tile_nm[0].max(tile_nm[1]) / corr_nm).ceil()
+        ));
+    }
+    let (dqx, dqy) = (TAU / tile_nm[0], TAU / tile_nm[1]);
+    // Modes up to the grid's Nyquist limit.
+    let mmax = (n / 2) as i64;
+    let w = |q2: f64| rms_nm * rms_nm * corr_nm * corr_nm / (4.0 * PI) * (-q2 * corr_nm * corr_nm / 4.0).exp();
+    let mut rng = Rng::new(seed, 0x6A055);
+    // (m, n, amplitude, phase) over the half plane: m > 0, or m == 0 and n > 0.
+    let mut modes = Vec::new();
+    let mut total = 0.0;
+    for m in 0..=mmax {
+        for k in -mmax..=mmax {
+            if m == 0 && k <= 0 {
+                continue;
+            }
+            let q2 = (m as f64 * dqx).powi(2) + (k as f64 * dqy).powi(2);
+            let a2 = 2.0 * w(q2) * dqx * dqy;
+            let phase = rng.range(0.0, TAU);
+            total += a2 / 2.0;
+            if a2 > 1e-16 * rms_nm * rms_nm {
+                modes.push((m, k, a2.sqrt(), phase));
+            }
+        }
+    }
+    if rms_nm > 0.0 && total < 0.95 * rms_nm * rms_nm {
+        return Err(format!(
+            "the tile or the resolution is too small for correlation length {corr_nm} nm: only {:.0} % of the height variance fits (make the tile at least a few correlation lengths wide and resolution >= 6 L / l)",
+            100.0 * total / (rms_nm * rms_nm)
+        ));
+    }
+    let scale = if total > 0.0 { rms_nm / total.sqrt() } else { 0.0 };
+    // Separable evaluation: h(x_i, y_j) = Re sum_m e^{i qx_m x_i} G_m(y_j).
+    let mut h = vec![0.0; (n + 1) * (n + 1)];
+    let mut by_m: HashMap<i64, Vec<(i64, f64, f64)>> = HashMap::new();
+    for &(m, k, a, p) in &modes {
+        by_m.entry(m).or_default().push((k, a, p));
+    }
+    let mut ms: Vec<i64> = by_m.keys().copied().collect();
+    ms.sort_unstable();
+    for m in ms {
+        let list = &by_m[&m];
+        // G_m(y_j) = sum_k a e^{i (qy_k y_j + phase)}
+        let g: Vec<(f64, f64)> = (0..=n)
+            .map(|j| {
+                let y = (j % n) as f64 * tile_nm[1] / n as f64;
+                list.iter().fold((0.0, 0.0), |(re, im), &(k, a, p)| {
+                    let arg = k as f64 * dqy * y + p;
+                    (re + a * arg.cos(), im + a * arg.sin())
+                })
+            })
+            .collect();
+        for i in 0..=n {
+            let x = (i % n) as f64 * tile_nm[0] / n as f64;
+            let (c, s) = ((m as f64 * dqx * x).cos(), (m as f64 * dqx * x).sin());
+            for (j, &(gr, gi)) in g.iter().enumerate() {
+                h[j * (n + 1) + i] += c * gr - s * gi;
+            }
+        }
+    }
+    for v in &mut h {
+        *v *= scale;
+    }
+    Ok(h)
+}
+
+/// Grid positions for heights from [`gaussian_heights`] plus a constant offset.
+pub fn grid_mesh(tile_nm: [f64; 2], n: usize, heights: &[f64], z0: f64) -> Mesh {
+    let mut p = Vec::with_capacity((n + 1) * (n + 1));
+    for j in 0..=n {
+        for i in 0..=n {
+            p.push([
+                i as f64 * tile_nm[0] / n as f64,
+                j as f64 * tile_nm[1] / n as f64,
+                z0 + heights[j * (n + 1) + i],
+            ]);
+        }
+    }
+    height_field_from_grid([n, n], p)
+}
+
+/// Which microfacet normal distribution.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Distribution {
+    /// Trowbridge–Reitz / GGX (Walter et al., EGSR 2007, eq. 33).
+    Ggx,
+    /// Beckmann (Walter et al. 2007, eq. 25).
+    Beckmann,
+}
+
+impl Distribution {
+    /// The normal distribution D(m) (1/sr) at `cos_theta_m` for roughness `alpha`.
+    /// Walter et al. 2007, eqs. 25 and 33.
+    pub fn d(self, alpha: f64, cos_theta_m: f64) -> f64 {
+        if cos_theta_m <= 0.0 {
+            return 0.0;
+        }
+        let c2 = cos_theta_m * cos_theta_m;
+        let tan2 = (1.0 - c2) / c2;
+        let a2 = alpha * alpha;
+        match self {
+            Distribution::Beckmann => (-tan2 / a2).exp() / (PI * a2 * c2 * c2),
+            Distribution::Ggx => a2 / (PI * c2 * c2 * (a2 + tan2).powi(2)),
+        }
+    }
+
+    /// Samples a microfacet normal with density `D(m) cos(theta_m)` per solid angle
+    /// (Walter et al. 2007, eqs. 28–29 and 35–36).
+    pub fn sample(self, alpha: f64, u1: f64, u2: f64) -> [f64; 3] {
+        let tan2 = match self {
+            Distribution::Beckmann => -alpha * alpha * (1.0 - u1).ln(),
+            Distribution::Ggx => alpha * alpha * u1 / (1.0 - u1),
+        };
+        let cos_t = 1.0 / (1.0 + tan2).sqrt();
+        let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+        let phi = TAU * u2;
+        [sin_t * phi.cos(), sin_t * phi.sin(), cos_t]
+    }
+}
+
+/// A microfacet surface whose facet normals follow `D(m) cos(theta_m)` exactly: a grid of
+/// square cells, each a planar facet through the cell centre (at height `z0`) with a normal
+/// drawn independently from the distribution, joined to its neighbours by vertical walls.
+///
+/// Every facet projects onto its cell, so the projected-area-weighted histogram of facet
+/// normals is the sampled distribution; the walls are vertical and have no projected area.
+/// (The walls do change masking and shadowing with respect to the Smith model.) Wall
+/// edges on the vertical lines through grid corners are split at every facet corner height
+/// there, so the mesh has no T-junctions, and the walls at `x = Lx` and `y = Ly` join the
+/// last cells to the periodic images of the first ones.
+pub fn microfacet_surface(
+    seed: u64,
+    tile_nm: [f64; 2],
+    cells: usize,
+    dist: Distribution,
+    alpha: f64,
+    z0: f64,
+) -> Result<Mesh, String> {
+    if cells == 0 {
+        return Err("resolution must be at least 1".into());
+    }
+    if !(alpha.is_finite() && alpha > 0.0) {
+        return Err(format!("alpha must be positive, got {alpha}"));
+    }
+    let n = cells;
+    let (dx, dy) = (tile_nm[0] / n as f64, tile_nm[1] / n as f64);
+    let mut rng = Rng::new(seed, 0xFACE7);
+    let normals: Vec<[f64; 3]> = (0..n * n)
+        .map(|_| {
+            let (u1, u2) = (rng.uniform(), rng.uniform());
+            dist.sample(alpha, u1, u2)
+        })
+        .collect();
+    // Height of cell (ci, cj) (unwrapped, may be -1 ..= n) at grid corner (gi, gj).
+    let height = |ci: i64, cj: i64, gi: i64, gj: i64| -> f64 {
+        let m = normals[(cj.rem_euclid(n as i64) as usize) * n + ci.rem_euclid(n as i64) as usize];
+        let (cx, cy) = ((ci as f64 + 0.5) * dx, (cj as f64 + 0.5) * dy);
+        let (x, y) = (gi as f64 * dx, gj as f64 * dy);
+        z0 - (m[0] * (x - cx) + m[1] * (y - cy)) / m[2]
+    };
+    let mut mesh = Mesh::default();
+    let mut index: HashMap<(i64, i64, u64), u32> = HashMap::new();
+    let mut vert = |mesh: &mut Mesh, gi: i64, gj: i64, z: f64| -> u32 {
+        *index.entry((gi, gj, z.to_bits())).or_insert_with(|| {
+            mesh.positions_nm.push([gi as f64 * dx, gj as f64 * dy, z]);
+            (mesh.positions_nm.len() - 1) as u32
+        })
+    };
+    // Sorted distinct heights on the vertical line through grid corner (gi, gj).
+    let corner_heights = |gi: i64, gj: i64| -> Vec<f64> {
+        let mut hs = vec![
+            height(gi - 1, gj - 1, gi, gj),
+            height(gi, gj - 1, gi, gj),
+            height(gi - 1, gj, gi, gj),
+            height(gi, gj, gi, gj),
+        ];
+        hs.sort_by(f64::total_cmp);
+        hs.dedup();
+        hs
+    };
+    // Facets.
+    for cj in 0..n as i64 {
+        for ci in 0..n as i64 {
+            let c = [(ci, cj), (ci + 1, cj), (ci + 1, cj + 1), (ci, cj + 1)]
+                .map(|(gi, gj)| vert(&mut mesh, gi, gj, height(ci, cj, gi, gj)));
+            mesh.triangles.push([c[0], c[1], c[2]]);
+            mesh.triangles.push([c[0], c[2], c[3]]);
+        }
+    }
+    // Walls. A wall lies on a grid line between cell A (lower coordinate side) and cell B;
+    // it has two vertical sides at grid corners g0 and g1 along the line.
+    let mut walls: Vec<[(i64, i64); 4]> = Vec::new(); // [cellA, cellB, g0, g1]
+    for cj in 0..n as i64 {
+        for gi in 1..=n as i64 {
+            walls.push([(gi - 1, cj), (gi, cj), (gi, cj), (gi, cj + 1)]);
+        }
+    }
+    for gj in 1..=n as i64 {
+        for ci in 0..n as i64 {
+            walls.push([(ci, gj - 1), (ci, gj), (ci, gj), (ci + 1, gj)]);
+        }
+    }
+    for [a, b, g0, g1] in walls {
+        let along_x = g0.1 != g1.1; // wall in a plane x = const
+        let za = [height(a.0, a.1, g0.0, g0.1), height(a.0, a.1, g1.0, g1.1)];
+        let zb = [height(b.0, b.1, g0.0, g0.1), height(b.0, b.1, g1.0, g1.1)];
+        // Points of the vertical side at corner g between heights lo and hi, inclusive.
+        let side = |g: (i64, i64), lo: f64, hi: f64| -> Vec<f64> {
+            corner_heights(g.0, g.1)
+                .into_iter()
+                .filter(|&z| z >= lo && z <= hi)
+                .collect()
+        };
+        let d0 = za[0] - zb[0];
+        let d1 = za[1] - zb[1];
+        // The wall's outward normal points from the higher facet's column towards the lower
+        // one's, i.e. into the region above the surface: +axis where A is higher.
+        let mut polys: Vec<Vec<[f64; 3]>> = Vec::new();
+        let pt = |g: (i64, i64), z: f64| [g.0 as f64 * dx, g.1 as f64 * dy, z];
+        let s0 = side(g0, za[0].min(zb[0]), za[0].max(zb[0]));
+        let s1 = side(g1, za[1].min(zb[1]), za[1].max(zb[1]));
+        if d0 * d1 >= 0.0 {
+            // One quadrilateral (or triangle): a ladder between the two sides.
+            if s0.len() < 2 && s1.len() < 2 {
+                continue;
+            }
+            polys.push(ladder(&s0.iter().map(|&z| pt(g0, z)).collect::<Vec<_>>(), &s1.iter().map(|&z| pt(g1, z)).collect::<Vec<_>>()));
+        } else {
+            // Bow tie: the facet edges cross at parameter t along the wall.
+            let t = d0 / (d0 - d1);
+            let zx = za[0] + t * (za[1] - za[0]);
+            let x = [
+                (g0.0 as f64 + t * (g1.0 - g0.0) as f64) * dx,
+                (g0.1 as f64 + t * (g1.1 - g0.1) as f64) * dy,
+                zx,
+            ];
+            polys.push(fan(x, &s0.iter().map(|&z| pt(g0, z)).collect::<Vec<_>>()));
+            polys.push(fan(x, &s1.iter().map(|&z| pt(g1, z)).collect::<Vec<_>>()));
+        }
+        for tris in polys {
+            for tri in tris.chunks_exact(3) {
+                let [p, q, r] = [tri[0], tri[1], tri[2]];
+                // Which way should this triangle face? Sample A - B at its centroid's
+                // position along the wall.
+                let c = [(p[0] + q[0] + r[0]) / 3.0, (p[1] + q[1] + r[1]) / 3.0];
+                let s = if along_x { (c[1] / dy) - g0.1 as f64 } else { (c[0] / dx) - g0.0 as f64 };
+                let diff = d0 + s * (d1 - d0);
+                let nrm = cross(sub(q, p), sub(r, p));
+                let axis_component = if along_x { nrm[0] } else { nrm[1] };
+                let want_positive = diff > 0.0;
+                let ids = [p, q, r].map(|v| {
+                    let gi = (v[0] / dx).round() as i64;
+                    let gj = (v[1] / dy).round() as i64;
+                    let on_corner = (v[0] - gi as f64 * dx).abs() < 1e-9 * dx && (v[1] - gj as f64 * dy).abs() < 1e-9 * dy;
+                    if on_corner {
+                        vert(&mut mesh, gi, gj, v[2])
+                    } else {
+                        mesh.positions_nm.push(v);
+                        (mesh.positions_nm.len() - 1) as u32
+                    }
+                });
+                if (axis_component > 0.0) == want_positive {
+                    mesh.triangles.push(ids);
+                } else {
+                    mesh.triangles.push([ids[0], ids[2], ids[1]]);
+                }
+            }
+        }
+    }
+    // Drop zero-area wall slivers (walls where both facets meet exactly).
+    let keep: Vec<bool> = (0..mesh.triangles.len()).map(|i| !mesh.is_degenerate(i)).collect();
+    let mut k = keep.iter();
+    mesh.triangles.retain(|_| *k.next().unwrap_or(&true));
+    Ok(mesh)
+}
+
+/// Triangles (as a flat list of corners) between two vertical point chains, each sorted
+/// by height: the "ladder" triangulation of a convex polygon with two vertical sides.
+fn ladder(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    let mut out = Vec::new();
+    let (mut i, mut j) = (0, 0);
+    while i + 1 < a.len() || j + 1 < b.len() {
+        let advance_a = if i + 1 >= a.len() {
+            false
+        } else if j + 1 >= b.len() {
+            true
+        } else {
+            a[i + 1][2] <= b[j + 1][2]
+        };
+        if advance_a {
+            out.extend([a[i], a[i + 1], b[j]]);
+            i += 1;
+        } else {
+            out.extend([a[i], b[j + 1], b[j]]);
+            j += 1;
+        }
+    }
+    out
+}
+
+/// A fan of triangles from `apex` over consecutive points of `chain`.
+fn fan(apex: [f64; 3], chain: &[[f64; 3]]) -> Vec<[f64; 3]> {
+    chain.windows(2).flat_map(|w| [apex, w[0], w[1]]).collect()
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Symmetric V-grooves along y: `count` grooves across the tile in x, with opening angle
+/// `angle_deg` between the two faces (180° is flat), the ridges at height `z0`.
+pub fn v_grooves(tile_nm: [f64; 2], count: usize, angle_deg: f64, z0: f64) -> Result<Mesh, String> {
+    if count == 0 {
+        return Err("count must be at least 1".into());
+    }
+    if !(angle_deg > 0.0 && angle_deg < 180.0) {
+        return Err(format!("angle_deg must be in (0, 180), got {angle_deg}"));
+    }
+    let w = tile_nm[0] / count as f64;
+    // Face slope from horizontal is (180° - angle)/2; depth = (w/2) tan(slope).
+    let depth = 0.5 * w * ((180.0 - angle_deg) * 0.5).to_radians().tan();
+    let nx = 2 * count;
+    let mut p = Vec::with_capacity((nx + 1) * 2);
+    for j in 0..=1 {
+        for i in 0..=nx {
+            let z = if i % 2 == 0 { z0 } else { z0 - depth };
+            p.push([i as f64 * 0.5 * w, j as f64 * tile_nm[1], z]);
+        }
+    }
+    Ok(height_field_from_grid([nx, 1], p))
+}
+
+/// A flat plane at height `z` over the tile (two triangles, normal +z).
+pub fn flat(tile_nm: [f64; 2], z: f64) -> Mesh {
+    height_field([1, 1], tile_nm, |_, _| z)
+}
+
+/// A unit icosphere (Loop-free midpoint subdivision of an icosahedron), outward normals.
+pub fn icosphere(subdivisions: u32) -> Mesh {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut p: Vec<[f64; 3]> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .to_vec();
+    let norm = |v: [f64; 3]| {
+        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        [v[0] / l, v[1] / l, v[2] / l]
+    };
+    for v in &mut p {
+        *v = norm(*v);
+    }
+    let mut tris: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..subdivisions {
+        let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut next = Vec::with_capacity(tris.len() * 4);
+        let mut midpoint = |a: u32, b: u32, p: &mut Vec<[f64; 3]>| {
+            let key = (a.min(b), a.max(b));
+            *mid.entry(key).or_insert_with(|| {
+                let (x, y) = (p[a as usize], p[b as usize]);
+                p.push(norm([(x[0] + y[0]) / 2.0, (x[1] + y[1]) / 2.0, (x[2] + y[2]) / 2.0]));
+                (p.len() - 1) as u32
+            })
+        };
+        for [a, b, c] in tris {
+            let ab = midpoint(a, b, &mut p);
+            let bc = midpoint(b, c, &mut p);
+            let ca = midpoint(c, a, &mut p);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        tris = next;
+    }
+    Mesh {
+        positions_nm: p,
+        triangles: tris,
+    }
+}
+
+/// Signed volume enclosed by a closed mesh (nm³), positive for outward normals
+/// (divergence theorem: sum over triangles of `v0 . (v1 x v2) / 6`).
+pub fn enclosed_volume(mesh: &Mesh) -> f64 {
+    mesh.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.positions_nm[i as usize]);
+            let bc = cross(b, c);
+            (a[0] * bc[0] + a[1] * bc[1] + a[2] * bc[2]) / 6.0
+        })
+        .sum()
+}
+
+/// Pigment spheres placed without overlap (random sequential addition) inside the layer
+/// `z in [layer_nm[0], layer_nm[1]]`, fully inside the tile, to the requested volume fraction
+/// of the layer. Each sphere is an icosphere scaled so its volume equals that of the ideal
+/// sphere of `radius_nm`; the non-overlap test uses its circumscribed radius. Returns one
+/// closed mesh per sphere, outward normals.
+pub fn pigment_spheres(
+    seed: u64,
+    tile_nm: [f64; 2],
+    radius_nm: f64,
+    volume_fraction: f64,
+    layer_nm: [f64; 2],
+    subdivisions: u32,
+) -> Result<Vec<Mesh>, String> {
+    if !(radius_nm > 0.0 && radius_nm.is_finite()) {
+        return Err(format!("radius must be positive, got {radius_nm}"));
+    }
+    if !(volume_fraction > 0.0 && volume_fraction < 0.5) {
+        return Err(format!(
+            "volume_fraction must be in (0, 0.5) (random sequential addition jams near 0.38), got {volume_fraction}"
+        ));
+    }
+    let unit = icosphere(subdivisions);
+    let scale = (4.0 / 3.0 * PI / enclosed_volume(&unit)).cbrt();
+    let rc = radius_nm * scale; // circumscribed radius of the scaled icosphere
+    let thickness = layer_nm[1] - layer_nm[0];
+    if 2.0 * rc >= thickness || 2.0 * rc >= tile_nm[0] || 2.0 * rc >= tile_nm[1] {
+        return Err(format!(
+            "spheres of radius {radius_nm} nm do not fit in the layer ({thickness} nm) and tile"
+        ));
+    }
+    let v_sphere = 4.0 / 3.0 * PI * radius_nm.powi(3);
+    let count = (volume_fraction * tile_nm[0] * tile_nm[1] * thickness / v_sphere).round() as usize;
+    if count == 0 {
+        return Err("the volume fraction gives no sphere in this tile; enlarge the tile or the fraction".into());
+    }
+    let mut rng = Rng::new(seed, 0x5F4E);
+    let mut centres: Vec<[f64; 3]> = Vec::with_capacity(count);
+    let min_d2 = (2.0 * rc * 1.001).powi(2);
+    let mut attempts = 0usize;
+    while centres.len() < count {
+        attempts += 1;
+        if attempts > 2000 * count + 100_000 {
+            return Err(format!(
+                "could place only {} of {count} spheres without overlap; lower volume_fraction",
+                centres.len()
+            ));
+        }
+        let c = [
+            rng.range(rc, tile_nm[0] - rc),
+            rng.range(rc, tile_nm[1] - rc),
+            rng.range(layer_nm[0] + rc, layer_nm[1] - rc),
+        ];
+        if centres.iter().all(|o| {
+            (o[0] - c[0]).powi(2) + (o[1] - c[1]).powi(2) + (o[2] - c[2]).powi(2) >= min_d2
+        }) {
+            centres.push(c);
+        }
+    }
+    Ok(centres
+        .iter()
+        .map(|c| Mesh {
+            positions_nm: unit
+                .positions_nm
+                .iter()
+                .map(|v| [c[0] + rc * v[0], c[1] + rc * v[1], c[2] + rc * v[2]])
+                .collect(),
+            triangles: unit.triangles.clone(),
+        })
+        .collect())
+}
+
+/// An oriented box: centre, three orthonormal axes and half extents.
+#[derive(Clone, Copy, Debug)]
+struct Obb {
+    c: [f64; 3],
+    axes: [[f64; 3]; 3],
+    half: [f64; 3],
+}
+
+impl Obb {
+    fn corners(&self) -> [[f64; 3]; 8] {
+        let mut out = [[0.0; 3]; 8];
+        for (i, o) in out.iter_mut().enumerate() {
+            let s = [
+                if i & 1 == 0 { -1.0 } else { 1.0 },
+                if i & 2 == 0 { -1.0 } else { 1.0 },
+                if i & 4 == 0 { -1.0 } else { 1.0 },
+            ];
+            for k in 0..3 {
+                o[k] = self.c[k]
+                    + s[0] * self.half[0] * self.axes[0][k]
+                    + s[1] * self.half[1] * self.axes[1][k]
+                    + s[2] * self.half[2] * self.axes[2][k];
+            }
+        }
+        out
+    }
+
+    /// Closed box mesh with outward normals.
+    fn mesh(&self) -> Mesh {
+        let p = self.corners().to_vec();
+        // Faces as quads of corner indices (bit 0 = x, 1 = y, 2 = z), outward.
+        let quads = [
+            [0, 2, 3, 1], // -z
+            [4, 5, 7, 6], // +z
+            [0, 1, 5, 4], // -y
+            [2, 6, 7, 3], // +y
+            [0, 4, 6, 2], // -x
+            [1, 3, 7, 5], // +x
+        ];
+        let mut triangles = Vec::new();
+        for q in quads {
+            triangles.push([q[0], q[1], q[2]]);
+            triangles.push([q[0], q[2], q[3]]);
+        }
+        let mut m = Mesh {
+            positions_nm: p,
+            triangles,
+        };
+        // A left-handed axis frame turns every face inside out: fix by the volume's sign.
+        if enclosed_volume(&m) < 0.0 {
+            for t in &mut m.triangles {
+                t.swap(1, 2);
+            }
+        }
+        m
+    }
+
+    /// Separating-axis test for two oriented boxes (Gottschalk, Lin & Manocha, "OBBTree",
+    /// SIGGRAPH 1996): 15 candidate axes.
+    fn overlaps(&self, o: &Obb) -> bool {
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let d = sub(o.c, self.c);
+        let mut axes: Vec<[f64; 3]> = Vec::with_capacity(15);
+        axes.extend(self.axes);
+        axes.extend(o.axes);
+        for a in self.axes {
+            for b in o.axes {
+                let c = cross(a, b);
+                if dot(c, c) > 1e-18 {
+                    axes.push(c);
+                }
+            }
+        }
+        for ax in axes {
+            let ra: f64 = (0..3).map(|i| self.half[i] * dot(self.axes[i], ax).abs()).sum();
+            let rb: f64 = (0..3).map(|i| o.half[i] * dot(o.axes[i], ax).abs()).sum();
+            if dot(d, ax).abs() > ra + rb {
+                return false;
+            }
+        }
+        true
+    }
+}
+
+/// Square pearlescent flakes: platelets of side `size_nm` and thickness `thickness_nm`,
+/// tilted from horizontal by an angle drawn from a normal distribution of standard
+/// deviation `tilt_sd_deg` (about a random horizontal axis), with an optional coating shell
+/// `coating_nm` thick, placed without overlap inside the layer and the tile to the
+/// requested volume fraction of flake cores. Returns `(core, coating)` meshes per flake.
+#[allow(clippy::too_many_arguments)]
+pub fn flakes(
+    seed: u64,
+    tile_nm: [f64; 2],
+    size_nm: f64,
+    thickness_nm: f64,
+    tilt_sd_deg: f64,
+    coating_nm: f64,
+    volume_fraction: f64,
+    layer_nm: [f64; 2],
+) -> Result<Vec<(Mesh, Option<Mesh>)>, String> {
+    if !(size_nm > 0.0 && thickness_nm > 0.0 && thickness_nm < size_nm) {
+        return Err(format!(
+            "need 0 < thickness < size, got size {size_nm} nm, thickness {thickness_nm} nm"
+        ));
+    }
+    if !(coating_nm >= 0.0 && tilt_sd_deg >= 0.0) {
+        return Err("coating and tilt must be >= 0".into());
+    }
+    if !(volume_fraction > 0.0 && volume_fraction < 0.5) {
+        return Err(format!("volume_fraction must be in (0, 0.5), got {volume_fraction}"));
+    }
+    let thickness = layer_nm[1] - layer_nm[0];
+    let v_flake = size_nm * size_nm * thickness_nm;
+    let count = (volume_fraction * tile_nm[0] * tile_nm[1] * thickness / v_flake).round() as usize;
+    if count == 0 {
+        return Err("the volume fraction gives no flake in this tile; enlarge the tile or the fraction".into());
+    }
+    let outer_half = [
+        size_nm / 2.0 + coating_nm,
+        size_nm / 2.0 + coating_nm,
+        thickness_nm / 2.0 + coating_nm,
+    ];
+    let mut rng = Rng::new(seed, 0xF1A4E);
+    let mut placed: Vec<Obb> = Vec::with_capacity(count);
+    let mut attempts = 0usize;
+    while placed.len() < count {
+        attempts += 1;
+        if attempts > 5000 * count + 100_000 {
+            return Err(format!(
+                "could place only {} of {count} flakes without overlap; lower volume_fraction or the tilt",
+                placed.len()
+            ));
+        }
+        // Orientation: spin about z, then tilt about the rotated x axis.
+        let spin = rng.range(0.0, TAU);
+        let tilt = (tilt_sd_deg * rng.normal()).to_radians();
+        let (cs, ss, ct, st) = (spin.cos(), spin.sin(), tilt.cos(), tilt.sin());
+        let ax = [cs, ss, 0.0];
+        let ay = [-ss * ct, cs * ct, st];
+        let az = [ss * st, -cs * st, ct];
+        let axes = [ax, ay, az];
+        // Extent of the outer box along each world axis, to keep it inside tile and layer.
+        let ext = |k: usize| (0..3).map(|i| outer_half[i] * axes[i][k].abs()).sum::<f64>();
+        let (ex, ey, ez) = (ext(0), ext(1), ext(2));
+        if 2.0 * ex >= tile_nm[0] || 2.0 * ey >= tile_nm[1] || 2.0 * ez >= thickness {
+            continue;
+        }
+        let c = [
+            rng.range(ex, tile_nm[0] - ex),
+            rng.range(ey, tile_nm[1] - ey),
+            rng.range(layer_nm[0] + ez, layer_nm[1] - ez),
+        ];
+        // A 0.1 % margin keeps coatings of neighbours from touching.
+        let cand = Obb {
+            c,
+            axes,
+            half: outer_half.map(|h| h * 1.001),
+        };
+        if placed.iter().all(|o| !o.overlaps(&cand)) {
+            placed.push(cand);
+        }
+    }
+    Ok(placed
+        .iter()
+        .map(|o| {
+            let core = Obb {
+                half: [size_nm / 2.0, size_nm / 2.0, thickness_nm / 2.0],
+                ..*o
+            };
+            let shell = (coating_nm > 0.0).then(|| Obb { half: outer_half, ..*o }.mesh());
+            (core.mesh(), shell)
+        })
+        .collect())
+}
+
+/// Which surface of a wavy film.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FilmSurface {
+    Top,
+    Bottom,
+}
+
+/// A generator as written in a sample (`generator = { kind = "...", ... }`) or on the
+/// command line (`goniospec generate KIND --param key=value`). Lengths are in the sample's
+/// unit; `resolution` counts grid cells per tile side.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(tag = "kind", rename_all = "kebab-case", deny_unknown_fields)]
+pub enum GeneratorSpec {
+    /// A flat plane at height `z`.
+    Flat {
+        #[serde(default)]
+        z: f64,
+    },
+    /// A periodic Gaussian random height field: RMS height `rms`, Gaussian correlation
+    /// length `correlation_length`, mean height `z`.
+    Gaussian {
+        rms: f64,
+        correlation_length: f64,
+        resolution: usize,
+        #[serde(default = "default_seed")]
+        seed: u64,
+        #[serde(default)]
+        z: f64,
+    },
+    /// One surface of the seed's wavy film: both surfaces follow one Gaussian roughness
+    /// (`roughness_rms`), and the thickness `thickness` varies by `thickness_rms`, both
+    /// with correlation length `correlation_length`. The film's lower surface has mean
+    /// height `z`. Use the same parameters and seed for `surface = "top"` and `"bottom"`.
+    WavyFilm {
+        surface: FilmSurface,
+        thickness: f64,
+        thickness_rms: f64,
+        roughness_rms: f64,
+        correlation_length: f64,
+        resolution: usize,
+        #[serde(default = "default_seed")]
+        seed: u64,
+        #[serde(default)]
+        z: f64,
+    },
+    /// A microfacet surface whose facet normals follow GGX or Beckmann with roughness
+    /// `alpha`; `resolution` facets per tile side.
+    Microfacet {
+        distribution: Distribution,
+        alpha: f64,
+        resolution: usize,
+        #[serde(default = "default_seed")]
+        seed: u64,
+        #[serde(default)]
+        z: f64,
+    },
+    /// `count` symmetric V-grooves along y with opening angle `angle_deg`, ridges at `z`.
+    VGrooves {
+        angle_deg: f64,
+        count: usize,
+        #[serde(default)]
+        z: f64,
+    },
+    /// Pigment spheres (bodies) in the layer `layer = [z0, z1]`.
+    PigmentSpheres {
+        radius: f64,
+        volume_fraction: f64,
+        layer: [f64; 2],
+        #[serde(default = "default_subdivisions")]
+        subdivisions: u32,
+        #[serde(default = "default_seed")]
+        seed: u64,
+    },
+    /// Square pearlescent flakes (bodies) in the layer `layer = [z0, z1]`, optionally
+    /// coated (`coating` thickness; the body then needs a `coating` medium).
+    Flakes {
+        size: f64,
+        thickness: f64,
+        tilt_sd_deg: f64,
+        #[serde(default)]
+        coating: f64,
+        volume_fraction: f64,
+        layer: [f64; 2],
+        #[serde(default = "default_seed")]
+        seed: u64,
+    },
+}
+
+fn default_seed() -> u64 {
+    1
+}
+fn default_subdivisions() -> u32 {
+    2
+}
+
+/// What a generator produced.
+#[derive(Clone, Debug)]
+pub enum Generated {
+    /// A sheet spanning the tile.
+    Sheet(Mesh),
+    /// Closed bodies, each with an optional coating shell.
+    Bodies(Vec<(Mesh, Option<Mesh>)>),
+}
+
+impl GeneratorSpec {
+    /// The kind's name as written in TOML.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            GeneratorSpec::Flat { .. } => "flat",
+            GeneratorSpec::Gaussian { .. } => "gaussian",
+            GeneratorSpec::WavyFilm { .. } => "wavy-film",
+            GeneratorSpec::Microfacet { .. } => "microfacet",
+            GeneratorSpec::VGrooves { .. } => "v-grooves",
+            GeneratorSpec::PigmentSpheres { .. } => "pigment-spheres",
+            GeneratorSpec::Flakes { .. } => "flakes",
+        }
+    }
+
+    /// Whether the generator makes closed bodies (else a sheet).
+    pub fn makes_bodies(&self) -> bool {
+        matches!(self, GeneratorSpec::PigmentSpheres { .. } | GeneratorSpec::Flakes { .. })
+    }
+
+    /// Runs the generator; `u` is nanometres per sample unit.
+    pub fn generate(&self, tile_nm: [f64; 2], u: f64) -> Result<Generated, String> {
+        Ok(match *self {
+            GeneratorSpec::Flat { z } => Generated::Sheet(flat(tile_nm, z * u)),
+            GeneratorSpec::Gaussian {
+                rms,
+                correlation_length,
+                resolution,
+                seed,
+                z,
+            } => {
+                check_resolution(resolution)?;
+                let h = gaussian_heights(seed, tile_nm, resolution, rms * u, correlation_length * u)?;
+                Generated::Sheet(grid_mesh(tile_nm, resolution, &h, z * u))
+            }
+            GeneratorSpec::WavyFilm {
+                surface,
+                thickness,
+                thickness_rms,
+                roughness_rms,
+                correlation_length,
+                resolution,
+                seed,
+                z,
+            } => {
+                check_resolution(resolution)?;
+                let (t, l) = (thickness * u, correlation_length * u);
+                if !(t > 0.0) {
+                    return Err(format!("thickness must be positive, got {thickness}"));
+                }
+                let rough = gaussian_heights(seed, tile_nm, resolution, roughness_rms * u, l)?;
+                let var = gaussian_heights(seed.wrapping_add(1), tile_nm, resolution, thickness_rms * u, l)?;
+                if let Some(min) = var.iter().map(|v| t + v).reduce(f64::min)
+                    && min <= 0.0
+                {
+                    return Err(format!(
+                        "the thickness variation makes the film vanish (minimum thickness {min:.1} nm); lower thickness_rms"
+                    ));
+                }
+                let h: Vec<f64> = rough
+                    .iter()
+                    .zip(&var)
+                    .map(|(r, v)| match surface {
+                        FilmSurface::Top => t + r + v / 2.0,
+                        FilmSurface::Bottom => r - v / 2.0,
+                    })
+                    .collect();
+                Generated::Sheet(grid_mesh(tile_nm, resolution, &h, z * u))
+            }
+            GeneratorSpec::Microfacet {
+                distribution,
+                alpha,
+                resolution,
+                seed,
+                z,
+            } => {
+                check_resolution(resolution)?;
+                Generated::Sheet(microfacet_surface(seed, tile_nm, resolution, distribution, alpha, z * u)?)
+            }
+            GeneratorSpec::VGrooves { angle_deg, count, z } => {
+                Generated::Sheet(v_grooves(tile_nm, count, angle_deg, z * u)?)
+            }
+            GeneratorSpec::PigmentSpheres {
+                radius,
+                volume_fraction,
+                layer,
+                subdivisions,
+                seed,
+            } => {
+                if subdivisions > 5 {
+                    return Err(format!("subdivisions must be at most 5 (20 * 4^5 triangles per sphere), got {subdivisions}"));
+                }
+                Generated::Bodies(
+                    pigment_spheres(seed, tile_nm, radius * u, volume_fraction, layer.map(|v| v * u), subdivisions)?
+                        .into_iter()
+                        .map(|m| (m, None))
+                        .collect(),
+                )
+            }
+            GeneratorSpec::Flakes {
+                size,
+                thickness,
+                tilt_sd_deg,
+                coating,
+                volume_fraction,
+                layer,
+                seed,
+            } => Generated::Bodies(flakes(
+                seed,
+                tile_nm,
+                size * u,
+                thickness * u,
+                tilt_sd_deg,
+                coating * u,
+                volume_fraction,
+                layer.map(|v| v * u),
+            )?),
+        })
+    }
+}
+
+fn check_resolution(r: usize) -> Result<(), String> {
+    if (1..=4096).contains(&r) {
+        Ok(())
+    } else {
+        Err(format!("resolution must be between 1 and 4096 cells per side, got {r}"))
     }
 }

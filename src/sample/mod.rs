@@ -16,9 +16,16 @@
 //! back = "soap"
 //! ```
 //!
+//! Media may also be dispersive (`cauchy`, `sellmeier`, `table = "x.csv"`, or
+//! `model = "x.toml"`: see [`media`]). A flat layered sample can be written as a `[stack]`;
+//! interfaces and closed `[[body]]`s can come from a `generator = { kind = "...", ... }`
+//! instead of an OBJ (see [`generate`]).
+//!
 //! Every error names the file, and the line where there is one.
 
+pub mod check;
 pub mod generate;
+pub mod media;
 pub mod mesh;
 pub mod obj;
 
@@ -30,6 +37,9 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use crate::accel::TriangleSoup;
+use generate::{Generated, GeneratorSpec};
+use media::RawMedium;
+pub use media::{IndexModel, Medium};
 pub use mesh::Mesh;
 pub use obj::{MeshOptions, load_obj};
 
@@ -92,8 +102,14 @@ pub enum SampleErrorKind {
     BadUnit(String),
     #[error("medium '{name}': {message}")]
     BadMedium { name: String, message: String },
-    #[error("the sample declares no [[interface]]")]
+    #[error("the sample declares no interface ([stack], [[interface]] or [[body]])")]
     NoInterfaces,
+    #[error("{0}")]
+    Invalid(String),
+    #[error("generator '{kind}': {message}")]
+    Generator { kind: String, message: String },
+    #[error("in medium table or model {file}: {message}")]
+    MediumFile { file: String, message: String },
     #[error("in mesh {mesh}: {error}")]
     Mesh {
         mesh: String,
@@ -101,21 +117,15 @@ pub enum SampleErrorKind {
     },
 }
 
-/// A homogeneous medium with a constant complex refractive index `n + i k`
-/// (dimensionless; `k >= 0` absorbs).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Medium {
-    pub name: String,
-    pub n: f64,
-    pub k: f64,
-}
-
 /// One interface: a triangle mesh with a medium on each side.
 #[derive(Clone, Debug)]
 pub struct Interface {
     pub mesh: Mesh,
-    /// Where the mesh came from (for messages).
+    /// Where the mesh came from: an OBJ path, or a description of its generator.
     pub mesh_path: PathBuf,
+    /// A closed body (checked for watertightness) rather than a sheet spanning the tile
+    /// (checked for periodicity).
+    pub closed: bool,
     /// Medium on the side the triangle normals point to (index into `Sample::media`).
     pub front: usize,
     /// Medium on the other side.
@@ -132,6 +142,20 @@ pub struct Sample {
     /// Sorted by name, so ids are deterministic.
     pub media: Vec<Medium>,
     pub interfaces: Vec<Interface>,
+    /// The layer structure when the sample was written as a `[stack]`, for analytic
+    /// references.
+    pub stack: Option<Stack>,
+}
+
+/// A flat layered sample: media from top to bottom and the layer thicknesses (nm).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stack {
+    /// Medium above the stack (index into `Sample::media`).
+    pub ambient: usize,
+    /// `(medium, thickness_nm)`, top layer first.
+    pub layers: Vec<(usize, f64)>,
+    /// Medium below the stack.
+    pub substrate: usize,
 }
 
 impl Sample {
@@ -162,8 +186,37 @@ struct RawSample {
     sample: RawHeader,
     #[serde(default)]
     media: BTreeMap<String, Spanned<RawMedium>>,
+    stack: Option<Spanned<RawStack>>,
     #[serde(default)]
     interface: Vec<RawInterface>,
+    #[serde(default)]
+    body: Vec<RawBody>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawStack {
+    ambient: Spanned<String>,
+    #[serde(default)]
+    layers: Vec<RawLayer>,
+    substrate: Spanned<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLayer {
+    medium: Spanned<String>,
+    thickness: Spanned<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBody {
+    mesh: Option<Spanned<String>>,
+    generator: Option<Spanned<GeneratorSpec>>,
+    inside: Spanned<String>,
+    outside: Spanned<String>,
+    coating: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -179,22 +232,15 @@ struct RawHeader {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawMedium {
-    n: f64,
-    #[serde(default)]
-    k: f64,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
 struct RawInterface {
-    mesh: Spanned<String>,
+    mesh: Option<Spanned<String>>,
+    generator: Option<Spanned<GeneratorSpec>>,
     front: Spanned<String>,
     back: Spanned<String>,
 }
 
 /// 1-based line of byte offset `pos` in `text`.
-fn line_of(text: &str, pos: usize) -> usize {
+pub(crate) fn line_of(text: &str, pos: usize) -> usize {
     text[..pos.min(text.len())]
         .bytes()
         .filter(|&b| b == b'\n')
@@ -243,88 +289,230 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         return Err(at(raw.sample.tile.span(), SampleErrorKind::BadTile(tx, ty)));
     }
 
+    let base = path.parent().unwrap_or(Path::new(""));
     let mut media = Vec::new();
     for (name, m) in &raw.media {
-        let span = m.span();
-        let m = m.get_ref();
-        let bad = |message: String| {
-            at(
-                span.clone(),
+        let model = media::build_model(m.get_ref(), base, true).map_err(|e| match e.file {
+            Some((file, line)) => {
+                let inner = SampleError {
+                    path: file.clone(),
+                    line,
+                    kind: SampleErrorKind::Invalid(e.message.clone()),
+                };
+                at(
+                    m.span(),
+                    SampleErrorKind::MediumFile {
+                        file: file.display().to_string(),
+                        message: format!("medium '{name}': {inner}"),
+                    },
+                )
+            }
+            None => at(
+                m.span(),
                 SampleErrorKind::BadMedium {
                     name: name.clone(),
-                    message,
+                    message: e.message,
                 },
-            )
-        };
-        if !(m.n.is_finite() && m.n > 0.0) {
-            return Err(bad(format!("n must be positive and finite, got {}", m.n)));
-        }
-        if !(m.k.is_finite() && m.k >= 0.0) {
-            return Err(bad(format!("k must be finite and >= 0, got {}", m.k)));
-        }
+            ),
+        })?;
         media.push(Medium {
             name: name.clone(),
-            n: m.n,
-            k: m.k,
+            model,
         });
     }
     let known = || {
         if media.is_empty() {
             "no media".to_string()
         } else {
-            media
-                .iter()
-                .map(|m| m.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
+            media.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
         }
     };
     let medium = |s: &Spanned<String>| -> Result<usize, SampleError> {
-        media
-            .iter()
-            .position(|m| &m.name == s.get_ref())
-            .ok_or_else(|| {
-                at(
-                    s.span(),
-                    SampleErrorKind::UnknownMedium {
-                        name: s.get_ref().clone(),
-                        known: known(),
+        media.iter().position(|m| &m.name == s.get_ref()).ok_or_else(|| {
+            at(
+                s.span(),
+                SampleErrorKind::UnknownMedium {
+                    name: s.get_ref().clone(),
+                    known: known(),
+                },
+            )
+        })
+    };
+    let tile_nm = [tx * scale, ty * scale];
+    let mut interfaces = Vec::new();
+
+    // [stack]: flat interfaces, top (ambient side) first.
+    let mut stack = None;
+    if let Some(st) = &raw.stack {
+        let ambient = medium(&st.get_ref().ambient)?;
+        let substrate = medium(&st.get_ref().substrate)?;
+        let mut layers = Vec::new();
+        for l in &st.get_ref().layers {
+            let t = *l.thickness.get_ref();
+            if !(t.is_finite() && t > 0.0) {
+                return Err(at(
+                    l.thickness.span(),
+                    SampleErrorKind::Invalid(format!("layer thickness must be positive and finite, got {t}")),
+                ));
+            }
+            layers.push((medium(&l.medium)?, t * scale));
+        }
+        let total: f64 = layers.iter().map(|l| l.1).sum();
+        let mut above = ambient;
+        let mut z = total;
+        for (i, &(m, t)) in layers.iter().enumerate() {
+            interfaces.push(Interface {
+                mesh: generate::flat(tile_nm, z),
+                mesh_path: PathBuf::from(format!("[stack] interface {i} (z = {z} nm)")),
+                closed: false,
+                front: above,
+                back: m,
+            });
+            above = m;
+            z -= t;
+        }
+        interfaces.push(Interface {
+            mesh: generate::flat(tile_nm, 0.0),
+            mesh_path: PathBuf::from(format!("[stack] interface {} (z = 0 nm)", layers.len())),
+            closed: false,
+            front: above,
+            back: substrate,
+        });
+        stack = Some(Stack {
+            ambient,
+            layers,
+            substrate,
+        });
+    }
+
+    // Loads a mesh or runs a generator for an [[interface]] or a [[body]].
+    let source = |mesh: &Option<Spanned<String>>,
+                  generator: &Option<Spanned<GeneratorSpec>>,
+                  want_bodies: bool,
+                  what: &str|
+     -> Result<(Generated, String), SampleError> {
+        match (mesh, generator) {
+            (Some(m), None) => {
+                let mesh_path = base.join(m.get_ref());
+                let mesh = load_obj(&mesh_path, scale, opts).map_err(|e| {
+                    at(
+                        m.span(),
+                        SampleErrorKind::Mesh {
+                            mesh: m.get_ref().clone(),
+                            error: Box::new(e),
+                        },
+                    )
+                })?;
+                let desc = mesh_path.display().to_string();
+                Ok((
+                    if want_bodies {
+                        Generated::Bodies(vec![(mesh, None)])
+                    } else {
+                        Generated::Sheet(mesh)
                     },
-                )
-            })
+                    desc,
+                ))
+            }
+            (None, Some(g)) => {
+                let spec = g.get_ref();
+                if spec.makes_bodies() != want_bodies {
+                    return Err(at(
+                        g.span(),
+                        SampleErrorKind::Invalid(format!(
+                            "generator '{}' makes {}, so it belongs in {}",
+                            spec.kind(),
+                            if spec.makes_bodies() { "closed bodies" } else { "a sheet" },
+                            if spec.makes_bodies() { "[[body]]" } else { "[[interface]]" }
+                        )),
+                    ));
+                }
+                let out = spec.generate(tile_nm, scale).map_err(|message| {
+                    at(
+                        g.span(),
+                        SampleErrorKind::Generator {
+                            kind: spec.kind().to_string(),
+                            message,
+                        },
+                    )
+                })?;
+                Ok((out, format!("generator {}", spec.kind())))
+            }
+            _ => Err(SampleError::file(
+                path,
+                SampleErrorKind::Invalid(format!("every {what} needs exactly one of mesh = \"FILE.obj\" or generator = {{ kind = ... }}")),
+            )),
+        }
     };
 
-    if raw.interface.is_empty() {
-        return Err(SampleError::file(path, SampleErrorKind::NoInterfaces));
-    }
-    let base = path.parent().unwrap_or(Path::new(""));
-    let mut interfaces = Vec::new();
     for ri in &raw.interface {
         let front = medium(&ri.front)?;
         let back = medium(&ri.back)?;
-        let mesh_path = base.join(ri.mesh.get_ref());
-        let mesh = load_obj(&mesh_path, scale, opts).map_err(|e| {
-            at(
-                ri.mesh.span(),
-                SampleErrorKind::Mesh {
-                    mesh: ri.mesh.get_ref().clone(),
-                    error: Box::new(e),
-                },
-            )
-        })?;
+        let (g, desc) = source(&ri.mesh, &ri.generator, false, "[[interface]]")?;
+        let Generated::Sheet(mesh) = g else {
+            unreachable!("sheet requested")
+        };
         interfaces.push(Interface {
             mesh,
-            mesh_path,
+            mesh_path: PathBuf::from(desc),
+            closed: false,
             front,
             back,
         });
+    }
+    for rb in &raw.body {
+        let inside = medium(&rb.inside)?;
+        let outside = medium(&rb.outside)?;
+        let coating = rb.coating.as_ref().map(&medium).transpose()?;
+        let (g, desc) = source(&rb.mesh, &rb.generator, true, "[[body]]")?;
+        let Generated::Bodies(bodies) = g else {
+            unreachable!("bodies requested")
+        };
+        for (i, (core, shell)) in bodies.into_iter().enumerate() {
+            match (shell, coating) {
+                (Some(shell), Some(c)) => {
+                    interfaces.push(Interface {
+                        mesh: shell,
+                        mesh_path: PathBuf::from(format!("{desc} body {i} coating")),
+                        closed: true,
+                        front: outside,
+                        back: c,
+                    });
+                    interfaces.push(Interface {
+                        mesh: core,
+                        mesh_path: PathBuf::from(format!("{desc} body {i}")),
+                        closed: true,
+                        front: c,
+                        back: inside,
+                    });
+                }
+                (Some(_), None) => {
+                    return Err(SampleError::file(
+                        path,
+                        SampleErrorKind::Invalid(format!(
+                            "{desc}: the bodies are coated, so the [[body]] needs coating = \"MEDIUM\""
+                        )),
+                    ));
+                }
+                (None, _) => interfaces.push(Interface {
+                    mesh: core,
+                    mesh_path: PathBuf::from(format!("{desc} body {i}")),
+                    closed: true,
+                    front: outside,
+                    back: inside,
+                }),
+            }
+        }
+    }
+    if interfaces.is_empty() {
+        return Err(SampleError::file(path, SampleErrorKind::NoInterfaces));
     }
 
     Ok(Sample {
         name: raw.sample.name,
         path: path.to_path_buf(),
-        tile_nm: [tx * scale, ty * scale],
+        tile_nm,
         media,
         interfaces,
+        stack,
     })
 }

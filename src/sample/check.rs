@@ -1,0 +1,415 @@
+//! `goniospec check`: what a user should know before spending hours simulating a sample.
+//!
+//! Reports triangle counts, bounds and media, and looks for defects: interfaces whose
+//! normals point the wrong way, closed bodies that are not watertight, interfaces that cut
+//! through each other, sheets whose boundary does not tile periodically, and leaks: random
+//! rays walk the sample (reflecting or passing at random at each crossing, wrapping around
+//! the tile's sides) while tracking the current medium, and every crossing whose source
+//! medium does not match is counted (DESIGN.md §2).
+
+use std::collections::HashMap;
+
+use super::{Sample, generate::enclosed_volume};
+use crate::accel::{Accel, AccelError, Backend, Hit, Intersector, Ray};
+use crate::rng::Rng;
+
+/// Settings of the leak test.
+#[derive(Clone, Copy, Debug)]
+pub struct CheckOptions {
+    pub backend: Backend,
+    /// Random walks of the leak test.
+    pub leak_rays: usize,
+    /// Crossings per walk before it is abandoned.
+    pub max_events: usize,
+    pub seed: u64,
+}
+
+impl Default for CheckOptions {
+    fn default() -> Self {
+        CheckOptions {
+            backend: Backend::default_available(),
+            leak_rays: 20_000,
+            max_events: 64,
+            seed: 1,
+        }
+    }
+}
+
+/// What the leak test found.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LeakStats {
+    pub walks: usize,
+    pub crossings: usize,
+    /// Crossings entered from a side whose medium was not the current one.
+    pub leaks: usize,
+    /// Walks that hit the event limit (inside strongly reflecting geometry), not defects.
+    pub abandoned: usize,
+}
+
+/// Everything `check` found: facts to print, and defects (non-empty means exit 1).
+#[derive(Clone, Debug, Default)]
+pub struct CheckReport {
+    pub facts: Vec<String>,
+    pub defects: Vec<String>,
+    pub leak: LeakStats,
+}
+
+/// Checks `sample`. Errors only when an accelerator cannot be built.
+pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelError> {
+    let mut r = CheckReport::default();
+    let [lx, ly] = sample.tile_nm;
+    r.facts.push(format!(
+        "sample '{}': tile {lx} nm x {ly} nm, {} media, {} interfaces, {} triangles",
+        sample.name,
+        sample.media.len(),
+        sample.interfaces.len(),
+        sample.triangle_count()
+    ));
+    for m in &sample.media {
+        r.facts.push(format!("medium {:<14} {}", m.name, m.model.describe()));
+    }
+    let tol = 1e-6 * lx.max(ly);
+    for (i, itf) in sample.interfaces.iter().enumerate() {
+        let (lo, hi) = itf.mesh.bounds().expect("loaded meshes are non-empty");
+        let name = format!("interface {i} ({})", itf.mesh_path.display());
+        r.facts.push(format!(
+            "{name}: {} triangles, {} {} / {}, bounds [{:.1}, {:.1}, {:.1}] .. [{:.1}, {:.1}, {:.1}] nm",
+            itf.mesh.triangles.len(),
+            if itf.closed { "closed body, outside / inside:" } else { "sheet, front / back:" },
+            sample.media[itf.front].name,
+            sample.media[itf.back].name,
+            lo[0],
+            lo[1],
+            lo[2],
+            hi[0],
+            hi[1],
+            hi[2]
+        ));
+        if lo[0] < -tol || lo[1] < -tol || hi[0] > lx + tol || hi[1] > ly + tol {
+            r.defects.push(format!(
+                "{name} reaches outside the tile [0, {lx}] x [0, {ly}] nm; geometry must lie within one tile"
+            ));
+        }
+        if itf.closed {
+            let v = enclosed_volume(&itf.mesh);
+            if v < 0.0 {
+                r.defects.push(format!(
+                    "{name}: normals point inwards (enclosed volume {v:.3e} nm³ < 0); flip the triangles or swap inside/outside"
+                ));
+            }
+            let w = watertightness(&itf.mesh);
+            if w.open_edges + w.nonmanifold_edges + w.misoriented_edges > 0 {
+                r.defects.push(format!(
+                    "{name} is not watertight: {} open edges, {} edges shared by more than two triangles, {} edges whose triangles disagree in orientation",
+                    w.open_edges, w.nonmanifold_edges, w.misoriented_edges
+                ));
+            }
+        } else {
+            let (up, total) = (0..itf.mesh.triangles.len()).fold((0.0, 0.0), |(u, t), k| {
+                let a = itf.mesh.area_vector(k);
+                (u + a[2], t + (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt())
+            });
+            r.facts.push(format!(
+                "{name}: mean normal z = {:.3} (front medium '{}' {})",
+                up / total,
+                sample.media[itf.front].name,
+                if up > 0.0 { "above" } else { "below" }
+            ));
+            if up <= 0.0 {
+                r.defects.push(format!(
+                    "{name}: normals point down on average, so its front medium '{}' lies below it; swap front and back or flip the mesh",
+                    sample.media[itf.front].name
+                ));
+            }
+            let p = periodicity(&itf.mesh, sample.tile_nm, tol);
+            if p.interior_boundary_edges > 0 {
+                r.defects.push(format!(
+                    "{name} has {} boundary edges inside the tile (holes or cracks)",
+                    p.interior_boundary_edges
+                ));
+            }
+            if p.unmatched_x + p.unmatched_y > 0 {
+                r.defects.push(format!(
+                    "{name} does not tile: {} boundary edges on x = 0 / x = Lx and {} on y = 0 / y = Ly have no partner on the opposite side",
+                    p.unmatched_x, p.unmatched_y
+                ));
+            }
+        }
+    }
+
+    let (soup, first) = sample.triangle_soup();
+    let accel = Accel::build(opts.backend, &soup)?;
+    let owner = |prim: u32| first.partition_point(|&f| f <= prim) - 1;
+
+    // Interfaces that cut through each other: an edge of one crossing a triangle of another.
+    let mut crossings: HashMap<(usize, usize), usize> = HashMap::new();
+    for (i, itf) in sample.interfaces.iter().enumerate() {
+        for t in &itf.mesh.triangles {
+            for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                if a > b {
+                    continue; // each undirected edge once (sheets' boundary edges twice is harmless)
+                }
+                let (p, q) = (itf.mesh.positions_nm[a as usize], itf.mesh.positions_nm[b as usize]);
+                let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                let ray = Ray {
+                    origin: p.map(|c| c as f32),
+                    tmin: 1e-4,
+                    dir: d.map(|c| c as f32),
+                    tmax: 1.0 - 1e-4,
+                };
+                let h = accel.closest_hit(&ray);
+                if h.is_hit() {
+                    let j = owner(h.prim);
+                    if j != i {
+                        *crossings.entry((i.min(j), i.max(j))).or_default() += 1;
+                    }
+                }
+            }
+        }
+    }
+    let mut pairs: Vec<_> = crossings.into_iter().collect();
+    pairs.sort();
+    for ((i, j), n) in pairs.iter().take(20) {
+        r.defects.push(format!("interfaces {i} and {j} intersect ({n} edges of one cross the other)"));
+    }
+    if pairs.len() > 20 {
+        r.defects.push(format!("... and {} more intersecting pairs", pairs.len() - 20));
+    }
+
+    r.leak = leak_test(sample, &accel, &first, opts);
+    r.facts.push(format!(
+        "leak test: {} walks, {} crossings, {} leaks, {} walks abandoned after {} crossings",
+        r.leak.walks, r.leak.crossings, r.leak.leaks, r.leak.abandoned, opts.max_events
+    ));
+    if r.leak.leaks > 0 {
+        r.defects.push(format!(
+            "{} of {} crossings entered an interface from a medium other than the ray's: the geometry leaks (overlapping bodies, a body poking through a sheet, or wrong front/back media)",
+            r.leak.leaks, r.leak.crossings
+        ));
+    }
+    Ok(r)
+}
+
+/// Edge statistics of a mesh meant to be closed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Watertightness {
+    pub open_edges: usize,
+    pub nonmanifold_edges: usize,
+    pub misoriented_edges: usize,
+}
+
+/// Every edge of a closed, consistently oriented mesh is used by exactly two triangles,
+/// once in each direction. Vertices are identified by position, so duplicated vertices
+/// do not count as cracks.
+pub fn watertightness(mesh: &super::Mesh) -> Watertightness {
+    let key = |i: u32| mesh.positions_nm[i as usize].map(f64::to_bits);
+    let mut edges: HashMap<([u64; 3], [u64; 3]), (u32, u32)> = HashMap::new();
+    for t in &mesh.triangles {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            let (ka, kb) = (key(a), key(b));
+            let (lo, hi, forward) = if ka < kb { (ka, kb, true) } else { (kb, ka, false) };
+            let e = edges.entry((lo, hi)).or_default();
+            if forward {
+                e.0 += 1;
+            } else {
+                e.1 += 1;
+            }
+        }
+    }
+    let mut w = Watertightness::default();
+    for &(f, b) in edges.values() {
+        match f + b {
+            1 => w.open_edges += 1,
+            2 if f != 1 => w.misoriented_edges += 1,
+            2 => {}
+            _ => w.nonmanifold_edges += 1,
+        }
+    }
+    w
+}
+
+/// Boundary-edge statistics of a sheet.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Periodicity {
+    /// Boundary edges not lying on a tile side.
+    pub interior_boundary_edges: usize,
+    /// Boundary edges on x = 0 or x = Lx without a translated partner on the other side.
+    pub unmatched_x: usize,
+    /// The same for y.
+    pub unmatched_y: usize,
+}
+
+/// A sheet tiles when its boundary edges all lie on the tile's sides and the edges on
+/// x = 0 shifted by Lx are exactly those on x = Lx (likewise in y), within `tol` nm.
+pub fn periodicity(mesh: &super::Mesh, tile_nm: [f64; 2], tol: f64) -> Periodicity {
+    let q = |v: f64| (v / tol).round() as i64;
+    let mut count: HashMap<(u32, u32), i32> = HashMap::new();
+    for t in &mesh.triangles {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            *count.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    // Vertices may be duplicated at equal positions: count edges by quantised position.
+    let mut by_pos: HashMap<([i64; 3], [i64; 3]), i32> = HashMap::new();
+    for (&(a, b), &n) in &count {
+        let (p, r) = (mesh.positions_nm[a as usize], mesh.positions_nm[b as usize]);
+        let (kp, kr) = (p.map(q), r.map(q));
+        let k = if kp <= kr { (kp, kr) } else { (kr, kp) };
+        *by_pos.entry(k).or_default() += n;
+    }
+    let mut out = Periodicity::default();
+    let (lx, ly) = (q(tile_nm[0]), q(tile_nm[1]));
+    let mut side: [HashMap<([i64; 2], [i64; 2]), i32>; 4] = Default::default();
+    for (&(p, r), &n) in &by_pos {
+        if n != 1 {
+            continue;
+        }
+        let on = |axis: usize, v: i64| (p[axis] - v).abs() <= 1 && (r[axis] - v).abs() <= 1;
+        let other = |axis: usize| {
+            let o = 1 - axis;
+            let (a, b) = ([p[o], p[2]], [r[o], r[2]]);
+            if a <= b { (a, b) } else { (b, a) }
+        };
+        if on(0, 0) {
+            *side[0].entry(other(0)).or_default() += 1;
+        } else if on(0, lx) {
+            *side[1].entry(other(0)).or_default() += 1;
+        } else if on(1, 0) {
+            *side[2].entry(other(1)).or_default() += 1;
+        } else if on(1, ly) {
+            *side[3].entry(other(1)).or_default() += 1;
+        } else {
+            out.interior_boundary_edges += 1;
+        }
+    }
+    let unmatched = |a: &HashMap<([i64; 2], [i64; 2]), i32>, b: &HashMap<([i64; 2], [i64; 2]), i32>| {
+        let mut n = 0usize;
+        for (k, &c) in a {
+            n += (c - b.get(k).copied().unwrap_or(0)).unsigned_abs() as usize;
+        }
+        for (k, &c) in b {
+            if !a.contains_key(k) {
+                n += c as usize;
+            }
+        }
+        n
+    };
+    out.unmatched_x = unmatched(&side[0], &side[1]);
+    out.unmatched_y = unmatched(&side[2], &side[3]);
+    out
+}
+
+/// Random walks through the sample tracking the current medium.
+fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions) -> LeakStats {
+    let owner = |prim: u32| first.partition_point(|&f| f <= prim) - 1;
+    let (soup_lo, soup_hi) = sample
+        .interfaces
+        .iter()
+        .filter_map(|i| i.mesh.bounds())
+        .fold(([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]), |(lo, hi), (a, b)| {
+            (
+                [lo[0].min(a[0]), lo[1].min(a[1]), lo[2].min(a[2])],
+                [hi[0].max(b[0]), hi[1].max(b[1]), hi[2].max(b[2])],
+            )
+        });
+    let [lx, ly] = sample.tile_nm;
+    let extent = lx.max(ly).max(soup_hi[2] - soup_lo[2]);
+    let eps = (1e-6 * extent).max(1e-3);
+    let z_top = soup_hi[2] + 0.01 * extent + 1.0;
+    let z_bottom = soup_lo[2] - 0.01 * extent - 1.0;
+    // The medium above everything: seen from a vertical ray down the tile's centre.
+    let down = Ray::new([(lx / 2.0) as f32, (ly / 2.0) as f32, z_top as f32], [0.0, 0.0, -1.0]);
+    let h = accel.closest_hit(&down);
+    if !h.is_hit() {
+        return LeakStats::default();
+    }
+    let itf = &sample.interfaces[owner(h.prim)];
+    let ambient = if h.ng[2] > 0.0 { itf.front } else { itf.back };
+
+    let mut stats = LeakStats::default();
+    for w in 0..opts.leak_rays {
+        let mut rng = Rng::new(opts.seed, w as u64);
+        let mut pos = [rng.range(0.0, lx), rng.range(0.0, ly), z_top];
+        let cos_t = rng.range(0.2, 1.0);
+        let phi = rng.range(0.0, std::f64::consts::TAU);
+        let s = (1.0 - cos_t * cos_t).sqrt();
+        let mut dir = [s * phi.cos(), s * phi.sin(), -cos_t];
+        let mut medium = ambient;
+        stats.walks += 1;
+        let mut events = 0;
+        loop {
+            if events >= opts.max_events {
+                stats.abandoned += 1;
+                break;
+            }
+            // Distance to the tile's sides along dir (the walk wraps there).
+            let mut t_side = f64::INFINITY;
+            let mut side_axis = 0usize;
+            for (a, l) in [(0usize, lx), (1, ly)] {
+                if dir[a] > 0.0 {
+                    let t = (l - pos[a]) / dir[a];
+                    if t < t_side {
+                        t_side = t;
+                        side_axis = a;
+                    }
+                } else if dir[a] < 0.0 {
+                    let t = -pos[a] / dir[a];
+                    if t < t_side {
+                        t_side = t;
+                        side_axis = a;
+                    }
+                }
+            }
+            let ray = Ray {
+                origin: pos.map(|c| c as f32),
+                tmin: 0.0,
+                dir: dir.map(|c| c as f32),
+                tmax: t_side.min(1e30) as f32,
+            };
+            let hit: Hit = accel.closest_hit(&ray);
+            if !hit.is_hit() {
+                if t_side.is_finite() {
+                    // Wrap around the tile side and go on.
+                    for k in 0..3 {
+                        pos[k] += t_side * dir[k];
+                    }
+                    let l = [lx, ly][side_axis];
+                    pos[side_axis] = if dir[side_axis] > 0.0 { 0.0 } else { l };
+                    if pos[2] > z_top || pos[2] < z_bottom {
+                        break;
+                    }
+                    continue;
+                }
+                break; // vertical ray that left the sample
+            }
+            events += 1;
+            stats.crossings += 1;
+            let itf = &sample.interfaces[owner(hit.prim)];
+            let n = hit.ng.map(f64::from);
+            let cos = dir[0] * n[0] + dir[1] * n[1] + dir[2] * n[2];
+            let (from, to) = if cos < 0.0 { (itf.front, itf.back) } else { (itf.back, itf.front) };
+            if from != medium {
+                stats.leaks += 1;
+            }
+            let t = f64::from(hit.t);
+            let p = [pos[0] + t * dir[0], pos[1] + t * dir[1], pos[2] + t * dir[2]];
+            // Pass through or reflect, at random; then step off the surface to the side the
+            // new direction points to.
+            if rng.uniform() < 0.5 {
+                medium = to;
+            } else {
+                medium = from;
+                for k in 0..3 {
+                    dir[k] -= 2.0 * cos * n[k];
+                }
+            }
+            let off = (dir[0] * n[0] + dir[1] * n[1] + dir[2] * n[2]).signum();
+            for k in 0..3 {
+                pos[k] = p[k] + off * eps * n[k];
+            }
+            pos[0] = pos[0].rem_euclid(lx);
+            pos[1] = pos[1].rem_euclid(ly);
+        }
+    }
+    stats
+}
