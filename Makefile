@@ -8,7 +8,7 @@ CARGO ?= cargo
 ## Run the main job on the built-in default sample (for now: the trace benchmark).
 demo: deps
 	$(CARGO) run --release -- backends
-	$(CARGO) run --release -- check meshes/wavy-soap-film.toml
+	$(CARGO) run --release -- check meshes/thin-film-600nm.toml
 	$(CARGO) run --release -- bench trace
 
 ## Run the whole test suite.

@@ -34,10 +34,19 @@ fn backends_lists_versions() {
 
 #[test]
 fn check_reports_a_shipped_sample() {
-    let (code, out, err) = goniospec(&["check", "meshes/wavy-soap-film.toml"]);
+    let (code, out, err) = goniospec(&[
+        "check",
+        "meshes/thin-film-600nm.toml",
+        "--leak-rays",
+        "2000",
+    ]);
     assert_eq!(code, 0, "{err}");
-    assert!(out.contains("9216 triangles"), "{out}");
-    assert!(out.contains("front air / back soap"), "{out}");
+    assert!(out.contains("16384 triangles"), "{out}");
+    assert!(out.contains("front / back: air / soap"), "{out}");
+    assert!(
+        out.contains(" 0 leaks") && out.contains("no defects found"),
+        "{out}"
+    );
 }
 
 #[test]
@@ -48,6 +57,68 @@ fn check_fails_with_the_file_named_and_status_1() {
         err.starts_with("error: meshes/does-not-exist.toml: cannot read file"),
         "{err}"
     );
+}
+
+#[test]
+fn check_exits_1_on_a_defective_sample() {
+    let d = std::env::temp_dir().join(format!("goniospec-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    // The lower sheet claims air above it, but the upper sheet put glass there.
+    let sheet = |z: f64| {
+        format!(
+            "[[interface]]\ngenerator = {{ kind = \"flat\", z = {z:?} }}\nfront = \"air\"\nback = \"glass\"\n"
+        )
+    };
+    std::fs::write(
+        d.join("bad.toml"),
+        format!(
+            "[sample]\nname = \"bad\"\nunit = \"nm\"\ntile = [100.0, 100.0]\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n{}{}",
+            sheet(50.0),
+            sheet(0.0)
+        ),
+    )
+    .unwrap();
+    let p = d.join("bad.toml");
+    let (code, out, _) = goniospec(&["check", p.to_str().unwrap(), "--leak-rays", "500"]);
+    assert_eq!(code, 1, "{out}");
+    assert!(out.contains("DEFECT:") && out.contains("leaks"), "{out}");
+}
+
+#[test]
+fn generate_writes_an_obj_that_loads() {
+    let d = std::env::temp_dir().join(format!("goniospec-gen-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let p = d.join("g.obj");
+    let (code, out, err) = goniospec(&[
+        "generate",
+        "microfacet",
+        "--tile",
+        "2,2",
+        "--unit",
+        "um",
+        "-p",
+        "distribution=beckmann",
+        "-p",
+        "alpha=0.3",
+        "-p",
+        "resolution=8",
+        "-o",
+        p.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("wrote"), "{out}");
+    let m = goniospec::sample::load_obj(&p, 1000.0, Default::default()).unwrap();
+    assert!(m.triangles.len() >= 128);
+    let (code, _, err) = goniospec(&[
+        "generate",
+        "gaussian",
+        "-p",
+        "rms=0.1",
+        "-o",
+        p.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("missing field `correlation_length`"), "{err}");
 }
 
 #[test]

@@ -80,7 +80,10 @@ fn a_valid_sample_loads_in_nanometres() {
     let itf = &s.interfaces[0];
     assert_eq!(s.media[itf.front].name, "air");
     assert_eq!(s.media[itf.back].name, "soap");
-    assert_eq!(s.media[itf.back].k, 0.001);
+    assert_eq!(
+        s.media[itf.back].model,
+        goniospec::sample::IndexModel::Constant { n: 1.33, k: 0.001 }
+    );
     assert_eq!(itf.mesh.triangles.len(), 2);
     let (lo, hi) = itf.mesh.bounds().unwrap();
     assert_eq!(lo, [0.0, 0.0, 0.0]);
@@ -270,7 +273,7 @@ fn bad_units_and_media_are_refused() {
 fn a_sample_without_interfaces_is_refused() {
     let t = "[sample]\nname = \"x\"\nunit = \"nm\"\ntile = [1.0, 1.0]\n[media.air]\nn = 1.0\n";
     let m = err_case("noif", t, SQUARE_OBJ).to_string();
-    assert!(m.contains("declares no [[interface]]"), "{m}");
+    assert!(m.contains("declares no interface ([stack], [[interface]] or [[body]])"), "{m}");
 }
 
 #[test]

@@ -66,7 +66,8 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
         sample.triangle_count()
     ));
     for m in &sample.media {
-        r.facts.push(format!("medium {:<14} {}", m.name, m.model.describe()));
+        r.facts
+            .push(format!("medium {:<14} {}", m.name, m.model.describe()));
     }
     let tol = 1e-6 * lx.max(ly);
     for (i, itf) in sample.interfaces.iter().enumerate() {
@@ -107,7 +108,10 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
         } else {
             let (up, total) = (0..itf.mesh.triangles.len()).fold((0.0, 0.0), |(u, t), k| {
                 let a = itf.mesh.area_vector(k);
-                (u + a[2], t + (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt())
+                (
+                    u + a[2],
+                    t + (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt(),
+                )
             });
             r.facts.push(format!(
                 "{name}: mean normal z = {:.3} (front medium '{}' {})",
@@ -128,10 +132,10 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
                     p.interior_boundary_edges
                 ));
             }
-            if p.unmatched_x + p.unmatched_y > 0 {
+            if p.unmatched > 0 {
                 r.defects.push(format!(
-                    "{name} does not tile: {} boundary edges on x = 0 / x = Lx and {} on y = 0 / y = Ly have no partner on the opposite side",
-                    p.unmatched_x, p.unmatched_y
+                    "{name} does not tile: {} boundary edges on the tile's sides have no partner on the opposite side",
+                    p.unmatched
                 ));
             }
         }
@@ -149,7 +153,10 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
                 if a > b {
                     continue; // each undirected edge once (sheets' boundary edges twice is harmless)
                 }
-                let (p, q) = (itf.mesh.positions_nm[a as usize], itf.mesh.positions_nm[b as usize]);
+                let (p, q) = (
+                    itf.mesh.positions_nm[a as usize],
+                    itf.mesh.positions_nm[b as usize],
+                );
                 let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
                 let ray = Ray {
                     origin: p.map(|c| c as f32),
@@ -170,13 +177,23 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
     let mut pairs: Vec<_> = crossings.into_iter().collect();
     pairs.sort();
     for ((i, j), n) in pairs.iter().take(20) {
-        r.defects.push(format!("interfaces {i} and {j} intersect ({n} edges of one cross the other)"));
+        r.defects.push(format!(
+            "interfaces {i} and {j} intersect ({n} edges of one cross the other)"
+        ));
     }
     if pairs.len() > 20 {
-        r.defects.push(format!("... and {} more intersecting pairs", pairs.len() - 20));
+        r.defects.push(format!(
+            "... and {} more intersecting pairs",
+            pairs.len() - 20
+        ));
     }
 
     r.leak = leak_test(sample, &accel, &first, opts);
+    if r.leak.walks == 0 && opts.leak_rays > 0 {
+        r.defects.push(
+            "vertical rays from above miss the sample: no sheet covers the tile, so the medium above it is undefined".into(),
+        );
+    }
     r.facts.push(format!(
         "leak test: {} walks, {} crossings, {} leaks, {} walks abandoned after {} crossings",
         r.leak.walks, r.leak.crossings, r.leak.leaks, r.leak.abandoned, opts.max_events
@@ -207,7 +224,11 @@ pub fn watertightness(mesh: &super::Mesh) -> Watertightness {
     for t in &mesh.triangles {
         for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
             let (ka, kb) = (key(a), key(b));
-            let (lo, hi, forward) = if ka < kb { (ka, kb, true) } else { (kb, ka, false) };
+            let (lo, hi, forward) = if ka < kb {
+                (ka, kb, true)
+            } else {
+                (kb, ka, false)
+            };
             let e = edges.entry((lo, hi)).or_default();
             if forward {
                 e.0 += 1;
@@ -233,69 +254,61 @@ pub fn watertightness(mesh: &super::Mesh) -> Watertightness {
 pub struct Periodicity {
     /// Boundary edges not lying on a tile side.
     pub interior_boundary_edges: usize,
-    /// Boundary edges on x = 0 or x = Lx without a translated partner on the other side.
-    pub unmatched_x: usize,
-    /// The same for y.
-    pub unmatched_y: usize,
+    /// Boundary edges on the tile's sides that no edge on the opposite side (or, at the
+    /// tile's corners, on any periodic image) completes.
+    pub unmatched: usize,
 }
 
-/// A sheet tiles when its boundary edges all lie on the tile's sides and the edges on
-/// x = 0 shifted by Lx are exactly those on x = Lx (likewise in y), within `tol` nm.
+/// A sheet tiles when its boundary edges all lie on the tile's sides and, with x taken
+/// modulo Lx and y modulo Ly, every boundary edge appears an even number of times (the
+/// edge on x = 0 meets its partner on x = Lx; at the tile's corners up to four images
+/// meet). Boundaries are counted mod 2, so saddle edges where four walls meet are
+/// interior. Positions match within `tol` nm.
 pub fn periodicity(mesh: &super::Mesh, tile_nm: [f64; 2], tol: f64) -> Periodicity {
     let q = |v: f64| (v / tol).round() as i64;
-    let mut count: HashMap<(u32, u32), i32> = HashMap::new();
+    let (lx, ly) = (q(tile_nm[0]), q(tile_nm[1]));
+    // Edges by quantised position (vertices may be duplicated at equal positions).
+    let mut by_pos: HashMap<([i64; 3], [i64; 3]), u32> = HashMap::new();
     for t in &mesh.triangles {
         for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
-            *count.entry((a.min(b), a.max(b))).or_default() += 1;
+            let (kp, kr) = (
+                mesh.positions_nm[a as usize].map(q),
+                mesh.positions_nm[b as usize].map(q),
+            );
+            let k = if kp <= kr { (kp, kr) } else { (kr, kp) };
+            *by_pos.entry(k).or_default() += 1;
         }
-    }
-    // Vertices may be duplicated at equal positions: count edges by quantised position.
-    let mut by_pos: HashMap<([i64; 3], [i64; 3]), i32> = HashMap::new();
-    for (&(a, b), &n) in &count {
-        let (p, r) = (mesh.positions_nm[a as usize], mesh.positions_nm[b as usize]);
-        let (kp, kr) = (p.map(q), r.map(q));
-        let k = if kp <= kr { (kp, kr) } else { (kr, kp) };
-        *by_pos.entry(k).or_default() += n;
     }
     let mut out = Periodicity::default();
-    let (lx, ly) = (q(tile_nm[0]), q(tile_nm[1]));
-    let mut side: [HashMap<([i64; 2], [i64; 2]), i32>; 4] = Default::default();
+    let near = |v: i64, target: i64| (v - target).abs() <= 1;
+    let on_side = |p: [i64; 3]| near(p[0], 0) || near(p[0], lx) || near(p[1], 0) || near(p[1], ly);
+    let wrap = |p: [i64; 3]| {
+        [
+            if near(p[0], lx) { 0 } else { p[0] },
+            if near(p[1], ly) { 0 } else { p[1] },
+            p[2],
+        ]
+    };
+    let mut wrapped: HashMap<([i64; 3], [i64; 3]), u32> = HashMap::new();
     for (&(p, r), &n) in &by_pos {
-        if n != 1 {
+        if n % 2 == 0 {
             continue;
         }
-        let on = |axis: usize, v: i64| (p[axis] - v).abs() <= 1 && (r[axis] - v).abs() <= 1;
-        let other = |axis: usize| {
-            let o = 1 - axis;
-            let (a, b) = ([p[o], p[2]], [r[o], r[2]]);
-            if a <= b { (a, b) } else { (b, a) }
-        };
-        if on(0, 0) {
-            *side[0].entry(other(0)).or_default() += 1;
-        } else if on(0, lx) {
-            *side[1].entry(other(0)).or_default() += 1;
-        } else if on(1, 0) {
-            *side[2].entry(other(1)).or_default() += 1;
-        } else if on(1, ly) {
-            *side[3].entry(other(1)).or_default() += 1;
-        } else {
+        // A boundary edge must run along a tile side: both ends on the same side line.
+        let same_side = (near(p[0], 0) && near(r[0], 0))
+            || (near(p[0], lx) && near(r[0], lx))
+            || (near(p[1], 0) && near(r[1], 0))
+            || (near(p[1], ly) && near(r[1], ly));
+        if !(on_side(p) && on_side(r) && same_side) {
             out.interior_boundary_edges += 1;
+            continue;
         }
+        let (a, b) = (wrap(p), wrap(r));
+        *wrapped
+            .entry(if a <= b { (a, b) } else { (b, a) })
+            .or_default() += 1;
     }
-    let unmatched = |a: &HashMap<([i64; 2], [i64; 2]), i32>, b: &HashMap<([i64; 2], [i64; 2]), i32>| {
-        let mut n = 0usize;
-        for (k, &c) in a {
-            n += (c - b.get(k).copied().unwrap_or(0)).unsigned_abs() as usize;
-        }
-        for (k, &c) in b {
-            if !a.contains_key(k) {
-                n += c as usize;
-            }
-        }
-        n
-    };
-    out.unmatched_x = unmatched(&side[0], &side[1]);
-    out.unmatched_y = unmatched(&side[2], &side[3]);
+    out.unmatched = wrapped.values().filter(|&&c| c % 2 == 1).count();
     out
 }
 
@@ -306,25 +319,43 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
         .interfaces
         .iter()
         .filter_map(|i| i.mesh.bounds())
-        .fold(([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]), |(lo, hi), (a, b)| {
-            (
-                [lo[0].min(a[0]), lo[1].min(a[1]), lo[2].min(a[2])],
-                [hi[0].max(b[0]), hi[1].max(b[1]), hi[2].max(b[2])],
-            )
-        });
+        .fold(
+            ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+            |(lo, hi), (a, b)| {
+                (
+                    [lo[0].min(a[0]), lo[1].min(a[1]), lo[2].min(a[2])],
+                    [hi[0].max(b[0]), hi[1].max(b[1]), hi[2].max(b[2])],
+                )
+            },
+        );
     let [lx, ly] = sample.tile_nm;
     let extent = lx.max(ly).max(soup_hi[2] - soup_lo[2]);
     let eps = (1e-6 * extent).max(1e-3);
     let z_top = soup_hi[2] + 0.01 * extent + 1.0;
     let z_bottom = soup_lo[2] - 0.01 * extent - 1.0;
-    // The medium above everything: seen from a vertical ray down the tile's centre.
-    let down = Ray::new([(lx / 2.0) as f32, (ly / 2.0) as f32, z_top as f32], [0.0, 0.0, -1.0]);
-    let h = accel.closest_hit(&down);
-    if !h.is_hit() {
-        return LeakStats::default();
+    // The medium above everything, seen from vertical rays down the tile (a few tries, in
+    // case one runs exactly along a vertical wall).
+    let mut probe = Rng::new(opts.seed, u64::MAX);
+    let mut ambient = None;
+    for _ in 0..16 {
+        let down = Ray::new(
+            [
+                probe.range(0.0, lx) as f32,
+                probe.range(0.0, ly) as f32,
+                z_top as f32,
+            ],
+            [0.0, 0.0, -1.0],
+        );
+        let h = accel.closest_hit(&down);
+        if h.is_hit() {
+            let itf = &sample.interfaces[owner(h.prim)];
+            ambient = Some(if h.ng[2] > 0.0 { itf.front } else { itf.back });
+            break;
+        }
     }
-    let itf = &sample.interfaces[owner(h.prim)];
-    let ambient = if h.ng[2] > 0.0 { itf.front } else { itf.back };
+    let Some(ambient) = ambient else {
+        return LeakStats::default();
+    };
 
     let mut stats = LeakStats::default();
     for w in 0..opts.leak_rays {
@@ -360,21 +391,29 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
                     }
                 }
             }
+            // Geometry may lie exactly on the tile's side (a wall at x = Lx): search a little
+            // past the side, and re-enter a little outside the opposite side, so such
+            // geometry is found from both directions.
+            let t_limit = if t_side.is_finite() {
+                t_side + eps / dir[side_axis].abs()
+            } else {
+                1e30
+            };
             let ray = Ray {
                 origin: pos.map(|c| c as f32),
                 tmin: 0.0,
                 dir: dir.map(|c| c as f32),
-                tmax: t_side.min(1e30) as f32,
+                tmax: t_limit as f32,
             };
             let hit: Hit = accel.closest_hit(&ray);
-            if !hit.is_hit() {
+            if !hit.is_hit() || f64::from(hit.t) > t_limit {
                 if t_side.is_finite() {
                     // Wrap around the tile side and go on.
                     for k in 0..3 {
                         pos[k] += t_side * dir[k];
                     }
                     let l = [lx, ly][side_axis];
-                    pos[side_axis] = if dir[side_axis] > 0.0 { 0.0 } else { l };
+                    pos[side_axis] = if dir[side_axis] > 0.0 { -eps } else { l + eps };
                     if pos[2] > z_top || pos[2] < z_bottom {
                         break;
                     }
@@ -387,12 +426,20 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
             let itf = &sample.interfaces[owner(hit.prim)];
             let n = hit.ng.map(f64::from);
             let cos = dir[0] * n[0] + dir[1] * n[1] + dir[2] * n[2];
-            let (from, to) = if cos < 0.0 { (itf.front, itf.back) } else { (itf.back, itf.front) };
+            let (from, to) = if cos < 0.0 {
+                (itf.front, itf.back)
+            } else {
+                (itf.back, itf.front)
+            };
             if from != medium {
                 stats.leaks += 1;
             }
             let t = f64::from(hit.t);
-            let p = [pos[0] + t * dir[0], pos[1] + t * dir[1], pos[2] + t * dir[2]];
+            let p = [
+                pos[0] + t * dir[0],
+                pos[1] + t * dir[1],
+                pos[2] + t * dir[2],
+            ];
             // Pass through or reflect, at random; then step off the surface to the side the
             // new direction points to.
             if rng.uniform() < 0.5 {

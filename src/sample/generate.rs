@@ -24,7 +24,11 @@ use crate::rng::Rng;
 ///
 /// # Panics
 /// When a cell count is zero.
-pub fn height_field(cells: [usize; 2], tile_nm: [f64; 2], height: impl Fn(f64, f64) -> f64) -> Mesh {
+pub fn height_field(
+    cells: [usize; 2],
+    tile_nm: [f64; 2],
+    height: impl Fn(f64, f64) -> f64,
+) -> Mesh {
     let [nx, ny] = cells;
     assert!(nx > 0 && ny > 0, "a height field needs at least one cell");
     let mut positions_nm = Vec::with_capacity((nx + 1) * (ny + 1));
@@ -106,7 +110,8 @@ pub fn cosine_surface(
 /// `C(r) = rms^2 exp(-r^2 / l^2)` with correlation length `l = corr_nm`, whose 2-D power
 /// spectrum is `W(q) = rms^2 l^2 / (4 pi) exp(-q^2 l^2 / 4)` (Ogilvy, Theory of Wave
 /// Scattering from Random Rough Surfaces, 1991, §2.2). Each wave vector `q = 2 pi (m/Lx,
-/// n/Ly)` of the half plane gets amplitude `sqrt(2 W(q) dqx dqy)` and a random phase, so the
+/// n/Ly)` of the half plane gets amplitude `sqrt(4 W(q) dqx dqy)` (it stands for `q` and
+/// `-q`) and a random phase, so the
 /// tile-averaged autocorrelation is exactly the discretised `C(r)`; the sum is then
 /// normalised to the exact requested RMS. Returns heights on the `(n+1) x (n+1)` grid.
 pub fn gaussian_heights(
@@ -120,7 +125,9 @@ pub fn gaussian_heights(
         return Err(format!("rms must be finite and >= 0, got {rms_nm}"));
     }
     if !(corr_nm.is_finite() && corr_nm > 0.0) {
-        return Err(format!("correlation_length must be positive, got {corr_nm}"));
+        return Err(format!(
+            "correlation_length must be positive, got {corr_nm}"
+        ));
     }
     let n = resolution;
     let spacing = tile_nm[0].max(tile_nm[1]) / n as f64;
@@ -133,7 +140,9 @@ pub fn gaussian_heights(
     let (dqx, dqy) = (TAU / tile_nm[0], TAU / tile_nm[1]);
     // Modes up to the grid's Nyquist limit.
     let mmax = (n / 2) as i64;
-    let w = |q2: f64| rms_nm * rms_nm * corr_nm * corr_nm / (4.0 * PI) * (-q2 * corr_nm * corr_nm / 4.0).exp();
+    let w = |q2: f64| {
+        rms_nm * rms_nm * corr_nm * corr_nm / (4.0 * PI) * (-q2 * corr_nm * corr_nm / 4.0).exp()
+    };
     let mut rng = Rng::new(seed, 0x6A055);
     // (m, n, amplitude, phase) over the half plane: m > 0, or m == 0 and n > 0.
     let mut modes = Vec::new();
@@ -144,7 +153,7 @@ pub fn gaussian_heights(
                 continue;
             }
             let q2 = (m as f64 * dqx).powi(2) + (k as f64 * dqy).powi(2);
-            let a2 = 2.0 * w(q2) * dqx * dqy;
+            let a2 = 4.0 * w(q2) * dqx * dqy;
             let phase = rng.range(0.0, TAU);
             total += a2 / 2.0;
             if a2 > 1e-16 * rms_nm * rms_nm {
@@ -158,7 +167,11 @@ pub fn gaussian_heights(
             100.0 * total / (rms_nm * rms_nm)
         ));
     }
-    let scale = if total > 0.0 { rms_nm / total.sqrt() } else { 0.0 };
+    let scale = if total > 0.0 {
+        rms_nm / total.sqrt()
+    } else {
+        0.0
+    };
     // Separable evaluation: h(x_i, y_j) = Re sum_m e^{i qx_m x_i} G_m(y_j).
     let mut h = vec![0.0; (n + 1) * (n + 1)];
     let mut by_m: HashMap<i64, Vec<(i64, f64, f64)>> = HashMap::new();
@@ -284,18 +297,21 @@ pub fn microfacet_surface(
     // Height of cell (ci, cj) (unwrapped, may be -1 ..= n) at grid corner (gi, gj).
     let height = |ci: i64, cj: i64, gi: i64, gj: i64| -> f64 {
         let m = normals[(cj.rem_euclid(n as i64) as usize) * n + ci.rem_euclid(n as i64) as usize];
-        let (cx, cy) = ((ci as f64 + 0.5) * dx, (cj as f64 + 0.5) * dy);
-        let (x, y) = (gi as f64 * dx, gj as f64 * dy);
-        z0 - (m[0] * (x - cx) + m[1] * (y - cy)) / m[2]
+        // Offsets from the cell centre in whole grid units, so a cell and its periodic
+        // image give bit-identical heights.
+        let (ox, oy) = (((gi - ci) as f64 - 0.5) * dx, ((gj - cj) as f64 - 0.5) * dy);
+        z0 - (m[0] * ox + m[1] * oy) / m[2]
     };
     let mut mesh = Mesh::default();
-    let mut index: HashMap<(i64, i64, u64), u32> = HashMap::new();
-    let mut vert = |mesh: &mut Mesh, gi: i64, gj: i64, z: f64| -> u32 {
-        *index.entry((gi, gj, z.to_bits())).or_insert_with(|| {
-            mesh.positions_nm.push([gi as f64 * dx, gj as f64 * dy, z]);
+    // Vertices are shared by exact position: every point is computed by one formula.
+    let mut index: HashMap<[u64; 3], u32> = HashMap::new();
+    let mut vert = |mesh: &mut Mesh, p: [f64; 3]| -> u32 {
+        *index.entry(p.map(f64::to_bits)).or_insert_with(|| {
+            mesh.positions_nm.push(p);
             (mesh.positions_nm.len() - 1) as u32
         })
     };
+    let pt = |g: (i64, i64), z: f64| [g.0 as f64 * dx, g.1 as f64 * dy, z];
     // Sorted distinct heights on the vertical line through grid corner (gi, gj).
     let corner_heights = |gi: i64, gj: i64| -> Vec<f64> {
         let mut hs = vec![
@@ -308,97 +324,156 @@ pub fn microfacet_surface(
         hs.dedup();
         hs
     };
-    // Facets.
-    for cj in 0..n as i64 {
-        for ci in 0..n as i64 {
-            let c = [(ci, cj), (ci + 1, cj), (ci + 1, cj + 1), (ci, cj + 1)]
-                .map(|(gi, gj)| vert(&mut mesh, gi, gj, height(ci, cj, gi, gj)));
-            mesh.triangles.push([c[0], c[1], c[2]]);
-            mesh.triangles.push([c[0], c[2], c[3]]);
-        }
+    // Walls lie on grid lines between cell A (lower coordinate side) and cell B, with
+    // vertical sides at grid corners g0 and g1. Walls at x = Lx and y = Ly join the last
+    // cells to the images of the first ones.
+    struct Wall {
+        a: (i64, i64),
+        b: (i64, i64),
+        g0: (i64, i64),
+        g1: (i64, i64),
+        along_x: bool,
     }
-    // Walls. A wall lies on a grid line between cell A (lower coordinate side) and cell B;
-    // it has two vertical sides at grid corners g0 and g1 along the line.
-    let mut walls: Vec<[(i64, i64); 4]> = Vec::new(); // [cellA, cellB, g0, g1]
+    let mut walls: Vec<Wall> = Vec::new();
     for cj in 0..n as i64 {
         for gi in 1..=n as i64 {
-            walls.push([(gi - 1, cj), (gi, cj), (gi, cj), (gi, cj + 1)]);
+            walls.push(Wall {
+                a: (gi - 1, cj),
+                b: (gi, cj),
+                g0: (gi, cj),
+                g1: (gi, cj + 1),
+                along_x: true,
+            });
         }
     }
     for gj in 1..=n as i64 {
         for ci in 0..n as i64 {
-            walls.push([(ci, gj - 1), (ci, gj), (ci, gj), (ci + 1, gj)]);
+            walls.push(Wall {
+                a: (ci, gj - 1),
+                b: (ci, gj),
+                g0: (ci, gj),
+                g1: (ci + 1, gj),
+                along_x: false,
+            });
         }
     }
-    for [a, b, g0, g1] in walls {
-        let along_x = g0.1 != g1.1; // wall in a plane x = const
-        let za = [height(a.0, a.1, g0.0, g0.1), height(a.0, a.1, g1.0, g1.1)];
-        let zb = [height(b.0, b.1, g0.0, g0.1), height(b.0, b.1, g1.0, g1.1)];
+    // Where the two facet edges of a wall cross (a "bow tie"), both facets' edges and the
+    // wall share the crossing point: (t along the wall from g0, z). Keyed by the wall's
+    // grid segment, wrapped so that the edges at x = 0 and y = 0 see the walls at Lx, Ly.
+    let heights_of = |w: &Wall| {
+        (
+            [
+                height(w.a.0, w.a.1, w.g0.0, w.g0.1),
+                height(w.a.0, w.a.1, w.g1.0, w.g1.1),
+            ],
+            [
+                height(w.b.0, w.b.1, w.g0.0, w.g0.1),
+                height(w.b.0, w.b.1, w.g1.0, w.g1.1),
+            ],
+        )
+    };
+    let mut crossing: HashMap<(bool, i64, i64), (f64, f64)> = HashMap::new();
+    for w in &walls {
+        let (za, zb) = heights_of(w);
+        let (d0, d1) = (za[0] - zb[0], za[1] - zb[1]);
+        if d0 * d1 < 0.0 {
+            let t = d0 / (d0 - d1);
+            let key = if w.along_x {
+                (true, w.g0.0 % n as i64, w.g0.1)
+            } else {
+                (false, w.g0.0, w.g0.1 % n as i64)
+            };
+            crossing.insert(key, (t, za[0] + t * (za[1] - za[0])));
+        }
+    }
+    // The crossing point on grid segment g0 -> g1 (unit step along x or y), if any.
+    let crossing_on = |g0: (i64, i64), along_x: bool| -> Option<[f64; 3]> {
+        let key = if along_x {
+            (true, g0.0 % n as i64, g0.1)
+        } else {
+            (false, g0.0, g0.1 % n as i64)
+        };
+        crossing.get(&key).map(|&(t, z)| {
+            if along_x {
+                [g0.0 as f64 * dx, (g0.1 as f64 + t) * dy, z]
+            } else {
+                [(g0.0 as f64 + t) * dx, g0.1 as f64 * dy, z]
+            }
+        })
+    };
+    // Facets: a fan from the cell centre over the corners and any crossing points on the
+    // cell's edges (counter-clockwise seen from above, so normals point up).
+    for cj in 0..n as i64 {
+        for ci in 0..n as i64 {
+            let h = |g: (i64, i64)| pt(g, height(ci, cj, g.0, g.1));
+            let (c00, c10, c11, c01) = ((ci, cj), (ci + 1, cj), (ci + 1, cj + 1), (ci, cj + 1));
+            let mut ring = vec![h(c00)];
+            ring.extend(crossing_on(c00, false)); // bottom edge, along +x
+            ring.push(h(c10));
+            ring.extend(crossing_on(c10, true)); // right edge, along +y
+            ring.push(h(c11));
+            ring.extend(crossing_on(c01, false)); // top edge, stored from c01 along +x
+            ring.push(h(c01));
+            ring.extend(crossing_on(c00, true)); // left edge, stored from c00 along +y
+            // The top and left crossings were found going +x / +y; the ring walks them
+            // backwards, which is the same point.
+            let centre = [(ci as f64 + 0.5) * dx, (cj as f64 + 0.5) * dy, z0];
+            let cid = vert(&mut mesh, centre);
+            let ids: Vec<u32> = ring.iter().map(|&p| vert(&mut mesh, p)).collect();
+            for k in 0..ids.len() {
+                mesh.triangles.push([cid, ids[k], ids[(k + 1) % ids.len()]]);
+            }
+        }
+    }
+    for w in &walls {
+        let (za, zb) = heights_of(w);
+        let (d0, d1) = (za[0] - zb[0], za[1] - zb[1]);
         // Points of the vertical side at corner g between heights lo and hi, inclusive.
-        let side = |g: (i64, i64), lo: f64, hi: f64| -> Vec<f64> {
+        let side = |g: (i64, i64), lo: f64, hi: f64| -> Vec<[f64; 3]> {
             corner_heights(g.0, g.1)
                 .into_iter()
                 .filter(|&z| z >= lo && z <= hi)
+                .map(|z| pt(g, z))
                 .collect()
         };
-        let d0 = za[0] - zb[0];
-        let d1 = za[1] - zb[1];
-        // The wall's outward normal points from the higher facet's column towards the lower
-        // one's, i.e. into the region above the surface: +axis where A is higher.
-        let mut polys: Vec<Vec<[f64; 3]>> = Vec::new();
-        let pt = |g: (i64, i64), z: f64| [g.0 as f64 * dx, g.1 as f64 * dy, z];
-        let s0 = side(g0, za[0].min(zb[0]), za[0].max(zb[0]));
-        let s1 = side(g1, za[1].min(zb[1]), za[1].max(zb[1]));
-        if d0 * d1 >= 0.0 {
-            // One quadrilateral (or triangle): a ladder between the two sides.
+        let s0 = side(w.g0, za[0].min(zb[0]), za[0].max(zb[0]));
+        let s1 = side(w.g1, za[1].min(zb[1]), za[1].max(zb[1]));
+        let tris = if d0 * d1 >= 0.0 {
             if s0.len() < 2 && s1.len() < 2 {
-                continue;
+                continue; // the facets meet along the whole edge: no wall
             }
-            polys.push(ladder(&s0.iter().map(|&z| pt(g0, z)).collect::<Vec<_>>(), &s1.iter().map(|&z| pt(g1, z)).collect::<Vec<_>>()));
+            ladder(&s0, &s1)
         } else {
-            // Bow tie: the facet edges cross at parameter t along the wall.
-            let t = d0 / (d0 - d1);
-            let zx = za[0] + t * (za[1] - za[0]);
-            let x = [
-                (g0.0 as f64 + t * (g1.0 - g0.0) as f64) * dx,
-                (g0.1 as f64 + t * (g1.1 - g0.1) as f64) * dy,
-                zx,
-            ];
-            polys.push(fan(x, &s0.iter().map(|&z| pt(g0, z)).collect::<Vec<_>>()));
-            polys.push(fan(x, &s1.iter().map(|&z| pt(g1, z)).collect::<Vec<_>>()));
-        }
-        for tris in polys {
-            for tri in tris.chunks_exact(3) {
-                let [p, q, r] = [tri[0], tri[1], tri[2]];
-                // Which way should this triangle face? Sample A - B at its centroid's
-                // position along the wall.
-                let c = [(p[0] + q[0] + r[0]) / 3.0, (p[1] + q[1] + r[1]) / 3.0];
-                let s = if along_x { (c[1] / dy) - g0.1 as f64 } else { (c[0] / dx) - g0.0 as f64 };
-                let diff = d0 + s * (d1 - d0);
-                let nrm = cross(sub(q, p), sub(r, p));
-                let axis_component = if along_x { nrm[0] } else { nrm[1] };
-                let want_positive = diff > 0.0;
-                let ids = [p, q, r].map(|v| {
-                    let gi = (v[0] / dx).round() as i64;
-                    let gj = (v[1] / dy).round() as i64;
-                    let on_corner = (v[0] - gi as f64 * dx).abs() < 1e-9 * dx && (v[1] - gj as f64 * dy).abs() < 1e-9 * dy;
-                    if on_corner {
-                        vert(&mut mesh, gi, gj, v[2])
-                    } else {
-                        mesh.positions_nm.push(v);
-                        (mesh.positions_nm.len() - 1) as u32
-                    }
-                });
-                if (axis_component > 0.0) == want_positive {
-                    mesh.triangles.push(ids);
-                } else {
-                    mesh.triangles.push([ids[0], ids[2], ids[1]]);
-                }
+            let x = crossing_on(w.g0, w.along_x).expect("crossing recorded for every bow tie");
+            let mut t = fan(x, &s0);
+            t.extend(fan(x, &s1));
+            t
+        };
+        for tri in tris.chunks_exact(3) {
+            let [p, q, r] = [tri[0], tri[1], tri[2]];
+            // Face the region above the surface: +axis where facet A is the higher one at
+            // this triangle's position along the wall.
+            let c = [(p[0] + q[0] + r[0]) / 3.0, (p[1] + q[1] + r[1]) / 3.0];
+            let s = if w.along_x {
+                c[1] / dy - w.g0.1 as f64
+            } else {
+                c[0] / dx - w.g0.0 as f64
+            };
+            let want_positive = d0 + s * (d1 - d0) > 0.0;
+            let nrm = cross(sub(q, p), sub(r, p));
+            let axis_component = if w.along_x { nrm[0] } else { nrm[1] };
+            let ids = [p, q, r].map(|v| vert(&mut mesh, v));
+            if (axis_component > 0.0) == want_positive {
+                mesh.triangles.push(ids);
+            } else {
+                mesh.triangles.push([ids[0], ids[2], ids[1]]);
             }
         }
     }
     // Drop zero-area wall slivers (walls where both facets meet exactly).
-    let keep: Vec<bool> = (0..mesh.triangles.len()).map(|i| !mesh.is_degenerate(i)).collect();
+    let keep: Vec<bool> = (0..mesh.triangles.len())
+        .map(|i| !mesh.is_degenerate(i))
+        .collect();
     let mut k = keep.iter();
     mesh.triangles.retain(|_| *k.next().unwrap_or(&true));
     Ok(mesh)
@@ -526,7 +601,11 @@ pub fn icosphere(subdivisions: u32) -> Mesh {
             let key = (a.min(b), a.max(b));
             *mid.entry(key).or_insert_with(|| {
                 let (x, y) = (p[a as usize], p[b as usize]);
-                p.push(norm([(x[0] + y[0]) / 2.0, (x[1] + y[1]) / 2.0, (x[2] + y[2]) / 2.0]));
+                p.push(norm([
+                    (x[0] + y[0]) / 2.0,
+                    (x[1] + y[1]) / 2.0,
+                    (x[2] + y[2]) / 2.0,
+                ]));
                 (p.len() - 1) as u32
             })
         };
@@ -590,7 +669,10 @@ pub fn pigment_spheres(
     let v_sphere = 4.0 / 3.0 * PI * radius_nm.powi(3);
     let count = (volume_fraction * tile_nm[0] * tile_nm[1] * thickness / v_sphere).round() as usize;
     if count == 0 {
-        return Err("the volume fraction gives no sphere in this tile; enlarge the tile or the fraction".into());
+        return Err(
+            "the volume fraction gives no sphere in this tile; enlarge the tile or the fraction"
+                .into(),
+        );
     }
     let mut rng = Rng::new(seed, 0x5F4E);
     let mut centres: Vec<[f64; 3]> = Vec::with_capacity(count);
@@ -645,12 +727,12 @@ impl Obb {
                 if i & 2 == 0 { -1.0 } else { 1.0 },
                 if i & 4 == 0 { -1.0 } else { 1.0 },
             ];
-            for k in 0..3 {
-                o[k] = self.c[k]
+            *o = std::array::from_fn(|k| {
+                self.c[k]
                     + s[0] * self.half[0] * self.axes[0][k]
                     + s[1] * self.half[1] * self.axes[1][k]
-                    + s[2] * self.half[2] * self.axes[2][k];
-            }
+                    + s[2] * self.half[2] * self.axes[2][k]
+            });
         }
         out
     }
@@ -702,7 +784,9 @@ impl Obb {
             }
         }
         for ax in axes {
-            let ra: f64 = (0..3).map(|i| self.half[i] * dot(self.axes[i], ax).abs()).sum();
+            let ra: f64 = (0..3)
+                .map(|i| self.half[i] * dot(self.axes[i], ax).abs())
+                .sum();
             let rb: f64 = (0..3).map(|i| o.half[i] * dot(o.axes[i], ax).abs()).sum();
             if dot(d, ax).abs() > ra + rb {
                 return false;
@@ -737,13 +821,18 @@ pub fn flakes(
         return Err("coating and tilt must be >= 0".into());
     }
     if !(volume_fraction > 0.0 && volume_fraction < 0.5) {
-        return Err(format!("volume_fraction must be in (0, 0.5), got {volume_fraction}"));
+        return Err(format!(
+            "volume_fraction must be in (0, 0.5), got {volume_fraction}"
+        ));
     }
     let thickness = layer_nm[1] - layer_nm[0];
     let v_flake = size_nm * size_nm * thickness_nm;
     let count = (volume_fraction * tile_nm[0] * tile_nm[1] * thickness / v_flake).round() as usize;
     if count == 0 {
-        return Err("the volume fraction gives no flake in this tile; enlarge the tile or the fraction".into());
+        return Err(
+            "the volume fraction gives no flake in this tile; enlarge the tile or the fraction"
+                .into(),
+        );
     }
     let outer_half = [
         size_nm / 2.0 + coating_nm,
@@ -770,7 +859,11 @@ pub fn flakes(
         let az = [ss * st, -cs * st, ct];
         let axes = [ax, ay, az];
         // Extent of the outer box along each world axis, to keep it inside tile and layer.
-        let ext = |k: usize| (0..3).map(|i| outer_half[i] * axes[i][k].abs()).sum::<f64>();
+        let ext = |k: usize| {
+            (0..3)
+                .map(|i| outer_half[i] * axes[i][k].abs())
+                .sum::<f64>()
+        };
         let (ex, ey, ez) = (ext(0), ext(1), ext(2));
         if 2.0 * ex >= tile_nm[0] || 2.0 * ey >= tile_nm[1] || 2.0 * ez >= thickness {
             continue;
@@ -797,7 +890,13 @@ pub fn flakes(
                 half: [size_nm / 2.0, size_nm / 2.0, thickness_nm / 2.0],
                 ..*o
             };
-            let shell = (coating_nm > 0.0).then(|| Obb { half: outer_half, ..*o }.mesh());
+            let shell = (coating_nm > 0.0).then(|| {
+                Obb {
+                    half: outer_half,
+                    ..*o
+                }
+                .mesh()
+            });
             (core.mesh(), shell)
         })
         .collect())
@@ -924,7 +1023,10 @@ impl GeneratorSpec {
 
     /// Whether the generator makes closed bodies (else a sheet).
     pub fn makes_bodies(&self) -> bool {
-        matches!(self, GeneratorSpec::PigmentSpheres { .. } | GeneratorSpec::Flakes { .. })
+        matches!(
+            self,
+            GeneratorSpec::PigmentSpheres { .. } | GeneratorSpec::Flakes { .. }
+        )
     }
 
     /// Runs the generator; `u` is nanometres per sample unit.
@@ -939,7 +1041,8 @@ impl GeneratorSpec {
                 z,
             } => {
                 check_resolution(resolution)?;
-                let h = gaussian_heights(seed, tile_nm, resolution, rms * u, correlation_length * u)?;
+                let h =
+                    gaussian_heights(seed, tile_nm, resolution, rms * u, correlation_length * u)?;
                 Generated::Sheet(grid_mesh(tile_nm, resolution, &h, z * u))
             }
             GeneratorSpec::WavyFilm {
@@ -954,11 +1057,17 @@ impl GeneratorSpec {
             } => {
                 check_resolution(resolution)?;
                 let (t, l) = (thickness * u, correlation_length * u);
-                if !(t > 0.0) {
+                if t.is_nan() || t <= 0.0 {
                     return Err(format!("thickness must be positive, got {thickness}"));
                 }
                 let rough = gaussian_heights(seed, tile_nm, resolution, roughness_rms * u, l)?;
-                let var = gaussian_heights(seed.wrapping_add(1), tile_nm, resolution, thickness_rms * u, l)?;
+                let var = gaussian_heights(
+                    seed.wrapping_add(1),
+                    tile_nm,
+                    resolution,
+                    thickness_rms * u,
+                    l,
+                )?;
                 if let Some(min) = var.iter().map(|v| t + v).reduce(f64::min)
                     && min <= 0.0
                 {
@@ -984,11 +1093,20 @@ impl GeneratorSpec {
                 z,
             } => {
                 check_resolution(resolution)?;
-                Generated::Sheet(microfacet_surface(seed, tile_nm, resolution, distribution, alpha, z * u)?)
+                Generated::Sheet(microfacet_surface(
+                    seed,
+                    tile_nm,
+                    resolution,
+                    distribution,
+                    alpha,
+                    z * u,
+                )?)
             }
-            GeneratorSpec::VGrooves { angle_deg, count, z } => {
-                Generated::Sheet(v_grooves(tile_nm, count, angle_deg, z * u)?)
-            }
+            GeneratorSpec::VGrooves {
+                angle_deg,
+                count,
+                z,
+            } => Generated::Sheet(v_grooves(tile_nm, count, angle_deg, z * u)?),
             GeneratorSpec::PigmentSpheres {
                 radius,
                 volume_fraction,
@@ -997,13 +1115,22 @@ impl GeneratorSpec {
                 seed,
             } => {
                 if subdivisions > 5 {
-                    return Err(format!("subdivisions must be at most 5 (20 * 4^5 triangles per sphere), got {subdivisions}"));
+                    return Err(format!(
+                        "subdivisions must be at most 5 (20 * 4^5 triangles per sphere), got {subdivisions}"
+                    ));
                 }
                 Generated::Bodies(
-                    pigment_spheres(seed, tile_nm, radius * u, volume_fraction, layer.map(|v| v * u), subdivisions)?
-                        .into_iter()
-                        .map(|m| (m, None))
-                        .collect(),
+                    pigment_spheres(
+                        seed,
+                        tile_nm,
+                        radius * u,
+                        volume_fraction,
+                        layer.map(|v| v * u),
+                        subdivisions,
+                    )?
+                    .into_iter()
+                    .map(|m| (m, None))
+                    .collect(),
                 )
             }
             GeneratorSpec::Flakes {
@@ -1032,6 +1159,8 @@ fn check_resolution(r: usize) -> Result<(), String> {
     if (1..=4096).contains(&r) {
         Ok(())
     } else {
-        Err(format!("resolution must be between 1 and 4096 cells per side, got {r}"))
+        Err(format!(
+            "resolution must be between 1 and 4096 cells per side, got {r}"
+        ))
     }
 }

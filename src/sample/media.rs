@@ -67,7 +67,9 @@ impl IndexModel {
         }
         Ok(match self {
             IndexModel::Constant { n, k } => (*n, *k),
-            IndexModel::Cauchy { a, b_nm2, c_nm4, .. } => {
+            IndexModel::Cauchy {
+                a, b_nm2, c_nm4, ..
+            } => {
                 let l2 = lambda_nm * lambda_nm;
                 (a + b_nm2 / l2 + c_nm4 / (l2 * l2), 0.0)
             }
@@ -80,7 +82,9 @@ impl IndexModel {
                         .sum::<f64>();
                 (n2.sqrt(), 0.0)
             }
-            IndexModel::Table { lambda_nm: l, n, k, .. } => {
+            IndexModel::Table {
+                lambda_nm: l, n, k, ..
+            } => {
                 // Range checked above, so a bracketing interval exists.
                 let i = l.partition_point(|&x| x <= lambda_nm).clamp(1, l.len() - 1);
                 let t = (lambda_nm - l[i - 1]) / (l[i] - l[i - 1]);
@@ -117,7 +121,9 @@ impl IndexModel {
             IndexModel::Constant { n, k } => format!("constant n = {n}, k = {k}"),
             IndexModel::Cauchy { a, b_nm2, .. } => format!("Cauchy a = {a}, b = {b_nm2} nm²"),
             IndexModel::Sellmeier { b, .. } => format!("Sellmeier, {} terms", b.len()),
-            IndexModel::Table { source, lambda_nm, .. } => {
+            IndexModel::Table {
+                source, lambda_nm, ..
+            } => {
                 format!("table {} ({} rows)", source.display(), lambda_nm.len())
             }
         }
@@ -190,7 +196,11 @@ impl MediumDefError {
 }
 
 /// Turns a raw medium into a model; `base` resolves `table` and `model` paths.
-pub(crate) fn build_model(raw: &RawMedium, base: &Path, allow_model_file: bool) -> Result<IndexModel, MediumDefError> {
+pub(crate) fn build_model(
+    raw: &RawMedium,
+    base: &Path,
+    allow_model_file: bool,
+) -> Result<IndexModel, MediumDefError> {
     let given: Vec<&str> = [
         raw.n.map(|_| "n"),
         raw.cauchy.as_ref().map(|_| "cauchy"),
@@ -205,11 +215,16 @@ pub(crate) fn build_model(raw: &RawMedium, base: &Path, allow_model_file: bool) 
         return Err(MediumDefError::msg(if given.is_empty() {
             "needs one index model: n (and k), cauchy, sellmeier, table or model".to_string()
         } else {
-            format!("has several index models ({}); give exactly one", given.join(", "))
+            format!(
+                "has several index models ({}); give exactly one",
+                given.join(", ")
+            )
         }));
     }
     if raw.k.is_some() && raw.n.is_none() {
-        return Err(MediumDefError::msg("k is only allowed together with a constant n"));
+        return Err(MediumDefError::msg(
+            "k is only allowed together with a constant n",
+        ));
     }
     let range = |default: [f64; 2]| -> Result<[f64; 2], MediumDefError> {
         let r = raw.range_nm.unwrap_or(default);
@@ -228,10 +243,14 @@ pub(crate) fn build_model(raw: &RawMedium, base: &Path, allow_model_file: bool) 
     let model = if let Some(n) = raw.n {
         let k = raw.k.unwrap_or(0.0);
         if !(n.is_finite() && n > 0.0) {
-            return Err(MediumDefError::msg(format!("n must be positive and finite, got {n}")));
+            return Err(MediumDefError::msg(format!(
+                "n must be positive and finite, got {n}"
+            )));
         }
         if !(k.is_finite() && k >= 0.0) {
-            return Err(MediumDefError::msg(format!("k must be finite and >= 0, got {k}")));
+            return Err(MediumDefError::msg(format!(
+                "k must be finite and >= 0, got {k}"
+            )));
         }
         IndexModel::Constant { n, k }
     } else if let Some(c) = &raw.cauchy {
@@ -259,7 +278,9 @@ pub(crate) fn build_model(raw: &RawMedium, base: &Path, allow_model_file: bool) 
     } else {
         let file = base.join(raw.model.as_deref().unwrap_or_default());
         if !allow_model_file {
-            return Err(MediumDefError::msg("a model file cannot itself name a model file"));
+            return Err(MediumDefError::msg(
+                "a model file cannot itself name a model file",
+            ));
         }
         return load_model_file(&file);
     };
@@ -272,7 +293,9 @@ fn check_model(model: &IndexModel) -> Result<(), MediumDefError> {
     if let Some([lo, hi]) = model.range_nm() {
         for i in 0..=256 {
             let l = lo + (hi - lo) * f64::from(i) / 256.0;
-            let (n, k) = model.eval(l).map_err(|e| MediumDefError::msg(e.to_string()))?;
+            let (n, k) = model
+                .eval(l)
+                .map_err(|e| MediumDefError::msg(e.to_string()))?;
             if !(n.is_finite() && n > 0.0 && k.is_finite() && k >= 0.0) {
                 return Err(MediumDefError::msg(format!(
                     "the formula gives n = {n}, k = {k} at {l:.1} nm, inside its range; check the coefficients or range_nm"
@@ -284,12 +307,13 @@ fn check_model(model: &IndexModel) -> Result<(), MediumDefError> {
 }
 
 /// Loads a `data/*.toml` model file (one medium definition without a name).
-pub(crate) fn load_model_file(path: &Path) -> Result<IndexModel, MediumDefError> {
+pub fn load_model_file(path: &Path) -> Result<IndexModel, MediumDefError> {
     let at = |line: Option<usize>, message: String| MediumDefError {
         message,
         file: Some((path.to_path_buf(), line)),
     };
-    let text = std::fs::read_to_string(path).map_err(|e| at(None, format!("cannot read file: {e}")))?;
+    let text =
+        std::fs::read_to_string(path).map_err(|e| at(None, format!("cannot read file: {e}")))?;
     let raw: RawMedium = toml::from_str(&text).map_err(|e| {
         let line = e.span().map(|s| super::line_of(&text, s.start));
         at(line, e.message().trim().to_string())
@@ -309,7 +333,8 @@ pub fn load_table(path: &Path) -> Result<IndexModel, MediumDefError> {
         message,
         file: Some((path.to_path_buf(), line)),
     };
-    let text = std::fs::read_to_string(path).map_err(|e| err(None, format!("cannot read file: {e}")))?;
+    let text =
+        std::fs::read_to_string(path).map_err(|e| err(None, format!("cannot read file: {e}")))?;
     let mut header: Option<[usize; 3]> = None;
     let (mut l, mut n, mut k) = (Vec::new(), Vec::new(), Vec::new());
     for (i, raw) in text.lines().enumerate() {
@@ -341,30 +366,45 @@ pub fn load_table(path: &Path) -> Result<IndexModel, MediumDefError> {
         };
         let get = |c: usize, name: &str| -> Result<f64, MediumDefError> {
             let f = fields.get(c).ok_or_else(|| {
-                err(Some(line), format!("missing column {name} (row has {} fields)", fields.len()))
+                err(
+                    Some(line),
+                    format!("missing column {name} (row has {} fields)", fields.len()),
+                )
             })?;
             f.parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
                 .ok_or_else(|| err(Some(line), format!("{name} '{f}' is not a finite number")))
         };
-        let (lv, nv, kv) = (get(cols[0], "lambda_nm")?, get(cols[1], "n")?, get(cols[2], "k")?);
+        let (lv, nv, kv) = (
+            get(cols[0], "lambda_nm")?,
+            get(cols[1], "n")?,
+            get(cols[2], "k")?,
+        );
         if lv <= 0.0 {
-            return Err(err(Some(line), format!("wavelength must be positive, got {lv}")));
+            return Err(err(
+                Some(line),
+                format!("wavelength must be positive, got {lv}"),
+            ));
         }
         if let Some(&prev) = l.last()
             && lv <= prev
         {
             return Err(err(
                 Some(line),
-                format!("wavelengths must be sorted strictly increasing: {lv} nm follows {prev} nm"),
+                format!(
+                    "wavelengths must be sorted strictly increasing: {lv} nm follows {prev} nm"
+                ),
             ));
         }
         if nv <= 0.0 {
             return Err(err(Some(line), format!("n must be positive, got {nv}")));
         }
         if kv < 0.0 {
-            return Err(err(Some(line), format!("k must be >= 0 (absorbing), got {kv}")));
+            return Err(err(
+                Some(line),
+                format!("k must be >= 0 (absorbing), got {kv}"),
+            ));
         }
         l.push(lv);
         n.push(nv);
@@ -374,7 +414,10 @@ pub fn load_table(path: &Path) -> Result<IndexModel, MediumDefError> {
         return Err(err(None, "no header line lambda_nm,n,k".into()));
     }
     if l.len() < 2 {
-        return Err(err(None, format!("a table needs at least 2 rows, found {}", l.len())));
+        return Err(err(
+            None,
+            format!("a table needs at least 2 rows, found {}", l.len()),
+        ));
     }
     Ok(IndexModel::Table {
         source: path.to_path_buf(),

@@ -87,10 +87,10 @@ impl Mesh {
                 writeln!(w, "# {line}")?;
             }
             for p in &self.positions_nm {
-                // 17 significant digits round-trip an f64 exactly.
+                // Rust prints the shortest decimal that round-trips the f64 exactly.
                 writeln!(
                     w,
-                    "v {:.17e} {:.17e} {:.17e}",
+                    "v {} {} {}",
                     p[0] / nm_per_unit,
                     p[1] / nm_per_unit,
                     p[2] / nm_per_unit

@@ -324,19 +324,26 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         if media.is_empty() {
             "no media".to_string()
         } else {
-            media.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
+            media
+                .iter()
+                .map(|m| m.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
         }
     };
     let medium = |s: &Spanned<String>| -> Result<usize, SampleError> {
-        media.iter().position(|m| &m.name == s.get_ref()).ok_or_else(|| {
-            at(
-                s.span(),
-                SampleErrorKind::UnknownMedium {
-                    name: s.get_ref().clone(),
-                    known: known(),
-                },
-            )
-        })
+        media
+            .iter()
+            .position(|m| &m.name == s.get_ref())
+            .ok_or_else(|| {
+                at(
+                    s.span(),
+                    SampleErrorKind::UnknownMedium {
+                        name: s.get_ref().clone(),
+                        known: known(),
+                    },
+                )
+            })
     };
     let tile_nm = [tx * scale, ty * scale];
     let mut interfaces = Vec::new();
@@ -352,7 +359,9 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
             if !(t.is_finite() && t > 0.0) {
                 return Err(at(
                     l.thickness.span(),
-                    SampleErrorKind::Invalid(format!("layer thickness must be positive and finite, got {t}")),
+                    SampleErrorKind::Invalid(format!(
+                        "layer thickness must be positive and finite, got {t}"
+                    )),
                 ));
             }
             layers.push((medium(&l.medium)?, t * scale));
@@ -421,8 +430,16 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
                         SampleErrorKind::Invalid(format!(
                             "generator '{}' makes {}, so it belongs in {}",
                             spec.kind(),
-                            if spec.makes_bodies() { "closed bodies" } else { "a sheet" },
-                            if spec.makes_bodies() { "[[body]]" } else { "[[interface]]" }
+                            if spec.makes_bodies() {
+                                "closed bodies"
+                            } else {
+                                "a sheet"
+                            },
+                            if spec.makes_bodies() {
+                                "[[body]]"
+                            } else {
+                                "[[interface]]"
+                            }
                         )),
                     ));
                 }
@@ -439,7 +456,9 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
             }
             _ => Err(SampleError::file(
                 path,
-                SampleErrorKind::Invalid(format!("every {what} needs exactly one of mesh = \"FILE.obj\" or generator = {{ kind = ... }}")),
+                SampleErrorKind::Invalid(format!(
+                    "every {what} needs exactly one of mesh = \"FILE.obj\" or generator = {{ kind = ... }}"
+                )),
             )),
         }
     };

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Regenerates the OBJ meshes of the shipped samples in meshes/ with `goniospec generate`.
+# Deterministic: the same binary writes the same files. Run from the repository root:
+#   cargo build --release && scripts/make-samples.sh
+set -euo pipefail
+G=$(realpath "${GONIOSPEC:-target/release/goniospec}")
+cd meshes
+
+# The seed's wavy soap film: 600 nm mean thickness, 30 nm RMS thickness variation,
+# 150 nm RMS roughness, 2 um correlation length, on a 20 um tile.
+for s in top bottom; do
+  $G generate wavy-film --tile 20,20 --unit um -p surface=$s -p thickness=0.6 -p thickness_rms=0.03 \
+    -p roughness_rms=0.15 -p correlation_length=2 -p resolution=64 -p seed=7 -p z=0 -o thin-film-600nm-$s.obj
+done
+
+# Rough gold: GGX microfacets, alpha = 0.2, 48 x 48 facets on a 20 um tile.
+$G generate microfacet --tile 20,20 --unit um -p distribution=ggx -p alpha=0.2 -p resolution=48 -p seed=3 -o rough-gold-ggx.obj
+
+# Rough glass: Gaussian height field, 0.2 um RMS, 2 um correlation length.
+$G generate gaussian --tile 20,20 --unit um -p rms=0.2 -p correlation_length=2 -p resolution=80 -p seed=5 -o rough-glass-gaussian.obj
+
+# Aluminium V-grooves: 90 degree grooves, 10 per 20 um.
+$G generate v-grooves --tile 20,20 --unit um -p angle_deg=90 -p count=10 -o v-grooves-90.obj
+
+# Paint: TiO2 pigment spheres (radius 0.15 um, 5 % by volume) in a 3 um binder layer, 5 um tile.
+$G generate pigment-spheres --tile 5,5 --unit um -p radius=0.15 -p volume_fraction=0.05 -p layer=[0.1,2.9] \
+  -p subdivisions=1 -p seed=11 -o paint-tio2-spheres.obj
+
+# Pearlescent paint: TiO2-coated mica flakes (8 um, 0.4 um thick, 0.12 um coating, 8 degree tilt
+# spread, 3 % by volume) in a 10 um binder layer, 40 um tile.
+$G generate flakes --tile 40,40 --unit um -p size=8 -p thickness=0.4 -p coating=0.12 -p tilt_sd_deg=8 \
+  -p volume_fraction=0.03 -p layer=[0.2,9.8] -p seed=13 -o pearl-flakes.obj
