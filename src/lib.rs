@@ -5,7 +5,11 @@
 //! [`sample`] (geometry, media) → [`accel`] (Embree, obvhs) → … → [`bench`] and the CLI.
 
 pub mod accel;
+pub mod accumulate;
 pub mod bench;
 pub mod io;
+pub mod optics;
 pub mod rng;
 pub mod sample;
+pub mod simulate;
+pub mod trace;

@@ -273,7 +273,10 @@ fn bad_units_and_media_are_refused() {
 fn a_sample_without_interfaces_is_refused() {
     let t = "[sample]\nname = \"x\"\nunit = \"nm\"\ntile = [1.0, 1.0]\n[media.air]\nn = 1.0\n";
     let m = err_case("noif", t, SQUARE_OBJ).to_string();
-    assert!(m.contains("declares no interface ([stack], [[interface]] or [[body]])"), "{m}");
+    assert!(
+        m.contains("declares no interface ([stack], [[interface]] or [[body]])"),
+        "{m}"
+    );
 }
 
 #[test]

@@ -1,0 +1,338 @@
+//! The `.gsa` accumulator file: versioned, checksummed, written atomically.
+//!
+//! Layout (little endian): magic `GSPECACC`, format version (u32), header length (u32),
+//! header (UTF-8 TOML of [`Header`]), then for each (incident direction, wavelength) cell:
+//! `trees` (u64), `sum` and `sumsq` per bucket key, `r_sum, r_sumsq, t_sum, t_sumsq,
+//! absorbed, dropped` (f64), and in global mode the complex amplitude sums (12 f64 per
+//! key); finally an FNV-1a 64 checksum of everything before it. A truncated or corrupted
+//! file is refused.
+
+use std::io::Write;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::{Buckets, Cell, Coherence};
+use crate::optics::C64;
+
+pub const MAGIC: &[u8; 8] = b"GSPECACC";
+pub const VERSION: u32 = 1;
+
+/// Everything that defines what was simulated; two files merge only when these agree.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Settings {
+    pub sample_name: String,
+    /// FNV-1a 64 of the sample's geometry and media, hex.
+    pub sample_hash: String,
+    pub theta_i_deg: Vec<f64>,
+    pub phi_i_deg: f64,
+    /// "bins" (values are the bin edges) or "monochromatic" (values are the wavelengths).
+    pub wavelength_mode: String,
+    pub wavelengths_nm: Vec<f64>,
+    pub coherence: String,
+    /// Beamlet radius, nm; `inf` for the plane-wave limit.
+    pub coherence_radius_nm: f64,
+    pub cutoff: f64,
+    pub max_depth: u32,
+    pub theta_o_bins: u32,
+    pub phi_o_bins: u32,
+}
+
+/// The file header: settings plus what the runs contributed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Header {
+    pub settings: Settings,
+    /// Seeds of the runs merged into this file.
+    pub seeds: Vec<u64>,
+    /// Launched trees per incident direction and wavelength, over all runs.
+    pub rays: u64,
+    pub backend: String,
+    pub path_sharing: bool,
+    /// Rays that met an interface from the wrong medium, over all runs.
+    pub leaks: u64,
+}
+
+impl Settings {
+    pub fn coherence_mode(&self) -> Coherence {
+        Coherence::parse(&self.coherence).unwrap_or(Coherence::Beamlet)
+    }
+    pub fn buckets(&self) -> Buckets {
+        Buckets {
+            theta_bins: self.theta_o_bins,
+            phi_bins: self.phi_o_bins,
+        }
+    }
+    /// Number of wavelength cells.
+    pub fn wavelength_count(&self) -> usize {
+        if self.wavelength_mode == "bins" {
+            self.wavelengths_nm.len().saturating_sub(1)
+        } else {
+            self.wavelengths_nm.len()
+        }
+    }
+    /// Representative wavelength of cell `j` (bin centre, or the exact wavelength).
+    pub fn wavelength(&self, j: usize) -> f64 {
+        if self.wavelength_mode == "bins" {
+            0.5 * (self.wavelengths_nm[j] + self.wavelengths_nm[j + 1])
+        } else {
+            self.wavelengths_nm[j]
+        }
+    }
+}
+
+/// A simulation result: header and one cell per (incident direction, wavelength),
+/// direction-major.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Accumulator {
+    pub header: Header,
+    pub cells: Vec<Cell>,
+}
+
+/// Why a `.gsa` file was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum FileError {
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: not a goniospec accumulator (.gsa) file (wrong magic bytes)")]
+    Magic { path: String },
+    #[error(
+        "{path}: .gsa format version {found} is not supported (this build reads version {VERSION})"
+    )]
+    Version { path: String, found: u32 },
+    #[error("{path}: the file is truncated ({0} bytes, expected {1})", .sizes.0, .sizes.1)]
+    Truncated { path: String, sizes: (usize, usize) },
+    #[error("{path}: checksum mismatch: the file is corrupted")]
+    Checksum { path: String },
+    #[error("{path}: bad header: {message}")]
+    Header { path: String, message: String },
+    #[error("cannot merge: {0}")]
+    Merge(String),
+}
+
+/// FNV-1a 64-bit hash (Fowler, Noll & Vo).
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+impl Accumulator {
+    fn cell_f64s(&self) -> usize {
+        let keys = 2 * self.header.settings.buckets().len();
+        let global = if self.header.settings.coherence_mode() == Coherence::Global {
+            12 * keys
+        } else {
+            0
+        };
+        2 * keys + 6 + global
+    }
+
+    /// Serialises to bytes (deterministic).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let header = toml::to_string(&self.header).expect("the header serialises");
+        let mut out = Vec::with_capacity(
+            16 + header.len() + self.cells.len() * (8 + 8 * self.cell_f64s()) + 8,
+        );
+        out.extend_from_slice(MAGIC);
+        out.extend_from_slice(&VERSION.to_le_bytes());
+        out.extend_from_slice(&(header.len() as u32).to_le_bytes());
+        out.extend_from_slice(header.as_bytes());
+        for c in &self.cells {
+            out.extend_from_slice(&c.trees.to_le_bytes());
+            let mut put = |v: f64| out.extend_from_slice(&v.to_le_bytes());
+            c.sum.iter().for_each(|&v| put(v));
+            c.sumsq.iter().for_each(|&v| put(v));
+            for v in [
+                c.r_sum, c.r_sumsq, c.t_sum, c.t_sumsq, c.absorbed, c.dropped,
+            ] {
+                put(v);
+            }
+            for a in &c.global {
+                for p in a {
+                    for z in p {
+                        put(z.re);
+                        put(z.im);
+                    }
+                }
+            }
+        }
+        let sum = fnv1a(&out);
+        out.extend_from_slice(&sum.to_le_bytes());
+        out
+    }
+
+    /// Writes the file atomically.
+    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+        let bytes = self.to_bytes();
+        crate::io::write_atomic(path, |w| w.write_all(&bytes))
+    }
+
+    /// Reads and validates a file.
+    pub fn read(path: &Path) -> Result<Accumulator, FileError> {
+        let p = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|source| FileError::Io {
+            path: p.clone(),
+            source,
+        })?;
+        Self::from_bytes(&bytes, &p)
+    }
+
+    /// Parses bytes read from `path` (named in errors).
+    pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Accumulator, FileError> {
+        let p = path.to_string();
+        if bytes.len() < 8 || &bytes[..8] != MAGIC {
+            return Err(FileError::Magic { path: p });
+        }
+        if bytes.len() < 16 {
+            return Err(FileError::Truncated {
+                path: p,
+                sizes: (bytes.len(), 16),
+            });
+        }
+        let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+        if version != VERSION {
+            return Err(FileError::Version {
+                path: p,
+                found: version,
+            });
+        }
+        let hlen = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
+        if bytes.len() < 16 + hlen + 8 {
+            return Err(FileError::Truncated {
+                path: p,
+                sizes: (bytes.len(), 16 + hlen + 8),
+            });
+        }
+        let header_text = std::str::from_utf8(&bytes[16..16 + hlen])
+            .map_err(|_| FileError::Checksum { path: p.clone() })?;
+        let header: Header = match toml::from_str(header_text) {
+            Ok(h) => h,
+            Err(e) => {
+                // A damaged header is a corrupted file when the checksum fails too.
+                let n = bytes.len();
+                let stored = u64::from_le_bytes(bytes[n - 8..].try_into().expect("8 bytes"));
+                if fnv1a(&bytes[..n - 8]) != stored {
+                    return Err(FileError::Checksum { path: p });
+                }
+                return Err(FileError::Header {
+                    path: p,
+                    message: e.message().trim().to_string(),
+                });
+            }
+        };
+        let s = &header.settings;
+        if s.theta_o_bins == 0
+            || s.phi_o_bins == 0
+            || s.theta_i_deg.is_empty()
+            || s.wavelength_count() == 0
+        {
+            return Err(FileError::Header {
+                path: p,
+                message: "empty grid".into(),
+            });
+        }
+        let mut acc = Accumulator {
+            header,
+            cells: Vec::new(),
+        };
+        let ncells = acc.header.settings.theta_i_deg.len() * acc.header.settings.wavelength_count();
+        let per = 8 + 8 * acc.cell_f64s();
+        let expected = 16 + hlen + ncells * per + 8;
+        if bytes.len() != expected {
+            return Err(FileError::Truncated {
+                path: p,
+                sizes: (bytes.len(), expected),
+            });
+        }
+        let stored = u64::from_le_bytes(bytes[expected - 8..].try_into().expect("8 bytes"));
+        if fnv1a(&bytes[..expected - 8]) != stored {
+            return Err(FileError::Checksum { path: p });
+        }
+        let buckets = acc.header.settings.buckets();
+        let global = acc.header.settings.coherence_mode() == Coherence::Global;
+        let mut pos = 16 + hlen;
+        let mut f = || {
+            let v = f64::from_le_bytes(bytes[pos..pos + 8].try_into().expect("8 bytes"));
+            pos += 8;
+            v
+        };
+        for _ in 0..ncells {
+            let mut c = Cell::new(&buckets, global);
+            c.trees = f().to_bits();
+            for v in c.sum.iter_mut() {
+                *v = f();
+            }
+            for v in c.sumsq.iter_mut() {
+                *v = f();
+            }
+            c.r_sum = f();
+            c.r_sumsq = f();
+            c.t_sum = f();
+            c.t_sumsq = f();
+            c.absorbed = f();
+            c.dropped = f();
+            for a in c.global.iter_mut() {
+                for pol in a.iter_mut() {
+                    for z in pol.iter_mut() {
+                        let re = f();
+                        let im = f();
+                        *z = C64::new(re, im);
+                    }
+                }
+            }
+            acc.cells.push(c);
+        }
+        Ok(acc)
+    }
+
+    /// Adds another run of the same sample and settings (different seeds).
+    pub fn merge(&mut self, other: &Accumulator) -> Result<(), FileError> {
+        let (a, b) = (&self.header.settings, &other.header.settings);
+        if a.sample_hash != b.sample_hash {
+            return Err(FileError::Merge(format!(
+                "different samples ('{}' {} and '{}' {})",
+                a.sample_name, a.sample_hash, b.sample_name, b.sample_hash
+            )));
+        }
+        if a != b {
+            return Err(FileError::Merge(format!(
+                "different settings:\n{}\nagainst\n{}",
+                toml::to_string(a).unwrap_or_default(),
+                toml::to_string(b).unwrap_or_default()
+            )));
+        }
+        if let Some(s) = other
+            .header
+            .seeds
+            .iter()
+            .find(|s| self.header.seeds.contains(s))
+        {
+            return Err(FileError::Merge(format!(
+                "both runs used seed {s}: merging them would count the same trees twice"
+            )));
+        }
+        for (x, y) in self.cells.iter_mut().zip(&other.cells) {
+            x.merge(y);
+        }
+        self.header.seeds.extend_from_slice(&other.header.seeds);
+        self.header.rays += other.header.rays;
+        self.header.leaks += other.header.leaks;
+        if self.header.backend != other.header.backend {
+            self.header.backend = format!("{}+{}", self.header.backend, other.header.backend);
+        }
+        Ok(())
+    }
+
+    /// The cell of incident direction `i` and wavelength `j`.
+    pub fn cell(&self, i: usize, j: usize) -> &Cell {
+        &self.cells[i * self.header.settings.wavelength_count() + j]
+    }
+}

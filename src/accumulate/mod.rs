@@ -1,0 +1,326 @@
+//! Accumulation of ray trees into BRDF / BTDF buckets: the estimator of DESIGN.md §4.
+//!
+//! - `Beamlet` (default): each launched ray stands for a Gaussian beamlet of radius rho.
+//!   Within one tree every exit contribution j deposits `|a_j|^2` in the bucket of its
+//!   direction, and every pair (j, l) in the same hemisphere adds
+//!   `c_jl = 2 Re(a_j . conj(a_l) exp(-i k n0 wbar . (x_j - x_l))) K_jl`, with
+//!   `K_jl = exp(-|w_j - w_l|^2 / (2 theta_w^2)) exp(-|dx_perp|^2 / (2 rho^2))`,
+//!   `theta_w = lambda / (pi rho)`, split between the two buckets in proportion to
+//!   `|a_j|^2` and `|a_l|^2`. Only phase differences inside one tree enter, formed from
+//!   differences of exit points, so the result is free of any origin and of the grid.
+//!   `rho = inf` is the plane-wave limit: only directions agreeing to 1e-9 interfere.
+//! - `Bucket` (Gondek et al. 1994 and the seed): contributions of one tree that land in the
+//!   same bucket add as amplitudes, each with its phase relative to the global origin
+//!   (`exp(-i k n0 w . x)` with the absolute exit point); others do not interfere. Its
+//!   answer depends on the bucket grid and on where the origin sits.
+//! - `Global` (the seed's final method): all contributions of all trees in a bucket are
+//!   averaged as amplitudes relative to the whole incident beam, and the average squared.
+//!
+//! Trees add incoherently, each carrying 1/N of the flux through the tile; the two incident
+//! polarisations are averaged.
+
+pub mod buckets;
+pub mod file;
+
+use std::f64::consts::PI;
+
+pub use buckets::Buckets;
+
+use crate::optics::C64;
+use crate::optics::fresnel::{Field, field_power, hermitian};
+use crate::optics::vec3::{dot, normalize, sub};
+use crate::trace::Tree;
+
+/// How contributions interfere.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Coherence {
+    Beamlet,
+    Bucket,
+    Global,
+}
+
+impl Coherence {
+    pub fn name(self) -> &'static str {
+        match self {
+            Coherence::Beamlet => "beamlet",
+            Coherence::Bucket => "bucket",
+            Coherence::Global => "global",
+        }
+    }
+    pub fn parse(s: &str) -> Option<Coherence> {
+        match s {
+            "beamlet" => Some(Coherence::Beamlet),
+            "bucket" => Some(Coherence::Bucket),
+            "global" => Some(Coherence::Global),
+            _ => None,
+        }
+    }
+}
+
+/// Key of a bucket in either hemisphere: `bucket * 2 + (1 if down)`.
+#[inline]
+pub fn key(bucket: usize, down: bool) -> u32 {
+    (bucket as u32) << 1 | u32::from(down)
+}
+
+/// Settings of the estimator for one simulation.
+#[derive(Clone, Copy, Debug)]
+pub struct Estimator {
+    pub mode: Coherence,
+    /// Beamlet radius, nm (`f64::INFINITY` for the plane-wave limit).
+    pub rho_nm: f64,
+    pub buckets: Buckets,
+    /// Real index above (reflection side) and below (transmission side).
+    pub n_up: f64,
+    pub n_down: f64,
+}
+
+/// Reusable per-thread buffers.
+#[derive(Default)]
+pub struct Scratch {
+    amp: Vec<[Field; 2]>,
+    pow: Vec<f64>,
+    keys: Vec<u32>,
+    sums: Vec<(u32, [Field; 2])>,
+}
+
+impl Estimator {
+    /// Deposits of one tree at `lambda_nm` into `out` as `(key, fraction of launched
+    /// power)`, several entries per key possible. For `Global` mode, fills `global` with
+    /// `(key, amplitude sum)` instead; `entry_phase` is the incident wave's phase at the
+    /// tree's launch point, `k n0 (d . x_entry)`.
+    pub fn deposit(
+        &self,
+        tree: &Tree,
+        lambda_nm: f64,
+        entry_phase: f64,
+        s: &mut Scratch,
+        out: &mut Vec<(u32, f64)>,
+        global: &mut Vec<(u32, [Field; 2])>,
+    ) {
+        let k = 2.0 * PI / lambda_nm;
+        s.amp.clear();
+        s.pow.clear();
+        s.keys.clear();
+        for x in &tree.exits {
+            let ph = C64::new(0.0, k) * x.opl; // i k OPL (complex OPL attenuates)
+            let f = ph.exp();
+            let a = [x.e[0].map(|c| c * f), x.e[1].map(|c| c * f)];
+            s.pow.push(0.5 * (field_power(&a[0]) + field_power(&a[1])));
+            s.keys.push(key(self.buckets.index(x.dir), !x.up));
+            s.amp.push(a);
+        }
+        match self.mode {
+            Coherence::Beamlet => self.beamlet(tree, k, lambda_nm, s, out),
+            Coherence::Bucket => {
+                // Gondek et al. / the seed: phases relative to a plane through the global
+                // origin perpendicular to each exit direction, `exp(-i k n0 w . x)` with
+                // absolute exit points, summed per bucket.
+                s.sums.clear();
+                for (j, a) in s.amp.iter().enumerate() {
+                    let x = &tree.exits[j];
+                    let n0 = if x.up { self.n_up } else { self.n_down };
+                    let f = C64::from_polar(1.0, -k * n0 * dot(x.dir, x.x));
+                    let a = [a[0].map(|c| c * f), a[1].map(|c| c * f)];
+                    match s.sums.iter_mut().find(|(kk, _)| *kk == s.keys[j]) {
+                        Some((_, acc)) => add_fields(acc, &a),
+                        None => s.sums.push((s.keys[j], a)),
+                    }
+                }
+                for (kk, a) in &s.sums {
+                    out.push((*kk, 0.5 * (field_power(&a[0]) + field_power(&a[1]))));
+                }
+            }
+            Coherence::Global => {
+                for (j, x) in tree.exits.iter().enumerate() {
+                    let n0 = if x.up { self.n_up } else { self.n_down };
+                    let f = C64::from_polar(1.0, entry_phase - k * n0 * dot(x.dir, x.x));
+                    let a = [s.amp[j][0].map(|c| c * f), s.amp[j][1].map(|c| c * f)];
+                    global.push((s.keys[j], a));
+                }
+            }
+        }
+    }
+
+    fn beamlet(&self, tree: &Tree, k: f64, lambda_nm: f64, s: &Scratch, out: &mut Vec<(u32, f64)>) {
+        let ex = &tree.exits;
+        for j in 0..ex.len() {
+            out.push((s.keys[j], s.pow[j]));
+        }
+        let plane_wave = self.rho_nm.is_infinite();
+        let theta_w = lambda_nm / (PI * self.rho_nm);
+        for j in 0..ex.len() {
+            for l in j + 1..ex.len() {
+                if ex[j].up != ex[l].up {
+                    continue;
+                }
+                let dw = sub(ex[j].dir, ex[l].dir);
+                let dw2 = dot(dw, dw);
+                let dx = sub(ex[j].x, ex[l].x);
+                let wbar = normalize([
+                    ex[j].dir[0] + ex[l].dir[0],
+                    ex[j].dir[1] + ex[l].dir[1],
+                    ex[j].dir[2] + ex[l].dir[2],
+                ]);
+                let kernel = if plane_wave {
+                    if dw2.sqrt() > 1e-9 {
+                        continue;
+                    }
+                    1.0
+                } else {
+                    let kd = (-dw2 / (2.0 * theta_w * theta_w)).exp();
+                    if kd < 1e-12 {
+                        continue;
+                    }
+                    let along = dot(dx, wbar);
+                    let perp = [
+                        dx[0] - along * wbar[0],
+                        dx[1] - along * wbar[1],
+                        dx[2] - along * wbar[2],
+                    ];
+                    let p2 = dot(perp, perp);
+                    kd * (-p2 / (2.0 * self.rho_nm * self.rho_nm)).exp()
+                };
+                let n0 = if ex[j].up { self.n_up } else { self.n_down };
+                let phase = C64::from_polar(1.0, -k * n0 * dot(wbar, dx));
+                let h = 0.5
+                    * (hermitian(&s.amp[j][0], &s.amp[l][0])
+                        + hermitian(&s.amp[j][1], &s.amp[l][1]));
+                let c = 2.0 * (h * phase).re * kernel;
+                let (pj, pl) = (s.pow[j], s.pow[l]);
+                let tot = pj + pl;
+                if tot > 0.0 {
+                    out.push((s.keys[j], c * pj / tot));
+                    out.push((s.keys[l], c * pl / tot));
+                }
+            }
+        }
+    }
+}
+
+/// `acc += a` for the fields of both polarisations.
+pub fn add_fields(acc: &mut [Field; 2], a: &[Field; 2]) {
+    for (x, y) in acc.iter_mut().zip(a) {
+        for (u, v) in x.iter_mut().zip(y) {
+            *u += v;
+        }
+    }
+}
+
+/// Sums for one (incident direction, wavelength) cell; plain sums so runs merge by
+/// addition (DESIGN.md §5).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cell {
+    pub trees: u64,
+    /// Per bucket key (`key()`): sum over trees of the tree's deposit, and of its square.
+    pub sum: Vec<f64>,
+    pub sumsq: Vec<f64>,
+    /// Per tree totals: reflected, transmitted (sum and sum of squares), absorbed, dropped.
+    pub r_sum: f64,
+    pub r_sumsq: f64,
+    pub t_sum: f64,
+    pub t_sumsq: f64,
+    pub absorbed: f64,
+    pub dropped: f64,
+    /// Global mode: per bucket key, the summed complex amplitudes (2 pol x 3 comps).
+    pub global: Vec<[Field; 2]>,
+}
+
+impl Cell {
+    pub fn new(buckets: &Buckets, global: bool) -> Cell {
+        let n = 2 * buckets.len();
+        Cell {
+            trees: 0,
+            sum: vec![0.0; n],
+            sumsq: vec![0.0; n],
+            r_sum: 0.0,
+            r_sumsq: 0.0,
+            t_sum: 0.0,
+            t_sumsq: 0.0,
+            absorbed: 0.0,
+            dropped: 0.0,
+            global: if global {
+                vec![[[C64::new(0.0, 0.0); 3]; 2]; n]
+            } else {
+                Vec::new()
+            },
+        }
+    }
+
+    /// Adds another run's sums (same settings).
+    pub fn merge(&mut self, o: &Cell) {
+        self.trees += o.trees;
+        for (a, b) in self.sum.iter_mut().zip(&o.sum) {
+            *a += b;
+        }
+        for (a, b) in self.sumsq.iter_mut().zip(&o.sumsq) {
+            *a += b;
+        }
+        for (a, b) in self.global.iter_mut().zip(&o.global) {
+            add_fields(a, b);
+        }
+        self.r_sum += o.r_sum;
+        self.r_sumsq += o.r_sumsq;
+        self.t_sum += o.t_sum;
+        self.t_sumsq += o.t_sumsq;
+        self.absorbed += o.absorbed;
+        self.dropped += o.dropped;
+    }
+
+    /// Fraction of launched power in bucket key `kk`.
+    pub fn fraction(&self, kk: usize, mode: Coherence) -> f64 {
+        if self.trees == 0 {
+            return 0.0;
+        }
+        let n = self.trees as f64;
+        match mode {
+            Coherence::Global => {
+                let a = &self.global[kk];
+                0.5 * (field_power(&a[0].map(|c| c / n)) + field_power(&a[1].map(|c| c / n)))
+            }
+            _ => self.sum[kk] / n,
+        }
+    }
+
+    /// Standard error of the fraction in bucket key `kk` from the per-tree spread
+    /// (not defined for global mode: returns `None`).
+    pub fn fraction_stderr(&self, kk: usize, mode: Coherence) -> Option<f64> {
+        (mode != Coherence::Global && self.trees > 1)
+            .then(|| stderr(self.sum[kk], self.sumsq[kk], self.trees))
+    }
+
+    /// Directional-hemispherical reflectance and transmittance.
+    pub fn totals(&self, mode: Coherence, buckets: &Buckets) -> (f64, f64) {
+        if self.trees == 0 {
+            return (0.0, 0.0);
+        }
+        match mode {
+            Coherence::Global => {
+                let (mut r, mut t) = (0.0, 0.0);
+                for b in 0..buckets.len() {
+                    r += self.fraction(2 * b, mode);
+                    t += self.fraction(2 * b + 1, mode);
+                }
+                (r, t)
+            }
+            _ => (
+                self.r_sum / self.trees as f64,
+                self.t_sum / self.trees as f64,
+            ),
+        }
+    }
+
+    /// Standard error of the total reflectance (per-tree spread).
+    pub fn r_stderr(&self, mode: Coherence) -> Option<f64> {
+        (mode != Coherence::Global && self.trees > 1)
+            .then(|| stderr(self.r_sum, self.r_sumsq, self.trees))
+    }
+}
+
+/// Standard error of a mean from a sum and a sum of squares of `n` samples.
+pub fn stderr(sum: f64, sumsq: f64, n: u64) -> f64 {
+    let n = n as f64;
+    let mean = sum / n;
+    let var = ((sumsq / n - mean * mean) * n / (n - 1.0)).max(0.0);
+    (var / n).sqrt()
+}

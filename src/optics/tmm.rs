@@ -1,0 +1,154 @@
+//! The transfer-matrix method (TMM) for a flat layered stack with complex indices: the
+//! analytic reference every flat sample is checked against.
+//!
+//! Formulation of S. J. Byrnes, "Multilayer optical calculations", arXiv:1603.02720
+//! (2016), §3 (eqs. 13–22); equivalent to Born & Wolf §1.6. Layer 0 is the ambient medium
+//! (real index), the last layer the substrate; both semi-infinite.
+
+use super::C64;
+use super::fresnel::n_cos;
+
+/// Reflectance and transmittance (fractions of incident power) of a stack.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rt {
+    pub r_s: f64,
+    pub r_p: f64,
+    pub t_s: f64,
+    pub t_p: f64,
+}
+
+impl Rt {
+    /// Unpolarised reflectance: the mean of s and p.
+    pub fn r(&self) -> f64 {
+        0.5 * (self.r_s + self.r_p)
+    }
+    /// Unpolarised transmittance.
+    pub fn t(&self) -> f64 {
+        0.5 * (self.t_s + self.t_p)
+    }
+    fn add_scaled(&mut self, o: &Rt, w: f64) {
+        self.r_s += w * o.r_s;
+        self.r_p += w * o.r_p;
+        self.t_s += w * o.t_s;
+        self.t_p += w * o.t_p;
+    }
+}
+
+/// A stack for the TMM: indices from ambient to substrate, and thicknesses (nm) of the
+/// inner layers.
+#[derive(Clone, Debug)]
+pub struct StackIndices {
+    /// `n + i k` of ambient, layers (top first) and substrate.
+    pub n: Vec<C64>,
+    /// Thickness of each inner layer (len = n.len() - 2), nm.
+    pub d_nm: Vec<f64>,
+}
+
+/// R and T of the stack at wavelength `lambda_nm` for incidence at `theta0_rad` in the
+/// ambient medium.
+///
+/// # Panics
+/// When the number of thicknesses does not match the number of inner layers.
+pub fn solve(stack: &StackIndices, lambda_nm: f64, theta0_rad: f64) -> Rt {
+    assert_eq!(
+        stack.d_nm.len() + 2,
+        stack.n.len(),
+        "one thickness per inner layer"
+    );
+    let n0 = stack.n[0];
+    let kx = n0 * theta0_rad.sin(); // conserved n sin(theta)
+    let nc: Vec<C64> = stack.n.iter().map(|&n| n_cos(n, kx)).collect();
+    let cos: Vec<C64> = nc.iter().zip(&stack.n).map(|(a, n)| a / n).collect();
+    let last = stack.n.len() - 1;
+    let solve_pol = |p: bool| -> (f64, f64) {
+        let interface = |j: usize, k: usize| -> (C64, C64) {
+            let (nj, nk) = (stack.n[j], stack.n[k]);
+            if p {
+                let den = nk * cos[j] + nj * cos[k];
+                ((nk * cos[j] - nj * cos[k]) / den, 2.0 * nj * cos[j] / den)
+            } else {
+                let den = nc[j] + nc[k];
+                ((nc[j] - nc[k]) / den, 2.0 * nc[j] / den)
+            }
+        };
+        // M = (1/t01) [[1, r01], [r01, 1]] * prod_j (1/t_j,j+1) P_j [[1, r], [r, 1]]
+        let (r01, t01) = interface(0, 1);
+        let mut m = [
+            [C64::new(1.0, 0.0) / t01, r01 / t01],
+            [r01 / t01, C64::new(1.0, 0.0) / t01],
+        ];
+        #[allow(clippy::needless_range_loop)] // j indexes layers and interfaces alike
+        for j in 1..last {
+            let delta = 2.0 * std::f64::consts::PI * nc[j] * stack.d_nm[j - 1] / lambda_nm;
+            let (r, t) = interface(j, j + 1);
+            let (em, ep) = ((-C64::i() * delta).exp(), (C64::i() * delta).exp());
+            let l = [[em / t, em * r / t], [ep * r / t, ep / t]];
+            m = [
+                [
+                    m[0][0] * l[0][0] + m[0][1] * l[1][0],
+                    m[0][0] * l[0][1] + m[0][1] * l[1][1],
+                ],
+                [
+                    m[1][0] * l[0][0] + m[1][1] * l[1][0],
+                    m[1][0] * l[0][1] + m[1][1] * l[1][1],
+                ],
+            ];
+        }
+        let r = m[1][0] / m[0][0];
+        let t = C64::new(1.0, 0.0) / m[0][0];
+        let ratio = if p {
+            (stack.n[last] * cos[last].conj()).re / (n0 * cos[0].conj()).re
+        } else {
+            nc[last].re / nc[0].re
+        };
+        (r.norm_sqr(), (t.norm_sqr() * ratio).max(0.0))
+    };
+    let (r_s, t_s) = solve_pol(false);
+    let (r_p, t_p) = solve_pol(true);
+    Rt { r_s, r_p, t_s, t_p }
+}
+
+/// R and T averaged over the wavelength band `[lo_nm, hi_nm]` (composite Simpson rule,
+/// fine enough to resolve the stack's thin-film fringes): what a jittered wavelength bin
+/// converges to. `stack_at` gives the indices at each wavelength (dispersive media).
+pub fn solve_band(
+    stack_at: impl Fn(f64) -> StackIndices,
+    lo_nm: f64,
+    hi_nm: f64,
+    theta0_rad: f64,
+) -> Rt {
+    let s0 = stack_at(0.5 * (lo_nm + hi_nm));
+    // Fringe period ~ lambda^2 / (2 sum n d): take at least 16 samples per period.
+    let opt: f64 = s0
+        .d_nm
+        .iter()
+        .zip(&s0.n[1..])
+        .map(|(d, n)| d * n.re.abs())
+        .sum();
+    let period = (lo_nm * lo_nm / (2.0 * opt.max(1e-9))).max(1e-6);
+    let mut steps = ((hi_nm - lo_nm) / period * 16.0).ceil().max(64.0) as usize;
+    steps += steps % 2; // Simpson needs an even count
+    steps = steps.min(200_000);
+    let h = (hi_nm - lo_nm) / steps as f64;
+    let mut acc = Rt {
+        r_s: 0.0,
+        r_p: 0.0,
+        t_s: 0.0,
+        t_p: 0.0,
+    };
+    for i in 0..=steps {
+        let l = lo_nm + i as f64 * h;
+        let w = if i == 0 || i == steps {
+            1.0
+        } else if i % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        };
+        acc.add_scaled(
+            &solve(&stack_at(l), l, theta0_rad),
+            w * h / 3.0 / (hi_nm - lo_nm),
+        );
+    }
+    acc
+}

@@ -1,0 +1,456 @@
+//! The virtual goniospectrometer run: launches stratified ray trees over the tile for each
+//! incident direction, traces them (sharing geometry across wavelengths where no medium is
+//! dispersive), and accumulates them with the estimator into a `.gsa` accumulator.
+//!
+//! Determinism: trees are processed in fixed blocks whose sums are combined in block
+//! order, and every random number comes from a stream keyed by (seed, direction, tree), so
+//! the output bytes do not depend on the thread count.
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use crate::accel::Backend;
+use crate::accumulate::file::{Accumulator, Header, Settings, fnv1a};
+use crate::accumulate::{Buckets, Cell, Coherence, Estimator, Scratch, add_fields};
+use crate::optics::C64;
+use crate::optics::fresnel::Field;
+use crate::optics::vec3::{add, dot, from_spherical, scale};
+use crate::rng::Rng;
+use crate::sample::Sample;
+use crate::trace::{RayState, Scene, SceneError, TraceLimits, Tree, launch_fields};
+
+/// Trees per block: the unit of parallel work and of deterministic summation.
+const BLOCK: u64 = 64;
+
+/// Wavelength sampling.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Wavelengths {
+    /// Bins given by their edges (nm); each tree draws a stratified jittered wavelength in
+    /// each bin.
+    Bins(Vec<f64>),
+    /// Exact wavelengths (nm).
+    Monochromatic(Vec<f64>),
+}
+
+impl Wavelengths {
+    pub fn count(&self) -> usize {
+        match self {
+            Wavelengths::Bins(e) => e.len().saturating_sub(1),
+            Wavelengths::Monochromatic(v) => v.len(),
+        }
+    }
+    fn max(&self) -> f64 {
+        match self {
+            Wavelengths::Bins(e) | Wavelengths::Monochromatic(e) => {
+                e.iter().copied().fold(0.0, f64::max)
+            }
+        }
+    }
+}
+
+/// Settings of one simulation.
+#[derive(Clone, Debug)]
+pub struct SimConfig {
+    pub theta_i_deg: Vec<f64>,
+    pub phi_i_deg: f64,
+    /// Trees per incident direction (each covers every wavelength).
+    pub rays: u64,
+    pub wavelengths: Wavelengths,
+    pub backend: Backend,
+    pub seed: u64,
+    pub coherence: Coherence,
+    pub rho_nm: f64,
+    pub limits: TraceLimits,
+    pub buckets: Buckets,
+    /// Share traced geometry across wavelengths; `None` = whenever no medium is dispersive.
+    pub path_sharing: Option<bool>,
+    /// Where the sample's frame sits in the world, nm: exit points and launch points are
+    /// reported in world coordinates. The estimator must not depend on it (DESIGN.md §3).
+    pub origin_nm: [f64; 3],
+}
+
+/// Run statistics.
+#[derive(Clone, Debug, Default)]
+pub struct SimStats {
+    pub trees: u64,
+    pub traces: u64,
+    pub segments: u64,
+    pub leaks: u64,
+    pub seconds: f64,
+    pub path_sharing: bool,
+}
+
+/// What can stop a simulation.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error("{0}")]
+    Config(String),
+}
+
+/// Hash of everything in a sample that changes results: tile, media models and geometry.
+pub fn sample_hash(sample: &Sample) -> String {
+    let mut bytes: Vec<u8> = Vec::new();
+    for v in sample.tile_nm {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    for m in &sample.media {
+        bytes.extend_from_slice(m.name.as_bytes());
+        bytes.extend_from_slice(format!("{:?}", m.model).as_bytes());
+    }
+    for i in &sample.interfaces {
+        bytes.extend_from_slice(&(i.front as u64).to_le_bytes());
+        bytes.extend_from_slice(&(i.back as u64).to_le_bytes());
+        for p in &i.mesh.positions_nm {
+            for c in p {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        for t in &i.mesh.triangles {
+            for c in t {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+    }
+    format!("{:016x}", fnv1a(&bytes))
+}
+
+/// Entry point `i` of `n` on the tile: the R2 low-discrepancy sequence (Roberts 2018,
+/// "The unreasonable effectiveness of quasirandom sequences") with a random shift.
+fn entry_point(i: u64, shift: [f64; 2], tile: [f64; 2]) -> [f64; 2] {
+    const G: f64 = 1.324_717_957_244_746; // plastic number
+    let a = [1.0 / G, 1.0 / (G * G)];
+    let f = |k: usize| (shift[k] + (i as f64) * a[k]).rem_euclid(1.0);
+    [f(0) * tile[0], f(1) * tile[1]]
+}
+
+/// Sums of one block of trees for one cell, sparse.
+#[derive(Default)]
+struct BlockCell {
+    trees: u64,
+    keys: HashMap<u32, (f64, f64)>,
+    global: HashMap<u32, [Field; 2]>,
+    r: (f64, f64),
+    t: (f64, f64),
+    absorbed: f64,
+    dropped: f64,
+}
+
+/// Runs the simulation. `progress` receives the number of trees finished so far.
+pub fn simulate(
+    sample: &Sample,
+    cfg: &SimConfig,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Accumulator, SimStats), SimError> {
+    validate(cfg)?;
+    let start = Instant::now();
+    let scene = Scene::new(sample, cfg.backend)?;
+    let dispersive = sample.media.iter().any(|m| m.model.is_dispersive());
+    let sharing = cfg.path_sharing.unwrap_or(!dispersive);
+    if sharing && dispersive {
+        return Err(SimError::Config(
+            "path sharing needs non-dispersive media: this sample's indices change with wavelength"
+                .into(),
+        ));
+    }
+    // Every wavelength the run evaluates must be inside every medium's range.
+    let lambdas: Vec<f64> = match &cfg.wavelengths {
+        Wavelengths::Bins(e) => e.clone(),
+        Wavelengths::Monochromatic(v) => v.clone(),
+    };
+    for m in &sample.media {
+        for &l in &lambdas {
+            m.model
+                .eval(l)
+                .map_err(|e| SimError::Config(format!("medium '{}': {e}", m.name)))?;
+        }
+    }
+    let index_at = |l: f64| -> Vec<C64> {
+        sample
+            .media
+            .iter()
+            .map(|m| {
+                let (n, k) = m.model.eval(l).expect("range checked above");
+                C64::new(n, k)
+            })
+            .collect()
+    };
+    let nl = cfg.wavelengths.count();
+    let lambda_max = cfg.wavelengths.max();
+    let n_up = index_at(lambda_max)[scene.ambient].re;
+    let n_down = index_at(lambda_max)[scene.substrate].re;
+    let est = Estimator {
+        mode: cfg.coherence,
+        rho_nm: cfg.rho_nm,
+        buckets: cfg.buckets,
+        n_up,
+        n_down,
+    };
+    if dispersive && (index_at(lambdas[0])[scene.ambient] != index_at(lambda_max)[scene.ambient]) {
+        return Err(SimError::Config(
+            "the medium above the sample is dispersive; use a constant index for the ambient medium".into(),
+        ));
+    }
+    let global = cfg.coherence == Coherence::Global;
+    let settings = Settings {
+        sample_name: sample.name.clone(),
+        sample_hash: sample_hash(sample),
+        theta_i_deg: cfg.theta_i_deg.clone(),
+        phi_i_deg: cfg.phi_i_deg,
+        wavelength_mode: match cfg.wavelengths {
+            Wavelengths::Bins(_) => "bins".into(),
+            Wavelengths::Monochromatic(_) => "monochromatic".into(),
+        },
+        wavelengths_nm: lambdas.clone(),
+        coherence: cfg.coherence.name().into(),
+        coherence_radius_nm: cfg.rho_nm,
+        cutoff: cfg.limits.cutoff,
+        max_depth: cfg.limits.max_depth,
+        theta_o_bins: cfg.buckets.theta_bins,
+        phi_o_bins: cfg.buckets.phi_bins,
+    };
+    let mut cells: Vec<Cell> = (0..cfg.theta_i_deg.len() * nl)
+        .map(|_| Cell::new(&cfg.buckets, global))
+        .collect();
+    let done = AtomicU64::new(0);
+    let segments = AtomicU64::new(0);
+    let leaks = AtomicU64::new(0);
+    let traces = AtomicU64::new(0);
+    let fixed_indices = index_at(lambda_max);
+
+    for (di, &theta_deg) in cfg.theta_i_deg.iter().enumerate() {
+        let wi = from_spherical(theta_deg.to_radians(), cfg.phi_i_deg.to_radians());
+        let d = scale(wi, -1.0);
+        let e0 = launch_fields(d);
+        let mut shift_rng = Rng::new(cfg.seed, 0x5817_0000 + di as u64);
+        let shift = [shift_rng.uniform(), shift_rng.uniform()];
+        let nblocks = cfg.rays.div_ceil(BLOCK);
+        let blocks: Vec<Vec<BlockCell>> = (0..nblocks)
+            .into_par_iter()
+            .map_init(
+                || {
+                    (
+                        Vec::<RayState>::new(),
+                        Tree::default(),
+                        Scratch::default(),
+                        Vec::new(),
+                        Vec::new(),
+                    )
+                },
+                |(stack, tree, scratch, deps, glob), b| {
+                    let mut out: Vec<BlockCell> = (0..nl).map(|_| BlockCell::default()).collect();
+                    let lo = b * BLOCK;
+                    let hi = (lo + BLOCK).min(cfg.rays);
+                    for i in lo..hi {
+                        let mut rng = Rng::new(cfg.seed, (di as u64) << 40 | i);
+                        let xy = entry_point(i, shift, sample.tile_nm);
+                        let origin = [xy[0], xy[1], scene.z_top];
+                        // Stratified jitter: tree i takes stratum i of N in every bin.
+                        let lambda_of = |j: usize, u: f64| match &cfg.wavelengths {
+                            Wavelengths::Bins(e) => {
+                                e[j] + (e[j + 1] - e[j]) * ((i as f64 + u) / cfg.rays as f64)
+                            }
+                            Wavelengths::Monochromatic(v) => v[j],
+                        };
+                        let jitter: Vec<f64> = (0..nl).map(|_| rng.uniform()).collect();
+                        let world_origin = add(origin, cfg.origin_nm);
+                        let to_world = |tree: &mut Tree| {
+                            for x in &mut tree.exits {
+                                x.x = add(x.x, cfg.origin_nm);
+                            }
+                        };
+                        if sharing {
+                            scene.trace(
+                                origin,
+                                d,
+                                e0,
+                                &fixed_indices,
+                                lambda_max,
+                                &cfg.limits,
+                                stack,
+                                tree,
+                            );
+                            to_world(tree);
+                            segments.fetch_add(u64::from(tree.segments), Ordering::Relaxed);
+                            leaks.fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
+                            traces.fetch_add(1, Ordering::Relaxed);
+                        }
+                        for (j, cell) in out.iter_mut().enumerate() {
+                            let lambda = lambda_of(j, jitter[j]);
+                            if !sharing {
+                                scene.trace(
+                                    origin,
+                                    d,
+                                    e0,
+                                    &index_at(lambda),
+                                    lambda,
+                                    &cfg.limits,
+                                    stack,
+                                    tree,
+                                );
+                                to_world(tree);
+                                segments.fetch_add(u64::from(tree.segments), Ordering::Relaxed);
+                                leaks.fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
+                                traces.fetch_add(1, Ordering::Relaxed);
+                            }
+                            deps.clear();
+                            glob.clear();
+                            let k = 2.0 * std::f64::consts::PI / lambda;
+                            let entry_phase = k * n_up * dot(d, world_origin);
+                            est.deposit(tree, lambda, entry_phase, scratch, deps, glob);
+                            add_tree(
+                                cell,
+                                deps,
+                                glob,
+                                tree.absorbed(lambda),
+                                tree.dropped(lambda),
+                            );
+                        }
+                    }
+                    let n = done.fetch_add(hi - lo, Ordering::Relaxed) + (hi - lo);
+                    progress(n);
+                    out
+                },
+            )
+            .collect();
+        // Combine blocks in block order: the sums do not depend on scheduling.
+        for block in &blocks {
+            for (j, bc) in block.iter().enumerate() {
+                add_block(&mut cells[di * nl + j], bc);
+            }
+        }
+    }
+
+    let stats = SimStats {
+        trees: done.load(Ordering::Relaxed),
+        traces: traces.load(Ordering::Relaxed),
+        segments: segments.load(Ordering::Relaxed),
+        leaks: leaks.load(Ordering::Relaxed),
+        seconds: start.elapsed().as_secs_f64(),
+        path_sharing: sharing,
+    };
+    let header = Header {
+        settings,
+        seeds: vec![cfg.seed],
+        rays: cfg.rays,
+        backend: scene.backend().name().into(),
+        path_sharing: sharing,
+        leaks: stats.leaks,
+    };
+    Ok((Accumulator { header, cells }, stats))
+}
+
+fn validate(cfg: &SimConfig) -> Result<(), SimError> {
+    let bad = |m: String| Err(SimError::Config(m));
+    if cfg.theta_i_deg.is_empty() {
+        return bad("no incident directions (--theta-i)".into());
+    }
+    if let Some(t) = cfg.theta_i_deg.iter().find(|t| !(0.0..90.0).contains(*t)) {
+        return bad(format!("incident angle {t} deg is outside [0, 90)"));
+    }
+    if cfg.rays == 0 {
+        return bad("--rays must be at least 1".into());
+    }
+    if cfg.wavelengths.count() == 0 {
+        return bad("no wavelengths".into());
+    }
+    let ls = match &cfg.wavelengths {
+        Wavelengths::Bins(e) => e,
+        Wavelengths::Monochromatic(v) => v,
+    };
+    if ls.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
+        return bad("wavelengths must be positive and finite".into());
+    }
+    if let Wavelengths::Bins(e) = &cfg.wavelengths
+        && e.windows(2).any(|w| w[1] <= w[0])
+    {
+        return bad("wavelength bin edges must increase".into());
+    }
+    if cfg.rho_nm.is_nan() || cfg.rho_nm <= 0.0 {
+        return bad(format!(
+            "the coherence radius must be positive (or inf), got {}",
+            cfg.rho_nm
+        ));
+    }
+    if !(cfg.limits.cutoff >= 0.0 && cfg.limits.cutoff < 1.0) {
+        return bad(format!(
+            "the power cutoff must be in [0, 1), got {}",
+            cfg.limits.cutoff
+        ));
+    }
+    if cfg.buckets.theta_bins == 0 || cfg.buckets.phi_bins == 0 {
+        return bad("bucket counts must be at least 1".into());
+    }
+    Ok(())
+}
+
+fn add_tree(
+    cell: &mut BlockCell,
+    deps: &mut [(u32, f64)],
+    glob: &[(u32, [Field; 2])],
+    absorbed: f64,
+    dropped: f64,
+) {
+    deps.sort_by_key(|d| d.0);
+    let (mut r, mut t) = (0.0, 0.0);
+    let mut i = 0;
+    while i < deps.len() {
+        let k = deps[i].0;
+        let mut v = 0.0;
+        while i < deps.len() && deps[i].0 == k {
+            v += deps[i].1;
+            i += 1;
+        }
+        let e = cell.keys.entry(k).or_insert((0.0, 0.0));
+        e.0 += v;
+        e.1 += v * v;
+        if k & 1 == 0 {
+            r += v;
+        } else {
+            t += v;
+        }
+    }
+    for (k, a) in glob {
+        let e = cell
+            .global
+            .entry(*k)
+            .or_insert([[C64::new(0.0, 0.0); 3]; 2]);
+        for p in 0..2 {
+            for c in 0..3 {
+                e[p][c] += a[p][c];
+            }
+        }
+    }
+    cell.trees += 1;
+    cell.r.0 += r;
+    cell.r.1 += r * r;
+    cell.t.0 += t;
+    cell.t.1 += t * t;
+    cell.absorbed += absorbed;
+    cell.dropped += dropped;
+}
+
+fn add_block(cell: &mut Cell, b: &BlockCell) {
+    let mut keys: Vec<(&u32, &(f64, f64))> = b.keys.iter().collect();
+    keys.sort_by_key(|e| *e.0);
+    for (k, (s, q)) in keys {
+        cell.sum[*k as usize] += s;
+        cell.sumsq[*k as usize] += q;
+    }
+    let mut g: Vec<(&u32, &[Field; 2])> = b.global.iter().collect();
+    g.sort_by_key(|e| *e.0);
+    for (k, a) in g {
+        add_fields(&mut cell.global[*k as usize], a);
+    }
+    cell.trees += b.trees;
+    cell.r_sum += b.r.0;
+    cell.r_sumsq += b.r.1;
+    cell.t_sum += b.t.0;
+    cell.t_sumsq += b.t.1;
+    cell.absorbed += b.absorbed;
+    cell.dropped += b.dropped;
+}

@@ -1,0 +1,493 @@
+//! Coherent ray trees through a periodic sample (DESIGN.md §3).
+//!
+//! A tree starts as one ray of a plane wave on the launch plane above the sample and splits
+//! at every interface into a reflected and a transmitted child, each carrying the complex
+//! electric field of two orthogonal incident polarisations, power-normalised so `|E|^2` is
+//! the fraction of launched power, and the complex optical path length `sum (n + i k) l`
+//! (nm) from the launch plane. A child is dropped below a power cutoff or at a depth limit;
+//! dropped power is recorded, never hidden. Rays wrap around the tile's sides with their
+//! unwrapped offset kept for the phase; hits are refined in f64 against the triangle's
+//! plane; the current medium is tracked and every mismatch (a leak) is counted.
+//!
+//! Propagation phases are kept out of the fields: a tree's exit amplitude at wavelength
+//! `lambda` is `E * exp(i 2 pi OPL / lambda)`. When no medium is dispersive the Fresnel
+//! coefficients do not depend on wavelength either, so one traced tree serves every
+//! wavelength (spectral path sharing); dispersive samples trace per wavelength.
+
+use crate::accel::{Accel, AccelError, Backend, Intersector, Ray};
+use crate::optics::C64;
+use crate::optics::fresnel::{self, Field, field_power};
+use crate::optics::vec3::{V3, add, cross, dot, norm, normalize, scale, sub};
+use crate::sample::Sample;
+
+/// A ray leaving the sample through the launch plane (up) or the bottom plane (down).
+#[derive(Clone, Copy, Debug)]
+pub struct Exit {
+    /// Field of each incident polarisation, without the propagation phase.
+    pub e: [Field; 2],
+    /// Complex optical path length from the launch plane, nm.
+    pub opl: C64,
+    /// Unit direction of travel.
+    pub dir: V3,
+    /// Exit point on the exit plane, unwrapped (nm).
+    pub x: V3,
+    pub up: bool,
+}
+
+/// Power lost on a segment through an absorbing medium: `power[p] * (exp(-4 pi im0 /
+/// lambda) - exp(-4 pi im1 / lambda))`, with `im1 = inf` for power absorbed entirely.
+#[derive(Clone, Copy, Debug)]
+pub struct Loss {
+    pub power: [f64; 2],
+    pub im0: f64,
+    pub im1: f64,
+}
+
+/// Power dropped by the cutoff or the depth limit (or lost to a leak):
+/// `power[p] * exp(-4 pi im / lambda)`.
+#[derive(Clone, Copy, Debug)]
+pub struct Dropped {
+    pub power: [f64; 2],
+    pub im: f64,
+}
+
+/// Everything one tree produced.
+#[derive(Clone, Debug, Default)]
+pub struct Tree {
+    pub exits: Vec<Exit>,
+    pub losses: Vec<Loss>,
+    pub dropped: Vec<Dropped>,
+    pub leaks: u32,
+    pub segments: u32,
+}
+
+impl Tree {
+    pub fn clear(&mut self) {
+        self.exits.clear();
+        self.losses.clear();
+        self.dropped.clear();
+        self.leaks = 0;
+        self.segments = 0;
+    }
+
+    /// Absorbed power at `lambda_nm`, averaged over the two polarisations (an incoherent
+    /// estimate: interference inside absorbing layers is not resolved here).
+    pub fn absorbed(&self, lambda_nm: f64) -> f64 {
+        let a = -4.0 * std::f64::consts::PI / lambda_nm;
+        self.losses
+            .iter()
+            .map(|l| {
+                let f = (a * l.im0).exp()
+                    - if l.im1.is_finite() {
+                        (a * l.im1).exp()
+                    } else {
+                        0.0
+                    };
+                0.5 * (l.power[0] + l.power[1]) * f
+            })
+            .sum()
+    }
+
+    /// Dropped power at `lambda_nm`, averaged over the two polarisations.
+    pub fn dropped(&self, lambda_nm: f64) -> f64 {
+        let a = -4.0 * std::f64::consts::PI / lambda_nm;
+        self.dropped
+            .iter()
+            .map(|d| 0.5 * (d.power[0] + d.power[1]) * (a * d.im).exp())
+            .sum()
+    }
+}
+
+/// Limits of a tree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceLimits {
+    /// A child whose power falls below this fraction of the launched power is dropped.
+    pub cutoff: f64,
+    /// Interface events along one path before it is dropped.
+    pub max_depth: u32,
+    /// Tile-side crossings of one segment chain before it is dropped (rays running
+    /// nearly parallel to the layers).
+    pub max_wraps: u32,
+}
+
+impl Default for TraceLimits {
+    fn default() -> Self {
+        TraceLimits {
+            cutoff: 1e-10,
+            max_depth: 64,
+            max_wraps: 10_000,
+        }
+    }
+}
+
+/// A sample prepared for tracing: its accelerator, per-triangle f64 geometry and the
+/// media above and below it.
+pub struct Scene<'a> {
+    pub sample: &'a Sample,
+    accel: Accel,
+    /// Per triangle: owning interface.
+    owner: Vec<u32>,
+    /// Per triangle: a vertex and the unit normal, f64.
+    plane: Vec<(V3, V3)>,
+    /// Launch / top exit plane and bottom exit plane, nm.
+    pub z_top: f64,
+    pub z_bottom: f64,
+    /// Offset that moves a new ray off its surface, nm.
+    eps: f64,
+    /// Medium above everything and below everything.
+    pub ambient: usize,
+    pub substrate: usize,
+}
+
+/// Why a scene cannot be traced.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error(transparent)]
+    Accel(#[from] AccelError),
+    #[error("{0}")]
+    Geometry(String),
+}
+
+impl<'a> Scene<'a> {
+    pub fn new(sample: &'a Sample, backend: Backend) -> Result<Scene<'a>, SceneError> {
+        let (soup, first) = sample.triangle_soup();
+        let accel = Accel::build(backend, &soup)?;
+        let mut owner = Vec::with_capacity(soup.triangles.len());
+        let mut plane = Vec::with_capacity(soup.triangles.len());
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for (i, itf) in sample.interfaces.iter().enumerate() {
+            let m = &itf.mesh;
+            for k in 0..m.triangles.len() {
+                let v0 = m.positions_nm[m.triangles[k][0] as usize];
+                owner.push(i as u32);
+                plane.push((v0, normalize(m.area_vector(k))));
+            }
+            if let Some((a, b)) = m.bounds() {
+                for c in 0..3 {
+                    lo[c] = lo[c].min(a[c]);
+                    hi[c] = hi[c].max(b[c]);
+                }
+            }
+        }
+        debug_assert_eq!(
+            owner.len(),
+            first.last().map_or(0, |&f| f as usize)
+                + sample
+                    .interfaces
+                    .last()
+                    .map_or(0, |i| i.mesh.triangles.len())
+        );
+        let [lx, ly] = sample.tile_nm;
+        let extent = lx.max(ly).max(hi[2] - lo[2]);
+        let eps = (1e-7 * extent).max(1e-4);
+        let margin = 1e-3 * extent + 1.0;
+        let mut scene = Scene {
+            sample,
+            accel,
+            owner,
+            plane,
+            z_top: hi[2] + margin,
+            z_bottom: lo[2] - margin,
+            eps,
+            ambient: 0,
+            substrate: 0,
+        };
+        scene.ambient = scene.outer_medium(true)?;
+        scene.substrate = scene.outer_medium(false)?;
+        Ok(scene)
+    }
+
+    /// The medium beyond the sample above (or below) it, from vertical probe rays; the
+    /// probes must agree.
+    fn outer_medium(&self, above: bool) -> Result<usize, SceneError> {
+        let [lx, ly] = self.sample.tile_nm;
+        let mut found: Option<usize> = None;
+        for k in 0..9 {
+            let (fx, fy) = (0.123 + 0.1 * k as f64, 0.317 + 0.071 * k as f64);
+            let (z, dz) = if above {
+                (self.z_top, -1.0)
+            } else {
+                (self.z_bottom, 1.0)
+            };
+            let ray = Ray::new(
+                [(fx * lx) as f32, ((fy % 1.0) * ly) as f32, z as f32],
+                [0.0, 0.0, dz as f32],
+            );
+            let h = self.accel.closest_hit(&ray);
+            if !h.is_hit() {
+                continue;
+            }
+            let itf = &self.sample.interfaces[self.owner[h.prim as usize] as usize];
+            let facing_front = (f64::from(h.ng[2]) * dz) < 0.0;
+            let m = if facing_front { itf.front } else { itf.back };
+            if let Some(f) = found
+                && f != m
+            {
+                return Err(SceneError::Geometry(format!(
+                    "the sample's {} side is not one medium ('{}' and '{}'); run goniospec check",
+                    if above { "upper" } else { "lower" },
+                    self.sample.media[f].name,
+                    self.sample.media[m].name
+                )));
+            }
+            found = Some(m);
+        }
+        found.ok_or_else(|| {
+            SceneError::Geometry(format!(
+                "vertical rays from {} miss the sample: no sheet covers the tile",
+                if above { "above" } else { "below" }
+            ))
+        })
+    }
+
+    pub fn backend(&self) -> Backend {
+        self.accel.backend()
+    }
+
+    /// Traces one tree. `indices[m]` is medium m's complex index at the tracing
+    /// wavelength; `lambda_prune_nm` is the wavelength at which absorption is weakest
+    /// (the longest one evaluated), used to decide dropping. `e0` are the launched fields
+    /// (unit power) of the two polarisations; `origin` lies on the launch plane.
+    #[allow(clippy::too_many_arguments)]
+    pub fn trace(
+        &self,
+        origin: V3,
+        dir: V3,
+        e0: [Field; 2],
+        indices: &[C64],
+        lambda_prune_nm: f64,
+        limits: &TraceLimits,
+        stack: &mut Vec<RayState>,
+        out: &mut Tree,
+    ) {
+        out.clear();
+        stack.clear();
+        stack.push(RayState {
+            pos: origin,
+            dir,
+            off: [0.0; 2],
+            medium: self.ambient,
+            e: e0,
+            opl: C64::new(0.0, 0.0),
+            depth: 0,
+        });
+        let [lx, ly] = self.sample.tile_nm;
+        let prune = -4.0 * std::f64::consts::PI / lambda_prune_nm;
+        let power_of = |e: &[Field; 2], opl: C64| {
+            field_power(&e[0]).max(field_power(&e[1])) * (prune * opl.im).exp()
+        };
+        while let Some(mut r) = stack.pop() {
+            let mut wraps = 0u32;
+            loop {
+                out.segments += 1;
+                // Distances to the tile's sides and to the exit plane along dir.
+                let (mut t_side, mut axis) = (f64::INFINITY, 0usize);
+                for (a, l) in [(0usize, lx), (1, ly)] {
+                    let t = if r.dir[a] > 0.0 {
+                        (l - r.pos[a]) / r.dir[a]
+                    } else if r.dir[a] < 0.0 {
+                        -r.pos[a] / r.dir[a]
+                    } else {
+                        f64::INFINITY
+                    };
+                    if t < t_side {
+                        t_side = t;
+                        axis = a;
+                    }
+                }
+                let t_plane = if r.dir[2] > 0.0 {
+                    (self.z_top - r.pos[2]) / r.dir[2]
+                } else if r.dir[2] < 0.0 {
+                    (self.z_bottom - r.pos[2]) / r.dir[2]
+                } else {
+                    f64::INFINITY
+                };
+                // Geometry lying exactly on a tile side is searched a little past it.
+                let t_side_ext = t_side + self.eps / r.dir[axis].abs().max(1e-12);
+                let t_lim = t_side_ext.min(t_plane);
+                let ray = Ray {
+                    origin: r.pos.map(|c| c as f32),
+                    tmin: 0.0,
+                    dir: r.dir.map(|c| c as f32),
+                    tmax: t_lim.min(f64::from(f32::MAX)) as f32,
+                };
+                let hit = self.accel.closest_hit(&ray);
+                let n_med = indices[r.medium];
+                if hit.is_hit() && f64::from(hit.t) <= t_lim * (1.0 + 1e-6) {
+                    // Refine in f64 against the hit triangle's plane.
+                    let (v0, n) = self.plane[hit.prim as usize];
+                    let denom = dot(n, r.dir);
+                    let mut t = if denom != 0.0 {
+                        dot(n, sub(v0, r.pos)) / denom
+                    } else {
+                        f64::from(hit.t)
+                    };
+                    if !(t.is_finite() && t >= 0.0) {
+                        t = f64::from(hit.t);
+                    }
+                    self.advance(&mut r, t, n_med, out);
+                    self.interface_event(r, hit.prim, n, indices, limits, &power_of, stack, out);
+                    break;
+                }
+                if t_plane <= t_side {
+                    self.advance(&mut r, t_plane, n_med, out);
+                    let up = r.dir[2] > 0.0;
+                    out.exits.push(Exit {
+                        e: r.e,
+                        opl: r.opl,
+                        dir: r.dir,
+                        x: [r.pos[0] + r.off[0], r.pos[1] + r.off[1], r.pos[2]],
+                        up,
+                    });
+                    break;
+                }
+                if !t_side.is_finite() {
+                    // Horizontal ray with nowhere to go: cannot happen for finite t_side
+                    // unless dir is vertical, which has a finite t_plane. Guard anyway.
+                    out.dropped.push(Dropped {
+                        power: [field_power(&r.e[0]), field_power(&r.e[1])],
+                        im: r.opl.im,
+                    });
+                    break;
+                }
+                // Wrap around the tile side; re-enter a little outside the opposite side.
+                self.advance(&mut r, t_side, n_med, out);
+                let l = [lx, ly][axis];
+                if r.dir[axis] > 0.0 {
+                    r.pos[axis] = -self.eps;
+                    r.off[axis] += l;
+                } else {
+                    r.pos[axis] = l + self.eps;
+                    r.off[axis] -= l;
+                }
+                wraps += 1;
+                if wraps > limits.max_wraps {
+                    out.dropped.push(Dropped {
+                        power: [field_power(&r.e[0]), field_power(&r.e[1])],
+                        im: r.opl.im,
+                    });
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Moves the ray by `t` nm, adding `n t` to its optical path and recording absorption.
+    #[inline]
+    fn advance(&self, r: &mut RayState, t: f64, n: C64, out: &mut Tree) {
+        let im0 = r.opl.im;
+        r.opl += n * t;
+        r.pos = add(r.pos, scale(r.dir, t));
+        if n.im > 0.0 && t > 0.0 {
+            out.losses.push(Loss {
+                power: [field_power(&r.e[0]), field_power(&r.e[1])],
+                im0,
+                im1: r.opl.im,
+            });
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn interface_event(
+        &self,
+        r: RayState,
+        prim: u32,
+        n: V3,
+        indices: &[C64],
+        limits: &TraceLimits,
+        power_of: &impl Fn(&[Field; 2], C64) -> f64,
+        stack: &mut Vec<RayState>,
+        out: &mut Tree,
+    ) {
+        let itf = &self.sample.interfaces[self.owner[prim as usize] as usize];
+        let cos = dot(r.dir, n);
+        let (from, to, nf) = if cos < 0.0 {
+            (itf.front, itf.back, n)
+        } else {
+            (itf.back, itf.front, scale(n, -1.0))
+        };
+        let drop = |out: &mut Tree, e: &[Field; 2], opl: C64| {
+            out.dropped.push(Dropped {
+                power: [field_power(&e[0]), field_power(&e[1])],
+                im: opl.im,
+            });
+        };
+        if from != r.medium {
+            out.leaks += 1;
+            drop(out, &r.e, r.opl);
+            return;
+        }
+        let (n1, n2) = (indices[from], indices[to]);
+        let g = fresnel::split_geometry(r.dir, nf, n1.re, n2.re);
+        let c = fresnel::coefficients(n1, n2, (-dot(r.dir, nf)).clamp(0.0, 1.0));
+        let (er0, et0) = fresnel::split_field(&r.e[0], &g, &c);
+        let (er1, et1) = fresnel::split_field(&r.e[1], &g, &c);
+        let depth = r.depth + 1;
+        let mut child = |e: [Field; 2], dir: V3, medium: usize, side: f64, out: &mut Tree| {
+            if depth > limits.max_depth || power_of(&e, r.opl) < limits.cutoff {
+                drop(out, &e, r.opl);
+                return;
+            }
+            stack.push(RayState {
+                pos: add(r.pos, scale(nf, side * self.eps)),
+                dir,
+                off: r.off,
+                medium,
+                e,
+                opl: r.opl,
+                depth,
+            });
+        };
+        // Transmitted child first so the reflected one is traced first (stack order does
+        // not change results; it keeps the stack shallow for films).
+        match g.dir_t {
+            Some(dt) => child([et0, et1], dt, to, -1.0, out),
+            None => {
+                // No geometric transmitted direction, so no p basis vector: take the power
+                // from the s and p components directly.
+                let p = [
+                    fresnel::transmitted_power(&r.e[0], &g, &c),
+                    fresnel::transmitted_power(&r.e[1], &g, &c),
+                ];
+                if p[0] + p[1] > 0.0 {
+                    // Refraction into an absorbing medium beyond the geometric critical
+                    // angle: an evanescent wave whose power the medium absorbs.
+                    out.losses.push(Loss {
+                        power: p,
+                        im0: r.opl.im,
+                        im1: f64::INFINITY,
+                    });
+                }
+            }
+        }
+        child([er0, er1], g.dir_r, from, 1.0, out);
+    }
+}
+
+/// A ray in flight.
+#[derive(Clone, Copy, Debug)]
+pub struct RayState {
+    pub pos: V3,
+    pub dir: V3,
+    /// Unwrapped offset of the current tile copy, nm.
+    pub off: [f64; 2],
+    pub medium: usize,
+    pub e: [Field; 2],
+    pub opl: C64,
+    pub depth: u32,
+}
+
+/// The two launched fields for a wave travelling along `d` (unit): s (perpendicular to the
+/// plane of incidence) and p, each of unit power.
+pub fn launch_fields(d: V3) -> [Field; 2] {
+    let z = [0.0, 0.0, 1.0];
+    let c = cross(d, z);
+    let s = if norm(c) > 1e-12 {
+        normalize(c)
+    } else {
+        [1.0, 0.0, 0.0]
+    };
+    let p = cross(s, d);
+    let f = |v: V3| v.map(|x| C64::new(x, 0.0));
+    [f(s), f(p)]
+}
