@@ -132,7 +132,7 @@ fn entry_point(i: u64, shift: [f64; 2], tile: [f64; 2]) -> [f64; 2] {
 #[derive(Default)]
 struct BlockCell {
     trees: u64,
-    keys: HashMap<u32, (f64, f64)>,
+    keys: HashMap<u32, (f64, f64, u64)>,
     global: HashMap<u32, [Field; 2]>,
     r: (f64, f64),
     t: (f64, f64),
@@ -405,9 +405,10 @@ fn add_tree(
             v += deps[i].1;
             i += 1;
         }
-        let e = cell.keys.entry(k).or_insert((0.0, 0.0));
+        let e = cell.keys.entry(k).or_insert((0.0, 0.0, 0));
         e.0 += v;
         e.1 += v * v;
+        e.2 += 1;
         if k & 1 == 0 {
             r += v;
         } else {
@@ -435,11 +436,12 @@ fn add_tree(
 }
 
 fn add_block(cell: &mut Cell, b: &BlockCell) {
-    let mut keys: Vec<(&u32, &(f64, f64))> = b.keys.iter().collect();
+    let mut keys: Vec<(&u32, &(f64, f64, u64))> = b.keys.iter().collect();
     keys.sort_by_key(|e| *e.0);
-    for (k, (s, q)) in keys {
+    for (k, (s, q, n)) in keys {
         cell.sum[*k as usize] += s;
         cell.sumsq[*k as usize] += q;
+        cell.count[*k as usize] += n;
     }
     let mut g: Vec<(&u32, &[Field; 2])> = b.global.iter().collect();
     g.sort_by_key(|e| *e.0);

@@ -318,6 +318,15 @@ fn rays_that_miss_everything_report_a_miss() {
             assert!(!accel.closest_hit(&ray).is_hit(), "{backend}: {ray:?}");
             assert!(!brute::closest_hit(&soup, &ray).is_hit());
         }
+        // Directions with negative-zero components (as -wi gives at phi = 0) still hit.
+        let neg_zero = Ray::new([563.7, 488.1, 1000.0], [-0.34202, -0.0, -0.93969]);
+        let h = accel.closest_hit(&neg_zero);
+        assert!(h.is_hit(), "{backend}: -0.0 direction component");
+        assert_eq!(
+            h.prim,
+            brute::closest_hit(&soup, &neg_zero).prim,
+            "{backend}"
+        );
         // Straight down hits, and a segment ending above the surface does not.
         let down = Ray::new([500.0, 500.0, 1000.0], [0.0, 0.0, -1.0]);
         let h = accel.closest_hit(&down);

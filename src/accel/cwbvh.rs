@@ -102,7 +102,10 @@ impl Intersector for ObvhsScene {
     #[inline]
     fn closest_hit(&self, ray: &Ray) -> Hit {
         let o = Vec3A::from_array(ray.origin);
-        let d = Vec3A::from_array(ray.dir);
+        // obvhs derives traversal octants from sign bits: a -0.0 component (e.g. the y of
+        // a direction built as -wi with phi = 0) makes it miss everything. Adding +0.0
+        // turns -0.0 into +0.0 and changes nothing else.
+        let d = Vec3A::from_array(ray.dir.map(|c| c + 0.0));
         let oray = obvhs::ray::Ray::new(o, d, ray.tmin, ray.tmax);
         let mut rh = RayHit::none();
         let (mut bu, mut bv) = (0.0f32, 0.0f32);

@@ -2,7 +2,7 @@
 //!
 //! Layout (little endian): magic `GSPECACC`, format version (u32), header length (u32),
 //! header (UTF-8 TOML of [`Header`]), then for each (incident direction, wavelength) cell:
-//! `trees` (u64), `sum` and `sumsq` per bucket key, `r_sum, r_sumsq, t_sum, t_sumsq,
+//! `trees` (u64), `sum` and `sumsq` (f64) and `count` (u64) per bucket key, `r_sum, r_sumsq, t_sum, t_sumsq,
 //! absorbed, dropped` (f64), and in global mode the complex amplitude sums (12 f64 per
 //! key); finally an FNV-1a 64 checksum of everything before it. A truncated or corrupted
 //! file is refused.
@@ -132,7 +132,7 @@ impl Accumulator {
         } else {
             0
         };
-        2 * keys + 6 + global
+        3 * keys + 6 + global
     }
 
     /// Serialises to bytes (deterministic).
@@ -150,6 +150,7 @@ impl Accumulator {
             let mut put = |v: f64| out.extend_from_slice(&v.to_le_bytes());
             c.sum.iter().for_each(|&v| put(v));
             c.sumsq.iter().for_each(|&v| put(v));
+            c.count.iter().for_each(|&v| put(f64::from_bits(v)));
             for v in [
                 c.r_sum, c.r_sumsq, c.t_sum, c.t_sumsq, c.absorbed, c.dropped,
             ] {
@@ -272,6 +273,9 @@ impl Accumulator {
             }
             for v in c.sumsq.iter_mut() {
                 *v = f();
+            }
+            for v in c.count.iter_mut() {
+                *v = f().to_bits();
             }
             c.r_sum = f();
             c.r_sumsq = f();

@@ -215,6 +215,8 @@ pub struct Cell {
     /// Per bucket key (`key()`): sum over trees of the tree's deposit, and of its square.
     pub sum: Vec<f64>,
     pub sumsq: Vec<f64>,
+    /// Per bucket key: how many trees deposited anything there.
+    pub count: Vec<u64>,
     /// Per tree totals: reflected, transmitted (sum and sum of squares), absorbed, dropped.
     pub r_sum: f64,
     pub r_sumsq: f64,
@@ -233,6 +235,7 @@ impl Cell {
             trees: 0,
             sum: vec![0.0; n],
             sumsq: vec![0.0; n],
+            count: vec![0; n],
             r_sum: 0.0,
             r_sumsq: 0.0,
             t_sum: 0.0,
@@ -254,6 +257,9 @@ impl Cell {
             *a += b;
         }
         for (a, b) in self.sumsq.iter_mut().zip(&o.sumsq) {
+            *a += b;
+        }
+        for (a, b) in self.count.iter_mut().zip(&o.count) {
             *a += b;
         }
         for (a, b) in self.global.iter_mut().zip(&o.global) {

@@ -1,0 +1,467 @@
+//! Rough and curved samples: convergence, the seed's darkening, invariance, curved films
+//! against the local-film reference, white furnace, reciprocity, backends, determinism.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+use goniospec::accel::Backend;
+use goniospec::accumulate::file::Accumulator;
+use goniospec::accumulate::{Buckets, Coherence};
+use goniospec::sample::{self, Interface, Sample, generate};
+use goniospec::simulate::Wavelengths;
+
+fn shipped(name: &str) -> Sample {
+    sample::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("meshes")
+            .join(name),
+        Default::default(),
+    )
+    .unwrap()
+}
+
+/// The same sample tiled `k x k` times: a k^2 larger sampled area, statistically identical.
+fn tiled(s: &Sample, k: usize) -> Sample {
+    let [lx, ly] = s.tile_nm;
+    let mut out = s.clone();
+    out.tile_nm = [lx * k as f64, ly * k as f64];
+    out.interfaces = s
+        .interfaces
+        .iter()
+        .map(|itf| {
+            let mut m = sample::Mesh::default();
+            for i in 0..k {
+                for j in 0..k {
+                    let mut c = itf.mesh.clone();
+                    for p in &mut c.positions_nm {
+                        p[0] += i as f64 * lx;
+                        p[1] += j as f64 * ly;
+                    }
+                    m.append(&c);
+                }
+            }
+            Interface {
+                mesh: m,
+                ..itf.clone()
+            }
+        })
+        .collect();
+    out
+}
+
+fn mono550() -> Wavelengths {
+    Wavelengths::Monochromatic(vec![550.0])
+}
+
+#[test]
+fn rough_film_converges_between_n_and_10n_rays() {
+    let s = shipped("thin-film-600nm.toml");
+    let mut cfg = config(&[30.0], mono550(), 3000);
+    cfg.buckets = Buckets {
+        theta_bins: 18,
+        phi_bins: 12,
+    };
+    let a = run(&s, &cfg);
+    cfg.rays = 30_000;
+    cfg.seed = 2;
+    let b = run(&s, &cfg);
+    let (ca, cb) = (a.cell(0, 0), b.cell(0, 0));
+    let mut populated = 0;
+    let mut within = 0;
+    // Populated: at least 30 trees deposited there in the smaller run, so the per-tree
+    // spread is a usable error estimate.
+    let mut outliers = Vec::new();
+    for kk in 0..2 * cfg.buckets.len() {
+        if ca.count[kk] < 30 {
+            continue;
+        }
+        populated += 1;
+        let (fa, fb) = (
+            ca.fraction(kk, Coherence::Beamlet),
+            cb.fraction(kk, Coherence::Beamlet),
+        );
+        let (sa, sb) = (
+            ca.fraction_stderr(kk, Coherence::Beamlet).unwrap(),
+            cb.fraction_stderr(kk, Coherence::Beamlet).unwrap(),
+        );
+        if (fa - fb).abs() <= 3.0 * (sa * sa + sb * sb).sqrt() {
+            within += 1;
+        } else {
+            outliers.push((kk, ca.count[kk], fa, sa, fb, sb));
+        }
+    }
+    for o in &outliers {
+        eprintln!(
+            "outlier: key {} ({} trees): {} +- {} vs {} +- {}",
+            o.0, o.1, o.2, o.3, o.4, o.5
+        );
+    }
+    eprintln!("{within} of {populated} populated buckets agree within 3 sigma");
+    assert!(
+        populated >= 20,
+        "too few populated buckets ({populated}) for a meaningful test"
+    );
+    assert!(
+        within as f64 >= 0.99 * populated as f64,
+        "{within} of {populated}"
+    );
+    let (ra, rb) = (totals(&a, 0, 0).0, totals(&b, 0, 0).0);
+    let (sa, sb) = (
+        ca.r_stderr(Coherence::Beamlet).unwrap(),
+        cb.r_stderr(Coherence::Beamlet).unwrap(),
+    );
+    eprintln!("R: {ra} +- {sa} (N) vs {rb} +- {sb} (10 N)");
+    assert!(
+        (ra - rb).abs() <= 3.0 * (sa * sa + sb * sb).sqrt(),
+        "total R drifts: {ra} vs {rb}"
+    );
+}
+
+#[test]
+fn a_larger_sampled_area_does_not_darken_the_beamlet_estimate_but_darkens_global() {
+    let s = shipped("thin-film-600nm.toml");
+    let big = tiled(&s, 2);
+    let mut results = Vec::new();
+    for mode in [Coherence::Beamlet, Coherence::Global] {
+        let mut cfg = config(&[30.0], mono550(), 4000);
+        cfg.coherence = mode;
+        let small_r = totals(&run(&s, &cfg), 0, 0).0;
+        cfg.rays = 16_000;
+        let big_r = totals(&run(&big, &cfg), 0, 0).0;
+        eprintln!("{mode:?}: R {small_r} (1x area) -> {big_r} (4x area)");
+        results.push((small_r, big_r));
+    }
+    let (b1, b4) = results[0];
+    assert!(
+        (b4 / b1 - 1.0).abs() < 0.02,
+        "beamlet R changed with the sampled area: {b1} -> {b4}"
+    );
+    let (g1, g4) = results[1];
+    assert!(
+        g4 <= 0.5 * g1,
+        "global mode should darken by at least 2x: {g1} -> {g4}"
+    );
+}
+
+#[test]
+fn translation_and_bucket_grid_leave_total_r_unchanged_but_not_for_bucket_mode() {
+    let s = shipped("thin-film-600nm.toml");
+    let r_of = |mode: Coherence, origin: [f64; 3], theta_bins: u32| {
+        let mut cfg = config(&[30.0], mono550(), 2000);
+        cfg.coherence = mode;
+        cfg.origin_nm = origin;
+        cfg.buckets = Buckets {
+            theta_bins,
+            phi_bins: 36,
+        };
+        totals(&run(&s, &cfg), 0, 0).0
+    };
+    let mm = [1.0e6, 1.0e6, 1.0e6];
+    let base = r_of(Coherence::Beamlet, [0.0; 3], 45);
+    let moved = r_of(Coherence::Beamlet, mm, 45);
+    assert!(
+        ((moved - base) / base).abs() < 1e-6,
+        "translation changed R: {base} -> {moved}"
+    );
+    let fine = r_of(Coherence::Beamlet, [0.0; 3], 180);
+    assert!(
+        ((fine - base) / base).abs() < 1e-6,
+        "bucket grid changed R: {base} -> {fine}"
+    );
+    // Gondek's / the seed's bucket superposition fails at least one of these.
+    let b45 = r_of(Coherence::Bucket, [0.0; 3], 45);
+    let b180 = r_of(Coherence::Bucket, [0.0; 3], 180);
+    let bmoved = r_of(Coherence::Bucket, mm, 45);
+    eprintln!("beamlet {base}; bucket: 45 bins {b45}, 180 bins {b180}, moved {bmoved}");
+    let grid = ((b180 - b45) / b45).abs();
+    let shift = ((bmoved - b45) / b45).abs();
+    assert!(
+        grid > 1e-3 || shift > 1e-3,
+        "bucket mode should depend on the grid or the origin: {grid} {shift}"
+    );
+}
+
+/// R of the flat-film local reference: the TMM at the local incidence angle and local
+/// (perpendicular) thickness where the ray meets the film, averaged over entry points.
+#[test]
+fn gently_curved_film_approaches_the_local_film_reference() {
+    let lx = 20_000.0;
+    let slope = 2f64.to_radians().tan();
+    let amp = lx * slope / (2.0 * std::f64::consts::PI);
+    let h = |x: f64| amp * (2.0 * std::f64::consts::PI * x / lx).sin();
+    let tile = [lx, 2000.0];
+    let d = scratch("curved");
+    generate::height_field([400, 1], tile, |x, _| 600.0 + h(x))
+        .write_obj(&d.join("top.obj"), 1.0, "top")
+        .unwrap();
+    generate::height_field([400, 1], tile, |x, _| h(x))
+        .write_obj(&d.join("bottom.obj"), 1.0, "bottom")
+        .unwrap();
+    let s = sample_in(
+        &d,
+        "[sample]\nname = \"curved\"\nunit = \"nm\"\ntile = [20000.0, 2000.0]\n[media.air]\nn = 1.0\n[media.soap]\nn = 1.33\n[[interface]]\nmesh = \"top.obj\"\nfront = \"air\"\nback = \"soap\"\n[[interface]]\nmesh = \"bottom.obj\"\nfront = \"soap\"\nback = \"air\"\n",
+    );
+    let theta = 30f64.to_radians();
+    let lambdas = [480.0, 550.0, 620.0];
+    let cfg = config(&[30.0], Wavelengths::Monochromatic(lambdas.to_vec()), 4000);
+    let acc = run(&s, &cfg);
+    // Reference: march along x of the entry point; the ray meets the top surface where
+    // z_top - t cos(theta) = 600 + h(x_e + t sin(theta)).
+    let z_top = 600.0 + amp + 100.0;
+    for (j, &l) in lambdas.iter().enumerate() {
+        let n_e = 2000;
+        let mut sum = 0.0;
+        for i in 0..n_e {
+            let xe = (i as f64 + 0.5) / n_e as f64 * lx;
+            let (mut lo, mut hi) = (0.0, 2.0 * z_top / theta.cos());
+            for _ in 0..80 {
+                let t = 0.5 * (lo + hi);
+                if z_top - t * theta.cos() > 600.0 + h(xe + t * theta.sin()) {
+                    lo = t;
+                } else {
+                    hi = t;
+                }
+            }
+            let xh = xe + lo * theta.sin();
+            let alpha = (amp * 2.0 * std::f64::consts::PI / lx
+                * (2.0 * std::f64::consts::PI * xh / lx).cos())
+            .atan();
+            // Incident direction of travel (sin, 0, -cos); local normal (-sin a, 0, cos a).
+            let cos_local = theta.cos() * alpha.cos() + theta.sin() * alpha.sin();
+            let (r, _) = tmm_ref(
+                &[c(1.0, 0.0), c(1.33, 0.0), c(1.0, 0.0)],
+                &[600.0 * alpha.cos()],
+                l,
+                cos_local.acos(),
+            );
+            sum += r;
+        }
+        let reference = sum / n_e as f64;
+        let (r, _) = totals(&acc, 0, j);
+        eprintln!("lambda {l}: R {r} vs local-film {reference}");
+        assert!(
+            (r - reference).abs() < 0.01,
+            "lambda {l}: R {r} vs local-film reference {reference}"
+        );
+    }
+}
+
+#[test]
+fn white_furnace_lossless_samples_keep_all_power() {
+    // A near-perfect mirror (n -> 0, large k: |r| = 1 - 4n/(1 + k^2)) cut into V-grooves.
+    let d = scratch("furnace");
+    generate::v_grooves([20_000.0, 20_000.0], 10, 90.0, 0.0)
+        .unwrap()
+        .write_obj(&d.join("v.obj"), 1.0, "v")
+        .unwrap();
+    let mirror = sample_in(
+        &d,
+        "[sample]\nname = \"mirror grooves\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n[media.air]\nn = 1.0\n[media.mirror]\nn = 1e-6\nk = 20.0\n[[interface]]\nmesh = \"v.obj\"\nfront = \"air\"\nback = \"mirror\"\n",
+    );
+    let cfg = config(
+        &[0.0, 30.0, 60.0],
+        Wavelengths::Bins(vec![400.0, 550.0, 700.0]),
+        2000,
+    );
+    let acc = run(&mirror, &cfg);
+    for i in 0..3 {
+        for j in 0..2 {
+            let (r, t) = totals(&acc, i, j);
+            let cell = acc.cell(i, j);
+            let dropped = cell.dropped / cell.trees as f64;
+            assert!(t == 0.0);
+            assert!(
+                (r - (1.0 - dropped)).abs() < 1e-3,
+                "theta {i} bin {j}: R {r}, dropped {dropped}"
+            );
+        }
+    }
+    // A lossless rough dielectric: reflected + transmitted + dropped = 1.
+    let glass = shipped("rough-glass.toml");
+    let acc = run(
+        &glass,
+        &config(&[0.0, 45.0], Wavelengths::Monochromatic(vec![500.0]), 2000),
+    );
+    for i in 0..2 {
+        let (r, t) = totals(&acc, i, 0);
+        let cell = acc.cell(i, 0);
+        let dropped = cell.dropped / cell.trees as f64;
+        eprintln!("rough glass {i}: R {r} T {t} dropped {dropped}");
+        assert!(
+            (r + t + dropped - 1.0).abs() < 1e-3,
+            "R + T + dropped = {}",
+            r + t + dropped
+        );
+    }
+}
+
+#[test]
+fn brdf_of_a_rough_dielectric_is_reciprocal() {
+    // Buckets of 10 deg in theta centred on 5, 15, 25, 35, ...; 30 deg in phi.
+    let s = shipped("rough-glass.toml");
+    let mut cfg = config(&[25.0, 35.0], mono550(), 40_000);
+    cfg.buckets = Buckets {
+        theta_bins: 9,
+        phi_bins: 12,
+    };
+    let acc = run(&s, &cfg);
+    let b = cfg.buckets;
+    // f_r(wi = 25 deg, wo = 35 deg at phi 180..210) against f_r(wi = 35, wo = 25 deg, same).
+    let bucket = |theta_deg: f64| {
+        let w =
+            goniospec::optics::vec3::from_spherical(theta_deg.to_radians(), 195f64.to_radians());
+        b.index(w)
+    };
+    let f = |i: usize, theta_o: f64| {
+        let k = 2 * bucket(theta_o);
+        let cell = acc.cell(i, 0);
+        let omega = b.projected_solid_angle(bucket(theta_o));
+        (
+            cell.fraction(k, Coherence::Beamlet) / omega,
+            cell.fraction_stderr(k, Coherence::Beamlet).unwrap() / omega,
+        )
+    };
+    let (f1, s1) = f(0, 35.0);
+    let (f2, s2) = f(1, 25.0);
+    eprintln!("f_r(25 -> 35) = {f1} +- {s1}, f_r(35 -> 25) = {f2} +- {s2}");
+    assert!(
+        f1 > 10.0 * s1 && f2 > 10.0 * s2,
+        "the lobe must be resolved"
+    );
+    assert!(
+        (f1 - f2).abs() <= 3.0 * (s1 * s1 + s2 * s2).sqrt(),
+        "not reciprocal: {f1} vs {f2}"
+    );
+}
+
+#[test]
+fn embree_and_obvhs_give_the_same_accumulator() {
+    if !Backend::Embree.is_available() {
+        return;
+    }
+    let s = shipped("thin-film-600nm.toml");
+    let mut cfg = config(
+        &[20.0, 60.0],
+        Wavelengths::Bins(vec![450.0, 550.0, 650.0]),
+        1000,
+    );
+    cfg.backend = Backend::Embree;
+    let e = run(&s, &cfg);
+    cfg.backend = Backend::Obvhs;
+    let o = run(&s, &cfg);
+    let mut differing = 0;
+    let mut total = 0;
+    for (ce, co) in e.cells.iter().zip(&o.cells) {
+        for (a, b) in ce.sum.iter().zip(&co.sum) {
+            total += 1;
+            if (a - b).abs() > 1e-9 * a.abs().max(b.abs()).max(1e-12) {
+                differing += 1;
+            }
+        }
+        let (re, ro) = (ce.r_sum / ce.trees as f64, co.r_sum / co.trees as f64);
+        assert!(
+            (re - ro).abs() < 1e-4 * re.max(1e-6),
+            "total R differs: {re} vs {ro}"
+        );
+    }
+    eprintln!("{differing} of {total} bucket sums differ (edge ties)");
+    assert!(
+        differing * 100 <= total,
+        "{differing} of {total} buckets differ"
+    );
+}
+
+#[test]
+fn one_and_two_threads_write_identical_files() {
+    let s = shipped("thin-film-600nm.toml");
+    let cfg = config(
+        &[0.0, 45.0],
+        Wavelengths::Bins(vec![400.0, 500.0, 600.0, 700.0]),
+        700,
+    );
+    let bytes = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| run(&s, &cfg)).to_bytes()
+    };
+    let (one, two) = (bytes(1), bytes(2));
+    assert!(one == two, "1 and 2 threads differ");
+    let d = scratch("det");
+    let p = d.join("a.gsa");
+    Accumulator::from_bytes(&one, "x")
+        .unwrap()
+        .write(&p)
+        .unwrap();
+    assert_eq!(std::fs::read(&p).unwrap(), one);
+}
+
+#[test]
+fn merge_adds_runs_and_refuses_mismatches() {
+    let s = shipped("thin-film-600nm.toml");
+    let cfg = config(&[30.0], mono550(), 500);
+    let a = run(&s, &cfg);
+    let mut cfg2 = cfg.clone();
+    cfg2.seed = 2;
+    let b = run(&s, &cfg2);
+    let mut m = a.clone();
+    m.merge(&b).unwrap();
+    let (ca, cb, cm) = (a.cell(0, 0), b.cell(0, 0), m.cell(0, 0));
+    assert_eq!(cm.trees, ca.trees + cb.trees);
+    for k in 0..cm.sum.len() {
+        assert_eq!(cm.sum[k], ca.sum[k] + cb.sum[k]);
+        assert_eq!(cm.sumsq[k], ca.sumsq[k] + cb.sumsq[k]);
+    }
+    let rm = totals(&m, 0, 0).0;
+    assert!((rm - 0.5 * (totals(&a, 0, 0).0 + totals(&b, 0, 0).0)).abs() < 1e-12);
+    assert_eq!(m.header.seeds, vec![1, 2]);
+    assert_eq!(m.header.rays, 1000);
+    // Same seed twice, different settings, different samples: refused.
+    let e = m.clone().merge(&a).unwrap_err().to_string();
+    assert!(e.contains("seed 1"), "{e}");
+    let mut cfg3 = cfg2.clone();
+    cfg3.seed = 3;
+    cfg3.rho_nm = 1000.0;
+    let e = a.clone().merge(&run(&s, &cfg3)).unwrap_err().to_string();
+    assert!(e.contains("different settings"), "{e}");
+    let other = shipped("rough-glass.toml");
+    let e = a
+        .clone()
+        .merge(&run(&other, &cfg3))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("different samples"), "{e}");
+}
+
+#[test]
+fn damaged_accumulator_files_are_refused() {
+    let s = shipped("flat-soap-film.toml");
+    let bytes = run(&s, &config(&[0.0], mono550(), 8)).to_bytes();
+    let e = Accumulator::from_bytes(&bytes[..bytes.len() - 100], "f.gsa")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("truncated"), "{e}");
+    let mut bad = bytes.clone();
+    let n = bad.len();
+    bad[n - 50] ^= 0x40;
+    let e = Accumulator::from_bytes(&bad, "f.gsa")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("checksum mismatch"), "{e}");
+    let mut magic = bytes.clone();
+    magic[0] = b'X';
+    let e = Accumulator::from_bytes(&magic, "f.gsa")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("wrong magic"), "{e}");
+    let mut version = bytes.clone();
+    version[8] = 99;
+    let e = Accumulator::from_bytes(&version, "f.gsa")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("version 99"), "{e}");
+    assert!(Accumulator::from_bytes(&bytes, "f.gsa").is_ok());
+}
