@@ -233,3 +233,150 @@ pub fn trace_bench(
     }
     Ok(report)
 }
+
+/// Settings of `bench simulate`.
+#[derive(Clone, Debug)]
+pub struct SimulateBenchConfig {
+    pub rays: u64,
+    pub theta_i_deg: f64,
+    pub bins: Vec<f64>,
+    pub backends: Vec<Backend>,
+    pub seed: u64,
+}
+
+/// Runs `bench simulate` on `sample` and on the flat soap film `flat`, printing through `log`.
+pub fn simulate_bench(
+    sample: &crate::sample::Sample,
+    flat: &crate::sample::Sample,
+    cfg: &SimulateBenchConfig,
+    mut log: impl FnMut(&str),
+) -> Result<(), crate::simulate::SimError> {
+    use crate::accumulate::{Buckets, Coherence};
+    use crate::simulate::{SimConfig, Wavelengths, simulate};
+    let threads = rayon::current_num_threads();
+    let base = SimConfig {
+        theta_i_deg: vec![cfg.theta_i_deg],
+        phi_i_deg: 0.0,
+        rays: cfg.rays,
+        wavelengths: Wavelengths::Bins(cfg.bins.clone()),
+        backend: Backend::Obvhs,
+        seed: cfg.seed,
+        coherence: Coherence::Beamlet,
+        rho_nm: 5000.0,
+        limits: crate::trace::TraceLimits::default(),
+        buckets: Buckets {
+            theta_bins: 45,
+            phi_bins: 36,
+        },
+        path_sharing: None,
+        origin_nm: [0.0; 3],
+    };
+    let nbins = cfg.bins.len() - 1;
+    log(&format!(
+        "bench simulate: '{}' ({} triangles), {} trees at theta_i {} deg x {} wavelength bins, {threads} threads",
+        sample.name,
+        sample.triangle_count(),
+        cfg.rays,
+        cfg.theta_i_deg,
+        nbins
+    ));
+    let mut shared_time = Vec::new();
+    for &backend in &cfg.backends {
+        // Raw intersector rate on this sample's own geometry, same thread count.
+        let mesh = {
+            let mut m = Mesh::default();
+            for i in &sample.interfaces {
+                m.append(&i.mesh);
+            }
+            m
+        };
+        let soup = mesh.to_soup();
+        let accel = Accel::build(backend, &soup).map_err(crate::trace::SceneError::from)?;
+        let rays = random_rays(&mesh, 400_000, cfg.seed);
+        let mut hits = vec![Hit::MISS; rays.len()];
+        trace_all(&accel, &rays[..20_000], &mut hits[..20_000]);
+        let t0 = Instant::now();
+        trace_all(&accel, &rays, &mut hits);
+        let raw = rays.len() as f64 / t0.elapsed().as_secs_f64();
+        log(&format!("{backend} raw intersector: {:.2} Mrays/s (random rays)", raw / 1e6));
+        for sharing in [true, false] {
+            let mut c = base.clone();
+            c.backend = backend;
+            c.path_sharing = Some(sharing);
+            let (_, st) = simulate(sample, &c, &|_| {})?;
+            let seg_rate = st.segments as f64 / st.seconds;
+            log(&format!(
+                "{backend} path sharing {}: {:.2} s, {:.0} launched rays/s ({:.0} ray-wavelengths/s), {:.2} M segments/s = {:.0} % of raw",
+                if sharing { "on " } else { "off" },
+                st.seconds,
+                st.trees as f64 / st.seconds,
+                (st.trees * nbins as u64) as f64 / st.seconds,
+                seg_rate / 1e6,
+                100.0 * seg_rate / raw
+            ));
+            if sharing {
+                shared_time.push(st.seconds);
+            } else {
+                log(&format!(
+                    "{backend} path-sharing speed-up: {:.1}x",
+                    st.seconds / shared_time.last().copied().unwrap_or(st.seconds)
+                ));
+            }
+        }
+    }
+    if shared_time.len() == 2 {
+        log(&format!("obvhs/embree end-to-end time: {:.2}", shared_time[1] / shared_time[0]));
+    }
+
+    // The flat-film goal: 40 bins x 10 incident angles, error against the TMM, at the
+    // default beamlet radius and in the plane-wave limit.
+    let thetas: Vec<f64> = (0..10).map(|i| 8.0 * i as f64).collect();
+    let edges: Vec<f64> = (0..=40).map(|i| 380.0 + 10.0 * i as f64).collect();
+    let st = flat.stack.as_ref().expect("the flat film is a [stack]");
+    let stack_at = |l: f64| crate::optics::tmm::StackIndices {
+        n: std::iter::once(st.ambient)
+            .chain(st.layers.iter().map(|l| l.0))
+            .chain(std::iter::once(st.substrate))
+            .map(|m| {
+                let (n, k) = flat.media[m].model.eval(l).expect("in range");
+                crate::optics::C64::new(n, k)
+            })
+            .collect(),
+        d_nm: st.layers.iter().map(|l| l.1).collect(),
+    };
+    let reference: Vec<Vec<f64>> = thetas
+        .iter()
+        .map(|th| {
+            (0..40)
+                .map(|j| crate::optics::tmm::solve_band(stack_at, edges[j], edges[j + 1], th.to_radians()).r())
+                .collect()
+        })
+        .collect();
+    for rho in [5000.0, f64::INFINITY] {
+        let mut c = base.clone();
+        c.backend = cfg.backends[0];
+        c.theta_i_deg = thetas.clone();
+        c.wavelengths = Wavelengths::Bins(edges.clone());
+        c.rays = 256;
+        c.rho_nm = rho;
+        let t0 = Instant::now();
+        let (acc, _) = simulate(flat, &c, &|_| {})?;
+        let wall = t0.elapsed().as_secs_f64();
+        let (mut max_err, mut at) = (0.0f64, (0.0, 0.0));
+        for (i, th) in thetas.iter().enumerate() {
+            for j in 0..40 {
+                let (r, _) = acc.cell(i, j).totals(Coherence::Beamlet, &c.buckets);
+                let e = (r - reference[i][j]).abs();
+                if e > max_err {
+                    max_err = e;
+                    at = (*th, 0.5 * (edges[j] + edges[j + 1]));
+                }
+            }
+        }
+        log(&format!(
+            "flat film '{}', 40 bins x 10 angles (0..72 deg) x 256 rays, radius {rho} nm: {wall:.2} s wall, max |R - TMM| = {max_err:.2e} (at {} deg, {} nm)",
+            flat.name, at.0, at.1
+        ));
+    }
+    Ok(())
+}

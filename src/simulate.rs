@@ -6,7 +6,6 @@
 //! order, and every random number comes from a stream keyed by (seed, direction, tree), so
 //! the output bytes do not depend on the thread count.
 
-use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
@@ -128,16 +127,105 @@ fn entry_point(i: u64, shift: [f64; 2], tile: [f64; 2]) -> [f64; 2] {
     [f(0) * tile[0], f(1) * tile[1]]
 }
 
-/// Sums of one block of trees for one cell, sparse.
+/// Sums of one block of trees for one cell, sparse and sorted by key.
 #[derive(Default)]
 struct BlockCell {
     trees: u64,
-    keys: HashMap<u32, (f64, f64, u64)>,
-    global: HashMap<u32, [Field; 2]>,
+    /// `(key, sum, sum of squares, count)`.
+    entries: Vec<(u32, f64, f64, u64)>,
+    global: Vec<(u32, [Field; 2])>,
     r: (f64, f64),
     t: (f64, f64),
     absorbed: f64,
     dropped: f64,
+}
+
+/// Per-thread dense accumulators with touched lists: no allocation and no hashing per
+/// tree.
+struct Dense {
+    nkeys: usize,
+    /// One tree's deposits per key (combined before squaring), and whether touched.
+    tree: Vec<(f64, bool)>,
+    tree_touched: Vec<u32>,
+    /// The block's sums per (wavelength, key).
+    block: Vec<(f64, f64, u64)>,
+    block_touched: Vec<u32>,
+    glob: Vec<([Field; 2], bool)>,
+    glob_touched: Vec<u32>,
+}
+
+impl Dense {
+    fn new(nl: usize, nkeys: usize, global: bool) -> Dense {
+        Dense {
+            nkeys,
+            tree: vec![(0.0, false); nkeys],
+            tree_touched: Vec::new(),
+            block: vec![(0.0, 0.0, 0); nl * nkeys],
+            block_touched: Vec::new(),
+            glob: if global { vec![([[C64::new(0.0, 0.0); 3]; 2], false); nl * nkeys] } else { Vec::new() },
+            glob_touched: Vec::new(),
+        }
+    }
+
+    /// Adds one tree's deposits at wavelength `j`; returns its (R, T) totals.
+    fn add_tree(&mut self, j: usize, deps: &[(u32, f64)], glob: &[(u32, [Field; 2])]) -> (f64, f64) {
+        for &(k, v) in deps {
+            let e = &mut self.tree[k as usize];
+            if !e.1 {
+                e.1 = true;
+                self.tree_touched.push(k);
+            }
+            e.0 += v;
+        }
+        let (mut r, mut t) = (0.0, 0.0);
+        // Each touched key holds one tree's value; the order of keys does not matter.
+        for &k in &self.tree_touched {
+            let v = std::mem::take(&mut self.tree[k as usize]).0;
+            if k & 1 == 0 {
+                r += v;
+            } else {
+                t += v;
+            }
+            let idx = j * self.nkeys + k as usize;
+            let e = &mut self.block[idx];
+            if e.2 == 0 {
+                self.block_touched.push(idx as u32);
+            }
+            e.0 += v;
+            e.1 += v * v;
+            e.2 += 1;
+        }
+        self.tree_touched.clear();
+        for (k, a) in glob {
+            let idx = j * self.nkeys + *k as usize;
+            let e = &mut self.glob[idx];
+            if !e.1 {
+                e.1 = true;
+                self.glob_touched.push(idx as u32);
+            }
+            add_fields(&mut e.0, a);
+        }
+        (r, t)
+    }
+
+    /// Moves the block's sums into `out` (one `BlockCell` per wavelength), sorted by key,
+    /// and clears the dense arrays.
+    fn drain(&mut self, out: &mut [BlockCell]) {
+        self.block_touched.sort_unstable();
+        for &idx in &self.block_touched {
+            let (j, k) = (idx as usize / self.nkeys, idx as usize % self.nkeys);
+            let e = std::mem::take(&mut self.block[idx as usize]);
+            out[j].entries.push((k as u32, e.0, e.1, e.2));
+        }
+        self.block_touched.clear();
+        self.glob_touched.sort_unstable();
+        for &idx in &self.glob_touched {
+            let (j, k) = (idx as usize / self.nkeys, idx as usize % self.nkeys);
+            let (a, _) = std::mem::replace(&mut self.glob[idx as usize], ([[C64::new(0.0, 0.0); 3]; 2], false));
+            out[j].global.push((k as u32, a));
+        }
+        self.glob_touched.clear();
+    }
 }
 
 /// Runs the simulation. `progress` receives the number of trees finished so far.
@@ -239,9 +327,10 @@ pub fn simulate(
                         Scratch::default(),
                         Vec::new(),
                         Vec::new(),
+                        Dense::new(nl, 2 * cfg.buckets.len(), global),
                     )
                 },
-                |(stack, tree, scratch, deps, glob), b| {
+                |(stack, tree, scratch, deps, glob, dense), b| {
                     let mut out: Vec<BlockCell> = (0..nl).map(|_| BlockCell::default()).collect();
                     let lo = b * BLOCK;
                     let hi = (lo + BLOCK).min(cfg.rays);
@@ -251,66 +340,46 @@ pub fn simulate(
                         let origin = [xy[0], xy[1], scene.z_top];
                         // Stratified jitter: tree i takes stratum i of N in every bin.
                         let lambda_of = |j: usize, u: f64| match &cfg.wavelengths {
-                            Wavelengths::Bins(e) => {
-                                e[j] + (e[j + 1] - e[j]) * ((i as f64 + u) / cfg.rays as f64)
-                            }
+                            Wavelengths::Bins(e) => e[j] + (e[j + 1] - e[j]) * ((i as f64 + u) / cfg.rays as f64),
                             Wavelengths::Monochromatic(v) => v[j],
                         };
                         let jitter: Vec<f64> = (0..nl).map(|_| rng.uniform()).collect();
                         let world_origin = add(origin, cfg.origin_nm);
-                        let to_world = |tree: &mut Tree| {
+                        let traced = |tree: &mut Tree, scratch: &mut Scratch| {
                             for x in &mut tree.exits {
                                 x.x = add(x.x, cfg.origin_nm);
                             }
-                        };
-                        if sharing {
-                            scene.trace(
-                                origin,
-                                d,
-                                e0,
-                                &fixed_indices,
-                                lambda_max,
-                                &cfg.limits,
-                                stack,
-                                tree,
-                            );
-                            to_world(tree);
+                            est.prepare(tree, scratch);
                             segments.fetch_add(u64::from(tree.segments), Ordering::Relaxed);
                             leaks.fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
                             traces.fetch_add(1, Ordering::Relaxed);
+                        };
+                        if sharing {
+                            scene.trace(origin, d, e0, &fixed_indices, lambda_max, &cfg.limits, stack, tree);
+                            traced(tree, scratch);
                         }
                         for (j, cell) in out.iter_mut().enumerate() {
                             let lambda = lambda_of(j, jitter[j]);
                             if !sharing {
-                                scene.trace(
-                                    origin,
-                                    d,
-                                    e0,
-                                    &index_at(lambda),
-                                    lambda,
-                                    &cfg.limits,
-                                    stack,
-                                    tree,
-                                );
-                                to_world(tree);
-                                segments.fetch_add(u64::from(tree.segments), Ordering::Relaxed);
-                                leaks.fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
-                                traces.fetch_add(1, Ordering::Relaxed);
+                                scene.trace(origin, d, e0, &index_at(lambda), lambda, &cfg.limits, stack, tree);
+                                traced(tree, scratch);
                             }
                             deps.clear();
                             glob.clear();
                             let k = 2.0 * std::f64::consts::PI / lambda;
                             let entry_phase = k * n_up * dot(d, world_origin);
                             est.deposit(tree, lambda, entry_phase, scratch, deps, glob);
-                            add_tree(
-                                cell,
-                                deps,
-                                glob,
-                                tree.absorbed(lambda),
-                                tree.dropped(lambda),
-                            );
+                            let (r, t) = dense.add_tree(j, deps, glob);
+                            cell.trees += 1;
+                            cell.r.0 += r;
+                            cell.r.1 += r * r;
+                            cell.t.0 += t;
+                            cell.t.1 += t * t;
+                            cell.absorbed += tree.absorbed(lambda);
+                            cell.dropped += tree.dropped(lambda);
                         }
                     }
+                    dense.drain(&mut out);
                     let n = done.fetch_add(hi - lo, Ordering::Relaxed) + (hi - lo);
                     progress(n);
                     out
@@ -388,64 +457,13 @@ fn validate(cfg: &SimConfig) -> Result<(), SimError> {
     Ok(())
 }
 
-fn add_tree(
-    cell: &mut BlockCell,
-    deps: &mut [(u32, f64)],
-    glob: &[(u32, [Field; 2])],
-    absorbed: f64,
-    dropped: f64,
-) {
-    deps.sort_by_key(|d| d.0);
-    let (mut r, mut t) = (0.0, 0.0);
-    let mut i = 0;
-    while i < deps.len() {
-        let k = deps[i].0;
-        let mut v = 0.0;
-        while i < deps.len() && deps[i].0 == k {
-            v += deps[i].1;
-            i += 1;
-        }
-        let e = cell.keys.entry(k).or_insert((0.0, 0.0, 0));
-        e.0 += v;
-        e.1 += v * v;
-        e.2 += 1;
-        if k & 1 == 0 {
-            r += v;
-        } else {
-            t += v;
-        }
-    }
-    for (k, a) in glob {
-        let e = cell
-            .global
-            .entry(*k)
-            .or_insert([[C64::new(0.0, 0.0); 3]; 2]);
-        for p in 0..2 {
-            for c in 0..3 {
-                e[p][c] += a[p][c];
-            }
-        }
-    }
-    cell.trees += 1;
-    cell.r.0 += r;
-    cell.r.1 += r * r;
-    cell.t.0 += t;
-    cell.t.1 += t * t;
-    cell.absorbed += absorbed;
-    cell.dropped += dropped;
-}
-
 fn add_block(cell: &mut Cell, b: &BlockCell) {
-    let mut keys: Vec<(&u32, &(f64, f64, u64))> = b.keys.iter().collect();
-    keys.sort_by_key(|e| *e.0);
-    for (k, (s, q, n)) in keys {
-        cell.sum[*k as usize] += s;
-        cell.sumsq[*k as usize] += q;
-        cell.count[*k as usize] += n;
+    for &(k, sum, sq, n) in &b.entries {
+        cell.sum[k as usize] += sum;
+        cell.sumsq[k as usize] += sq;
+        cell.count[k as usize] += n;
     }
-    let mut g: Vec<(&u32, &[Field; 2])> = b.global.iter().collect();
-    g.sort_by_key(|e| *e.0);
-    for (k, a) in g {
+    for (k, a) in &b.global {
         add_fields(&mut cell.global[*k as usize], a);
     }
     cell.trees += b.trees;

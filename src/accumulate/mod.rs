@@ -79,76 +79,58 @@ pub struct Estimator {
 #[derive(Default)]
 pub struct Scratch {
     amp: Vec<[Field; 2]>,
-    pow: Vec<f64>,
-    keys: Vec<u32>,
     sums: Vec<(u32, [Field; 2])>,
+    /// The wavelength-independent part of the current tree (see [`Estimator::prepare`]).
+    prep: Prepared,
+}
+
+/// What the estimator needs of one tree, computed once and reused for every wavelength
+/// (spectral path sharing): bucket keys, powers, and for each interfering pair the
+/// Hermitian product of the fields and the geometric phase and overlap terms.
+#[derive(Default)]
+struct Prepared {
+    keys: Vec<u32>,
+    /// `(|E_0|^2 + |E_1|^2) / 2` without attenuation, and `Im(OPL)` (nm).
+    pow: Vec<f64>,
+    im: Vec<f64>,
+    pairs: Vec<Pair>,
+    absorbing: bool,
+}
+
+struct Pair {
+    j: u32,
+    l: u32,
+    /// `(E_j . conj E_l)` averaged over the two polarisations.
+    h: C64,
+    /// Optical path difference minus the exit-point term: `Re(OPL_j - OPL_l) - n0 wbar .
+    /// (x_j - x_l)`, nm; the pair's phase at wavelength lambda is `2 pi / lambda` times it.
+    delta_nm: f64,
+    /// Positional overlap `exp(-|dx_perp|^2 / (2 rho^2))`.
+    k_pos: f64,
+    /// `|w_j - w_l|^2`, for the directional overlap at each wavelength.
+    dw2: f64,
 }
 
 impl Estimator {
-    /// Deposits of one tree at `lambda_nm` into `out` as `(key, fraction of launched
-    /// power)`, several entries per key possible. For `Global` mode, fills `global` with
-    /// `(key, amplitude sum)` instead; `entry_phase` is the incident wave's phase at the
-    /// tree's launch point, `k n0 (d . x_entry)`.
-    pub fn deposit(
-        &self,
-        tree: &Tree,
-        lambda_nm: f64,
-        entry_phase: f64,
-        s: &mut Scratch,
-        out: &mut Vec<(u32, f64)>,
-        global: &mut Vec<(u32, [Field; 2])>,
-    ) {
-        let k = 2.0 * PI / lambda_nm;
-        s.amp.clear();
-        s.pow.clear();
-        s.keys.clear();
+    /// Prepares the wavelength-independent part of `tree` (call once per traced tree).
+    pub fn prepare(&self, tree: &Tree, s: &mut Scratch) {
+        let p = &mut s.prep;
+        p.keys.clear();
+        p.pow.clear();
+        p.im.clear();
+        p.pairs.clear();
+        p.absorbing = false;
         for x in &tree.exits {
-            let ph = C64::new(0.0, k) * x.opl; // i k OPL (complex OPL attenuates)
-            let f = ph.exp();
-            let a = [x.e[0].map(|c| c * f), x.e[1].map(|c| c * f)];
-            s.pow.push(0.5 * (field_power(&a[0]) + field_power(&a[1])));
-            s.keys.push(key(self.buckets.index(x.dir), !x.up));
-            s.amp.push(a);
+            p.keys.push(key(self.buckets.index(x.dir), !x.up));
+            p.pow.push(0.5 * (field_power(&x.e[0]) + field_power(&x.e[1])));
+            p.im.push(x.opl.im);
+            p.absorbing |= x.opl.im != 0.0;
         }
-        match self.mode {
-            Coherence::Beamlet => self.beamlet(tree, k, lambda_nm, s, out),
-            Coherence::Bucket => {
-                // Gondek et al. / the seed: phases relative to a plane through the global
-                // origin perpendicular to each exit direction, `exp(-i k n0 w . x)` with
-                // absolute exit points, summed per bucket.
-                s.sums.clear();
-                for (j, a) in s.amp.iter().enumerate() {
-                    let x = &tree.exits[j];
-                    let n0 = if x.up { self.n_up } else { self.n_down };
-                    let f = C64::from_polar(1.0, -k * n0 * dot(x.dir, x.x));
-                    let a = [a[0].map(|c| c * f), a[1].map(|c| c * f)];
-                    match s.sums.iter_mut().find(|(kk, _)| *kk == s.keys[j]) {
-                        Some((_, acc)) => add_fields(acc, &a),
-                        None => s.sums.push((s.keys[j], a)),
-                    }
-                }
-                for (kk, a) in &s.sums {
-                    out.push((*kk, 0.5 * (field_power(&a[0]) + field_power(&a[1]))));
-                }
-            }
-            Coherence::Global => {
-                for (j, x) in tree.exits.iter().enumerate() {
-                    let n0 = if x.up { self.n_up } else { self.n_down };
-                    let f = C64::from_polar(1.0, entry_phase - k * n0 * dot(x.dir, x.x));
-                    let a = [s.amp[j][0].map(|c| c * f), s.amp[j][1].map(|c| c * f)];
-                    global.push((s.keys[j], a));
-                }
-            }
+        if self.mode != Coherence::Beamlet {
+            return;
         }
-    }
-
-    fn beamlet(&self, tree: &Tree, k: f64, lambda_nm: f64, s: &Scratch, out: &mut Vec<(u32, f64)>) {
         let ex = &tree.exits;
-        for j in 0..ex.len() {
-            out.push((s.keys[j], s.pow[j]));
-        }
         let plane_wave = self.rho_nm.is_infinite();
-        let theta_w = lambda_nm / (PI * self.rho_nm);
         for j in 0..ex.len() {
             for l in j + 1..ex.len() {
                 if ex[j].up != ex[l].up {
@@ -162,36 +144,111 @@ impl Estimator {
                     ex[j].dir[1] + ex[l].dir[1],
                     ex[j].dir[2] + ex[l].dir[2],
                 ]);
-                let kernel = if plane_wave {
+                let k_pos = if plane_wave {
                     if dw2.sqrt() > 1e-9 {
                         continue;
                     }
                     1.0
                 } else {
-                    let kd = (-dw2 / (2.0 * theta_w * theta_w)).exp();
-                    if kd < 1e-12 {
-                        continue;
-                    }
                     let along = dot(dx, wbar);
-                    let perp = [
-                        dx[0] - along * wbar[0],
-                        dx[1] - along * wbar[1],
-                        dx[2] - along * wbar[2],
-                    ];
-                    let p2 = dot(perp, perp);
-                    kd * (-p2 / (2.0 * self.rho_nm * self.rho_nm)).exp()
+                    let perp = [dx[0] - along * wbar[0], dx[1] - along * wbar[1], dx[2] - along * wbar[2]];
+                    (-dot(perp, perp) / (2.0 * self.rho_nm * self.rho_nm)).exp()
                 };
+                let h = 0.5 * (hermitian(&ex[j].e[0], &ex[l].e[0]) + hermitian(&ex[j].e[1], &ex[l].e[1]));
+                // Pairs that cannot contribute at any wavelength are skipped: |c| <= 2|h| K.
+                if 2.0 * h.norm() * k_pos < 1e-15 {
+                    continue;
+                }
                 let n0 = if ex[j].up { self.n_up } else { self.n_down };
-                let phase = C64::from_polar(1.0, -k * n0 * dot(wbar, dx));
-                let h = 0.5
-                    * (hermitian(&s.amp[j][0], &s.amp[l][0])
-                        + hermitian(&s.amp[j][1], &s.amp[l][1]));
-                let c = 2.0 * (h * phase).re * kernel;
-                let (pj, pl) = (s.pow[j], s.pow[l]);
+                p.pairs.push(Pair {
+                    j: j as u32,
+                    l: l as u32,
+                    h,
+                    delta_nm: (ex[j].opl.re - ex[l].opl.re) - n0 * dot(wbar, dx),
+                    k_pos,
+                    dw2: if plane_wave { 0.0 } else { dw2 },
+                });
+            }
+        }
+    }
+
+    /// Deposits of the prepared tree at `lambda_nm` into `out` as `(key, fraction of
+    /// launched power)`, several entries per key possible. For `Global` mode, fills
+    /// `global` with `(key, amplitude)` instead; `entry_phase` is the incident wave's phase
+    /// at the tree's launch point, `k n0 (d . x_entry)`.
+    pub fn deposit(
+        &self,
+        tree: &Tree,
+        lambda_nm: f64,
+        entry_phase: f64,
+        s: &mut Scratch,
+        out: &mut Vec<(u32, f64)>,
+        global: &mut Vec<(u32, [Field; 2])>,
+    ) {
+        let k = 2.0 * PI / lambda_nm;
+        let p = &s.prep;
+        debug_assert_eq!(p.keys.len(), tree.exits.len(), "prepare() the tree first");
+        if self.mode == Coherence::Beamlet {
+            // |a_j|^2 = P_j exp(-2 k Im OPL_j); c_jl = 2 Re(h e^{i k delta}) K e^{-k (Im_j + Im_l)}.
+            let att = |j: usize| if p.absorbing { (-2.0 * k * p.im[j]).exp() } else { 1.0 };
+            for j in 0..p.keys.len() {
+                out.push((p.keys[j], p.pow[j] * att(j)));
+            }
+            let theta_w2 = (lambda_nm / (PI * self.rho_nm)).powi(2);
+            for pr in &p.pairs {
+                let (j, l) = (pr.j as usize, pr.l as usize);
+                let mut kernel = pr.k_pos;
+                if pr.dw2 > 0.0 {
+                    kernel *= (-pr.dw2 / (2.0 * theta_w2)).exp();
+                }
+                let (sn, cs) = (k * pr.delta_nm).sin_cos();
+                let mut c = 2.0 * (pr.h.re * cs - pr.h.im * sn) * kernel;
+                let (mut pj, mut pl) = (p.pow[j], p.pow[l]);
+                if p.absorbing {
+                    c *= (-k * (p.im[j] + p.im[l])).exp();
+                    pj *= att(j);
+                    pl *= att(l);
+                }
                 let tot = pj + pl;
                 if tot > 0.0 {
-                    out.push((s.keys[j], c * pj / tot));
-                    out.push((s.keys[l], c * pl / tot));
+                    out.push((p.keys[j], c * pj / tot));
+                    out.push((p.keys[l], c * pl / tot));
+                }
+            }
+            return;
+        }
+        s.amp.clear();
+        for x in &tree.exits {
+            let f = (C64::new(0.0, k) * x.opl).exp(); // i k OPL (complex OPL attenuates)
+            s.amp.push([x.e[0].map(|c| c * f), x.e[1].map(|c| c * f)]);
+        }
+        match self.mode {
+            Coherence::Beamlet => unreachable!("handled above"),
+            Coherence::Bucket => {
+                // Gondek et al. / the seed: phases relative to a plane through the global
+                // origin perpendicular to each exit direction, `exp(-i k n0 w . x)` with
+                // absolute exit points, summed per bucket.
+                s.sums.clear();
+                for (j, a) in s.amp.iter().enumerate() {
+                    let x = &tree.exits[j];
+                    let n0 = if x.up { self.n_up } else { self.n_down };
+                    let f = C64::from_polar(1.0, -k * n0 * dot(x.dir, x.x));
+                    let a = [a[0].map(|c| c * f), a[1].map(|c| c * f)];
+                    match s.sums.iter_mut().find(|(kk, _)| *kk == p.keys[j]) {
+                        Some((_, acc)) => add_fields(acc, &a),
+                        None => s.sums.push((p.keys[j], a)),
+                    }
+                }
+                for (kk, a) in &s.sums {
+                    out.push((*kk, 0.5 * (field_power(&a[0]) + field_power(&a[1]))));
+                }
+            }
+            Coherence::Global => {
+                for (j, x) in tree.exits.iter().enumerate() {
+                    let n0 = if x.up { self.n_up } else { self.n_down };
+                    let f = C64::from_polar(1.0, entry_phase - k * n0 * dot(x.dir, x.x));
+                    let a = [s.amp[j][0].map(|c| c * f), s.amp[j][1].map(|c| c * f)];
+                    global.push((p.keys[j], a));
                 }
             }
         }
