@@ -298,7 +298,10 @@ pub fn simulate_bench(
         let t0 = Instant::now();
         trace_all(&accel, &rays, &mut hits);
         let raw = rays.len() as f64 / t0.elapsed().as_secs_f64();
-        log(&format!("{backend} raw intersector: {:.2} Mrays/s (random rays)", raw / 1e6));
+        log(&format!(
+            "{backend} raw intersector: {:.2} Mrays/s (random rays)",
+            raw / 1e6
+        ));
         for sharing in [true, false] {
             let mut c = base.clone();
             c.backend = backend;
@@ -325,7 +328,10 @@ pub fn simulate_bench(
         }
     }
     if shared_time.len() == 2 {
-        log(&format!("obvhs/embree end-to-end time: {:.2}", shared_time[1] / shared_time[0]));
+        log(&format!(
+            "obvhs/embree end-to-end time: {:.2}",
+            shared_time[1] / shared_time[0]
+        ));
     }
 
     // The flat-film goal: 40 bins x 10 incident angles, error against the TMM, at the
@@ -348,7 +354,15 @@ pub fn simulate_bench(
         .iter()
         .map(|th| {
             (0..40)
-                .map(|j| crate::optics::tmm::solve_band(stack_at, edges[j], edges[j + 1], th.to_radians()).r())
+                .map(|j| {
+                    crate::optics::tmm::solve_band(
+                        stack_at,
+                        edges[j],
+                        edges[j + 1],
+                        th.to_radians(),
+                    )
+                    .r()
+                })
                 .collect()
         })
         .collect();

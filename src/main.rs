@@ -749,10 +749,15 @@ fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
         rays: a.rays,
         theta_i_deg: a.theta_i,
         bins: (0..=40).map(|i| 380.0 + 10.0 * i as f64).collect(),
-        backends: Backend::ALL.into_iter().filter(|b| b.is_available()).collect(),
+        backends: Backend::ALL
+            .into_iter()
+            .filter(|b| b.is_available())
+            .collect(),
         seed: 1,
     };
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(a.threads).build()?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads)
+        .build()?;
     pool.install(|| bench::simulate_bench(&s, &flat, &cfg, |l| println!("{l}")))?;
     Ok(ExitCode::SUCCESS)
 }

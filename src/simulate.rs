@@ -162,13 +162,22 @@ impl Dense {
             tree_touched: Vec::new(),
             block: vec![(0.0, 0.0, 0); nl * nkeys],
             block_touched: Vec::new(),
-            glob: if global { vec![([[C64::new(0.0, 0.0); 3]; 2], false); nl * nkeys] } else { Vec::new() },
+            glob: if global {
+                vec![([[C64::new(0.0, 0.0); 3]; 2], false); nl * nkeys]
+            } else {
+                Vec::new()
+            },
             glob_touched: Vec::new(),
         }
     }
 
     /// Adds one tree's deposits at wavelength `j`; returns its (R, T) totals.
-    fn add_tree(&mut self, j: usize, deps: &[(u32, f64)], glob: &[(u32, [Field; 2])]) -> (f64, f64) {
+    fn add_tree(
+        &mut self,
+        j: usize,
+        deps: &[(u32, f64)],
+        glob: &[(u32, [Field; 2])],
+    ) -> (f64, f64) {
         for &(k, v) in deps {
             let e = &mut self.tree[k as usize];
             if !e.1 {
@@ -221,7 +230,10 @@ impl Dense {
         self.glob_touched.sort_unstable();
         for &idx in &self.glob_touched {
             let (j, k) = (idx as usize / self.nkeys, idx as usize % self.nkeys);
-            let (a, _) = std::mem::replace(&mut self.glob[idx as usize], ([[C64::new(0.0, 0.0); 3]; 2], false));
+            let (a, _) = std::mem::replace(
+                &mut self.glob[idx as usize],
+                ([[C64::new(0.0, 0.0); 3]; 2], false),
+            );
             out[j].global.push((k as u32, a));
         }
         self.glob_touched.clear();
@@ -340,7 +352,9 @@ pub fn simulate(
                         let origin = [xy[0], xy[1], scene.z_top];
                         // Stratified jitter: tree i takes stratum i of N in every bin.
                         let lambda_of = |j: usize, u: f64| match &cfg.wavelengths {
-                            Wavelengths::Bins(e) => e[j] + (e[j + 1] - e[j]) * ((i as f64 + u) / cfg.rays as f64),
+                            Wavelengths::Bins(e) => {
+                                e[j] + (e[j + 1] - e[j]) * ((i as f64 + u) / cfg.rays as f64)
+                            }
                             Wavelengths::Monochromatic(v) => v[j],
                         };
                         let jitter: Vec<f64> = (0..nl).map(|_| rng.uniform()).collect();
@@ -355,13 +369,31 @@ pub fn simulate(
                             traces.fetch_add(1, Ordering::Relaxed);
                         };
                         if sharing {
-                            scene.trace(origin, d, e0, &fixed_indices, lambda_max, &cfg.limits, stack, tree);
+                            scene.trace(
+                                origin,
+                                d,
+                                e0,
+                                &fixed_indices,
+                                lambda_max,
+                                &cfg.limits,
+                                stack,
+                                tree,
+                            );
                             traced(tree, scratch);
                         }
                         for (j, cell) in out.iter_mut().enumerate() {
                             let lambda = lambda_of(j, jitter[j]);
                             if !sharing {
-                                scene.trace(origin, d, e0, &index_at(lambda), lambda, &cfg.limits, stack, tree);
+                                scene.trace(
+                                    origin,
+                                    d,
+                                    e0,
+                                    &index_at(lambda),
+                                    lambda,
+                                    &cfg.limits,
+                                    stack,
+                                    tree,
+                                );
                                 traced(tree, scratch);
                             }
                             deps.clear();

@@ -175,7 +175,16 @@ fn simulate_reflectance_merge_and_analytic_work_together() {
     let a = d.join("a.gsa");
     let b = d.join("b.gsa");
     let m = d.join("m.gsa");
-    let common = ["simulate", "meshes/flat-soap-film.toml", "--theta-i", "0,30", "--wavelengths", "400:700:100", "--rays", "64"];
+    let common = [
+        "simulate",
+        "meshes/flat-soap-film.toml",
+        "--theta-i",
+        "0,30",
+        "--wavelengths",
+        "400:700:100",
+        "--rays",
+        "64",
+    ];
     let mut args: Vec<&str> = common.to_vec();
     args.extend(["-o", a.to_str().unwrap()]);
     let (code, out, err) = goniospec(&args);
@@ -184,16 +193,32 @@ fn simulate_reflectance_merge_and_analytic_work_together() {
     let mut args: Vec<&str> = common.to_vec();
     args.extend(["--seed", "2", "-o", b.to_str().unwrap()]);
     assert_eq!(goniospec(&args).0, 0);
-    let (code, out, err) = goniospec(&["merge", a.to_str().unwrap(), b.to_str().unwrap(), "-o", m.to_str().unwrap()]);
+    let (code, out, err) = goniospec(&[
+        "merge",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "-o",
+        m.to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("2 runs, 128 rays"), "{out}");
 
     let (code, csv, err) = goniospec(&["reflectance", m.to_str().unwrap(), "--theta-i", "30"]);
     assert_eq!(code, 0, "{err}");
-    let (code, tmm, err) = goniospec(&["analytic", "meshes/flat-soap-film.toml", "--theta-i", "30", "--wavelengths", "400:700:100"]);
+    let (code, tmm, err) = goniospec(&[
+        "analytic",
+        "meshes/flat-soap-film.toml",
+        "--theta-i",
+        "30",
+        "--wavelengths",
+        "400:700:100",
+    ]);
     assert_eq!(code, 0, "{err}");
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("lambda_nm,R,T,absorbed,dropped,R_stderr"));
+    assert_eq!(
+        lines.next(),
+        Some("lambda_nm,R,T,absorbed,dropped,R_stderr")
+    );
     let mut tl = tmm.lines();
     assert_eq!(tl.next(), Some("lambda_nm,Rs,Rp,R,Ts,Tp,T"));
     let mut n = 0;
@@ -211,21 +236,42 @@ fn simulate_reflectance_merge_and_analytic_work_together() {
     let (code, _, err) = goniospec(&["reflectance", m.to_str().unwrap(), "--theta-i", "45"]);
     assert_eq!(code, 1);
     assert!(err.contains("no incident angle 45 deg"), "{err}");
-    let (code, _, err) = goniospec(&["merge", a.to_str().unwrap(), a.to_str().unwrap(), "-o", m.to_str().unwrap()]);
+    let (code, _, err) = goniospec(&[
+        "merge",
+        a.to_str().unwrap(),
+        a.to_str().unwrap(),
+        "-o",
+        m.to_str().unwrap(),
+    ]);
     assert_eq!(code, 1);
     assert!(err.contains("seed 1"), "{err}");
     let mut bytes = std::fs::read(&a).unwrap();
     bytes.truncate(bytes.len() / 2);
     std::fs::write(d.join("cut.gsa"), bytes).unwrap();
-    let (code, _, err) = goniospec(&["reflectance", d.join("cut.gsa").to_str().unwrap(), "--theta-i", "0"]);
+    let (code, _, err) = goniospec(&[
+        "reflectance",
+        d.join("cut.gsa").to_str().unwrap(),
+        "--theta-i",
+        "0",
+    ]);
     assert_eq!(code, 1);
     assert!(err.contains("truncated"), "{err}");
     let (code, _, err) = goniospec(&["analytic", "meshes/rough-gold.toml", "--theta-i", "0"]);
     assert_eq!(code, 1);
     assert!(err.contains("not written as a [stack]"), "{err}");
-    let (code, _, err) = goniospec(&["simulate", "meshes/rough-gold.toml", "--wavelengths", "100:200:50", "-o", m.to_str().unwrap()]);
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        "meshes/rough-gold.toml",
+        "--wavelengths",
+        "100:200:50",
+        "-o",
+        m.to_str().unwrap(),
+    ]);
     assert_eq!(code, 1);
-    assert!(err.contains("medium 'gold'") && err.contains("outside the range"), "{err}");
+    assert!(
+        err.contains("medium 'gold'") && err.contains("outside the range"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -235,8 +281,18 @@ fn simulate_output_does_not_depend_on_threads() {
     let run = |t: &str, name: &str| {
         let p = d.join(name);
         let (code, _, err) = goniospec(&[
-            "simulate", "meshes/thin-film-600nm.toml", "--theta-i", "20", "--wavelengths", "400:700:50", "--rays", "300",
-            "--threads", t, "-o", p.to_str().unwrap(),
+            "simulate",
+            "meshes/thin-film-600nm.toml",
+            "--theta-i",
+            "20",
+            "--wavelengths",
+            "400:700:50",
+            "--rays",
+            "300",
+            "--threads",
+            t,
+            "-o",
+            p.to_str().unwrap(),
         ]);
         assert_eq!(code, 0, "{err}");
         std::fs::read(p).unwrap()

@@ -122,7 +122,8 @@ impl Estimator {
         p.absorbing = false;
         for x in &tree.exits {
             p.keys.push(key(self.buckets.index(x.dir), !x.up));
-            p.pow.push(0.5 * (field_power(&x.e[0]) + field_power(&x.e[1])));
+            p.pow
+                .push(0.5 * (field_power(&x.e[0]) + field_power(&x.e[1])));
             p.im.push(x.opl.im);
             p.absorbing |= x.opl.im != 0.0;
         }
@@ -151,10 +152,15 @@ impl Estimator {
                     1.0
                 } else {
                     let along = dot(dx, wbar);
-                    let perp = [dx[0] - along * wbar[0], dx[1] - along * wbar[1], dx[2] - along * wbar[2]];
+                    let perp = [
+                        dx[0] - along * wbar[0],
+                        dx[1] - along * wbar[1],
+                        dx[2] - along * wbar[2],
+                    ];
                     (-dot(perp, perp) / (2.0 * self.rho_nm * self.rho_nm)).exp()
                 };
-                let h = 0.5 * (hermitian(&ex[j].e[0], &ex[l].e[0]) + hermitian(&ex[j].e[1], &ex[l].e[1]));
+                let h = 0.5
+                    * (hermitian(&ex[j].e[0], &ex[l].e[0]) + hermitian(&ex[j].e[1], &ex[l].e[1]));
                 // Pairs that cannot contribute at any wavelength are skipped: |c| <= 2|h| K.
                 if 2.0 * h.norm() * k_pos < 1e-15 {
                     continue;
@@ -190,7 +196,13 @@ impl Estimator {
         debug_assert_eq!(p.keys.len(), tree.exits.len(), "prepare() the tree first");
         if self.mode == Coherence::Beamlet {
             // |a_j|^2 = P_j exp(-2 k Im OPL_j); c_jl = 2 Re(h e^{i k delta}) K e^{-k (Im_j + Im_l)}.
-            let att = |j: usize| if p.absorbing { (-2.0 * k * p.im[j]).exp() } else { 1.0 };
+            let att = |j: usize| {
+                if p.absorbing {
+                    (-2.0 * k * p.im[j]).exp()
+                } else {
+                    1.0
+                }
+            };
             for j in 0..p.keys.len() {
                 out.push((p.keys[j], p.pow[j] * att(j)));
             }
