@@ -7,6 +7,7 @@
 pub mod accel;
 pub mod accumulate;
 pub mod bench;
+pub mod brdf;
 pub mod io;
 pub mod optics;
 pub mod rng;

@@ -63,6 +63,15 @@ enum Command {
     /// Print the analytic transfer-matrix R and T of a [stack] sample as CSV:
     /// lambda_nm,Rs,Rp,R,Ts,Tp,T (bin-averaged for wavelength bins).
     Analytic(AnalyticArgs),
+    /// Build a queryable BRDF (.gsb) from an accumulator: the seed's 4-D spherical
+    /// kd-tree, Gondek's adaptively subdivided hemisphere, or a dense table.
+    Build(BuildArgs),
+    /// Evaluate a built BRDF: CSV lambda_nm,brdf for one direction pair, or
+    /// pair,lambda_nm,brdf for the pairs of --pairs FILE.csv (columns theta_i,phi_i,
+    /// theta_o,phi_o in degrees).
+    Eval(EvalArgs),
+    /// Describe a .gsa or .gsb file.
+    Info(InfoArgs),
     /// Generate a periodic microgeometry mesh and write it as an OBJ.
     ///
     /// Kinds and their parameters (lengths in --unit):
@@ -267,6 +276,66 @@ struct AnalyticArgs {
     wavelengths: WavelengthArgs,
 }
 
+fn parse_repr(s: &str) -> Result<String, String> {
+    match s {
+        "kdtree" | "subdivided" | "table" => Ok(s.to_string()),
+        _ => Err(format!(
+            "unknown representation '{s}' (kdtree, subdivided or table)"
+        )),
+    }
+}
+
+#[derive(Args)]
+struct BuildArgs {
+    /// The accumulator (.gsa).
+    input: PathBuf,
+    /// Representation: kdtree, subdivided or table.
+    #[arg(long, default_value = "kdtree", value_parser = parse_repr)]
+    repr: String,
+    /// Output BRDF (.gsb), written atomically.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// kd-tree: neighbours blended per query.
+    #[arg(long, default_value_t = 4)]
+    k: usize,
+    /// Subdivided: relative RMS deviation above which a cell splits.
+    #[arg(long, default_value_t = 0.05)]
+    tolerance: f64,
+    /// kd-tree: keep absolute azimuths instead of reducing to phi_o - phi_i.
+    #[arg(long)]
+    anisotropic: bool,
+    /// kd-tree: also enter each bucket as its reciprocal pair (wo, wi).
+    #[arg(long)]
+    reciprocal: bool,
+}
+
+#[derive(Args)]
+struct EvalArgs {
+    /// A built BRDF (.gsb).
+    file: PathBuf,
+    /// Incident polar angle, degrees.
+    #[arg(long, required_unless_present = "pairs")]
+    theta_i: Option<f64>,
+    /// Incident azimuth, degrees.
+    #[arg(long, default_value_t = 0.0)]
+    phi_i: f64,
+    /// Outgoing polar angle, degrees.
+    #[arg(long, required_unless_present = "pairs")]
+    theta_o: Option<f64>,
+    /// Outgoing azimuth, degrees.
+    #[arg(long, default_value_t = 180.0)]
+    phi_o: f64,
+    /// CSV of pairs with the header theta_i,phi_i,theta_o,phi_o (degrees).
+    #[arg(long)]
+    pairs: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct InfoArgs {
+    /// A .gsa or .gsb file.
+    file: PathBuf,
+}
+
 #[derive(Args)]
 struct GenerateArgs {
     /// Generator kind (see above).
@@ -297,6 +366,21 @@ enum BenchCommand {
     /// raw intersector, path sharing on against off, Embree against obvhs; and the wall
     /// time and TMM error of a flat film at 40 bins x 10 incident angles.
     Simulate(SimBenchArgs),
+    /// BRDF representations: query time (median, p99), memory and build time at 10^4,
+    /// 10^5 and 10^6 buckets of a smooth analytic BRDF with its accuracy; the kd-tree
+    /// against brute-force search; and accuracy on a rough simulated sample against a
+    /// high-sample dense table.
+    Eval(EvalBenchArgs),
+}
+
+#[derive(Args)]
+struct EvalBenchArgs {
+    /// Rough sample for the accuracy comparison.
+    #[arg(default_value = "meshes/rough-glass.toml")]
+    sample: PathBuf,
+    /// Rays of the low- and high-sample simulations.
+    #[arg(long, value_delimiter = ',', default_values_t = [4000u64, 40000])]
+    rays: Vec<u64>,
 }
 
 #[derive(Args)]
@@ -375,9 +459,13 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Merge(a) => merge(a),
         Command::Reflectance(a) => reflectance(a),
         Command::Analytic(a) => analytic(a),
+        Command::Build(a) => build(a),
+        Command::Eval(a) => eval(a),
+        Command::Info(a) => info(a),
         Command::Generate(a) => generate(a),
         Command::Bench(BenchCommand::Trace(a)) => bench_trace(a),
         Command::Bench(BenchCommand::Simulate(a)) => bench_simulate(a),
+        Command::Bench(BenchCommand::Eval(a)) => bench_eval(a),
     }
 }
 
@@ -641,6 +729,205 @@ fn analytic(a: AnalyticArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+fn build(a: BuildArgs) -> Result<ExitCode> {
+    use goniospec::brdf::{self, BucketData, Representation};
+    let acc = Accumulator::read(&a.input)?;
+    let data = BucketData::from_accumulator(&acc);
+    let t0 = std::time::Instant::now();
+    let r = match a.repr.as_str() {
+        "kdtree" => {
+            if a.k == 0 {
+                bail!("--k must be at least 1");
+            }
+            Representation::KdTree(brdf::kdtree::KdTreeBrdf::build(
+                &data,
+                a.k,
+                !a.anisotropic,
+                a.reciprocal,
+            ))
+        }
+        "subdivided" => {
+            if !(a.tolerance > 0.0 && a.tolerance.is_finite()) {
+                bail!("--tolerance must be positive");
+            }
+            Representation::Subdivided(brdf::subdivided::SubdividedBrdf::build(&data, a.tolerance))
+        }
+        _ => Representation::Table(brdf::table::TableBrdf::build(&data)),
+    };
+    let built = t0.elapsed().as_secs_f64();
+    brdf::file::write(&r, &a.output).with_context(|| format!("writing {}", a.output.display()))?;
+    println!(
+        "wrote {} ({} representation, built in {built:.3} s)",
+        a.output.display(),
+        a.repr
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn eval(a: EvalArgs) -> Result<ExitCode> {
+    use goniospec::brdf::{self, Brdf};
+    let r = brdf::file::read(&a.file)?;
+    let lambdas = r.meta().wavelengths_nm.clone();
+    let d = |t: f64, p: f64| -> Result<[f64; 3]> {
+        if !(0.0..=90.0).contains(&t) {
+            bail!("polar angles must be in [0, 90] degrees, got {t}");
+        }
+        Ok(brdf::dir(t.to_radians(), p.to_radians()))
+    };
+    let mut out = vec![0.0; lambdas.len()];
+    match &a.pairs {
+        None => {
+            let wi = d(a.theta_i.expect("clap requires it"), a.phi_i)?;
+            let wo = d(a.theta_o.expect("clap requires it"), a.phi_o)?;
+            r.eval(wi, wo, &mut out);
+            println!("lambda_nm,brdf");
+            for (l, v) in lambdas.iter().zip(&out) {
+                println!("{l},{v:.8e}");
+            }
+        }
+        Some(p) => {
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            let mut lines = text
+                .lines()
+                .enumerate()
+                .filter(|(_, l)| !l.trim().is_empty());
+            match lines.next() {
+                Some((_, h)) if h.replace(' ', "") == "theta_i,phi_i,theta_o,phi_o" => {}
+                _ => bail!(
+                    "{}: the first line must be the header theta_i,phi_i,theta_o,phi_o",
+                    p.display()
+                ),
+            }
+            let mut pairs = Vec::new();
+            for (i, l) in lines {
+                let v: Vec<f64> = l
+                    .split(',')
+                    .map(|x| x.trim().parse::<f64>())
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| {
+                        anyhow::anyhow!("{}:{}: not four numbers: '{l}'", p.display(), i + 1)
+                    })?;
+                if v.len() != 4 {
+                    bail!(
+                        "{}:{}: expected 4 columns, found {}",
+                        p.display(),
+                        i + 1,
+                        v.len()
+                    );
+                }
+                pairs.push((
+                    d(v[0], v[1]).with_context(|| format!("{}:{}", p.display(), i + 1))?,
+                    d(v[2], v[3]).with_context(|| format!("{}:{}", p.display(), i + 1))?,
+                ));
+            }
+            let mut all = vec![0.0; pairs.len() * lambdas.len()];
+            r.eval_batch(&pairs, &mut all);
+            println!("pair,lambda_nm,brdf");
+            for (i, chunk) in all.chunks(lambdas.len()).enumerate() {
+                for (l, v) in lambdas.iter().zip(chunk) {
+                    println!("{i},{l},{v:.8e}");
+                }
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn info(a: InfoArgs) -> Result<ExitCode> {
+    use goniospec::brdf::{self, Brdf};
+    let head = {
+        use std::io::Read;
+        let mut f = std::fs::File::open(&a.file)
+            .with_context(|| format!("opening {}", a.file.display()))?;
+        let mut b = [0u8; 8];
+        f.read_exact(&mut b).ok();
+        b
+    };
+    if &head == goniospec::accumulate::file::MAGIC {
+        let acc = Accumulator::read(&a.file)?;
+        let h = &acc.header;
+        println!("{}: goniospec accumulator (.gsa)", a.file.display());
+        println!(
+            "sample: '{}' (hash {})",
+            h.settings.sample_name, h.settings.sample_hash
+        );
+        println!(
+            "incident angles (deg): {:?}, phi_i {} deg",
+            h.settings.theta_i_deg, h.settings.phi_i_deg
+        );
+        println!(
+            "wavelengths: {} {} ({}..{} nm)",
+            h.settings.wavelength_count(),
+            h.settings.wavelength_mode,
+            h.settings.wavelengths_nm.first().unwrap_or(&0.0),
+            h.settings.wavelengths_nm.last().unwrap_or(&0.0)
+        );
+        println!(
+            "estimator: {}, coherence radius {} nm, cutoff {:e}, max depth {}",
+            h.settings.coherence,
+            h.settings.coherence_radius_nm,
+            h.settings.cutoff,
+            h.settings.max_depth
+        );
+        println!(
+            "buckets: {} x {} per hemisphere",
+            h.settings.theta_o_bins, h.settings.phi_o_bins
+        );
+        println!(
+            "rays per direction: {} (seeds {:?}), backend {}, path sharing {}, leaks {}",
+            h.rays, h.seeds, h.backend, h.path_sharing, h.leaks
+        );
+    } else if &head == brdf::file::MAGIC {
+        let r = brdf::file::read(&a.file)?;
+        let m = r.meta();
+        println!(
+            "{}: goniospec BRDF (.gsb), representation {}",
+            a.file.display(),
+            m.repr
+        );
+        println!("sample: '{}' (hash {})", m.sample_name, m.sample_hash);
+        println!(
+            "wavelengths: {} ({}..{} nm)",
+            m.wavelengths_nm.len(),
+            m.wavelengths_nm.first().unwrap_or(&0.0),
+            m.wavelengths_nm.last().unwrap_or(&0.0)
+        );
+        println!(
+            "isotropic {}, reciprocal {}, median relative stderr of the buckets {}",
+            m.isotropic,
+            m.reciprocal,
+            m.median_rel_stderr
+                .map_or("unknown".to_string(), |v| format!("{v:.3}"))
+        );
+        match &r {
+            brdf::Representation::KdTree(k) => {
+                println!("kd-tree: {} points, k = {}", k.points.len(), k.k)
+            }
+            brdf::Representation::Table(t) => println!(
+                "table: {} incident angles x {} x {}",
+                t.theta_i.len(),
+                t.theta_bins,
+                t.phi_bins
+            ),
+            brdf::Representation::Subdivided(s) => println!(
+                "subdivided: {} incident angles, {} leaves, tolerance {}",
+                s.theta_i.len(),
+                (0..s.theta_i.len())
+                    .map(|i| s.leaves(i).count())
+                    .sum::<usize>(),
+                s.tolerance
+            ),
+        }
+    } else {
+        bail!(
+            "{}: neither a .gsa nor a .gsb file (unknown magic bytes)",
+            a.file.display()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
 fn generate(a: GenerateArgs) -> Result<ExitCode> {
     use goniospec::sample::generate::{Generated, GeneratorSpec};
     let u = sample::nm_per_unit(&a.unit)
@@ -740,6 +1027,42 @@ fn resolve_backend(b: Option<Backend>) -> Result<Backend> {
         bail!(accel::AccelError::EmbreeUnavailable);
     }
     Ok(b)
+}
+
+fn bench_eval(a: EvalBenchArgs) -> Result<ExitCode> {
+    use goniospec::brdf::BucketData;
+    if a.rays.len() != 2 || a.rays[0] == 0 || a.rays[0] >= a.rays[1] {
+        bail!("--rays needs two counts LOW,HIGH with 0 < LOW < HIGH");
+    }
+    let s = sample::load(&a.sample, MeshOptions::default())?;
+    let run = |rays: u64| -> Result<BucketData> {
+        let cfg = SimConfig {
+            theta_i_deg: vec![0.0, 15.0, 30.0, 45.0, 60.0, 75.0],
+            phi_i_deg: 0.0,
+            rays,
+            wavelengths: Wavelengths::Bins(vec![450.0, 550.0, 650.0]),
+            backend: Backend::default_available(),
+            seed: rays,
+            coherence: Coherence::Beamlet,
+            rho_nm: 5000.0,
+            limits: TraceLimits::default(),
+            buckets: Buckets {
+                theta_bins: 30,
+                phi_bins: 24,
+            },
+            path_sharing: None,
+            origin_nm: [0.0; 3],
+        };
+        let (acc, _) = goniospec::simulate::simulate(&s, &cfg, &|_| {})?;
+        Ok(BucketData::from_accumulator(&acc))
+    };
+    eprintln!(
+        "simulating '{}' at {} and {} rays for the rough-sample comparison",
+        s.name, a.rays[0], a.rays[1]
+    );
+    let (low, high) = (run(a.rays[0])?, run(a.rays[1])?);
+    bench::eval_bench(Some((&low, &high)), |l| println!("{l}"));
+    Ok(ExitCode::SUCCESS)
 }
 
 fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {

@@ -1,0 +1,410 @@
+//! The seed's 4-D spherically parameterised kd-tree over bucket centres
+//! `(theta_i, phi_i, theta_o, phi_o)`.
+//!
+//! Distance: the great-circle arc between the incident directions plus that between the
+//! outgoing directions. Every node keeps the bounds of its points in each of the four
+//! coordinates, and a query prunes a node with a lower bound that never over-estimates:
+//! for each direction the larger of the polar-band bound `|theta - band|` (an arc is at
+//! least its change in polar angle) and the azimuth-wedge bound, the arc to the nearer
+//! bounding meridian. For a meridian within 90 degrees of azimuth that arc is half the arc
+//! to the query's mirror image about the meridian plane (the seed's "reflected point"
+//! trick): `asin(sin(theta) |sin(dphi)|)`; beyond 90 degrees the nearest point of the
+//! meridian is a pole. A k-nearest query is therefore exact (tested against brute force),
+//! and the BRDF blends the k nearest buckets' intensities with a Gaussian kernel whose width
+//! is the distance to the k-th neighbour, which follows the local bucket spacing.
+
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+use super::{BucketData, Meta, angles, arc, dir};
+use crate::optics::vec3::V3;
+
+/// Points per leaf.
+const LEAF: usize = 8;
+
+#[derive(Clone, Debug, PartialEq)]
+struct Node {
+    lo: [f64; 4],
+    hi: [f64; 4],
+    /// Inner node: children `a` and `b`; leaf (`leaf` = true): points `a..b`.
+    a: u32,
+    b: u32,
+    leaf: bool,
+}
+
+/// A query: angles, their sines, and unit vectors.
+struct Query {
+    c: [f64; 4],
+    sin_i: f64,
+    sin_o: f64,
+    wi: V3,
+    wo: V3,
+}
+
+/// A kd-tree over points `(theta_i, phi_i, theta_o, phi_o)` (radians).
+#[derive(Clone, Debug, PartialEq)]
+pub struct KdTree {
+    nodes: Vec<Node>,
+    /// Points in tree order, as coordinates and unit vectors.
+    coords: Vec<[f64; 4]>,
+    wi: Vec<V3>,
+    wo: Vec<V3>,
+    /// Tree order -> original index.
+    index: Vec<u32>,
+}
+
+/// Lower bound of the arc from `(tq, pq)` to any direction with theta in `[tlo, thi]` and
+/// phi in `[plo, phi]` (never over-estimates).
+#[inline]
+fn direction_bound(
+    tq: f64,
+    sin_tq: f64,
+    pq: f64,
+    tlo: f64,
+    thi: f64,
+    plo: f64,
+    phi_hi: f64,
+) -> f64 {
+    let band = (tlo - tq).max(tq - thi).max(0.0);
+    let wedge = if pq >= plo && pq <= phi_hi {
+        0.0
+    } else {
+        let semicircle = |psi: f64| {
+            let mut d = (pq - psi).abs() % TAU;
+            if d > PI {
+                d = TAU - d;
+            }
+            if d <= FRAC_PI_2 {
+                (sin_tq * d.sin()).clamp(0.0, 1.0).asin()
+            } else {
+                tq.min(PI - tq)
+            }
+        };
+        semicircle(plo).min(semicircle(phi_hi))
+    };
+    band.max(wedge)
+}
+
+impl KdTree {
+    /// Builds the tree over `points` (any order).
+    pub fn build(points: &[[f64; 4]]) -> KdTree {
+        let mut idx: Vec<u32> = (0..points.len() as u32).collect();
+        let mut nodes = Vec::new();
+        if !points.is_empty() {
+            Self::build_rec(points, &mut idx, 0, points.len(), &mut nodes);
+        }
+        let coords: Vec<[f64; 4]> = idx.iter().map(|&i| points[i as usize]).collect();
+        KdTree {
+            nodes,
+            wi: coords.iter().map(|c| dir(c[0], c[1])).collect(),
+            wo: coords.iter().map(|c| dir(c[2], c[3])).collect(),
+            coords,
+            index: idx,
+        }
+    }
+
+    fn build_rec(
+        points: &[[f64; 4]],
+        idx: &mut [u32],
+        start: usize,
+        end: usize,
+        nodes: &mut Vec<Node>,
+    ) -> u32 {
+        let mut lo = [f64::INFINITY; 4];
+        let mut hi = [f64::NEG_INFINITY; 4];
+        for &i in &idx[start..end] {
+            for d in 0..4 {
+                lo[d] = lo[d].min(points[i as usize][d]);
+                hi[d] = hi[d].max(points[i as usize][d]);
+            }
+        }
+        let me = nodes.len() as u32;
+        nodes.push(Node {
+            lo,
+            hi,
+            a: start as u32,
+            b: end as u32,
+            leaf: true,
+        });
+        if end - start <= LEAF {
+            return me;
+        }
+        // Split the dimension of largest extent (azimuths count half: they matter less
+        // near the poles), at the median.
+        let ext = |d: usize| (hi[d] - lo[d]) * if d % 2 == 1 { 0.5 } else { 1.0 };
+        let dim = (0..4)
+            .max_by(|&a, &b| ext(a).total_cmp(&ext(b)))
+            .unwrap_or(0);
+        if ext(dim) <= 0.0 {
+            return me; // all points coincide
+        }
+        let mid = (start + end) / 2;
+        idx[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
+            points[a as usize][dim]
+                .total_cmp(&points[b as usize][dim])
+                .then(a.cmp(&b))
+        });
+        let a = Self::build_rec(points, idx, start, mid, nodes);
+        let b = Self::build_rec(points, idx, mid, end, nodes);
+        let n = &mut nodes[me as usize];
+        n.a = a;
+        n.b = b;
+        n.leaf = false;
+        me
+    }
+
+    pub fn len(&self) -> usize {
+        self.coords.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.coords.is_empty()
+    }
+
+    fn node_bound(&self, n: &Node, q: &Query) -> f64 {
+        direction_bound(q.c[0], q.sin_i, q.c[1], n.lo[0], n.hi[0], n.lo[1], n.hi[1])
+            + direction_bound(q.c[2], q.sin_o, q.c[3], n.lo[2], n.hi[2], n.lo[3], n.hi[3])
+    }
+
+    /// The `k` nearest points to `(wi, wo)`: `(distance, original index)`, sorted by
+    /// distance then index, into `out` (cleared first).
+    pub fn nearest(&self, wi: V3, wo: V3, k: usize, out: &mut Vec<(f64, u32)>) {
+        out.clear();
+        if self.nodes.is_empty() || k == 0 {
+            return;
+        }
+        let (ti, pi) = angles(wi);
+        let (to, po) = angles(wo);
+        let q = Query {
+            c: [ti, pi, to, po],
+            sin_i: ti.sin(),
+            sin_o: to.sin(),
+            wi,
+            wo,
+        };
+        self.search(0, &q, k, out);
+    }
+
+    fn search(&self, node: u32, q: &Query, k: usize, out: &mut Vec<(f64, u32)>) {
+        let n = &self.nodes[node as usize];
+        if n.leaf {
+            let (wi, wo) = (q.wi, q.wo);
+            // Each arc alone is at most the full distance: once k candidates are held, a
+            // point whose incident or outgoing cosine is below cos(worst) cannot qualify,
+            // which rejects most points without a trigonometric call. (The 1e-12 margin keeps
+            // the test conservative where cosines of tiny arcs round to 1.)
+            let mut cos_worst = if out.len() < k {
+                -2.0
+            } else {
+                out[out.len() - 1].0.min(PI).cos() - 1e-12
+            };
+            for p in n.a as usize..n.b as usize {
+                if crate::optics::vec3::dot(wi, self.wi[p]) < cos_worst
+                    || crate::optics::vec3::dot(wo, self.wo[p]) < cos_worst
+                {
+                    continue;
+                }
+                let d = arc(wi, self.wi[p]) + arc(wo, self.wo[p]);
+                let id = self.index[p];
+                let better = out.len() < k || {
+                    let w = out[out.len() - 1];
+                    d < w.0 || (d == w.0 && id < w.1)
+                };
+                if better {
+                    let pos = out.partition_point(|e| e.0 < d || (e.0 == d && e.1 < id));
+                    out.insert(pos, (d, id));
+                    if out.len() > k {
+                        out.pop();
+                    }
+                    if out.len() == k {
+                        cos_worst = out[k - 1].0.min(PI).cos() - 1e-12;
+                    }
+                }
+            }
+            return;
+        }
+        let (ba, bb) = (
+            self.node_bound(&self.nodes[n.a as usize], q),
+            self.node_bound(&self.nodes[n.b as usize], q),
+        );
+        let (first, second, b1, b2) = if ba <= bb {
+            (n.a, n.b, ba, bb)
+        } else {
+            (n.b, n.a, bb, ba)
+        };
+        for (child, bound) in [(first, b1), (second, b2)] {
+            // `<=` keeps exact ties (equal distance, lower index) reachable.
+            if out.len() < k || bound <= out[out.len() - 1].0 {
+                self.search(child, q, k, out);
+            }
+        }
+    }
+
+    /// Brute-force k nearest, same ordering: the reference for tests and benchmarks.
+    pub fn nearest_brute(&self, wi: V3, wo: V3, k: usize) -> Vec<(f64, u32)> {
+        let mut all: Vec<(f64, u32)> = (0..self.len())
+            .map(|p| (arc(wi, self.wi[p]) + arc(wo, self.wo[p]), self.index[p]))
+            .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        all.truncate(k);
+        all
+    }
+
+    /// Checks the tree's invariants: every point lies inside its leaf's and ancestors'
+    /// bounds, and every point is in exactly one leaf.
+    #[allow(clippy::needless_range_loop)] // p indexes points and their flags alike
+    pub fn validate(&self) -> Result<(), String> {
+        let mut seen = vec![false; self.len()];
+        let mut stack = vec![(0u32, [f64::NEG_INFINITY; 4], [f64::INFINITY; 4])];
+        while let Some((i, plo, phi)) = stack.pop() {
+            let n = &self.nodes[i as usize];
+            for d in 0..4 {
+                if n.lo[d] < plo[d] || n.hi[d] > phi[d] {
+                    return Err(format!(
+                        "node {i} exceeds its parent's bounds in dimension {d}"
+                    ));
+                }
+            }
+            if n.leaf {
+                for p in n.a as usize..n.b as usize {
+                    if seen[p] {
+                        return Err(format!("point {p} in two leaves"));
+                    }
+                    seen[p] = true;
+                    for d in 0..4 {
+                        if self.coords[p][d] < n.lo[d] || self.coords[p][d] > n.hi[d] {
+                            return Err(format!("point {p} outside leaf {i}"));
+                        }
+                    }
+                }
+            } else {
+                stack.push((n.a, n.lo, n.hi));
+                stack.push((n.b, n.lo, n.hi));
+            }
+        }
+        match seen.iter().position(|s| !s) {
+            Some(p) => Err(format!("point {p} in no leaf")),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The kd-tree BRDF: the tree plus a spectrum per point.
+pub struct KdTreeBrdf {
+    pub tree: KdTree,
+    /// The points in their original order (what the file stores; the tree is rebuilt,
+    /// deterministically, on load).
+    pub points: Vec<[f64; 4]>,
+    /// BRDF values, point-major (`values[i * bins + j]`).
+    pub values: Vec<f64>,
+    pub k: usize,
+    pub meta: Meta,
+}
+
+impl KdTreeBrdf {
+    /// Builds from buckets. `isotropic` stores `phi_o - phi_i` with `phi_i = 0`;
+    /// `reciprocal` also enters every bucket as `(wo, wi)`.
+    pub fn build(data: &BucketData, k: usize, isotropic: bool, reciprocal: bool) -> KdTreeBrdf {
+        let nl = data.wavelengths_nm.len();
+        let mut pts = Vec::new();
+        let mut values = Vec::new();
+        for per in &data.samples {
+            for s in per {
+                let (pi, po) = if isotropic {
+                    (0.0, (s.phi_o - s.phi_i).rem_euclid(TAU))
+                } else {
+                    (s.phi_i, s.phi_o)
+                };
+                pts.push([s.theta_i, pi, s.theta_o, po]);
+                values.extend_from_slice(&s.f);
+                if reciprocal {
+                    // (wo, wi): with phi_i moved to 0 when isotropic.
+                    let (pi2, po2) = if isotropic {
+                        (0.0, (pi - po).rem_euclid(TAU))
+                    } else {
+                        (po, pi)
+                    };
+                    pts.push([s.theta_o, pi2, s.theta_i, po2]);
+                    values.extend_from_slice(&s.f);
+                }
+            }
+        }
+        debug_assert_eq!(values.len(), pts.len() * nl);
+        let mut meta = data.meta.clone();
+        meta.repr = "kdtree".into();
+        meta.isotropic = isotropic;
+        meta.reciprocal = reciprocal;
+        KdTreeBrdf::from_parts(pts, values, k, meta)
+    }
+
+    /// Rebuilds from stored points and values.
+    pub fn from_parts(points: Vec<[f64; 4]>, values: Vec<f64>, k: usize, meta: Meta) -> KdTreeBrdf {
+        KdTreeBrdf {
+            tree: KdTree::build(&points),
+            points,
+            values,
+            k: k.max(1),
+            meta,
+        }
+    }
+
+    fn query_dirs(&self, wi: V3, wo: V3) -> (V3, V3) {
+        if !self.meta.isotropic {
+            return (wi, wo);
+        }
+        let (ti, pi) = angles(wi);
+        let (to, po) = angles(wo);
+        (dir(ti, 0.0), dir(to, (po - pi).rem_euclid(TAU)))
+    }
+}
+
+impl super::Brdf for KdTreeBrdf {
+    /// With the reciprocal option the result is the mean of the blends at `(wi, wo)` and
+    /// `(wo, wi)` over the symmetric point set, so it is reciprocal exactly.
+    fn eval(&self, wi: V3, wo: V3, out: &mut [f64]) {
+        if self.meta.reciprocal {
+            let mut other = vec![0.0; out.len()];
+            self.blend(wi, wo, out);
+            self.blend(wo, wi, &mut other);
+            for (o, x) in out.iter_mut().zip(&other) {
+                *o = 0.5 * (*o + x);
+            }
+        } else {
+            self.blend(wi, wo, out);
+        }
+    }
+
+    fn meta(&self) -> &Meta {
+        &self.meta
+    }
+}
+
+impl KdTreeBrdf {
+    fn blend(&self, wi: V3, wo: V3, out: &mut [f64]) {
+        thread_local! {
+            static NEAR: std::cell::RefCell<Vec<(f64, u32)>> = const { std::cell::RefCell::new(Vec::new()) };
+        }
+        let (qi, qo) = self.query_dirs(wi, wo);
+        let nl = out.len();
+        out.fill(0.0);
+        NEAR.with(|cell| {
+            let mut near = cell.borrow_mut();
+            self.tree.nearest(qi, qo, self.k, &mut near);
+            if near.is_empty() {
+                return;
+            }
+            let h = near[near.len() - 1].0.max(1e-9);
+            let mut wsum = 0.0;
+            for &(d, i) in near.iter() {
+                let w = (-(d / h).powi(2)).exp();
+                wsum += w;
+                let v = &self.values[i as usize * nl..(i as usize + 1) * nl];
+                for (o, x) in out.iter_mut().zip(v) {
+                    *o += w * x;
+                }
+            }
+            for o in out.iter_mut() {
+                *o /= wsum;
+            }
+        });
+    }
+}

@@ -1,0 +1,192 @@
+//! BRDF representations built from accumulated buckets, all behind one query interface
+//! (DESIGN.md §5): the seed's 4-D spherical kd-tree, Gondek et al.'s adaptively subdivided
+//! hemisphere, and a dense table; plus the `.gsb` file that stores any of them.
+//!
+//! `eval(wi, wo)` returns the BRDF (1/sr) in every wavelength bin. Directions point away
+//! from the surface (z up); only the reflection hemisphere is represented.
+
+pub mod file;
+pub mod kdtree;
+pub mod subdivided;
+pub mod table;
+
+use crate::accumulate::file::Accumulator;
+use crate::accumulate::{Buckets, Coherence};
+use crate::optics::vec3::{V3, cross, dot, from_spherical, norm};
+
+/// What every representation knows about itself.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Meta {
+    /// "kdtree", "subdivided" or "table".
+    pub repr: String,
+    /// Representative wavelength of each bin, nm.
+    pub wavelengths_nm: Vec<f64>,
+    pub sample_name: String,
+    pub sample_hash: String,
+    /// The simulation's settings, as TOML (from the `.gsa` header).
+    pub simulation: String,
+    /// The BRDF was reduced to `phi_o - phi_i` (isotropic sample).
+    pub isotropic: bool,
+    /// Each bucket was also entered as its reciprocal pair `(wo, wi)`.
+    pub reciprocal: bool,
+    /// Typical relative standard error of the buckets that went in (median over
+    /// populated buckets), where known.
+    pub median_rel_stderr: Option<f64>,
+}
+
+/// The query interface every representation implements.
+pub trait Brdf {
+    /// BRDF (1/sr) of the pair `(wi, wo)` in every wavelength bin, into `out`
+    /// (`out.len()` = number of bins).
+    fn eval(&self, wi: V3, wo: V3, out: &mut [f64]);
+
+    /// Many pairs at once: `out` holds `pairs.len() * bins` values, pair-major.
+    fn eval_batch(&self, pairs: &[(V3, V3)], out: &mut [f64]) {
+        let n = self.meta().wavelengths_nm.len();
+        for (i, &(wi, wo)) in pairs.iter().enumerate() {
+            self.eval(wi, wo, &mut out[i * n..(i + 1) * n]);
+        }
+    }
+
+    fn meta(&self) -> &Meta;
+}
+
+/// One accumulated bucket: incident direction, outgoing bucket centre, its BRDF spectrum.
+#[derive(Clone, Debug)]
+pub struct BucketSample {
+    pub theta_i: f64,
+    pub phi_i: f64,
+    pub theta_o: f64,
+    pub phi_o: f64,
+    /// BRDF per wavelength bin, 1/sr.
+    pub f: Vec<f64>,
+    /// Fraction of launched power per bin (for flux bookkeeping).
+    pub flux: Vec<f64>,
+    /// Projected solid angle of the bucket, sr.
+    pub omega: f64,
+    /// Relative standard error (mean over bins), when defined.
+    pub rel_stderr: Option<f64>,
+}
+
+/// The reflection buckets of a `.gsa`, grouped by incident direction.
+#[derive(Clone, Debug)]
+pub struct BucketData {
+    pub theta_i: Vec<f64>,
+    pub phi_i: f64,
+    pub buckets: Buckets,
+    pub wavelengths_nm: Vec<f64>,
+    /// `samples[i]` holds every reflection bucket of incident direction `i`, bucket order.
+    pub samples: Vec<Vec<BucketSample>>,
+    pub meta: Meta,
+}
+
+impl BucketData {
+    /// Extracts the reflection buckets (radians) of an accumulator.
+    pub fn from_accumulator(acc: &Accumulator) -> BucketData {
+        let s = &acc.header.settings;
+        let b = s.buckets();
+        let mode = s.coherence_mode();
+        let nl = s.wavelength_count();
+        let mut samples = Vec::new();
+        let mut rel = Vec::new();
+        for i in 0..s.theta_i_deg.len() {
+            let mut v = Vec::with_capacity(b.len());
+            for k in 0..b.len() {
+                let (t, p) = b.centre(k);
+                let omega = b.projected_solid_angle(k);
+                let flux: Vec<f64> = (0..nl)
+                    .map(|j| acc.cell(i, j).fraction(2 * k, mode))
+                    .collect();
+                let se: Option<f64> = if mode == Coherence::Global {
+                    None
+                } else {
+                    let (mut num, mut den) = (0.0, 0.0);
+                    for (j, f) in flux.iter().enumerate() {
+                        if let Some(e) = acc.cell(i, j).fraction_stderr(2 * k, mode) {
+                            num += e;
+                            den += f.abs();
+                        }
+                    }
+                    (den > 0.0).then(|| num / den)
+                };
+                if let Some(r) = se {
+                    rel.push(r);
+                }
+                v.push(BucketSample {
+                    theta_i: s.theta_i_deg[i].to_radians(),
+                    phi_i: s.phi_i_deg.to_radians(),
+                    theta_o: t,
+                    phi_o: p,
+                    f: flux.iter().map(|x| x / omega).collect(),
+                    flux,
+                    omega,
+                    rel_stderr: se,
+                });
+            }
+            samples.push(v);
+        }
+        rel.sort_by(f64::total_cmp);
+        BucketData {
+            theta_i: s.theta_i_deg.iter().map(|t| t.to_radians()).collect(),
+            phi_i: s.phi_i_deg.to_radians(),
+            buckets: b,
+            wavelengths_nm: (0..nl).map(|j| s.wavelength(j)).collect(),
+            samples,
+            meta: Meta {
+                repr: String::new(),
+                wavelengths_nm: (0..nl).map(|j| s.wavelength(j)).collect(),
+                sample_name: s.sample_name.clone(),
+                sample_hash: s.sample_hash.clone(),
+                simulation: toml::to_string(s).unwrap_or_default(),
+                isotropic: false,
+                reciprocal: false,
+                median_rel_stderr: rel.get(rel.len() / 2).copied(),
+            },
+        }
+    }
+}
+
+/// Great-circle distance between unit vectors (radians), robust near 0 and pi.
+#[inline]
+pub fn arc(a: V3, b: V3) -> f64 {
+    norm(cross(a, b)).atan2(dot(a, b))
+}
+
+/// `(theta, phi)` of a unit vector, phi in [0, 2 pi).
+#[inline]
+pub fn angles(w: V3) -> (f64, f64) {
+    (
+        w[2].clamp(-1.0, 1.0).acos(),
+        w[1].atan2(w[0]).rem_euclid(std::f64::consts::TAU),
+    )
+}
+
+/// Unit vector of `(theta, phi)`.
+pub fn dir(theta: f64, phi: f64) -> V3 {
+    from_spherical(theta, phi)
+}
+
+/// Any representation, dispatched by `match`.
+pub enum Representation {
+    KdTree(kdtree::KdTreeBrdf),
+    Subdivided(subdivided::SubdividedBrdf),
+    Table(table::TableBrdf),
+}
+
+impl Brdf for Representation {
+    fn eval(&self, wi: V3, wo: V3, out: &mut [f64]) {
+        match self {
+            Representation::KdTree(r) => r.eval(wi, wo, out),
+            Representation::Subdivided(r) => r.eval(wi, wo, out),
+            Representation::Table(r) => r.eval(wi, wo, out),
+        }
+    }
+    fn meta(&self) -> &Meta {
+        match self {
+            Representation::KdTree(r) => r.meta(),
+            Representation::Subdivided(r) => r.meta(),
+            Representation::Table(r) => r.meta(),
+        }
+    }
+}
