@@ -164,12 +164,11 @@ fn representations_agree_and_integrate_to_the_simulated_reflectance() {
         let wi = dir(th.to_radians(), 0.0);
         for (name, b) in &reps {
             let h = hemispherical(b.as_ref(), wi, nl);
-            for j in 0..nl {
+            for (j, hj) in h.iter().enumerate() {
                 let (r, _) = totals(&acc, i, j);
                 assert!(
-                    (h[j] / r - 1.0).abs() < 0.01,
-                    "{name}, theta_i {th}, bin {j}: integral {} vs R {r}",
-                    h[j]
+                    (hj / r - 1.0).abs() < 0.01,
+                    "{name}, theta_i {th}, bin {j}: integral {hj} vs R {r}"
                 );
             }
         }
