@@ -25,6 +25,7 @@ demo: deps
 bench: deps
 	$(CARGO) run --release -- bench trace
 	$(CARGO) run --release -- bench simulate
+	$(CARGO) run --release -- bench eval
 
 ## Run the whole test suite.
 test: deps

@@ -299,3 +299,123 @@ fn simulate_output_does_not_depend_on_threads() {
     };
     assert!(run("1", "one.gsa") == run("2", "two.gsa"));
 }
+
+#[test]
+fn build_eval_and_info() {
+    let d = std::env::temp_dir().join(format!("goniospec-brdf-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let gsa = d.join("r.gsa");
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        "meshes/rough-gold.toml",
+        "--theta-i",
+        "0,30,60",
+        "--wavelengths",
+        "500:700:100",
+        "--rays",
+        "2000",
+        "--theta-o-bins",
+        "18",
+        "--phi-o-bins",
+        "12",
+        "-o",
+        gsa.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let pairs = d.join("pairs.csv");
+    std::fs::write(
+        &pairs,
+        "theta_i,phi_i,theta_o,phi_o\n30,0,30,180\n10,45,20,200\n",
+    )
+    .unwrap();
+    for repr in ["kdtree", "subdivided", "table"] {
+        let gsb = d.join(format!("{repr}.gsb"));
+        let (code, out, err) = goniospec(&[
+            "build",
+            gsa.to_str().unwrap(),
+            "--repr",
+            repr,
+            "-o",
+            gsb.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        assert!(out.contains(&format!("{repr} representation")), "{out}");
+        let (code, out, err) = goniospec(&[
+            "eval",
+            gsb.to_str().unwrap(),
+            "--theta-i",
+            "30",
+            "--phi-i",
+            "0",
+            "--theta-o",
+            "30",
+            "--phi-o",
+            "180",
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let rows: Vec<&str> = out.lines().collect();
+        assert_eq!(rows[0], "lambda_nm,brdf");
+        assert_eq!(rows.len(), 3, "{out}");
+        let specular: f64 = rows[1].split(',').nth(1).unwrap().parse().unwrap();
+        assert!(
+            specular > 0.1,
+            "{repr}: the specular direction of rough gold is bright: {specular}"
+        );
+        let (code, out, err) = goniospec(&[
+            "eval",
+            gsb.to_str().unwrap(),
+            "--pairs",
+            pairs.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let rows: Vec<&str> = out.lines().collect();
+        assert_eq!(rows[0], "pair,lambda_nm,brdf");
+        assert_eq!(rows.len(), 1 + 2 * 2, "{out}");
+        assert!(rows[1].starts_with("0,550,"), "{out}");
+        let (code, out, _) = goniospec(&["info", gsb.to_str().unwrap()]);
+        assert_eq!(code, 0);
+        assert!(
+            out.contains(&format!("representation {repr}")) && out.contains("rough gold"),
+            "{out}"
+        );
+    }
+    let (code, out, _) = goniospec(&["info", gsa.to_str().unwrap()]);
+    assert_eq!(code, 0);
+    assert!(
+        out.contains("accumulator") && out.contains("rays per direction: 2000"),
+        "{out}"
+    );
+    // Errors.
+    let (code, _, err) = goniospec(&["info", "meshes/rough-gold.toml"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("neither a .gsa nor a .gsb"), "{err}");
+    let (code, _, err) = goniospec(&[
+        "eval",
+        gsa.to_str().unwrap(),
+        "--theta-i",
+        "0",
+        "--theta-o",
+        "0",
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("not a goniospec BRDF"), "{err}");
+    std::fs::write(&pairs, "theta_i,phi_i,theta_o,phi_o\n30,0,30\n").unwrap();
+    let (code, _, err) = goniospec(&[
+        "eval",
+        d.join("table.gsb").to_str().unwrap(),
+        "--pairs",
+        pairs.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("pairs.csv:2: expected 4 columns"), "{err}");
+    let (code, _, err) = goniospec(&[
+        "build",
+        gsa.to_str().unwrap(),
+        "--repr",
+        "octree",
+        "-o",
+        "x.gsb",
+    ]);
+    assert_eq!(code, 2);
+    assert!(err.contains("unknown representation 'octree'"), "{err}");
+}
