@@ -8,12 +8,13 @@
 //! least its change in polar angle) and the azimuth-wedge bound, the arc to the nearer
 //! bounding meridian. For a meridian within 90 degrees of azimuth that arc is half the arc
 //! to the query's mirror image about the meridian plane (the seed's "reflected point"
-//! trick): `asin(sin(theta) |sin(dphi)|)`; beyond 90 degrees the nearest point of the
-//! meridian is a pole. A k-nearest query is therefore exact (tested against brute force),
+//! trick): `asin(sin(theta) |sin(dphi)|)`, used through its lower bound
+//! `sin(theta) |sin(dphi)|` so no trigonometric call is needed per node; beyond 90 degrees
+//! the nearest point of the meridian is a pole. A k-nearest query is therefore exact (tested against brute force),
 //! and the BRDF blends the k nearest buckets' intensities with a Gaussian kernel whose width
 //! is the distance to the k-th neighbour, which follows the local bucket spacing.
 
-use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use std::f64::consts::{PI, TAU};
 
 use super::{BucketData, Meta, angles, arc, dir};
 use crate::optics::vec3::V3;
@@ -25,6 +26,9 @@ const LEAF: usize = 8;
 struct Node {
     lo: [f64; 4],
     hi: [f64; 4],
+    /// Cosine and sine of the azimuth bounds, `[cos lo, sin lo, cos hi, sin hi]`, for the
+    /// incident and the outgoing azimuth.
+    trig: [[f64; 4]; 2],
     /// Inner node: children `a` and `b`; leaf (`leaf` = true): points `a..b`.
     a: u32,
     b: u32,
@@ -34,6 +38,8 @@ struct Node {
 /// A query: angles, their sines, and unit vectors.
 struct Query {
     c: [f64; 4],
+    /// Cosine and sine of the two azimuths.
+    cs: [f64; 4],
     sin_i: f64,
     sin_o: f64,
     wi: V3,
@@ -52,36 +58,40 @@ pub struct KdTree {
     index: Vec<u32>,
 }
 
-/// Lower bound of the arc from `(tq, pq)` to any direction with theta in `[tlo, thi]` and
-/// phi in `[plo, phi]` (never over-estimates).
+/// Lower bound of the arc from a query direction (polar angle `tq`, its sine, azimuth `pq`
+/// with cosine and sine `cq`, `sq`) to any direction with theta in `[tlo, thi]` and phi in
+/// `[plo, phi_hi]` (whose cosines and sines are `trig`). Never over-estimates:
+/// - an arc is at least its change in polar angle (band bound);
+/// - outside the azimuth wedge, the arc to the nearer bounding meridian: for a meridian
+///   within 90 degrees, `asin(sin(theta) |sin(dphi)|)` (half the arc to the mirror image),
+///   bounded below by its argument since `asin(x) >= x`; beyond 90 degrees the nearest
+///   point of the meridian is a pole, `min(theta, pi - theta)`.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn direction_bound(
     tq: f64,
     sin_tq: f64,
     pq: f64,
+    cq: f64,
+    sq: f64,
     tlo: f64,
     thi: f64,
     plo: f64,
     phi_hi: f64,
+    trig: &[f64; 4],
 ) -> f64 {
     let band = (tlo - tq).max(tq - thi).max(0.0);
-    let wedge = if pq >= plo && pq <= phi_hi {
-        0.0
-    } else {
-        let semicircle = |psi: f64| {
-            let mut d = (pq - psi).abs() % TAU;
-            if d > PI {
-                d = TAU - d;
-            }
-            if d <= FRAC_PI_2 {
-                (sin_tq * d.sin()).clamp(0.0, 1.0).asin()
-            } else {
-                tq.min(PI - tq)
-            }
-        };
-        semicircle(plo).min(semicircle(phi_hi))
+    if pq >= plo && pq <= phi_hi {
+        return band;
+    }
+    let semicircle = |c: f64, s: f64| {
+        if cq * c + sq * s >= 0.0 {
+            sin_tq * (sq * c - cq * s).abs()
+        } else {
+            tq.min(PI - tq)
+        }
     };
-    band.max(wedge)
+    band.max(semicircle(trig[0], trig[1]).min(semicircle(trig[2], trig[3])))
 }
 
 impl KdTree {
@@ -118,9 +128,11 @@ impl KdTree {
             }
         }
         let me = nodes.len() as u32;
+        let t = |d: usize| [lo[d].cos(), lo[d].sin(), hi[d].cos(), hi[d].sin()];
         nodes.push(Node {
             lo,
             hi,
+            trig: [t(1), t(3)],
             a: start as u32,
             b: end as u32,
             leaf: true,
@@ -160,9 +172,14 @@ impl KdTree {
         self.coords.is_empty()
     }
 
+    #[inline]
     fn node_bound(&self, n: &Node, q: &Query) -> f64 {
-        direction_bound(q.c[0], q.sin_i, q.c[1], n.lo[0], n.hi[0], n.lo[1], n.hi[1])
-            + direction_bound(q.c[2], q.sin_o, q.c[3], n.lo[2], n.hi[2], n.lo[3], n.hi[3])
+        let (lo, hi) = (&n.lo, &n.hi);
+        direction_bound(
+            q.c[0], q.sin_i, q.c[1], q.cs[0], q.cs[1], lo[0], hi[0], lo[1], hi[1], &n.trig[0],
+        ) + direction_bound(
+            q.c[2], q.sin_o, q.c[3], q.cs[2], q.cs[3], lo[2], hi[2], lo[3], hi[3], &n.trig[1],
+        )
     }
 
     /// The `k` nearest points to `(wi, wo)`: `(distance, original index)`, sorted by
@@ -176,6 +193,7 @@ impl KdTree {
         let (to, po) = angles(wo);
         let q = Query {
             c: [ti, pi, to, po],
+            cs: [pi.cos(), pi.sin(), po.cos(), po.sin()],
             sin_i: ti.sin(),
             sin_o: to.sin(),
             wi,
