@@ -6,11 +6,11 @@ set -euo pipefail
 G=$(realpath "${GONIOSPEC:-target/release/goniospec}")
 cd meshes
 
-# The seed's wavy soap film: 600 nm mean thickness, 30 nm RMS thickness variation,
-# 150 nm RMS roughness, 2 um correlation length, on a 20 um tile.
+# The seed's wavy soap film: 600 nm mean thickness, 8 nm RMS thickness variation,
+# 60 nm RMS roughness (slopes of a few degrees), 2 um correlation length, on a 20 um tile.
 for s in top bottom; do
-  $G generate wavy-film --tile 20,20 --unit um -p surface=$s -p thickness=0.6 -p thickness_rms=0.03 \
-    -p roughness_rms=0.15 -p correlation_length=2 -p resolution=64 -p seed=7 -p z=0 -o thin-film-600nm-$s.obj
+  $G generate wavy-film --tile 20,20 --unit um -p surface=$s -p thickness=0.6 -p thickness_rms=0.008 \
+    -p roughness_rms=0.06 -p correlation_length=2 -p resolution=64 -p seed=7 -p z=0 -o thin-film-600nm-$s.obj
 done
 
 # Rough gold: GGX microfacets, alpha = 0.2, 48 x 48 facets on a 20 um tile.

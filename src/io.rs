@@ -27,7 +27,7 @@ where
 }
 
 /// `dir/.name.tmp-<pid>` beside `path`: same file system, so the rename is atomic.
-fn temp_path(path: &Path) -> PathBuf {
+pub fn temp_path(path: &Path) -> PathBuf {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())

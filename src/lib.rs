@@ -10,6 +10,7 @@ pub mod bench;
 pub mod brdf;
 pub mod io;
 pub mod optics;
+pub mod render;
 pub mod rng;
 pub mod sample;
 pub mod simulate;

@@ -419,3 +419,86 @@ fn build_eval_and_info() {
     assert_eq!(code, 2);
     assert!(err.contains("unknown representation 'octree'"), "{err}");
 }
+
+#[test]
+fn render_writes_exr_and_png_and_reports_clear_errors() {
+    let d = std::env::temp_dir().join(format!("goniospec-render-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let gsa = d.join("f.gsa");
+    let gsb = d.join("f.gsb");
+    let exr = d.join("f.exr");
+    assert_eq!(
+        goniospec(&[
+            "simulate",
+            "meshes/flat-soap-film.toml",
+            "--theta-i",
+            "0,20,40,60,80",
+            "--rays",
+            "32",
+            "-o",
+            gsa.to_str().unwrap()
+        ])
+        .0,
+        0
+    );
+    assert_eq!(
+        goniospec(&[
+            "build",
+            gsa.to_str().unwrap(),
+            "--repr",
+            "table",
+            "-o",
+            gsb.to_str().unwrap()
+        ])
+        .0,
+        0
+    );
+    let (code, out, err) = goniospec(&[
+        "render",
+        gsb.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--spp",
+        "2",
+        "--light",
+        "none",
+        "--analytic",
+        "meshes/flat-soap-film.toml",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("mean CIE DE2000"), "{out}");
+    let png = std::fs::read(d.join("f.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let exr_bytes = std::fs::read(&exr).unwrap();
+    assert_eq!(&exr_bytes[..4], &[0x76, 0x2f, 0x31, 0x01], "EXR magic");
+    // A corrupted .gsb and a missing OBJ.
+    let mut bad = std::fs::read(&gsb).unwrap();
+    let n = bad.len();
+    bad[n / 2] ^= 0xff;
+    std::fs::write(d.join("bad.gsb"), bad).unwrap();
+    let (code, _, err) = goniospec(&[
+        "render",
+        d.join("bad.gsb").to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("checksum mismatch"), "{err}");
+    let (code, _, err) = goniospec(&[
+        "render",
+        gsb.to_str().unwrap(),
+        "-o",
+        exr.to_str().unwrap(),
+        "--shape",
+        "nowhere/teapot.obj",
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("nowhere/teapot.obj") && err.contains("cannot read file"),
+        "{err}"
+    );
+}

@@ -1,0 +1,162 @@
+//! The analytic reference image of a flat `[stack]` sample: its specular reflection handled
+//! exactly. Under an environment the pixel is `R_TMM(theta_o) L_env(r)` with `r` the
+//! mirror direction (the light, a delta direction, contributes nothing to a delta lobe).
+
+use super::{Env, Image, RenderConfig, Shape, colour};
+use crate::optics::C64;
+use crate::optics::tmm::{StackIndices, solve_band};
+use crate::optics::vec3::{add, dot, normalize, scale, sub};
+use crate::sample::Sample;
+
+/// Renders the stack's exact specular reflection with the same camera and environment.
+pub fn stack_image(
+    s: &Sample,
+    centres_nm: &[f64],
+    shape: &Shape,
+    cfg: &RenderConfig,
+) -> anyhow::Result<Image> {
+    let st = s
+        .stack
+        .as_ref()
+        .ok_or_else(|| anyhow::anyhow!("{} is not written as a [stack]", s.path.display()))?;
+    let nl = centres_nm.len();
+    let edges: Vec<f64> = (0..=nl)
+        .map(|i| {
+            if i == 0 {
+                centres_nm[0]
+                    - 0.5
+                        * (centres_nm.get(1).copied().unwrap_or(centres_nm[0] + 10.0)
+                            - centres_nm[0])
+            } else if i == nl {
+                centres_nm[nl - 1]
+                    + 0.5
+                        * (centres_nm[nl - 1]
+                            - centres_nm
+                                .get(nl.wrapping_sub(2))
+                                .copied()
+                                .unwrap_or(centres_nm[0] - 10.0))
+            } else {
+                0.5 * (centres_nm[i - 1] + centres_nm[i])
+            }
+        })
+        .collect();
+    let stack_at = |l: f64| -> StackIndices {
+        let idx = |m: usize| {
+            let (n, k) = s.media[m].model.eval(l).unwrap_or((1.0, 0.0));
+            C64::new(n, k)
+        };
+        StackIndices {
+            n: std::iter::once(idx(st.ambient))
+                .chain(st.layers.iter().map(|l| idx(l.0)))
+                .chain(std::iter::once(idx(st.substrate)))
+                .collect(),
+            d_nm: st.layers.iter().map(|l| l.1).collect(),
+        }
+    };
+    // R(theta_o) per bin on a fine angle table.
+    let n_t = 180;
+    let table: Vec<Vec<f64>> = (0..n_t)
+        .map(|k| {
+            let th = (k as f64 + 0.5) / n_t as f64 * std::f64::consts::FRAC_PI_2;
+            (0..nl)
+                .map(|j| solve_band(stack_at, edges[j], edges[j + 1], th).r())
+                .collect()
+        })
+        .collect();
+    let weights = colour::bin_weights(centres_nm);
+    let (centre, _) = shape.bounds();
+    let fwd = normalize(sub(centre, cfg.camera));
+    let up0 = if fwd[2].abs() > 0.99 {
+        [0.0, 1.0, 0.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    let right = normalize(crate::optics::vec3::cross(fwd, up0));
+    let up = crate::optics::vec3::cross(right, fwd);
+    let half_h = (cfg.fov_deg.to_radians() / 2.0).tan();
+    let aspect = cfg.width as f64 / cfg.height as f64;
+    let mut img = Image {
+        width: cfg.width,
+        height: cfg.height,
+        rgb: Vec::new(),
+        spectra: Vec::new(),
+        bins: nl,
+    };
+    for y in 0..cfg.height {
+        for x in 0..cfg.width {
+            // Pixel centre (the reference needs no anti-aliasing noise).
+            let sx = (2.0 * (x as f64 + 0.5) / cfg.width as f64 - 1.0) * half_h * aspect;
+            let sy = (1.0 - 2.0 * (y as f64 + 0.5) / cfg.height as f64) * half_h;
+            let d = normalize(add(fwd, add(scale(right, sx), scale(up, sy))));
+            let mut spec = vec![0.0; nl];
+            if let Some((_, n)) = shape.hit(cfg.camera, d) {
+                let cos_o = -dot(d, n);
+                if cos_o > 0.0 {
+                    let k = ((cos_o.min(1.0).acos() / std::f64::consts::FRAC_PI_2) * n_t as f64)
+                        as usize;
+                    let r = add(d, scale(n, 2.0 * cos_o));
+                    let l = match cfg.env {
+                        Env::None => 0.0,
+                        Env::Constant => 1.0,
+                        Env::Sky => 0.25 + 0.75 * r[2].max(0.0),
+                    };
+                    for (s, v) in spec.iter_mut().zip(&table[k.min(n_t - 1)]) {
+                        *s = cfg.env_strength * l * v;
+                    }
+                }
+            }
+            img.rgb
+                .push(colour::xyz_to_linear_srgb(colour::xyz(&spec, &weights)).map(|c| c as f32));
+            img.spectra.extend(spec.iter().map(|&v| v as f32));
+        }
+    }
+    Ok(img)
+}
+
+/// How far an image is from a reference.
+#[derive(Clone, Copy, Debug)]
+pub struct Difference {
+    /// RMS of the per-pixel spectral difference over the RMS of the reference.
+    pub rel_rmse: f64,
+    /// Mean CIE DE2000 over object pixels (colours relative to the D65 white).
+    pub mean_de2000: f64,
+    pub pixels: usize,
+}
+
+/// Compares two images of the same size over the pixels where the reference is non-black.
+pub fn compare(img: &Image, reference: &Image) -> Difference {
+    let white = colour::white_xyz();
+    let nl = img.bins;
+    let weights_rgb_to_xyz = |c: [f32; 3]| -> [f64; 3] {
+        // Inverse of the sRGB matrix (IEC 61966-2-1).
+        let (r, g, b) = (f64::from(c[0]), f64::from(c[1]), f64::from(c[2]));
+        [
+            0.4124 * r + 0.3576 * g + 0.1805 * b,
+            0.2126 * r + 0.7152 * g + 0.0722 * b,
+            0.0193 * r + 0.1192 * g + 0.9505 * b,
+        ]
+    };
+    let (mut num, mut den, mut de, mut n) = (0.0, 0.0, 0.0, 0usize);
+    for p in 0..reference.rgb.len() {
+        let rs = &reference.spectra[p * nl..(p + 1) * nl];
+        if rs.iter().all(|&v| v == 0.0) {
+            continue;
+        }
+        let is = &img.spectra[p * nl..(p + 1) * nl];
+        for (a, b) in is.iter().zip(rs) {
+            num += f64::from(a - b).powi(2);
+            den += f64::from(*b).powi(2);
+        }
+        let (l1, l2) = (
+            colour::lab(weights_rgb_to_xyz(img.rgb[p]), white),
+            colour::lab(weights_rgb_to_xyz(reference.rgb[p]), white),
+        );
+        de += colour::delta_e2000(l1, l2);
+        n += 1;
+    }
+    Difference {
+        rel_rmse: if den > 0.0 { (num / den).sqrt() } else { 0.0 },
+        mean_de2000: if n > 0 { de / n as f64 } else { 0.0 },
+        pixels: n,
+    }
+}

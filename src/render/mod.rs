@@ -1,0 +1,389 @@
+//! Renders objects made of a simulated material: a spectral renderer over any BRDF
+//! representation, with a directional or point light and a constant or sky environment,
+//! written as a linear-sRGB EXR and an sRGB PNG preview.
+//!
+//! Radiometry is in radiance factors relative to the illuminant (D65): a white Lambertian
+//! surface facing a light of unit strength has radiance factor 1. Per wavelength bin the
+//! pixel spectrum is `pi E f(wi, wo) cos(theta_i)` for the light, plus the environment:
+//! for a constant environment `integral f(wi, wo) cos(theta_i) dwi`, precomputed per
+//! outgoing angle (exact, no noise; isotropic BRDFs), for the sky a cosine-weighted Monte
+//! Carlo estimate. Spectra become XYZ with the CIE 1931 2-degree observer, then linear sRGB.
+//! Rows render in parallel; every pixel has its own random stream, so images do not depend
+//! on the thread count.
+
+pub mod analytic;
+pub mod colour;
+
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use rayon::prelude::*;
+
+use crate::accel::{Accel, Backend, Intersector, Ray};
+use crate::brdf::Brdf;
+use crate::optics::vec3::{V3, add, cross, dot, norm, normalize, scale, sub};
+use crate::rng::Rng;
+use crate::sample::Mesh;
+
+/// The light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    None,
+    /// Direction towards the light (unit), world frame.
+    Directional(V3),
+    /// Position; its strength is 1 at the distance of the origin.
+    Point(V3),
+}
+
+/// The environment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Env {
+    None,
+    Constant,
+    /// Brighter towards the zenith: `0.25 + 0.75 max(0, z)`.
+    Sky,
+}
+
+/// What to render.
+pub enum Shape {
+    /// The unit sphere at the origin.
+    Sphere,
+    /// A triangle mesh with smooth vertex normals.
+    Mesh {
+        mesh: Mesh,
+        normals: Vec<V3>,
+        accel: Box<Accel>,
+    },
+}
+
+impl Shape {
+    /// A mesh shape with area-weighted vertex normals.
+    pub fn mesh(mesh: Mesh, backend: Backend) -> Result<Shape, crate::accel::AccelError> {
+        let mut normals = vec![[0.0; 3]; mesh.positions_nm.len()];
+        for (k, t) in mesh.triangles.iter().enumerate() {
+            let a = mesh.area_vector(k);
+            for &v in t {
+                normals[v as usize] = add(normals[v as usize], a);
+            }
+        }
+        for n in &mut normals {
+            let l = norm(*n);
+            if l > 0.0 {
+                *n = scale(*n, 1.0 / l);
+            }
+        }
+        let accel = Box::new(Accel::build(backend, &mesh.to_soup())?);
+        Ok(Shape::Mesh {
+            mesh,
+            normals,
+            accel,
+        })
+    }
+
+    /// Bounding sphere (centre, radius).
+    pub fn bounds(&self) -> (V3, f64) {
+        match self {
+            Shape::Sphere => ([0.0; 3], 1.0),
+            Shape::Mesh { mesh, .. } => {
+                let (lo, hi) = mesh.bounds().unwrap_or(([0.0; 3], [1.0; 3]));
+                let c = scale(add(lo, hi), 0.5);
+                (c, 0.5 * norm(sub(hi, lo)))
+            }
+        }
+    }
+
+    /// Closest hit: distance and shading normal.
+    fn hit(&self, o: V3, d: V3) -> Option<(f64, V3)> {
+        match self {
+            Shape::Sphere => {
+                let b = dot(o, d);
+                let c = dot(o, o) - 1.0;
+                let disc = b * b - c;
+                if disc < 0.0 {
+                    return None;
+                }
+                let t = -b - disc.sqrt();
+                let t = if t > 1e-9 { t } else { -b + disc.sqrt() };
+                (t > 1e-9).then(|| (t, normalize(add(o, scale(d, t)))))
+            }
+            Shape::Mesh {
+                mesh,
+                normals,
+                accel,
+            } => {
+                let h = accel.closest_hit(&Ray {
+                    origin: o.map(|c| c as f32),
+                    tmin: 1e-4,
+                    dir: d.map(|c| c as f32),
+                    tmax: f32::INFINITY,
+                });
+                if !h.is_hit() {
+                    return None;
+                }
+                let [a, b, c] = mesh.triangles[h.prim as usize];
+                let (u, v) = (f64::from(h.u), f64::from(h.v));
+                let n = add(
+                    add(
+                        scale(normals[a as usize], 1.0 - u - v),
+                        scale(normals[b as usize], u),
+                    ),
+                    scale(normals[c as usize], v),
+                );
+                let mut n = normalize(n);
+                if dot(n, d) > 0.0 {
+                    n = scale(n, -1.0); // seen from behind: shade the visible side
+                }
+                Some((f64::from(h.t), n))
+            }
+        }
+    }
+
+    fn occluded(&self, o: V3, d: V3) -> bool {
+        match self {
+            Shape::Sphere => false, // convex
+            Shape::Mesh { .. } => self.hit(o, d).is_some(),
+        }
+    }
+}
+
+/// Render settings.
+#[derive(Clone, Debug)]
+pub struct RenderConfig {
+    pub width: usize,
+    pub height: usize,
+    pub spp: usize,
+    pub light: Light,
+    pub light_strength: f64,
+    pub env: Env,
+    pub env_strength: f64,
+    /// Camera position; it looks at the shape's centre.
+    pub camera: V3,
+    /// Vertical field of view, degrees.
+    pub fov_deg: f64,
+    pub seed: u64,
+}
+
+/// A linear-sRGB image, rows from the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: usize,
+    pub height: usize,
+    pub rgb: Vec<[f32; 3]>,
+    /// The per-pixel spectra (radiance factors per wavelength bin), row-major.
+    pub spectra: Vec<f32>,
+    pub bins: usize,
+}
+
+/// Hemispherical albedo `integral f(wi, wo) cos(theta_i) dwi` of an isotropic BRDF as a
+/// function of the outgoing polar angle: `n` samples of theta_o over [0, 90) deg.
+///
+/// By reciprocity (`f(wi, wo) = f(wo, wi)`) this is the directional-hemispherical
+/// reflectance for light arriving from `wo`, `integral f(wo, w) cos(theta) dw`, which is
+/// how it is integrated: the simulated incident angles are where the data are resolved,
+/// and that reflectance varies smoothly between them even for a specular film.
+pub fn albedo_table(brdf: &(dyn Brdf + Sync), n: usize) -> Vec<Vec<f64>> {
+    let nl = brdf.meta().wavelengths_nm.len();
+    let (nt, np) = (48, 96);
+    (0..n)
+        .into_par_iter()
+        .map(|k| {
+            let to = (k as f64 + 0.5) / n as f64 * std::f64::consts::FRAC_PI_2;
+            let wo = crate::brdf::dir(to, 0.0);
+            let mut acc = vec![0.0; nl];
+            let mut v = vec![0.0; nl];
+            for t in 0..nt {
+                let th = (t as f64 + 0.5) / nt as f64 * std::f64::consts::FRAC_PI_2;
+                let w = th.cos()
+                    * th.sin()
+                    * (std::f64::consts::FRAC_PI_2 / nt as f64)
+                    * (std::f64::consts::TAU / np as f64);
+                for p in 0..np {
+                    let ph = (p as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
+                    brdf.eval(wo, crate::brdf::dir(th, ph), &mut v);
+                    for (a, x) in acc.iter_mut().zip(&v) {
+                        *a += w * x;
+                    }
+                }
+            }
+            acc
+        })
+        .collect()
+}
+
+/// Renders `shape` made of `brdf`. `albedo` is [`albedo_table`] (needed for a constant
+/// environment); `progress` receives finished rows.
+pub fn render(
+    brdf: &(dyn Brdf + Sync),
+    shape: &Shape,
+    cfg: &RenderConfig,
+    albedo: Option<&[Vec<f64>]>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Image {
+    let nl = brdf.meta().wavelengths_nm.len();
+    let weights = colour::bin_weights(&brdf.meta().wavelengths_nm);
+    let (centre, radius) = shape.bounds();
+    let fwd = normalize(sub(centre, cfg.camera));
+    let up0 = if fwd[2].abs() > 0.99 {
+        [0.0, 1.0, 0.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    let right = normalize(cross(fwd, up0));
+    let up = cross(right, fwd);
+    let half_h = (cfg.fov_deg.to_radians() / 2.0).tan();
+    let aspect = cfg.width as f64 / cfg.height as f64;
+    let _ = radius;
+    let rows = AtomicU64::new(0);
+    let pixels: Vec<(Vec<f32>, [f32; 3])> = (0..cfg.height)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            let mut spec = vec![0.0; nl];
+            let mut f = vec![0.0; nl];
+            let row: Vec<(Vec<f32>, [f32; 3])> = (0..cfg.width)
+                .map(|x| {
+                    let mut rng = Rng::new(cfg.seed, (y * cfg.width + x) as u64);
+                    spec.iter_mut().for_each(|s| *s = 0.0);
+                    for _ in 0..cfg.spp {
+                        let sx = (2.0 * (x as f64 + rng.uniform()) / cfg.width as f64 - 1.0)
+                            * half_h
+                            * aspect;
+                        let sy =
+                            (1.0 - 2.0 * (y as f64 + rng.uniform()) / cfg.height as f64) * half_h;
+                        let d = normalize(add(fwd, add(scale(right, sx), scale(up, sy))));
+                        let Some((t, n)) = shape.hit(cfg.camera, d) else {
+                            continue;
+                        };
+                        let p = add(cfg.camera, scale(d, t));
+                        // Local frame around the shading normal (isotropic BRDF: any tangent).
+                        let a = if n[0].abs() < 0.9 {
+                            [1.0, 0.0, 0.0]
+                        } else {
+                            [0.0, 1.0, 0.0]
+                        };
+                        let tx = normalize(cross(a, n));
+                        let ty = cross(n, tx);
+                        let local = |w: V3| [dot(w, tx), dot(w, ty), dot(w, n)];
+                        let wo = local(scale(d, -1.0));
+                        if wo[2] <= 0.0 {
+                            continue;
+                        }
+                        let lit = |wi_world: V3,
+                                   strength: f64,
+                                   spec: &mut Vec<f64>,
+                                   f: &mut Vec<f64>| {
+                            let wi = local(wi_world);
+                            if wi[2] <= 0.0
+                                || shape
+                                    .occluded(add(p, scale(n, 1e-6 * radius.max(1.0))), wi_world)
+                            {
+                                return;
+                            }
+                            brdf.eval(wi, wo, f);
+                            for (s, v) in spec.iter_mut().zip(f.iter()) {
+                                *s += strength * std::f64::consts::PI * v * wi[2];
+                            }
+                        };
+                        match cfg.light {
+                            Light::None => {}
+                            Light::Directional(l) => lit(l, cfg.light_strength, &mut spec, &mut f),
+                            Light::Point(q) => {
+                                let v = sub(q, p);
+                                let r2 = dot(v, v);
+                                lit(
+                                    normalize(v),
+                                    cfg.light_strength * dot(q, q) / r2,
+                                    &mut spec,
+                                    &mut f,
+                                )
+                            }
+                        }
+                        match cfg.env {
+                            Env::None => {}
+                            Env::Constant => {
+                                let table =
+                                    albedo.expect("a constant environment needs the albedo table");
+                                let k = ((wo[2].clamp(0.0, 1.0).acos()
+                                    / std::f64::consts::FRAC_PI_2)
+                                    * table.len() as f64)
+                                    as usize;
+                                for (s, v) in spec.iter_mut().zip(&table[k.min(table.len() - 1)]) {
+                                    *s += cfg.env_strength * v;
+                                }
+                            }
+                            Env::Sky => {
+                                // Cosine-weighted direction about n: pdf cos/pi, so the
+                                // estimate is pi f L.
+                                let (u1, u2) = (rng.uniform(), rng.uniform());
+                                let r = u1.sqrt();
+                                let phi = std::f64::consts::TAU * u2;
+                                let wi = [r * phi.cos(), r * phi.sin(), (1.0 - u1).max(0.0).sqrt()];
+                                let world =
+                                    add(add(scale(tx, wi[0]), scale(ty, wi[1])), scale(n, wi[2]));
+                                if !shape.occluded(add(p, scale(n, 1e-6 * radius.max(1.0))), world)
+                                {
+                                    let sky = 0.25 + 0.75 * world[2].max(0.0);
+                                    brdf.eval(wi, wo, &mut f);
+                                    for (s, v) in spec.iter_mut().zip(f.iter()) {
+                                        *s += cfg.env_strength * std::f64::consts::PI * v * sky;
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    let inv = 1.0 / cfg.spp as f64;
+                    let s: Vec<f64> = spec.iter().map(|v| v * inv).collect();
+                    let rgb = colour::xyz_to_linear_srgb(colour::xyz(&s, &weights));
+                    (s.iter().map(|&v| v as f32).collect(), rgb.map(|c| c as f32))
+                })
+                .collect();
+            progress(rows.fetch_add(1, Ordering::Relaxed) + 1);
+            row.into_iter()
+        })
+        .collect();
+    let mut img = Image {
+        width: cfg.width,
+        height: cfg.height,
+        rgb: Vec::with_capacity(pixels.len()),
+        spectra: Vec::with_capacity(pixels.len() * nl),
+        bins: nl,
+    };
+    for (s, c) in pixels {
+        img.spectra.extend(s);
+        img.rgb.push(c);
+    }
+    img
+}
+
+/// Writes the image as a linear-sRGB EXR, atomically.
+pub fn write_exr(img: &Image, path: &Path) -> std::io::Result<()> {
+    let tmp = crate::io::temp_path(path);
+    let r = exr::prelude::write_rgb_file(&tmp, img.width, img.height, |x, y| {
+        let c = img.rgb[y * img.width + x];
+        (c[0], c[1], c[2])
+    });
+    match r {
+        Ok(()) => std::fs::rename(&tmp, path),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(std::io::Error::other(e.to_string()))
+        }
+    }
+}
+
+/// Writes an 8-bit sRGB-encoded PNG preview (values clamped to [0, 1]), atomically.
+pub fn write_png(img: &Image, path: &Path) -> std::io::Result<()> {
+    let data: Vec<u8> = img
+        .rgb
+        .iter()
+        .flat_map(|c| c.map(|v| (colour::srgb_encode(f64::from(v)) * 255.0).round() as u8))
+        .collect();
+    crate::io::write_atomic(path, |w| {
+        let mut enc = png::Encoder::new(w, img.width as u32, img.height as u32);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        let mut wr = enc.write_header().map_err(std::io::Error::other)?;
+        wr.write_image_data(&data).map_err(std::io::Error::other)?;
+        wr.finish().map_err(std::io::Error::other)
+    })
+}
