@@ -240,6 +240,10 @@ struct SimulateArgs {
     /// Interface events along one path before it is dropped.
     #[arg(long, default_value_t = 64)]
     max_depth: u32,
+    /// Segments of one tree before its remaining rays are dropped (multiply scattering
+    /// samples; raise --cutoff to 1e-4..1e-6 for pigments and flakes).
+    #[arg(long, default_value_t = 20_000)]
+    max_segments: u32,
     /// Trace every wavelength separately even when no medium is dispersive.
     #[arg(long)]
     no_path_sharing: bool,
@@ -592,6 +596,7 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         limits: TraceLimits {
             cutoff: a.cutoff,
             max_depth: a.max_depth,
+            max_segments: a.max_segments,
             ..Default::default()
         },
         buckets: Buckets {

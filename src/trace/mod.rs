@@ -108,6 +108,9 @@ pub struct TraceLimits {
     /// Tile-side crossings of one segment chain before it is dropped (rays running
     /// nearly parallel to the layers).
     pub max_wraps: u32,
+    /// Traced segments of one tree before its remaining rays are dropped: a guard against
+    /// the exponential growth of trees in multiply scattering samples (pigments, flakes).
+    pub max_segments: u32,
 }
 
 impl Default for TraceLimits {
@@ -116,6 +119,7 @@ impl Default for TraceLimits {
             cutoff: 1e-10,
             max_depth: 64,
             max_wraps: 10_000,
+            max_segments: 20_000,
         }
     }
 }
@@ -277,6 +281,13 @@ impl<'a> Scene<'a> {
             field_power(&e[0]).max(field_power(&e[1])) * (prune * opl.im).exp()
         };
         while let Some(mut r) = stack.pop() {
+            if out.segments >= limits.max_segments {
+                out.dropped.push(Dropped {
+                    power: [field_power(&r.e[0]), field_power(&r.e[1])],
+                    im: r.opl.im,
+                });
+                continue;
+            }
             let mut wraps = 0u32;
             loop {
                 out.segments += 1;
