@@ -21,7 +21,7 @@ end=$(date +%s.%N)
   $G info "$OUT/thin-film-600nm.gsa" | sed -n '2,6p'
   awk -F, 'NR > 1 { if (min == "" || $2 < min) { min = $2; lmin = $1 } if ($2 > max) { max = $2; lmax = $1 } }
     END { printf "reflectance at 30 deg: %.4f (at %s nm) to %.4f (at %s nm)\n", min, lmin, max, lmax }' "$OUT/reflectance-30deg.csv"
-  printf "wall time: %.1f s\n" "$(echo "$end - $start" | bc -l 2>/dev/null || echo 0)"
+  awk -v s="$start" -v e="$end" 'BEGIN { printf "wall time: %.1f s\n", e - s }'
   echo "files: thin-film-600nm.gsa (accumulator), thin-film-600nm.gsb (BRDF table),"
   echo "       thin-film-600nm-sphere.exr (linear sRGB), thin-film-600nm-sphere.png (preview), reflectance-30deg.csv"
 } > "$OUT/summary.txt"
