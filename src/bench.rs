@@ -270,6 +270,8 @@ pub fn simulate_bench(
         },
         path_sharing: None,
         origin_nm: [0.0; 3],
+        tolerance: None,
+        max_rays: 0,
     };
     let nbins = cfg.bins.len() - 1;
     log(&format!(

@@ -244,6 +244,14 @@ struct SimulateArgs {
     /// samples; raise --cutoff to 1e-4..1e-6 for pigments and flakes).
     #[arg(long, default_value_t = 20_000)]
     max_segments: u32,
+    /// Adaptive budget: launch batches of --rays per incident direction until the relative
+    /// standard error of the reflectance (total and every populated bucket) is at most
+    /// this, e.g. 0.01; reports per direction whether it converged or ran out of budget.
+    #[arg(long)]
+    tolerance: Option<f64>,
+    /// Largest number of rays per incident direction with --tolerance.
+    #[arg(long, default_value_t = 1_000_000)]
+    max_rays: u64,
     /// Trace every wavelength separately even when no medium is dispersive.
     #[arg(long)]
     no_path_sharing: bool,
@@ -605,8 +613,14 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         },
         path_sharing: a.no_path_sharing.then_some(false),
         origin_nm: [0.0; 3],
+        tolerance: a.tolerance,
+        max_rays: a.max_rays,
     };
-    let total = a.rays * a.theta_i.len() as u64;
+    let total = if a.tolerance.is_some() {
+        a.max_rays
+    } else {
+        a.rays
+    } * a.theta_i.len() as u64;
     let bar = indicatif::ProgressBar::new(total);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} trees  {per_sec}  eta {eta}")
@@ -632,6 +646,21 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         stats.segments as f64 / stats.seconds / 1e6,
         if stats.path_sharing { "on" } else { "off" }
     );
+    if a.tolerance.is_some() {
+        for d in &stats.directions {
+            eprintln!(
+                "theta_i {} deg: {} rays, relative standard error {} ({})",
+                d.theta_i_deg,
+                d.rays,
+                d.achieved.map_or("undefined".into(), |v| format!("{v:.4}")),
+                if d.converged {
+                    "converged"
+                } else {
+                    "budget exhausted"
+                }
+            );
+        }
+    }
     if stats.leaks > 0 {
         eprintln!(
             "warning: {} rays met an interface from the wrong medium (leaky geometry); their power is counted as dropped. Run goniospec check.",
@@ -1244,6 +1273,8 @@ fn bench_eval(a: EvalBenchArgs) -> Result<ExitCode> {
             },
             path_sharing: None,
             origin_nm: [0.0; 3],
+            tolerance: None,
+            max_rays: 0,
         };
         let (acc, _) = goniospec::simulate::simulate(&s, &cfg, &|_| {})?;
         Ok(BucketData::from_accumulator(&acc))

@@ -69,6 +69,53 @@ pub struct SimConfig {
     /// Where the sample's frame sits in the world, nm: exit points and launch points are
     /// reported in world coordinates. The estimator must not depend on it (DESIGN.md §3).
     pub origin_nm: [f64; 3],
+    /// Adaptive budget: launch batches of `rays` trees per incident direction until the
+    /// relative standard error of the reflectance (total, and every populated bucket) is
+    /// at most this, or `max_rays` is spent. `None`: exactly `rays` trees.
+    pub tolerance: Option<f64>,
+    pub max_rays: u64,
+}
+
+/// How one incident direction ended.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DirectionStats {
+    pub theta_i_deg: f64,
+    pub rays: u64,
+    /// Largest relative standard error over wavelength bins of the total reflectance and
+    /// of every populated reflection bucket (holding at least a tenth of the brightest
+    /// bucket's power); `None` where undefined (global mode).
+    pub achieved: Option<f64>,
+    /// The tolerance was reached (adaptive runs).
+    pub converged: bool,
+}
+
+/// The achieved relative error of incident direction `di` (see [`DirectionStats`]).
+pub fn achieved_error(cells: &[Cell], di: usize, nl: usize, mode: Coherence) -> Option<f64> {
+    if mode == Coherence::Global {
+        return None;
+    }
+    let mut worst: f64 = 0.0;
+    for c in &cells[di * nl..(di + 1) * nl] {
+        let n = c.trees as f64;
+        if c.trees < 2 {
+            return Some(f64::INFINITY);
+        }
+        let r = c.r_sum / n;
+        if r > 0.0 {
+            worst = worst.max(c.r_stderr(mode).unwrap_or(f64::INFINITY) / r);
+        }
+        let fmax = (0..c.sum.len())
+            .step_by(2)
+            .map(|k| c.sum[k] / n)
+            .fold(0.0, f64::max);
+        for k in (0..c.sum.len()).step_by(2) {
+            let f = c.sum[k] / n;
+            if f > 0.0 && f >= 0.1 * fmax {
+                worst = worst.max(c.fraction_stderr(k, mode).unwrap_or(f64::INFINITY) / f);
+            }
+        }
+    }
+    Some(worst)
 }
 
 /// Run statistics.
@@ -80,6 +127,7 @@ pub struct SimStats {
     pub leaks: u64,
     pub seconds: f64,
     pub path_sharing: bool,
+    pub directions: Vec<DirectionStats>,
 }
 
 /// What can stop a simulation.
@@ -247,7 +295,7 @@ pub fn simulate(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Accumulator, SimStats), SimError> {
     validate(cfg)?;
-    let start = Instant::now();
+    let start_time = Instant::now();
     let scene = Scene::new(sample, cfg.backend)?;
     let dispersive = sample.media.iter().any(|m| m.model.is_dispersive());
     let sharing = cfg.path_sharing.unwrap_or(!dispersive);
@@ -321,6 +369,7 @@ pub fn simulate(
     let leaks = AtomicU64::new(0);
     let traces = AtomicU64::new(0);
     let fixed_indices = index_at(lambda_max);
+    let mut directions = Vec::new();
 
     for (di, &theta_deg) in cfg.theta_i_deg.iter().enumerate() {
         let wi = from_spherical(theta_deg.to_radians(), cfg.phi_i_deg.to_radians());
@@ -328,100 +377,137 @@ pub fn simulate(
         let e0 = launch_fields(d);
         let mut shift_rng = Rng::new(cfg.seed, 0x5817_0000 + di as u64);
         let shift = [shift_rng.uniform(), shift_rng.uniform()];
-        let nblocks = cfg.rays.div_ceil(BLOCK);
-        let blocks: Vec<Vec<BlockCell>> = (0..nblocks)
-            .into_par_iter()
-            .map_init(
-                || {
-                    (
-                        Vec::<RayState>::new(),
-                        Tree::default(),
-                        Scratch::default(),
-                        Vec::new(),
-                        Vec::new(),
-                        Dense::new(nl, 2 * cfg.buckets.len(), global),
-                    )
-                },
-                |(stack, tree, scratch, deps, glob, dense), b| {
-                    let mut out: Vec<BlockCell> = (0..nl).map(|_| BlockCell::default()).collect();
-                    let lo = b * BLOCK;
-                    let hi = (lo + BLOCK).min(cfg.rays);
-                    for i in lo..hi {
-                        let mut rng = Rng::new(cfg.seed, (di as u64) << 40 | i);
-                        let xy = entry_point(i, shift, sample.tile_nm);
-                        let origin = [xy[0], xy[1], scene.z_top];
-                        // Stratified jitter: tree i takes stratum i of N in every bin.
-                        let lambda_of = |j: usize, u: f64| match &cfg.wavelengths {
-                            Wavelengths::Bins(e) => {
-                                e[j] + (e[j + 1] - e[j]) * ((i as f64 + u) / cfg.rays as f64)
-                            }
-                            Wavelengths::Monochromatic(v) => v[j],
-                        };
-                        let jitter: Vec<f64> = (0..nl).map(|_| rng.uniform()).collect();
-                        let world_origin = add(origin, cfg.origin_nm);
-                        let traced = |tree: &mut Tree, scratch: &mut Scratch| {
-                            for x in &mut tree.exits {
-                                x.x = add(x.x, cfg.origin_nm);
-                            }
-                            est.prepare(tree, scratch);
-                            segments.fetch_add(u64::from(tree.segments), Ordering::Relaxed);
-                            leaks.fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
-                            traces.fetch_add(1, Ordering::Relaxed);
-                        };
-                        if sharing {
-                            scene.trace(
-                                origin,
-                                d,
-                                e0,
-                                &fixed_indices,
-                                lambda_max,
-                                &cfg.limits,
-                                stack,
-                                tree,
-                            );
-                            traced(tree, scratch);
-                        }
-                        for (j, cell) in out.iter_mut().enumerate() {
-                            let lambda = lambda_of(j, jitter[j]);
-                            if !sharing {
+        let adaptive = cfg.tolerance.is_some();
+        // Batches are whole blocks, so where a run stops never changes the sums of the
+        // batches before it.
+        let batch = if adaptive {
+            cfg.rays.div_ceil(BLOCK) * BLOCK
+        } else {
+            cfg.rays
+        };
+        let target = if adaptive {
+            cfg.max_rays.max(batch)
+        } else {
+            cfg.rays
+        };
+        let mut start = 0u64;
+        loop {
+            let end = (start + batch).min(target);
+            let nblocks = (end - start).div_ceil(BLOCK);
+            let blocks: Vec<Vec<BlockCell>> = (0..nblocks)
+                .into_par_iter()
+                .map_init(
+                    || {
+                        (
+                            Vec::<RayState>::new(),
+                            Tree::default(),
+                            Scratch::default(),
+                            Vec::new(),
+                            Vec::new(),
+                            Dense::new(nl, 2 * cfg.buckets.len(), global),
+                        )
+                    },
+                    |(stack, tree, scratch, deps, glob, dense), b| {
+                        let mut out: Vec<BlockCell> =
+                            (0..nl).map(|_| BlockCell::default()).collect();
+                        let lo = start + b * BLOCK;
+                        let hi = (lo + BLOCK).min(end);
+                        for i in lo..hi {
+                            let mut rng = Rng::new(cfg.seed, (di as u64) << 40 | i);
+                            let xy = entry_point(i, shift, sample.tile_nm);
+                            let origin = [xy[0], xy[1], scene.z_top];
+                            // Stratified jitter: tree i takes stratum i of N in every bin.
+                            let lambda_of = |j: usize, u: f64| match &cfg.wavelengths {
+                                Wavelengths::Bins(e) => {
+                                    // Adaptive runs do not know N: a golden-ratio sequence
+                                    // (low-discrepancy for every prefix) replaces the strata.
+                                    let frac = if adaptive {
+                                        (i as f64 * 0.618_033_988_749_894_9 + u).fract()
+                                    } else {
+                                        (i as f64 + u) / cfg.rays as f64
+                                    };
+                                    e[j] + (e[j + 1] - e[j]) * frac
+                                }
+                                Wavelengths::Monochromatic(v) => v[j],
+                            };
+                            let jitter: Vec<f64> = (0..nl).map(|_| rng.uniform()).collect();
+                            let world_origin = add(origin, cfg.origin_nm);
+                            let traced = |tree: &mut Tree, scratch: &mut Scratch| {
+                                for x in &mut tree.exits {
+                                    x.x = add(x.x, cfg.origin_nm);
+                                }
+                                est.prepare(tree, scratch);
+                                segments.fetch_add(u64::from(tree.segments), Ordering::Relaxed);
+                                leaks.fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
+                                traces.fetch_add(1, Ordering::Relaxed);
+                            };
+                            if sharing {
                                 scene.trace(
                                     origin,
                                     d,
                                     e0,
-                                    &index_at(lambda),
-                                    lambda,
+                                    &fixed_indices,
+                                    lambda_max,
                                     &cfg.limits,
                                     stack,
                                     tree,
                                 );
                                 traced(tree, scratch);
                             }
-                            deps.clear();
-                            glob.clear();
-                            let k = 2.0 * std::f64::consts::PI / lambda;
-                            let entry_phase = k * n_up * dot(d, world_origin);
-                            est.deposit(tree, lambda, entry_phase, scratch, deps, glob);
-                            let (r, t) = dense.add_tree(j, deps, glob);
-                            cell.trees += 1;
-                            cell.r.0 += r;
-                            cell.r.1 += r * r;
-                            cell.t.0 += t;
-                            cell.t.1 += t * t;
-                            cell.absorbed += tree.absorbed(lambda);
-                            cell.dropped += tree.dropped(lambda);
+                            for (j, cell) in out.iter_mut().enumerate() {
+                                let lambda = lambda_of(j, jitter[j]);
+                                if !sharing {
+                                    scene.trace(
+                                        origin,
+                                        d,
+                                        e0,
+                                        &index_at(lambda),
+                                        lambda,
+                                        &cfg.limits,
+                                        stack,
+                                        tree,
+                                    );
+                                    traced(tree, scratch);
+                                }
+                                deps.clear();
+                                glob.clear();
+                                let k = 2.0 * std::f64::consts::PI / lambda;
+                                let entry_phase = k * n_up * dot(d, world_origin);
+                                est.deposit(tree, lambda, entry_phase, scratch, deps, glob);
+                                let (r, t) = dense.add_tree(j, deps, glob);
+                                cell.trees += 1;
+                                cell.r.0 += r;
+                                cell.r.1 += r * r;
+                                cell.t.0 += t;
+                                cell.t.1 += t * t;
+                                cell.absorbed += tree.absorbed(lambda);
+                                cell.dropped += tree.dropped(lambda);
+                            }
                         }
-                    }
-                    dense.drain(&mut out);
-                    let n = done.fetch_add(hi - lo, Ordering::Relaxed) + (hi - lo);
-                    progress(n);
-                    out
-                },
-            )
-            .collect();
-        // Combine blocks in block order: the sums do not depend on scheduling.
-        for block in &blocks {
-            for (j, bc) in block.iter().enumerate() {
-                add_block(&mut cells[di * nl + j], bc);
+                        dense.drain(&mut out);
+                        let n = done.fetch_add(hi - lo, Ordering::Relaxed) + (hi - lo);
+                        progress(n);
+                        out
+                    },
+                )
+                .collect();
+            // Combine blocks in block order: the sums do not depend on scheduling.
+            for block in &blocks {
+                for (j, bc) in block.iter().enumerate() {
+                    add_block(&mut cells[di * nl + j], bc);
+                }
+            }
+            start = end;
+            let achieved = achieved_error(&cells, di, nl, cfg.coherence);
+            let converged = adaptive && achieved.is_some_and(|a| a <= cfg.tolerance.unwrap_or(0.0));
+            if !adaptive || converged || start >= target {
+                directions.push(DirectionStats {
+                    theta_i_deg: theta_deg,
+                    rays: start,
+                    achieved,
+                    converged,
+                });
+                break;
             }
         }
     }
@@ -431,13 +517,20 @@ pub fn simulate(
         traces: traces.load(Ordering::Relaxed),
         segments: segments.load(Ordering::Relaxed),
         leaks: leaks.load(Ordering::Relaxed),
-        seconds: start.elapsed().as_secs_f64(),
+        seconds: start_time.elapsed().as_secs_f64(),
         path_sharing: sharing,
+        directions,
     };
     let header = Header {
         settings,
         seeds: vec![cfg.seed],
-        rays: cfg.rays,
+        // Adaptive runs: the most trees any direction used (cells hold each one's count).
+        rays: stats
+            .directions
+            .iter()
+            .map(|d| d.rays)
+            .max()
+            .unwrap_or(cfg.rays),
         backend: scene.backend().name().into(),
         path_sharing: sharing,
         leaks: stats.leaks,
@@ -455,6 +548,13 @@ fn validate(cfg: &SimConfig) -> Result<(), SimError> {
     }
     if cfg.rays == 0 {
         return bad("--rays must be at least 1".into());
+    }
+    if let Some(t) = cfg.tolerance
+        && !(t > 0.0 && t.is_finite())
+    {
+        return bad(format!(
+            "--tolerance must be a positive relative error, got {t}"
+        ));
     }
     if cfg.wavelengths.count() == 0 {
         return bad("no wavelengths".into());

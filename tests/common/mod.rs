@@ -75,6 +75,8 @@ pub fn config(theta_i: &[f64], wavelengths: Wavelengths, rays: u64) -> SimConfig
         },
         path_sharing: None,
         origin_nm: [0.0; 3],
+        tolerance: None,
+        max_rays: 0,
     }
 }
 
