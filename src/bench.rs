@@ -340,17 +340,8 @@ pub fn simulate_bench(
     // default beamlet radius and in the plane-wave limit.
     let thetas: Vec<f64> = (0..10).map(|i| 8.0 * i as f64).collect();
     let edges: Vec<f64> = (0..=40).map(|i| 380.0 + 10.0 * i as f64).collect();
-    let st = flat.stack.as_ref().expect("the flat film is a [stack]");
-    let stack_at = |l: f64| crate::optics::tmm::StackIndices {
-        n: std::iter::once(st.ambient)
-            .chain(st.layers.iter().map(|l| l.0))
-            .chain(std::iter::once(st.substrate))
-            .map(|m| {
-                let (n, k) = flat.media[m].model.eval(l).expect("in range");
-                crate::optics::C64::new(n, k)
-            })
-            .collect(),
-        d_nm: st.layers.iter().map(|l| l.1).collect(),
+    let stack_at = |l: f64| {
+        crate::optics::tmm::stack_indices(flat, l).expect("the flat film is a [stack] within range")
     };
     let reference: Vec<Vec<f64>> = thetas
         .iter()

@@ -749,34 +749,19 @@ fn reflectance(a: ReflectanceArgs) -> Result<ExitCode> {
 }
 
 fn analytic(a: AnalyticArgs) -> Result<ExitCode> {
-    use goniospec::optics::{C64, tmm};
+    use goniospec::optics::tmm;
     let s = sample::load(&a.sample, MeshOptions::default())?;
-    let st = s.stack.as_ref().with_context(|| {
-        format!(
+    if s.stack.is_none() {
+        bail!(
             "{} is not written as a [stack]: the analytic reference needs a flat layered sample",
             a.sample.display()
-        )
-    })?;
+        );
+    }
     if !(0.0..90.0).contains(&a.theta_i) {
         bail!("--theta-i must be in [0, 90) degrees");
     }
     let stack_at = |l: f64| -> Result<tmm::StackIndices> {
-        let idx = |m: usize| -> Result<C64> {
-            let (n, k) = s.media[m]
-                .model
-                .eval(l)
-                .map_err(|e| anyhow::anyhow!("medium '{}': {e}", s.media[m].name))?;
-            Ok(C64::new(n, k))
-        };
-        let mut n = vec![idx(st.ambient)?];
-        for &(m, _) in &st.layers {
-            n.push(idx(m)?);
-        }
-        n.push(idx(st.substrate)?);
-        Ok(tmm::StackIndices {
-            n,
-            d_nm: st.layers.iter().map(|l| l.1).collect(),
-        })
+        tmm::stack_indices(&s, l).map_err(|e| anyhow::anyhow!(e))
     };
     let th = a.theta_i.to_radians();
     println!("lambda_nm,Rs,Rp,R,Ts,Tp,T");

@@ -152,3 +152,32 @@ pub fn solve_band(
     }
     acc
 }
+
+/// The indices and thicknesses of a `[stack]` sample at `lambda_nm`, for [`solve`].
+pub fn stack_indices(
+    sample: &crate::sample::Sample,
+    lambda_nm: f64,
+) -> Result<StackIndices, String> {
+    let st = sample.stack.as_ref().ok_or_else(|| {
+        format!(
+            "{} is not written as a [stack]: the analytic reference needs a flat layered sample",
+            sample.path.display()
+        )
+    })?;
+    let idx = |m: usize| -> Result<C64, String> {
+        let (n, k) = sample.media[m]
+            .model
+            .eval(lambda_nm)
+            .map_err(|e| format!("medium '{}': {e}", sample.media[m].name))?;
+        Ok(C64::new(n, k))
+    };
+    let mut n = vec![idx(st.ambient)?];
+    for &(m, _) in &st.layers {
+        n.push(idx(m)?);
+    }
+    n.push(idx(st.substrate)?);
+    Ok(StackIndices {
+        n,
+        d_nm: st.layers.iter().map(|l| l.1).collect(),
+    })
+}

@@ -3,8 +3,7 @@
 //! mirror direction (the light, a delta direction, contributes nothing to a delta lobe).
 
 use super::{Env, Image, RenderConfig, Shape, colour};
-use crate::optics::C64;
-use crate::optics::tmm::{StackIndices, solve_band};
+use crate::optics::tmm::solve_band;
 use crate::optics::vec3::{add, dot, normalize, scale, sub};
 use crate::sample::Sample;
 
@@ -15,10 +14,9 @@ pub fn stack_image(
     shape: &Shape,
     cfg: &RenderConfig,
 ) -> anyhow::Result<Image> {
-    let st = s
-        .stack
-        .as_ref()
-        .ok_or_else(|| anyhow::anyhow!("{} is not written as a [stack]", s.path.display()))?;
+    if s.stack.is_none() {
+        anyhow::bail!("{} is not written as a [stack]", s.path.display());
+    }
     let nl = centres_nm.len();
     let edges: Vec<f64> = (0..=nl)
         .map(|i| {
@@ -40,19 +38,11 @@ pub fn stack_image(
             }
         })
         .collect();
-    let stack_at = |l: f64| -> StackIndices {
-        let idx = |m: usize| {
-            let (n, k) = s.media[m].model.eval(l).unwrap_or((1.0, 0.0));
-            C64::new(n, k)
-        };
-        StackIndices {
-            n: std::iter::once(idx(st.ambient))
-                .chain(st.layers.iter().map(|l| idx(l.0)))
-                .chain(std::iter::once(idx(st.substrate)))
-                .collect(),
-            d_nm: st.layers.iter().map(|l| l.1).collect(),
-        }
-    };
+    for &l in &[edges[0], edges[nl]] {
+        crate::optics::tmm::stack_indices(s, l).map_err(|e| anyhow::anyhow!(e))?;
+    }
+    let stack_at =
+        |l: f64| crate::optics::tmm::stack_indices(s, l).expect("checked at the band edges");
     // R(theta_o) per bin on a fine angle table.
     let n_t = 180;
     let table: Vec<Vec<f64>> = (0..n_t)
