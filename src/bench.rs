@@ -272,6 +272,7 @@ pub fn simulate_bench(
         origin_nm: [0.0; 3],
         tolerance: None,
         max_rays: 0,
+        random_entry: false,
     };
     let nbins = cfg.bins.len() - 1;
     log(&format!(

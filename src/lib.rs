@@ -14,4 +14,5 @@ pub mod render;
 pub mod rng;
 pub mod sample;
 pub mod simulate;
+pub mod study;
 pub mod trace;

@@ -77,6 +77,11 @@ enum Command {
     ///
     /// Example: goniospec render film.gsb -o out/film.exr --shape sphere --spp 16
     Render(RenderArgs),
+    /// Run a speed-against-accuracy study (a sweep of rays, bucket resolution, estimator,
+    /// beamlet radius, backend and representation) and write points.csv and report.md.
+    ///
+    /// Example: goniospec study studies/flat-film.toml -o out/study
+    Study(StudyArgs),
     /// Generate a periodic microgeometry mesh and write it as an OBJ.
     ///
     /// Kinds and their parameters (lengths in --unit):
@@ -393,6 +398,15 @@ struct RenderArgs {
 }
 
 #[derive(Args)]
+struct StudyArgs {
+    /// The study description (TOML).
+    study: PathBuf,
+    /// Output folder.
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+#[derive(Args)]
 struct InfoArgs {
     /// A .gsa or .gsb file.
     file: PathBuf,
@@ -525,6 +539,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Eval(a) => eval(a),
         Command::Info(a) => info(a),
         Command::Render(a) => render(a),
+        Command::Study(a) => study(a),
         Command::Generate(a) => generate(a),
         Command::Bench(BenchCommand::Trace(a)) => bench_trace(a),
         Command::Bench(BenchCommand::Simulate(a)) => bench_simulate(a),
@@ -615,6 +630,7 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         origin_nm: [0.0; 3],
         tolerance: a.tolerance,
         max_rays: a.max_rays,
+        random_entry: false,
     };
     let total = if a.tolerance.is_some() {
         a.max_rays
@@ -1040,6 +1056,21 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+fn study(a: StudyArgs) -> Result<ExitCode> {
+    let st = goniospec::study::load(&a.study).map_err(|e| anyhow::anyhow!(e))?;
+    let (points, reference) =
+        goniospec::study::run(&st, |l| eprintln!("{l}")).map_err(|e| anyhow::anyhow!(e))?;
+    goniospec::study::write(&st, &points, &reference, &a.output)
+        .with_context(|| format!("writing into {}", a.output.display()))?;
+    println!(
+        "wrote {} and {} ({} points)",
+        a.output.join("points.csv").display(),
+        a.output.join("report.md").display(),
+        points.len()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
 fn info(a: InfoArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, Brdf};
     let head = {
@@ -1260,6 +1291,7 @@ fn bench_eval(a: EvalBenchArgs) -> Result<ExitCode> {
             origin_nm: [0.0; 3],
             tolerance: None,
             max_rays: 0,
+            random_entry: false,
         };
         let (acc, _) = goniospec::simulate::simulate(&s, &cfg, &|_| {})?;
         Ok(BucketData::from_accumulator(&acc))

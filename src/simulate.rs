@@ -74,6 +74,9 @@ pub struct SimConfig {
     /// at most this, or `max_rays` is spent. `None`: exactly `rays` trees.
     pub tolerance: Option<f64>,
     pub max_rays: u64,
+    /// Entry points: the R2 low-discrepancy sequence (default), or independent uniform
+    /// points (plain Monte Carlo, for convergence studies).
+    pub random_entry: bool,
 }
 
 /// How one incident direction ended.
@@ -414,7 +417,14 @@ pub fn simulate(
                         let hi = (lo + BLOCK).min(end);
                         for i in lo..hi {
                             let mut rng = Rng::new(cfg.seed, (di as u64) << 40 | i);
-                            let xy = entry_point(i, shift, sample.tile_nm);
+                            let xy = if cfg.random_entry {
+                                [
+                                    rng.range(0.0, sample.tile_nm[0]),
+                                    rng.range(0.0, sample.tile_nm[1]),
+                                ]
+                            } else {
+                                entry_point(i, shift, sample.tile_nm)
+                            };
                             let origin = [xy[0], xy[1], scene.z_top];
                             // Stratified jitter: tree i takes stratum i of N in every bin.
                             let lambda_of = |j: usize, u: f64| match &cfg.wavelengths {

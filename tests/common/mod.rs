@@ -77,6 +77,7 @@ pub fn config(theta_i: &[f64], wavelengths: Wavelengths, rays: u64) -> SimConfig
         origin_nm: [0.0; 3],
         tolerance: None,
         max_rays: 0,
+        random_entry: false,
     }
 }
 

@@ -1,0 +1,530 @@
+//! `goniospec study`: sweeps rays, bucket resolution, estimator, beamlet radius, backend
+//! and representation for one sample, and measures each point's wall time, rays, peak
+//! memory, error against the best available reference (the analytic TMM for `[stack]`
+//! samples, else a high-budget run) and BRDF query time. Writes a CSV and a `report.md`.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::Deserialize;
+
+use crate::accel::Backend;
+use crate::accumulate::file::Accumulator;
+use crate::accumulate::{Buckets, Coherence};
+use crate::brdf::{Brdf, BucketData, Representation, dir};
+use crate::optics::tmm;
+use crate::sample::{self, MeshOptions, Sample};
+use crate::simulate::{SimConfig, Wavelengths, simulate};
+use crate::trace::TraceLimits;
+
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+struct StudyFile {
+    study: Header,
+    sweep: Sweep,
+}
+
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+struct Header {
+    name: String,
+    /// The sample, relative to the study file.
+    sample: String,
+    theta_i: Vec<f64>,
+    /// Bin edges `A:B:STEP` (nm).
+    wavelengths: String,
+    #[serde(default = "default_reference_rays")]
+    reference_rays: u64,
+    #[serde(default = "default_seed")]
+    seed: u64,
+    /// "r2" (low-discrepancy entry points, the default) or "random" (plain Monte Carlo).
+    #[serde(default = "default_sampling")]
+    sampling: String,
+    /// Independent repetitions (seeds) per point; the error is their RMS.
+    #[serde(default = "default_repeats")]
+    repeats: u64,
+}
+
+fn default_repeats() -> u64 {
+    1
+}
+
+fn default_sampling() -> String {
+    "r2".into()
+}
+
+fn default_reference_rays() -> u64 {
+    65_536
+}
+fn default_seed() -> u64 {
+    1
+}
+
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+struct Sweep {
+    rays: Vec<u64>,
+    #[serde(default = "default_theta_bins")]
+    theta_o_bins: Vec<u32>,
+    #[serde(default = "default_coherence")]
+    coherence: Vec<String>,
+    #[serde(default = "default_radius")]
+    coherence_radius_nm: Vec<f64>,
+    #[serde(default = "default_backend")]
+    backend: Vec<String>,
+    #[serde(default = "default_repr")]
+    representation: Vec<String>,
+}
+
+fn default_theta_bins() -> Vec<u32> {
+    vec![45]
+}
+fn default_coherence() -> Vec<String> {
+    vec!["beamlet".into()]
+}
+fn default_radius() -> Vec<f64> {
+    vec![5000.0]
+}
+fn default_backend() -> Vec<String> {
+    vec![Backend::default_available().name().into()]
+}
+fn default_repr() -> Vec<String> {
+    vec!["table".into()]
+}
+
+/// A parsed, validated study.
+#[derive(Debug, Clone)]
+pub struct Study {
+    pub name: String,
+    pub sample_path: PathBuf,
+    pub theta_i: Vec<f64>,
+    pub edges: Vec<f64>,
+    pub reference_rays: u64,
+    pub seed: u64,
+    pub random_entry: bool,
+    pub repeats: u64,
+    pub rays: Vec<u64>,
+    pub theta_o_bins: Vec<u32>,
+    pub coherence: Vec<Coherence>,
+    pub radius: Vec<f64>,
+    pub backend: Vec<Backend>,
+    pub representation: Vec<String>,
+}
+
+/// One measured point.
+#[derive(Clone, Debug)]
+pub struct Point {
+    pub rays: u64,
+    pub theta_o_bins: u32,
+    pub coherence: Coherence,
+    pub radius: f64,
+    pub backend: Backend,
+    pub representation: String,
+    pub wall_s: f64,
+    pub traced_rays: u64,
+    pub peak_mem_mb: f64,
+    /// RMS over incident angles and bins of `R - R_reference`.
+    pub error: f64,
+    /// RMS of the point's own standard errors of R (its error bars; NaN-free: 0 when
+    /// undefined).
+    pub stderr: f64,
+    pub query_ns: f64,
+}
+
+/// Reads and validates a study file; errors name the file and line.
+pub fn load(path: &Path) -> Result<Study, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("{}: cannot read file: {e}", path.display()))?;
+    let raw: StudyFile = toml::from_str(&text).map_err(|e| {
+        let line = e.span().map(|s| crate::sample::line_of(&text, s.start));
+        match line {
+            Some(l) => format!(
+                "{}:{l}: invalid study: {}",
+                path.display(),
+                e.message().trim()
+            ),
+            None => format!("{}: invalid study: {}", path.display(), e.message().trim()),
+        }
+    })?;
+    let bad = |m: String| Err(format!("{}: {m}", path.display()));
+    let sw = &raw.sweep;
+    for (name, empty) in [
+        ("rays", sw.rays.is_empty()),
+        ("theta_o_bins", sw.theta_o_bins.is_empty()),
+        ("coherence", sw.coherence.is_empty()),
+        ("coherence_radius_nm", sw.coherence_radius_nm.is_empty()),
+        ("backend", sw.backend.is_empty()),
+        ("representation", sw.representation.is_empty()),
+    ] {
+        if empty {
+            return bad(format!("[sweep] {name} is empty: give at least one value"));
+        }
+    }
+    if raw.study.theta_i.is_empty() {
+        return bad("[study] theta_i is empty".into());
+    }
+    if sw.rays.contains(&0) {
+        return bad("[sweep] rays must be positive".into());
+    }
+    let coherence = sw
+        .coherence
+        .iter()
+        .map(|c| {
+            Coherence::parse(c).ok_or_else(|| {
+                format!(
+                    "{}: unknown coherence '{c}' (beamlet, bucket or global)",
+                    path.display()
+                )
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let backend = sw
+        .backend
+        .iter()
+        .map(|b| {
+            b.parse::<Backend>()
+                .map_err(|e| format!("{}: {e}", path.display()))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(b) = backend.iter().find(|b| !b.is_available()) {
+        return bad(format!("backend {b} is not available in this build"));
+    }
+    if let Some(r) = sw
+        .representation
+        .iter()
+        .find(|r| !["kdtree", "subdivided", "table"].contains(&r.as_str()))
+    {
+        return bad(format!(
+            "unknown representation '{r}' (kdtree, subdivided or table)"
+        ));
+    }
+    let w = &raw.study.wavelengths;
+    let parts: Vec<f64> = w
+        .split(':')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("{}: wavelengths '{w}' must be A:B:STEP", path.display()))?;
+    if parts.len() != 3 || parts[2] <= 0.0 || parts[1] <= parts[0] {
+        return bad(format!(
+            "wavelengths '{w}' must be A:B:STEP with A < B and STEP > 0"
+        ));
+    }
+    let n = ((parts[1] - parts[0]) / parts[2]).round() as usize;
+    let random_entry = match raw.study.sampling.as_str() {
+        "r2" => false,
+        "random" => true,
+        other => return bad(format!("sampling '{other}' must be \"r2\" or \"random\"")),
+    };
+    Ok(Study {
+        name: raw.study.name,
+        sample_path: path
+            .parent()
+            .unwrap_or(Path::new(""))
+            .join(&raw.study.sample),
+        theta_i: raw.study.theta_i,
+        edges: (0..=n).map(|i| parts[0] + i as f64 * parts[2]).collect(),
+        reference_rays: raw.study.reference_rays,
+        seed: raw.study.seed,
+        random_entry,
+        repeats: raw.study.repeats.max(1),
+        rays: sw.rays.clone(),
+        theta_o_bins: sw.theta_o_bins.clone(),
+        coherence,
+        radius: sw.coherence_radius_nm.clone(),
+        backend,
+        representation: sw.representation.clone(),
+    })
+}
+
+/// Peak resident memory of this process so far, MB (Linux `VmHWM`; 0 elsewhere).
+fn peak_mem_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
+fn config(
+    st: &Study,
+    rays: u64,
+    bins: u32,
+    coherence: Coherence,
+    radius: f64,
+    backend: Backend,
+    seed: u64,
+) -> SimConfig {
+    SimConfig {
+        theta_i_deg: st.theta_i.clone(),
+        phi_i_deg: 0.0,
+        rays,
+        wavelengths: Wavelengths::Bins(st.edges.clone()),
+        backend,
+        seed,
+        coherence,
+        rho_nm: radius,
+        limits: TraceLimits::default(),
+        buckets: Buckets {
+            theta_bins: bins,
+            phi_bins: 36,
+        },
+        path_sharing: None,
+        origin_nm: [0.0; 3],
+        tolerance: None,
+        max_rays: 0,
+        random_entry: st.random_entry,
+    }
+}
+
+/// Directional reflectance per (incident angle, bin) of an accumulator.
+fn r_table(acc: &Accumulator) -> Vec<Vec<f64>> {
+    let s = &acc.header.settings;
+    (0..s.theta_i_deg.len())
+        .map(|i| {
+            (0..s.wavelength_count())
+                .map(|j| acc.cell(i, j).totals(s.coherence_mode(), &s.buckets()).0)
+                .collect()
+        })
+        .collect()
+}
+
+/// Runs the study; `log` receives progress lines.
+pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String), String> {
+    let sample: Sample =
+        sample::load(&st.sample_path, MeshOptions::default()).map_err(|e| e.to_string())?;
+    // Reference: the bin-averaged TMM for a stack, else a high-budget beamlet run.
+    let reference: Vec<Vec<f64>> = if sample.stack.is_some() {
+        for &l in [st.edges[0], st.edges[st.edges.len() - 1]].iter() {
+            tmm::stack_indices(&sample, l)?;
+        }
+        st.theta_i
+            .iter()
+            .map(|t| {
+                st.edges
+                    .windows(2)
+                    .map(|w| {
+                        tmm::solve_band(
+                            |l| tmm::stack_indices(&sample, l).expect("range checked"),
+                            w[0],
+                            w[1],
+                            t.to_radians(),
+                        )
+                        .r()
+                    })
+                    .collect()
+            })
+            .collect()
+    } else {
+        log(&format!(
+            "reference: {} rays per direction",
+            st.reference_rays
+        ));
+        // Low-discrepancy entry points for the reference whatever the study samples with:
+        // its error falls about as 1/N, far below the points'.
+        let mut cfg = config(
+            st,
+            st.reference_rays,
+            st.theta_o_bins[0],
+            Coherence::Beamlet,
+            5000.0,
+            st.backend[0],
+            st.seed.wrapping_add(1_000_003),
+        );
+        cfg.random_entry = false;
+        r_table(
+            &simulate(&sample, &cfg, &|_| {})
+                .map_err(|e| e.to_string())?
+                .0,
+        )
+    };
+    let reference_kind = if sample.stack.is_some() {
+        "analytic TMM (bin-averaged)"
+    } else {
+        "high-budget beamlet run"
+    };
+    let mut points = Vec::new();
+    for &backend in &st.backend {
+        for &coherence in &st.coherence {
+            for &radius in &st.radius {
+                for &bins in &st.theta_o_bins {
+                    for &rays in &st.rays {
+                        let (mut e2, mut s2, mut n, mut wall) = (0.0, 0.0, 0.0, 0.0);
+                        let mut last = None;
+                        for rep in 0..st.repeats {
+                            let cfg =
+                                config(st, rays, bins, coherence, radius, backend, st.seed + rep);
+                            let t0 = Instant::now();
+                            let (acc, stats) =
+                                simulate(&sample, &cfg, &|_| {}).map_err(|e| e.to_string())?;
+                            wall += t0.elapsed().as_secs_f64() / st.repeats as f64;
+                            let r = r_table(&acc);
+                            for (i, row) in r.iter().enumerate() {
+                                for (j, v) in row.iter().enumerate() {
+                                    e2 += (v - reference[i][j]).powi(2);
+                                    s2 += acc.cell(i, j).r_stderr(coherence).unwrap_or(0.0).powi(2);
+                                    n += 1.0;
+                                }
+                            }
+                            last = Some((acc, stats));
+                        }
+                        let (acc, stats) = last.expect("at least one repetition");
+                        let data = BucketData::from_accumulator(&acc);
+                        for repr in &st.representation {
+                            let rep = match repr.as_str() {
+                                "kdtree" => Representation::KdTree(
+                                    crate::brdf::kdtree::KdTreeBrdf::build(&data, 4, true, false),
+                                ),
+                                "subdivided" => Representation::Subdivided(
+                                    crate::brdf::subdivided::SubdividedBrdf::build(&data, 0.05),
+                                ),
+                                _ => Representation::Table(crate::brdf::table::TableBrdf::build(
+                                    &data,
+                                )),
+                            };
+                            let mut out = vec![0.0; data.wavelengths_nm.len()];
+                            let q0 = Instant::now();
+                            let m = 2000;
+                            for k in 0..m {
+                                let a = k as f64 / m as f64;
+                                rep.eval(
+                                    dir(1.2 * a, 0.0),
+                                    dir(1.3 * (1.0 - a), 3.0 + a),
+                                    &mut out,
+                                );
+                                std::hint::black_box(&out);
+                            }
+                            let query_ns = q0.elapsed().as_nanos() as f64 / m as f64;
+                            let p = Point {
+                                rays,
+                                theta_o_bins: bins,
+                                coherence,
+                                radius,
+                                backend,
+                                representation: repr.clone(),
+                                wall_s: wall,
+                                traced_rays: stats.traces,
+                                peak_mem_mb: peak_mem_mb(),
+                                error: (e2 / n).sqrt(),
+                                stderr: (s2 / n).sqrt(),
+                                query_ns,
+                            };
+                            log(&format!(
+                                "{} {} rho {} bins {} rays {}: error {:.2e} (+- {:.1e}), {:.2} s, query {:.0} ns ({})",
+                                backend,
+                                coherence.name(),
+                                radius,
+                                bins,
+                                rays,
+                                p.error,
+                                p.stderr,
+                                wall,
+                                query_ns,
+                                repr
+                            ));
+                            points.push(p);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok((points, reference_kind.to_string()))
+}
+
+/// Least-squares slope of log(error) against log(rays) over points with positive error.
+pub fn convergence_slope(points: &[Point]) -> Option<f64> {
+    let xy: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|p| p.error > 0.0)
+        .map(|p| ((p.rays as f64).ln(), p.error.ln()))
+        .collect();
+    if xy.len() < 2 {
+        return None;
+    }
+    let n = xy.len() as f64;
+    let (sx, sy) = (
+        xy.iter().map(|p| p.0).sum::<f64>(),
+        xy.iter().map(|p| p.1).sum::<f64>(),
+    );
+    let sxx = xy.iter().map(|p| p.0 * p.0).sum::<f64>();
+    let sxy = xy.iter().map(|p| p.0 * p.1).sum::<f64>();
+    Some((n * sxy - sx * sy) / (n * sxx - sx * sx))
+}
+
+/// Writes `points.csv` and `report.md` into `dir` (atomically each).
+pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    crate::io::write_atomic(&dir.join("points.csv"), |w| {
+        writeln!(
+            w,
+            "backend,coherence,coherence_radius_nm,theta_o_bins,rays,representation,wall_s,traced_rays,peak_mem_mb,error,error_stderr,query_ns"
+        )?;
+        for p in points {
+            writeln!(
+                w,
+                "{},{},{},{},{},{},{:.4},{},{:.1},{:.6e},{:.6e},{:.0}",
+                p.backend,
+                p.coherence.name(),
+                p.radius,
+                p.theta_o_bins,
+                p.rays,
+                p.representation,
+                p.wall_s,
+                p.traced_rays,
+                p.peak_mem_mb,
+                p.error,
+                p.stderr,
+                p.query_ns
+            )?;
+        }
+        Ok(())
+    })?;
+    crate::io::write_atomic(&dir.join("report.md"), |w| {
+        writeln!(w, "# Study: {}\n", st.name)?;
+        writeln!(
+            w,
+            "Sample `{}`, incident angles {:?} deg, {} wavelength bins {}..{} nm.",
+            st.sample_path.display(),
+            st.theta_i,
+            st.edges.len() - 1,
+            st.edges[0],
+            st.edges[st.edges.len() - 1]
+        )?;
+        writeln!(
+            w,
+            "Error: RMS over incident angles and bins of the directional reflectance against the {reference}.\n"
+        )?;
+        writeln!(
+            w,
+            "| backend | estimator | radius nm | theta bins | rays | representation | wall s | error | error bars | query ns |"
+        )?;
+        writeln!(w, "|---|---|---|---|---|---|---|---|---|---|")?;
+        for p in points {
+            writeln!(
+                w,
+                "| {} | {} | {} | {} | {} | {} | {:.3} | {:.2e} | {:.1e} | {:.0} |",
+                p.backend,
+                p.coherence.name(),
+                p.radius,
+                p.theta_o_bins,
+                p.rays,
+                p.representation,
+                p.wall_s,
+                p.error,
+                p.stderr,
+                p.query_ns
+            )?;
+        }
+        if let Some(s) = convergence_slope(points) {
+            writeln!(
+                w,
+                "\nLeast-squares slope of log(error) against log(rays): {s:.3} (Monte Carlo: -0.5)."
+            )?;
+        }
+        Ok(())
+    })
+}

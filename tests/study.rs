@@ -1,0 +1,138 @@
+//! The study command: error columns against an independent TMM, the Monte Carlo
+//! convergence slope on a rough sample, outputs, and bad study files.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn flat_film_errors_match_an_independent_tmm_within_their_error_bars() {
+    let d = scratch("study-flat");
+    std::fs::write(
+        d.join("s.toml"),
+        format!(
+            "[study]\nname = \"flat\"\nsample = \"{}\"\ntheta_i = [0.0, 30.0]\nwavelengths = \"400:700:50\"\n[sweep]\nrays = [64, 256]\ncoherence_radius_nm = [inf]\n",
+            root().join("meshes/flat-soap-film.toml").display()
+        ),
+    )
+    .unwrap();
+    let st = goniospec::study::load(&d.join("s.toml")).unwrap();
+    let (points, reference) = goniospec::study::run(&st, |_| {}).unwrap();
+    assert!(reference.contains("TMM"));
+    assert_eq!(points.len(), 2);
+    // The reference itself against the independent TMM of tests/common, band-averaged.
+    let n = |_: f64| vec![c(1.0, 0.0), c(1.33, 0.0), c(1.0, 0.0)];
+    for th in [0.0f64, 30.0] {
+        for w in st.edges.windows(2) {
+            let lib = goniospec::optics::tmm::solve_band(
+                |l| {
+                    goniospec::optics::tmm::stack_indices(
+                        &goniospec::sample::load(&st.sample_path, Default::default()).unwrap(),
+                        l,
+                    )
+                    .unwrap()
+                },
+                w[0],
+                w[1],
+                th.to_radians(),
+            )
+            .r();
+            let (ind, _) = tmm_band(n, &[600.0], w[0], w[1], th.to_radians());
+            assert!(
+                (lib - ind).abs() < 1e-5,
+                "reference {lib} vs independent {ind}"
+            );
+        }
+    }
+    goniospec::study::write(&st, &points, &reference, &d.join("out")).unwrap();
+    let csv = std::fs::read_to_string(d.join("out/points.csv")).unwrap();
+    let mut rows = csv.lines();
+    let header: Vec<&str> = rows.next().unwrap().split(',').collect();
+    let (ei, si) = (
+        header.iter().position(|h| *h == "error").unwrap(),
+        header.iter().position(|h| *h == "error_stderr").unwrap(),
+    );
+    for row in rows {
+        let f: Vec<&str> = row.split(',').collect();
+        let (e, s): (f64, f64) = (f[ei].parse().unwrap(), f[si].parse().unwrap());
+        // A flat film's trees are identical, so its error bars vanish and the residual is
+        // the jittered-bin sampling of the fringes: within 3 error bars plus 2e-3.
+        assert!(e <= 3.0 * s + 2e-3, "{row}");
+    }
+    let report = std::fs::read_to_string(d.join("out/report.md")).unwrap();
+    assert!(
+        report.contains("| beamlet |") && report.contains("analytic TMM"),
+        "{report}"
+    );
+}
+
+#[test]
+fn monte_carlo_error_falls_as_one_over_root_n_on_a_rough_sample() {
+    let st = goniospec::study::load(&root().join("studies/rough-glass.toml")).unwrap();
+    assert!(
+        st.random_entry,
+        "the shipped study samples with plain Monte Carlo"
+    );
+    let (points, reference) = goniospec::study::run(&st, |_| {}).unwrap();
+    assert!(reference.contains("high-budget"));
+    let table: Vec<_> = points
+        .iter()
+        .filter(|p| p.representation == "table")
+        .cloned()
+        .collect();
+    let slope = goniospec::study::convergence_slope(&table).unwrap();
+    eprintln!("slope {slope}");
+    assert!((-0.6..=-0.4).contains(&slope), "slope {slope}");
+}
+
+#[test]
+fn bad_study_files_are_refused_with_clear_errors() {
+    let d = scratch("study-bad");
+    let base = format!(
+        "[study]\nname = \"x\"\nsample = \"{}\"\ntheta_i = [0.0]\nwavelengths = \"400:700:100\"\n",
+        root().join("meshes/flat-soap-film.toml").display()
+    );
+    let cases = [
+        (
+            format!("{base}colour = 1\n[sweep]\nrays = [10]\n"),
+            "s.toml:6:",
+            "unknown field `colour`",
+        ),
+        (
+            format!("{base}[sweep]\nrays = []\n"),
+            "s.toml",
+            "[sweep] rays is empty",
+        ),
+        (
+            format!("{base}[sweep]\nrays = [10]\ncoherence = []\n"),
+            "s.toml",
+            "[sweep] coherence is empty",
+        ),
+        (
+            format!("{base}[sweep]\nrays = [10]\ncoherence = [\"psychic\"]\n"),
+            "s.toml",
+            "unknown coherence 'psychic'",
+        ),
+        (
+            format!("{base}[sweep]\nrays = [10]\nrepresentation = [\"octree\"]\n"),
+            "s.toml",
+            "unknown representation 'octree'",
+        ),
+        (
+            base.replace("400:700:100", "700:400:100") + "[sweep]\nrays = [10]\n",
+            "s.toml",
+            "A < B",
+        ),
+    ];
+    for (text, loc, msg) in cases {
+        std::fs::write(d.join("s.toml"), &text).unwrap();
+        let e = goniospec::study::load(&d.join("s.toml")).unwrap_err();
+        assert!(e.contains(loc) && e.contains(msg), "{e}");
+    }
+}
