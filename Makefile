@@ -3,7 +3,7 @@
 
 CARGO ?= cargo
 
-.PHONY: demo test deps bench lint
+.PHONY: demo test deps bench lint study
 
 OUT ?= out/demo
 
@@ -31,3 +31,9 @@ lint: deps
 ## Install system packages when missing.
 deps:
 	@./scripts/install-deps.sh
+
+## A small default study (a few seconds): CSV, report and charts in out/study.
+study: deps
+	$(CARGO) build --release
+	./target/release/goniospec study studies/flat-film.toml -o out/study/flat-film
+	./target/release/goniospec study studies/rough-glass.toml -o out/study/rough-glass

@@ -1062,6 +1062,11 @@ fn study(a: StudyArgs) -> Result<ExitCode> {
         goniospec::study::run(&st, |l| eprintln!("{l}")).map_err(|e| anyhow::anyhow!(e))?;
     goniospec::study::write(&st, &points, &reference, &a.output)
         .with_context(|| format!("writing into {}", a.output.display()))?;
+    let charts = goniospec::study::charts(&points, &a.output)
+        .map_err(|e| anyhow::anyhow!("drawing the charts: {e}"))?;
+    for c in &charts {
+        println!("wrote {}", c.display());
+    }
     println!(
         "wrote {} and {} ({} points)",
         a.output.join("points.csv").display(),
