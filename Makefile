@@ -37,3 +37,4 @@ study: deps
 	$(CARGO) build --release
 	./target/release/goniospec study studies/flat-film.toml -o out/study/flat-film
 	./target/release/goniospec study studies/rough-glass.toml -o out/study/rough-glass
+	./target/release/goniospec study studies/darkening.toml -o out/study/darkening

@@ -1062,8 +1062,14 @@ fn study(a: StudyArgs) -> Result<ExitCode> {
         goniospec::study::run(&st, |l| eprintln!("{l}")).map_err(|e| anyhow::anyhow!(e))?;
     goniospec::study::write(&st, &points, &reference, &a.output)
         .with_context(|| format!("writing into {}", a.output.display()))?;
-    let charts = goniospec::study::charts(&points, &a.output)
+    let mut charts = goniospec::study::charts(&points, &a.output)
         .map_err(|e| anyhow::anyhow!("drawing the charts: {e}"))?;
+    let area =
+        goniospec::study::run_area(&st, |l| eprintln!("{l}")).map_err(|e| anyhow::anyhow!(e))?;
+    charts.extend(
+        goniospec::study::write_area(&area, &a.output)
+            .map_err(|e| anyhow::anyhow!("sampled-area chart: {e}"))?,
+    );
     for c in &charts {
         println!("wrote {}", c.display());
     }

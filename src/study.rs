@@ -23,6 +23,22 @@ use crate::trace::TraceLimits;
 struct StudyFile {
     study: Header,
     sweep: Sweep,
+    area: Option<AreaSweep>,
+}
+
+/// The seed's experiment: the sample tiled `k x k` with rays in proportion, per estimator.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub struct AreaSweep {
+    pub tiles: Vec<usize>,
+    /// Rays per direction at one tile (scaled by k^2).
+    pub rays: u64,
+    #[serde(default = "all_estimators")]
+    pub coherence: Vec<String>,
+}
+
+fn all_estimators() -> Vec<String> {
+    vec!["beamlet".into(), "bucket".into(), "global".into()]
 }
 
 #[derive(Deserialize, Debug, Clone)]
@@ -110,6 +126,129 @@ pub struct Study {
     pub radius: Vec<f64>,
     pub backend: Vec<Backend>,
     pub representation: Vec<String>,
+    pub area: Option<AreaSweep>,
+}
+
+/// One row of the sampled-area experiment.
+#[derive(Clone, Debug)]
+pub struct AreaPoint {
+    pub coherence: Coherence,
+    pub tiles: usize,
+    pub area_um2: f64,
+    pub rays: u64,
+    /// Directional reflectance averaged over incident angles and bins.
+    pub r: f64,
+}
+
+/// Runs the sampled-area experiment of a study (empty when it has none).
+pub fn run_area(st: &Study, mut log: impl FnMut(&str)) -> Result<Vec<AreaPoint>, String> {
+    let Some(a) = &st.area else {
+        return Ok(Vec::new());
+    };
+    let sample: Sample =
+        sample::load(&st.sample_path, MeshOptions::default()).map_err(|e| e.to_string())?;
+    let mut out = Vec::new();
+    for name in &a.coherence {
+        let coherence =
+            Coherence::parse(name).ok_or_else(|| format!("unknown coherence '{name}'"))?;
+        for &k in &a.tiles {
+            let big = sample.tiled(k);
+            let rays = a.rays * (k * k) as u64;
+            let cfg = config(
+                st,
+                rays,
+                st.theta_o_bins[0],
+                coherence,
+                st.radius[0],
+                st.backend[0],
+                st.seed,
+            );
+            let (acc, _) = simulate(&big, &cfg, &|_| {}).map_err(|e| e.to_string())?;
+            let rt = r_table(&acc);
+            let r =
+                rt.iter().flatten().sum::<f64>() / rt.iter().map(|v| v.len()).sum::<usize>() as f64;
+            log(&format!(
+                "area {k}x{k}: {} with {rays} rays: R = {r:.4e}",
+                coherence.name()
+            ));
+            out.push(AreaPoint {
+                coherence,
+                tiles: k,
+                area_um2: big.tile_nm[0] * big.tile_nm[1] * 1e-6,
+                rays,
+                r,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Writes `area.csv` and the chart of total reflectance against sampled area.
+pub fn write_area(points: &[AreaPoint], dir: &Path) -> Result<Vec<PathBuf>, String> {
+    use plotters::prelude::*;
+    if points.is_empty() {
+        return Ok(Vec::new());
+    }
+    std::fs::create_dir_all(dir).map_err(|e| e.to_string())?;
+    crate::io::write_atomic(&dir.join("area.csv"), |w| {
+        writeln!(w, "coherence,tiles,area_um2,rays,R")?;
+        for p in points {
+            writeln!(
+                w,
+                "{},{},{},{},{:.6e}",
+                p.coherence.name(),
+                p.tiles,
+                p.area_um2,
+                p.rays,
+                p.r
+            )?;
+        }
+        Ok(())
+    })
+    .map_err(|e| e.to_string())?;
+    register_font();
+    let mut names: Vec<&str> = points.iter().map(|p| p.coherence.name()).collect();
+    names.dedup();
+    let series: Vec<(String, Vec<(f64, f64)>)> = names
+        .iter()
+        .map(|n| {
+            (
+                n.to_string(),
+                points
+                    .iter()
+                    .filter(|p| p.coherence.name() == *n)
+                    .map(|p| (p.area_um2, p.r))
+                    .collect(),
+            )
+        })
+        .collect();
+    let png = dir.join("reflectance-vs-area.png");
+    let svg = dir.join("reflectance-vs-area.svg");
+    let tmp_png = dir.join(format!(
+        ".reflectance-vs-area.tmp-{}.png",
+        std::process::id()
+    ));
+    let title = "Total reflectance against sampled area (rays in proportion)";
+    draw_chart(
+        BitMapBackend::new(&tmp_png, (900, 600)).into_drawing_area(),
+        title,
+        "sampled area (um^2)",
+        "total reflectance R",
+        &series,
+        None,
+    )?;
+    std::fs::rename(&tmp_png, &png).map_err(|e| e.to_string())?;
+    let tmp_svg = crate::io::temp_path(&svg);
+    draw_chart(
+        SVGBackend::new(&tmp_svg, (900, 600)).into_drawing_area(),
+        title,
+        "sampled area (um^2)",
+        "total reflectance R",
+        &series,
+        None,
+    )?;
+    std::fs::rename(&tmp_svg, &svg).map_err(|e| e.to_string())?;
+    Ok(vec![png, svg])
 }
 
 /// One measured point.
@@ -234,6 +373,15 @@ pub fn load(path: &Path) -> Result<Study, String> {
         radius: sw.coherence_radius_nm.clone(),
         backend,
         representation: sw.representation.clone(),
+        area: match raw.area {
+            Some(a) if a.tiles.is_empty() || a.tiles.contains(&0) => {
+                return bad("[area] tiles must be a non-empty list of positive counts".into());
+            }
+            Some(a) if a.coherence.iter().any(|c| Coherence::parse(c).is_none()) => {
+                return bad("[area] coherence must name beamlet, bucket or global".into());
+            }
+            other => other,
+        },
     })
 }
 
@@ -566,6 +714,25 @@ fn draw_loglog<DB: plotters::prelude::DrawingBackend>(
     series: &[(String, Vec<(f64, f64)>)],
     guide: Option<(&str, Vec<(f64, f64)>)>,
 ) -> Result<(), String> {
+    draw_chart(
+        root,
+        title,
+        xlabel,
+        "error (RMS of R - reference)",
+        series,
+        guide,
+    )
+}
+
+/// A log-log chart with a line per series and an optional guide line.
+fn draw_chart<DB: plotters::prelude::DrawingBackend>(
+    root: plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    xlabel: &str,
+    ylabel: &str,
+    series: &[(String, Vec<(f64, f64)>)],
+    guide: Option<(&str, Vec<(f64, f64)>)>,
+) -> Result<(), String> {
     use plotters::prelude::*;
     let err = |e: &dyn std::fmt::Display| e.to_string();
     root.fill(&WHITE).map_err(|e| err(&e))?;
@@ -597,7 +764,7 @@ fn draw_loglog<DB: plotters::prelude::DrawingBackend>(
     chart
         .configure_mesh()
         .x_desc(xlabel)
-        .y_desc("error (RMS of R - reference)")
+        .y_desc(ylabel)
         .label_style(("sans-serif", 14))
         .draw()
         .map_err(|e| err(&e))?;

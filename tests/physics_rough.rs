@@ -9,7 +9,7 @@ use common::*;
 use goniospec::accel::Backend;
 use goniospec::accumulate::file::Accumulator;
 use goniospec::accumulate::{Buckets, Coherence};
-use goniospec::sample::{self, Interface, Sample, generate};
+use goniospec::sample::{self, Sample, generate};
 use goniospec::simulate::Wavelengths;
 
 fn shipped(name: &str) -> Sample {
@@ -24,31 +24,7 @@ fn shipped(name: &str) -> Sample {
 
 /// The same sample tiled `k x k` times: a k^2 larger sampled area, statistically identical.
 fn tiled(s: &Sample, k: usize) -> Sample {
-    let [lx, ly] = s.tile_nm;
-    let mut out = s.clone();
-    out.tile_nm = [lx * k as f64, ly * k as f64];
-    out.interfaces = s
-        .interfaces
-        .iter()
-        .map(|itf| {
-            let mut m = sample::Mesh::default();
-            for i in 0..k {
-                for j in 0..k {
-                    let mut c = itf.mesh.clone();
-                    for p in &mut c.positions_nm {
-                        p[0] += i as f64 * lx;
-                        p[1] += j as f64 * ly;
-                    }
-                    m.append(&c);
-                }
-            }
-            Interface {
-                mesh: m,
-                ..itf.clone()
-            }
-        })
-        .collect();
-    out
+    s.tiled(k)
 }
 
 fn mono550() -> Wavelengths {

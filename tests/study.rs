@@ -136,3 +136,44 @@ fn bad_study_files_are_refused_with_clear_errors() {
         assert!(e.contains(loc) && e.contains(msg), "{e}");
     }
 }
+
+#[test]
+fn the_darkening_study_shows_global_falling_and_beamlet_staying() {
+    let st = goniospec::study::load(&root().join("studies/darkening.toml")).unwrap();
+    let rows = goniospec::study::run_area(&st, |_| {}).unwrap();
+    let r = |name: &str, k: usize| {
+        rows.iter()
+            .find(|p| p.coherence.name() == name && p.tiles == k)
+            .unwrap()
+            .r
+    };
+    assert!(
+        (r("beamlet", 3) / r("beamlet", 1) - 1.0).abs() < 0.02,
+        "beamlet {} -> {}",
+        r("beamlet", 1),
+        r("beamlet", 3)
+    );
+    assert!(
+        r("global", 3) <= 0.5 * r("global", 1),
+        "global {} -> {}",
+        r("global", 1),
+        r("global", 3)
+    );
+    let d = scratch("study-area");
+    let written = goniospec::study::write_area(&rows, &d).unwrap();
+    assert_eq!(written.len(), 2);
+    assert!(
+        std::fs::read_to_string(d.join("area.csv"))
+            .unwrap()
+            .lines()
+            .count()
+            == 10
+    );
+    for p in written {
+        assert!(
+            std::fs::metadata(&p).unwrap().len() > 5000,
+            "{}",
+            p.display()
+        );
+    }
+}
