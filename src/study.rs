@@ -269,6 +269,34 @@ pub struct Point {
     /// undefined).
     pub stderr: f64,
     pub query_ns: f64,
+    /// RMS over incident angles and bins of the representation's hemispherical integral
+    /// `integral f cos(theta_o) dw_o` against the reference reflectance.
+    pub repr_error: f64,
+}
+
+/// `integral f(wi, wo) cos(theta_o) dwo` of a representation at polar angle `theta_i`.
+fn hemispherical(rep: &Representation, theta_i: f64, nl: usize) -> Vec<f64> {
+    let (nt, np) = (45, 72);
+    let mut acc = vec![0.0; nl];
+    let mut v = vec![0.0; nl];
+    for t in 0..nt {
+        let th = (t as f64 + 0.5) / nt as f64 * std::f64::consts::FRAC_PI_2;
+        let w = th.cos()
+            * th.sin()
+            * (std::f64::consts::FRAC_PI_2 / nt as f64)
+            * (std::f64::consts::TAU / np as f64);
+        for p in 0..np {
+            rep.eval(
+                dir(theta_i, 0.0),
+                dir(th, (p as f64 + 0.5) / np as f64 * std::f64::consts::TAU),
+                &mut v,
+            );
+            for (a, x) in acc.iter_mut().zip(&v) {
+                *a += w * x;
+            }
+        }
+    }
+    acc
 }
 
 /// Reads and validates a study file; errors name the file and line.
@@ -546,6 +574,15 @@ pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String)
                                 std::hint::black_box(&out);
                             }
                             let query_ns = q0.elapsed().as_nanos() as f64 / m as f64;
+                            let (mut re2, mut rn) = (0.0, 0.0);
+                            for (i, t) in st.theta_i.iter().enumerate() {
+                                let h =
+                                    hemispherical(&rep, t.to_radians(), data.wavelengths_nm.len());
+                                for (j, v) in h.iter().enumerate() {
+                                    re2 += (v - reference[i][j]).powi(2);
+                                    rn += 1.0;
+                                }
+                            }
                             let p = Point {
                                 rays,
                                 theta_o_bins: bins,
@@ -559,6 +596,7 @@ pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String)
                                 error: (e2 / n).sqrt(),
                                 stderr: (s2 / n).sqrt(),
                                 query_ns,
+                                repr_error: (re2 / rn).sqrt(),
                             };
                             log(&format!(
                                 "{} {} rho {} bins {} rays {}: error {:.2e} (+- {:.1e}), {:.2} s, query {:.0} ns ({})",
@@ -609,12 +647,12 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
     crate::io::write_atomic(&dir.join("points.csv"), |w| {
         writeln!(
             w,
-            "backend,coherence,coherence_radius_nm,theta_o_bins,rays,representation,wall_s,traced_rays,peak_mem_mb,error,error_stderr,query_ns"
+            "backend,coherence,coherence_radius_nm,theta_o_bins,rays,representation,wall_s,traced_rays,peak_mem_mb,error,error_stderr,query_ns,repr_error"
         )?;
         for p in points {
             writeln!(
                 w,
-                "{},{},{},{},{},{},{:.4},{},{:.1},{:.6e},{:.6e},{:.0}",
+                "{},{},{},{},{},{},{:.4},{},{:.1},{:.6e},{:.6e},{:.0},{:.6e}",
                 p.backend,
                 p.coherence.name(),
                 p.radius,
@@ -626,7 +664,8 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
                 p.peak_mem_mb,
                 p.error,
                 p.stderr,
-                p.query_ns
+                p.query_ns,
+                p.repr_error
             )?;
         }
         Ok(())
@@ -648,13 +687,13 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
         )?;
         writeln!(
             w,
-            "| backend | estimator | radius nm | theta bins | rays | representation | wall s | error | error bars | query ns |"
+            "| backend | estimator | radius nm | theta bins | rays | representation | wall s | error | error bars | query ns | representation error |"
         )?;
-        writeln!(w, "|---|---|---|---|---|---|---|---|---|---|")?;
+        writeln!(w, "|---|---|---|---|---|---|---|---|---|---|---|")?;
         for p in points {
             writeln!(
                 w,
-                "| {} | {} | {} | {} | {} | {} | {:.3} | {:.2e} | {:.1e} | {:.0} |",
+                "| {} | {} | {} | {} | {} | {} | {:.3} | {:.2e} | {:.1e} | {:.0} | {:.2e} |",
                 p.backend,
                 p.coherence.name(),
                 p.radius,
@@ -664,7 +703,8 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
                 p.wall_s,
                 p.error,
                 p.stderr,
-                p.query_ns
+                p.query_ns,
+                p.repr_error
             )?;
         }
         if let Some(s) = convergence_slope(points) {
@@ -828,6 +868,22 @@ pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, String> {
             .collect()
     };
     let by_time = series(&|p| p.wall_s.max(1e-4));
+    // Representations: query time against the error of their hemispherical integral.
+    let mut reprs: Vec<&str> = points.iter().map(|p| p.representation.as_str()).collect();
+    reprs.sort();
+    reprs.dedup();
+    let by_repr: Vec<(String, Vec<(f64, f64)>)> = reprs
+        .iter()
+        .map(|r| {
+            let mut v: Vec<(f64, f64)> = points
+                .iter()
+                .filter(|p| p.representation == *r)
+                .map(|p| (p.query_ns.max(1.0), p.repr_error.max(1e-12)))
+                .collect();
+            v.sort_by(|a, b| a.0.total_cmp(&b.0));
+            (r.to_string(), v)
+        })
+        .collect();
     let by_rays = series(&|p| p.rays as f64);
     // The 1/sqrt(N) guide through the first method's first point.
     let guide = by_rays
@@ -852,6 +908,13 @@ pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, String> {
             "rays per direction",
             &by_rays,
             guide.clone(),
+        ),
+        (
+            "eval-time-vs-accuracy",
+            "BRDF query time against the error of its hemispherical integral",
+            "query time (ns)",
+            &by_repr,
+            None,
         ),
     ] {
         let png = dir.join(format!("{stem}.png"));
