@@ -707,6 +707,31 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
                 p.repr_error
             )?;
         }
+        // The Pareto front: points no faster point beats in error.
+        let mut order: Vec<&Point> = points.iter().collect();
+        order.sort_by(|a, b| {
+            a.wall_s
+                .total_cmp(&b.wall_s)
+                .then(a.error.total_cmp(&b.error))
+        });
+        let mut best = f64::INFINITY;
+        writeln!(
+            w,
+            "\nPareto front (each point is more accurate than every faster one):\n"
+        )?;
+        for p in order {
+            if p.error < best {
+                best = p.error;
+                writeln!(
+                    w,
+                    "- {:.3} s: error {:.2e} with {} at {} rays",
+                    p.wall_s,
+                    p.error,
+                    method(p),
+                    p.rays
+                )?;
+            }
+        }
         if let Some(s) = convergence_slope(points) {
             writeln!(
                 w,
