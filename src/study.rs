@@ -274,31 +274,6 @@ pub struct Point {
     pub repr_error: f64,
 }
 
-/// `integral f(wi, wo) cos(theta_o) dwo` of a representation at polar angle `theta_i`.
-fn hemispherical(rep: &Representation, theta_i: f64, nl: usize) -> Vec<f64> {
-    let (nt, np) = (45, 72);
-    let mut acc = vec![0.0; nl];
-    let mut v = vec![0.0; nl];
-    for t in 0..nt {
-        let th = (t as f64 + 0.5) / nt as f64 * std::f64::consts::FRAC_PI_2;
-        let w = th.cos()
-            * th.sin()
-            * (std::f64::consts::FRAC_PI_2 / nt as f64)
-            * (std::f64::consts::TAU / np as f64);
-        for p in 0..np {
-            rep.eval(
-                dir(theta_i, 0.0),
-                dir(th, (p as f64 + 0.5) / np as f64 * std::f64::consts::TAU),
-                &mut v,
-            );
-            for (a, x) in acc.iter_mut().zip(&v) {
-                *a += w * x;
-            }
-        }
-    }
-    acc
-}
-
 /// Reads and validates a study file; errors name the file and line.
 pub fn load(path: &Path) -> Result<Study, String> {
     let text = std::fs::read_to_string(path)
@@ -574,10 +549,14 @@ pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String)
                                 std::hint::black_box(&out);
                             }
                             let query_ns = q0.elapsed().as_nanos() as f64 / m as f64;
-                            let (mut re2, mut rn) = (0.0, 0.0);
+                            let (mut re2, mut rn) = (0.0f64, 0.0f64);
                             for (i, t) in st.theta_i.iter().enumerate() {
-                                let h =
-                                    hemispherical(&rep, t.to_radians(), data.wavelengths_nm.len());
+                                let h = crate::brdf::hemispherical_reflectance(
+                                    &rep,
+                                    dir(t.to_radians(), 0.0),
+                                    45,
+                                    72,
+                                );
                                 for (j, v) in h.iter().enumerate() {
                                     re2 += (v - reference[i][j]).powi(2);
                                     rn += 1.0;

@@ -147,6 +147,35 @@ impl BucketData {
     }
 }
 
+/// Directional-hemispherical reflectance `integral f(wi, wo) cos(theta_o) dwo` of `b` for
+/// light arriving from `wi`, per wavelength bin: midpoint rule on an `nt x np` grid of
+/// outgoing polar and azimuth angles.
+pub fn hemispherical_reflectance(
+    b: &(impl Brdf + ?Sized),
+    wi: V3,
+    nt: usize,
+    np: usize,
+) -> Vec<f64> {
+    let nl = b.meta().wavelengths_nm.len();
+    let mut acc = vec![0.0; nl];
+    let mut v = vec![0.0; nl];
+    let (dt, dp) = (
+        std::f64::consts::FRAC_PI_2 / nt as f64,
+        std::f64::consts::TAU / np as f64,
+    );
+    for t in 0..nt {
+        let th = (t as f64 + 0.5) * dt;
+        let w = th.cos() * th.sin() * dt * dp;
+        for p in 0..np {
+            b.eval(wi, dir(th, (p as f64 + 0.5) * dp), &mut v);
+            for (a, x) in acc.iter_mut().zip(&v) {
+                *a += w * x;
+            }
+        }
+    }
+    acc
+}
+
 /// Great-circle distance between unit vectors (radians), robust near 0 and pi.
 #[inline]
 pub fn arc(a: V3, b: V3) -> f64 {

@@ -182,30 +182,11 @@ pub struct Image {
 /// how it is integrated: the simulated incident angles are where the data are resolved,
 /// and that reflectance varies smoothly between them even for a specular film.
 pub fn albedo_table(brdf: &(dyn Brdf + Sync), n: usize) -> Vec<Vec<f64>> {
-    let nl = brdf.meta().wavelengths_nm.len();
-    let (nt, np) = (48, 96);
     (0..n)
         .into_par_iter()
         .map(|k| {
             let to = (k as f64 + 0.5) / n as f64 * std::f64::consts::FRAC_PI_2;
-            let wo = crate::brdf::dir(to, 0.0);
-            let mut acc = vec![0.0; nl];
-            let mut v = vec![0.0; nl];
-            for t in 0..nt {
-                let th = (t as f64 + 0.5) / nt as f64 * std::f64::consts::FRAC_PI_2;
-                let w = th.cos()
-                    * th.sin()
-                    * (std::f64::consts::FRAC_PI_2 / nt as f64)
-                    * (std::f64::consts::TAU / np as f64);
-                for p in 0..np {
-                    let ph = (p as f64 + 0.5) / np as f64 * std::f64::consts::TAU;
-                    brdf.eval(wo, crate::brdf::dir(th, ph), &mut v);
-                    for (a, x) in acc.iter_mut().zip(&v) {
-                        *a += w * x;
-                    }
-                }
-            }
-            acc
+            crate::brdf::hemispherical_reflectance(brdf, crate::brdf::dir(to, 0.0), 48, 96)
         })
         .collect()
 }
