@@ -927,27 +927,25 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
     if a.width == 0 || a.height == 0 || a.spp == 0 {
         bail!("--width, --height and --spp must be positive");
     }
+    // `n` comma-separated numbers, or the usage message.
+    let numbers = |v: &str, n: usize, usage: &str| -> Result<Vec<f64>> {
+        let p: Vec<f64> = v
+            .split(',')
+            .map(|x| x.trim().parse::<f64>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| anyhow::anyhow!("{usage}"))?;
+        if p.len() != n {
+            bail!("{usage}");
+        }
+        Ok(p)
+    };
     let light = if a.light == "none" {
         Light::None
     } else if let Some(v) = a.light.strip_prefix("dir:") {
-        let p: Vec<f64> = v
-            .split(',')
-            .map(|x| x.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|_| anyhow::anyhow!("--light dir:THETA,PHI needs two angles in degrees"))?;
-        if p.len() != 2 {
-            bail!("--light dir:THETA,PHI needs two angles in degrees");
-        }
+        let p = numbers(v, 2, "--light dir:THETA,PHI needs two angles in degrees")?;
         Light::Directional(brdf::dir(p[0].to_radians(), p[1].to_radians()))
     } else if let Some(v) = a.light.strip_prefix("point:") {
-        let p: Vec<f64> = v
-            .split(',')
-            .map(|x| x.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|_| anyhow::anyhow!("--light point:X,Y,Z needs three numbers"))?;
-        if p.len() != 3 {
-            bail!("--light point:X,Y,Z needs three numbers");
-        }
+        let p = numbers(v, 3, "--light point:X,Y,Z needs three numbers")?;
         Light::Point([p[0], p[1], p[2]])
     } else {
         bail!(
