@@ -273,6 +273,7 @@ pub fn simulate_bench(
         tolerance: None,
         max_rays: 0,
         random_entry: false,
+        precision: Default::default(),
     };
     let nbins = cfg.bins.len() - 1;
     log(&format!(

@@ -13,10 +13,10 @@ use rayon::prelude::*;
 
 use crate::accel::Backend;
 use crate::accumulate::file::{Accumulator, Header, Settings, fnv1a};
-use crate::accumulate::{Buckets, Cell, Coherence, Estimator, Scratch, add_fields};
+use crate::accumulate::{Buckets, Cell, Coherence, Estimator, PhasePrecision, Scratch, add_fields};
 use crate::optics::C64;
 use crate::optics::fresnel::Field;
-use crate::optics::vec3::{add, dot, from_spherical, scale};
+use crate::optics::vec3::{add, from_spherical, scale};
 use crate::rng::Rng;
 use crate::sample::Sample;
 use crate::trace::{RayState, Scene, SceneError, TraceLimits, Tree, launch_fields};
@@ -77,6 +77,8 @@ pub struct SimConfig {
     /// Entry points: the R2 low-discrepancy sequence (default), or independent uniform
     /// points (plain Monte Carlo, for convergence studies).
     pub random_entry: bool,
+    /// Precision phases are formed in (`F32` only for the study's precision experiment).
+    pub precision: PhasePrecision,
 }
 
 /// How one incident direction ended.
@@ -340,6 +342,7 @@ pub fn simulate(
         buckets: cfg.buckets,
         n_up,
         n_down,
+        precision: cfg.precision,
     };
     if dispersive && (index_at(lambdas[0])[scene.ambient] != index_at(lambda_max)[scene.ambient]) {
         return Err(SimError::Config(
@@ -363,6 +366,7 @@ pub fn simulate(
         max_depth: cfg.limits.max_depth,
         theta_o_bins: cfg.buckets.theta_bins,
         phi_o_bins: cfg.buckets.phi_bins,
+        phase_precision: cfg.precision.name().into(),
     };
     let mut cells: Vec<Cell> = (0..cfg.theta_i_deg.len() * nl)
         .map(|_| Cell::new(&cfg.buckets, global))
@@ -482,7 +486,7 @@ pub fn simulate(
                                 deps.clear();
                                 glob.clear();
                                 let k = 2.0 * std::f64::consts::PI / lambda;
-                                let entry_phase = k * n_up * dot(d, world_origin);
+                                let entry_phase = est.entry_phase(k, d, world_origin);
                                 est.deposit(tree, lambda, entry_phase, scratch, deps, glob);
                                 let (r, t) = dense.add_tree(j, deps, glob);
                                 cell.trees += 1;

@@ -11,7 +11,7 @@ use serde::Deserialize;
 
 use crate::accel::Backend;
 use crate::accumulate::file::Accumulator;
-use crate::accumulate::{Buckets, Coherence};
+use crate::accumulate::{Buckets, Coherence, PhasePrecision};
 use crate::brdf::{Brdf, BucketData, Representation, dir};
 use crate::optics::tmm;
 use crate::sample::{self, MeshOptions, Sample};
@@ -30,11 +30,29 @@ struct StudyFile {
 #[derive(Deserialize, Debug, Clone)]
 #[serde(deny_unknown_fields)]
 pub struct AreaSweep {
-    pub tiles: Vec<usize>,
+    /// Tilings: `k` (k x k) or `[kx, ky]`.
+    pub tiles: Vec<Tiling>,
     /// Rays per direction at one tile (scaled by k^2).
     pub rays: u64,
     #[serde(default = "all_estimators")]
     pub coherence: Vec<String>,
+}
+
+/// How often the sample repeats along x and y in the area experiment.
+#[derive(Deserialize, Debug, Clone, Copy, PartialEq, Eq)]
+#[serde(untagged)]
+pub enum Tiling {
+    Square(usize),
+    Rect([usize; 2]),
+}
+
+impl Tiling {
+    pub fn counts(self) -> [usize; 2] {
+        match self {
+            Tiling::Square(k) => [k, k],
+            Tiling::Rect(k) => k,
+        }
+    }
 }
 
 fn all_estimators() -> Vec<String> {
@@ -60,6 +78,26 @@ struct Header {
     /// Independent repetitions (seeds) per point; the error is their RMS.
     #[serde(default = "default_repeats")]
     repeats: u64,
+    /// "auto" (the analytic TMM for `[stack]` samples, else a high-budget run),
+    /// "local-film" (the tangent-plane film reference of curved and wedged films) or
+    /// "run" (a high-budget beamlet run).
+    #[serde(default = "default_reference")]
+    reference: String,
+    /// The largest error (absolute, in R) at which the report says a method holds
+    /// (default 1e-3).
+    #[serde(default = "default_tolerance")]
+    tolerance: f64,
+    /// What the study stresses, printed at the top of the report.
+    #[serde(default)]
+    notes: String,
+}
+
+fn default_tolerance() -> f64 {
+    1e-3
+}
+
+fn default_reference() -> String {
+    "auto".into()
 }
 
 fn default_repeats() -> u64 {
@@ -91,6 +129,31 @@ struct Sweep {
     backend: Vec<String>,
     #[serde(default = "default_repr")]
     representation: Vec<String>,
+    /// Power cutoff of the ray trees (fraction of launched power).
+    #[serde(default = "default_cutoff")]
+    cutoff: Vec<f64>,
+    /// Depth limit of the ray trees (interactions).
+    #[serde(default = "default_max_depth")]
+    max_depth: Vec<u32>,
+    /// Phase precision: "f64" or "f32".
+    #[serde(default = "default_phase")]
+    phase: Vec<String>,
+    /// Where the sample sits in the world: offset (nm) along x and y of its frame.
+    #[serde(default = "default_origin")]
+    origin_nm: Vec<f64>,
+}
+
+fn default_cutoff() -> Vec<f64> {
+    vec![TraceLimits::default().cutoff]
+}
+fn default_max_depth() -> Vec<u32> {
+    vec![TraceLimits::default().max_depth]
+}
+fn default_phase() -> Vec<String> {
+    vec!["f64".into()]
+}
+fn default_origin() -> Vec<f64> {
+    vec![0.0]
 }
 
 fn default_theta_bins() -> Vec<u32> {
@@ -120,20 +183,49 @@ pub struct Study {
     pub seed: u64,
     pub random_entry: bool,
     pub repeats: u64,
+    pub reference: ReferenceKind,
+    pub tolerance: f64,
+    pub notes: String,
     pub rays: Vec<u64>,
-    pub theta_o_bins: Vec<u32>,
-    pub coherence: Vec<Coherence>,
-    pub radius: Vec<f64>,
-    pub backend: Vec<Backend>,
+    /// Every combination of the swept settings other than rays and representation.
+    pub variants: Vec<Variant>,
     pub representation: Vec<String>,
     pub area: Option<AreaSweep>,
+}
+
+/// What the errors are measured against.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReferenceKind {
+    /// The analytic TMM for `[stack]` samples, else a high-budget run.
+    Auto,
+    /// [`crate::optics::local_film`].
+    LocalFilm,
+    /// A high-budget beamlet run with the default settings.
+    Run,
+}
+
+/// One setting of everything a study sweeps except rays and representation (a line in
+/// the charts).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Variant {
+    pub backend: Backend,
+    pub coherence: Coherence,
+    /// Beamlet radius, nm.
+    pub radius: f64,
+    pub theta_o_bins: u32,
+    pub cutoff: f64,
+    pub max_depth: u32,
+    pub precision: PhasePrecision,
+    /// Offset of the sample's frame along x and y, nm.
+    pub origin_nm: f64,
 }
 
 /// One row of the sampled-area experiment.
 #[derive(Clone, Debug)]
 pub struct AreaPoint {
     pub coherence: Coherence,
-    pub tiles: usize,
+    /// Repeats along x and y.
+    pub tiles: [usize; 2],
     pub area_um2: f64,
     pub rays: u64,
     /// Directional reflectance averaged over incident angles and bins.
@@ -151,24 +243,23 @@ pub fn run_area(st: &Study, mut log: impl FnMut(&str)) -> Result<Vec<AreaPoint>,
     for name in &a.coherence {
         let coherence =
             Coherence::parse(name).ok_or_else(|| format!("unknown coherence '{name}'"))?;
-        for &k in &a.tiles {
+        for t in &a.tiles {
+            let k = t.counts();
             let big = sample.tiled(k);
-            let rays = a.rays * (k * k) as u64;
-            let cfg = config(
-                st,
-                rays,
-                st.theta_o_bins[0],
+            let rays = a.rays * (k[0] * k[1]) as u64;
+            let v = Variant {
                 coherence,
-                st.radius[0],
-                st.backend[0],
-                st.seed,
-            );
+                ..st.variants[0]
+            };
+            let cfg = config(st, rays, &v, st.seed);
             let (acc, _) = simulate(&big, &cfg, &|_| {}).map_err(|e| e.to_string())?;
             let rt = r_table(&acc);
             let r =
                 rt.iter().flatten().sum::<f64>() / rt.iter().map(|v| v.len()).sum::<usize>() as f64;
             log(&format!(
-                "area {k}x{k}: {} with {rays} rays: R = {r:.4e}",
+                "area {}x{}: {} with {rays} rays: R = {r:.4e}",
+                k[0],
+                k[1],
                 coherence.name()
             ));
             out.push(AreaPoint {
@@ -195,9 +286,10 @@ pub fn write_area(points: &[AreaPoint], dir: &Path) -> Result<Vec<PathBuf>, Stri
         for p in points {
             writeln!(
                 w,
-                "{},{},{},{},{:.6e}",
+                "{},{}x{},{},{},{:.6e}",
                 p.coherence.name(),
-                p.tiles,
+                p.tiles[0],
+                p.tiles[1],
                 p.area_um2,
                 p.rays,
                 p.r
@@ -254,11 +346,8 @@ pub fn write_area(points: &[AreaPoint], dir: &Path) -> Result<Vec<PathBuf>, Stri
 /// One measured point.
 #[derive(Clone, Debug)]
 pub struct Point {
+    pub variant: Variant,
     pub rays: u64,
-    pub theta_o_bins: u32,
-    pub coherence: Coherence,
-    pub radius: f64,
-    pub backend: Backend,
     pub representation: String,
     pub wall_s: f64,
     pub traced_rays: u64,
@@ -268,6 +357,8 @@ pub struct Point {
     /// RMS of the point's own standard errors of R (its error bars; NaN-free: 0 when
     /// undefined).
     pub stderr: f64,
+    /// Mean power dropped by the cutoff and limits per tree (fraction of launched power).
+    pub dropped: f64,
     pub query_ns: f64,
     /// RMS over incident angles and bins of the representation's hemispherical integral
     /// `integral f cos(theta_o) dw_o` against the reference reflectance.
@@ -298,6 +389,10 @@ pub fn load(path: &Path) -> Result<Study, String> {
         ("coherence_radius_nm", sw.coherence_radius_nm.is_empty()),
         ("backend", sw.backend.is_empty()),
         ("representation", sw.representation.is_empty()),
+        ("cutoff", sw.cutoff.is_empty()),
+        ("max_depth", sw.max_depth.is_empty()),
+        ("phase", sw.phase.is_empty()),
+        ("origin_nm", sw.origin_nm.is_empty()),
     ] {
         if empty {
             return bad(format!("[sweep] {name} is empty: give at least one value"));
@@ -308,6 +403,62 @@ pub fn load(path: &Path) -> Result<Study, String> {
     }
     if sw.rays.contains(&0) {
         return bad("[sweep] rays must be positive".into());
+    }
+    if let Some(c) = sw
+        .cutoff
+        .iter()
+        .find(|c| !(c.is_finite() && **c >= 0.0 && **c < 1.0))
+    {
+        return bad(format!("[sweep] cutoff {c} must lie in [0, 1)"));
+    }
+    if sw.max_depth.contains(&0) {
+        return bad("[sweep] max_depth must be positive".into());
+    }
+    if let Some(r) = sw
+        .coherence_radius_nm
+        .iter()
+        .find(|r| r.is_nan() || **r <= 0.0)
+    {
+        return bad(format!(
+            "[sweep] coherence_radius_nm {r} must be positive (or inf)"
+        ));
+    }
+    if let Some(o) = sw.origin_nm.iter().find(|o| !o.is_finite()) {
+        return bad(format!("[sweep] origin_nm {o} must be finite"));
+    }
+    if sw.theta_o_bins.contains(&0) {
+        return bad("[sweep] theta_o_bins must be positive".into());
+    }
+    let precision = sw
+        .phase
+        .iter()
+        .map(|p| {
+            PhasePrecision::parse(p).ok_or_else(|| {
+                format!(
+                    "{}: unknown phase precision '{p}' (f64 or f32)",
+                    path.display()
+                )
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let reference = match raw.study.reference.as_str() {
+        "auto" => ReferenceKind::Auto,
+        "local-film" => ReferenceKind::LocalFilm,
+        "run" => ReferenceKind::Run,
+        other => {
+            return bad(format!(
+                "reference '{other}' must be \"auto\", \"local-film\" or \"run\""
+            ));
+        }
+    };
+    if !(raw.study.tolerance >= 0.0 && raw.study.tolerance.is_finite()) {
+        return bad(format!(
+            "[study] tolerance {} must be a non-negative number",
+            raw.study.tolerance
+        ));
+    }
+    if let Some(t) = raw.study.theta_i.iter().find(|t| !(0.0..90.0).contains(*t)) {
+        return bad(format!("[study] theta_i {t} must lie in [0, 90) degrees"));
     }
     let coherence = sw
         .coherence
@@ -358,6 +509,39 @@ pub fn load(path: &Path) -> Result<Study, String> {
         "random" => true,
         other => return bad(format!("sampling '{other}' must be \"r2\" or \"random\"")),
     };
+    let mut variants = Vec::new();
+    for &backend in &backend {
+        for &coherence in &coherence {
+            // The beamlet radius only enters the beamlet estimator.
+            let radii = if coherence == Coherence::Beamlet {
+                &sw.coherence_radius_nm[..]
+            } else {
+                &sw.coherence_radius_nm[..1]
+            };
+            for &radius in radii {
+                for &theta_o_bins in &sw.theta_o_bins {
+                    for &cutoff in &sw.cutoff {
+                        for &max_depth in &sw.max_depth {
+                            for &precision in &precision {
+                                for &origin_nm in &sw.origin_nm {
+                                    variants.push(Variant {
+                                        backend,
+                                        coherence,
+                                        radius,
+                                        theta_o_bins,
+                                        cutoff,
+                                        max_depth,
+                                        precision,
+                                        origin_nm,
+                                    });
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
     Ok(Study {
         name: raw.study.name,
         sample_path: path
@@ -370,14 +554,14 @@ pub fn load(path: &Path) -> Result<Study, String> {
         seed: raw.study.seed,
         random_entry,
         repeats: raw.study.repeats.max(1),
+        reference,
+        tolerance: raw.study.tolerance,
+        notes: raw.study.notes,
         rays: sw.rays.clone(),
-        theta_o_bins: sw.theta_o_bins.clone(),
-        coherence,
-        radius: sw.coherence_radius_nm.clone(),
-        backend,
+        variants,
         representation: sw.representation.clone(),
         area: match raw.area {
-            Some(a) if a.tiles.is_empty() || a.tiles.contains(&0) => {
+            Some(a) if a.tiles.is_empty() || a.tiles.iter().any(|t| t.counts().contains(&0)) => {
                 return bad("[area] tiles must be a non-empty list of positive counts".into());
             }
             Some(a) if a.coherence.iter().any(|c| Coherence::parse(c).is_none()) => {
@@ -400,34 +584,31 @@ fn peak_mem_mb() -> f64 {
         .map_or(0.0, |kb| kb / 1024.0)
 }
 
-fn config(
-    st: &Study,
-    rays: u64,
-    bins: u32,
-    coherence: Coherence,
-    radius: f64,
-    backend: Backend,
-    seed: u64,
-) -> SimConfig {
+fn config(st: &Study, rays: u64, v: &Variant, seed: u64) -> SimConfig {
     SimConfig {
         theta_i_deg: st.theta_i.clone(),
         phi_i_deg: 0.0,
         rays,
         wavelengths: Wavelengths::Bins(st.edges.clone()),
-        backend,
+        backend: v.backend,
         seed,
-        coherence,
-        rho_nm: radius,
-        limits: TraceLimits::default(),
+        coherence: v.coherence,
+        rho_nm: v.radius,
+        limits: TraceLimits {
+            cutoff: v.cutoff,
+            max_depth: v.max_depth,
+            ..TraceLimits::default()
+        },
         buckets: Buckets {
-            theta_bins: bins,
+            theta_bins: v.theta_o_bins,
             phi_bins: 36,
         },
         path_sharing: None,
-        origin_nm: [0.0; 3],
+        origin_nm: [v.origin_nm, v.origin_nm, 0.0],
         tolerance: None,
         max_rays: 0,
         random_entry: st.random_entry,
+        precision: v.precision,
     }
 }
 
@@ -443,161 +624,181 @@ fn r_table(acc: &Accumulator) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// The reference reflectance per (incident angle, bin) and a description of it.
+fn reference(
+    st: &Study,
+    sample: &Sample,
+    log: &mut impl FnMut(&str),
+) -> Result<(Vec<Vec<f64>>, String), String> {
+    let kind = match st.reference {
+        ReferenceKind::Auto if sample.stack.is_some() => "tmm",
+        ReferenceKind::Auto | ReferenceKind::Run => "run",
+        ReferenceKind::LocalFilm => "local-film",
+    };
+    match kind {
+        "tmm" => {
+            for &l in [st.edges[0], st.edges[st.edges.len() - 1]].iter() {
+                tmm::stack_indices(sample, l)?;
+            }
+            let r = st
+                .theta_i
+                .iter()
+                .map(|t| {
+                    st.edges
+                        .windows(2)
+                        .map(|w| {
+                            tmm::solve_band(
+                                |l| tmm::stack_indices(sample, l).expect("range checked"),
+                                w[0],
+                                w[1],
+                                t.to_radians(),
+                            )
+                            .r()
+                        })
+                        .collect()
+                })
+                .collect();
+            Ok((r, "analytic TMM (bin-averaged)".into()))
+        }
+        "local-film" => {
+            let entries = 48;
+            let r = st
+                .theta_i
+                .iter()
+                .map(|&t| crate::optics::local_film::reflectance(sample, t, &st.edges, entries))
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok((
+                r,
+                format!(
+                    "local-film (tangent-plane) TMM reference, {entries} x {entries} entry points"
+                ),
+            ))
+        }
+        _ => {
+            log(&format!(
+                "reference: {} rays per direction",
+                st.reference_rays
+            ));
+            // Low-discrepancy entry points and default settings for the reference whatever
+            // the study sweeps: its error falls about as 1/N, far below the points'.
+            let v = Variant {
+                coherence: Coherence::Beamlet,
+                radius: 5000.0,
+                cutoff: TraceLimits::default().cutoff,
+                max_depth: TraceLimits::default().max_depth,
+                precision: PhasePrecision::F64,
+                origin_nm: 0.0,
+                ..st.variants[0]
+            };
+            let mut cfg = config(st, st.reference_rays, &v, st.seed.wrapping_add(1_000_003));
+            cfg.random_entry = false;
+            let r = r_table(
+                &simulate(sample, &cfg, &|_| {})
+                    .map_err(|e| e.to_string())?
+                    .0,
+            );
+            Ok((
+                r,
+                format!(
+                    "high-budget beamlet run ({} rays per direction, radius 5 um)",
+                    st.reference_rays
+                ),
+            ))
+        }
+    }
+}
+
 /// Runs the study; `log` receives progress lines.
 pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String), String> {
     let sample: Sample =
         sample::load(&st.sample_path, MeshOptions::default()).map_err(|e| e.to_string())?;
-    // Reference: the bin-averaged TMM for a stack, else a high-budget beamlet run.
-    let reference: Vec<Vec<f64>> = if sample.stack.is_some() {
-        for &l in [st.edges[0], st.edges[st.edges.len() - 1]].iter() {
-            tmm::stack_indices(&sample, l)?;
-        }
-        st.theta_i
-            .iter()
-            .map(|t| {
-                st.edges
-                    .windows(2)
-                    .map(|w| {
-                        tmm::solve_band(
-                            |l| tmm::stack_indices(&sample, l).expect("range checked"),
-                            w[0],
-                            w[1],
-                            t.to_radians(),
-                        )
-                        .r()
-                    })
-                    .collect()
-            })
-            .collect()
-    } else {
-        log(&format!(
-            "reference: {} rays per direction",
-            st.reference_rays
-        ));
-        // Low-discrepancy entry points for the reference whatever the study samples with:
-        // its error falls about as 1/N, far below the points'.
-        let mut cfg = config(
-            st,
-            st.reference_rays,
-            st.theta_o_bins[0],
-            Coherence::Beamlet,
-            5000.0,
-            st.backend[0],
-            st.seed.wrapping_add(1_000_003),
-        );
-        cfg.random_entry = false;
-        r_table(
-            &simulate(&sample, &cfg, &|_| {})
-                .map_err(|e| e.to_string())?
-                .0,
-        )
-    };
-    let reference_kind = if sample.stack.is_some() {
-        "analytic TMM (bin-averaged)"
-    } else {
-        "high-budget beamlet run"
-    };
+    let (reference, reference_kind) = reference(st, &sample, &mut log)?;
     let mut points = Vec::new();
-    for &backend in &st.backend {
-        for &coherence in &st.coherence {
-            for &radius in &st.radius {
-                for &bins in &st.theta_o_bins {
-                    for &rays in &st.rays {
-                        let (mut e2, mut s2, mut n, mut wall) = (0.0, 0.0, 0.0, 0.0);
-                        let mut last = None;
-                        for rep in 0..st.repeats {
-                            let cfg =
-                                config(st, rays, bins, coherence, radius, backend, st.seed + rep);
-                            let t0 = Instant::now();
-                            let (acc, stats) =
-                                simulate(&sample, &cfg, &|_| {}).map_err(|e| e.to_string())?;
-                            wall += t0.elapsed().as_secs_f64() / st.repeats as f64;
-                            let r = r_table(&acc);
-                            for (i, row) in r.iter().enumerate() {
-                                for (j, v) in row.iter().enumerate() {
-                                    e2 += (v - reference[i][j]).powi(2);
-                                    s2 += acc.cell(i, j).r_stderr(coherence).unwrap_or(0.0).powi(2);
-                                    n += 1.0;
-                                }
-                            }
-                            last = Some((acc, stats));
-                        }
-                        let (acc, stats) = last.expect("at least one repetition");
-                        let data = BucketData::from_accumulator(&acc);
-                        for repr in &st.representation {
-                            let rep = match repr.as_str() {
-                                "kdtree" => Representation::KdTree(
-                                    crate::brdf::kdtree::KdTreeBrdf::build(&data, 4, true, false),
-                                ),
-                                "subdivided" => Representation::Subdivided(
-                                    crate::brdf::subdivided::SubdividedBrdf::build(&data, 0.05),
-                                ),
-                                _ => Representation::Table(crate::brdf::table::TableBrdf::build(
-                                    &data,
-                                )),
-                            };
-                            let mut out = vec![0.0; data.wavelengths_nm.len()];
-                            let q0 = Instant::now();
-                            let m = 2000;
-                            for k in 0..m {
-                                let a = k as f64 / m as f64;
-                                rep.eval(
-                                    dir(1.2 * a, 0.0),
-                                    dir(1.3 * (1.0 - a), 3.0 + a),
-                                    &mut out,
-                                );
-                                std::hint::black_box(&out);
-                            }
-                            let query_ns = q0.elapsed().as_nanos() as f64 / m as f64;
-                            let (mut re2, mut rn) = (0.0f64, 0.0f64);
-                            for (i, t) in st.theta_i.iter().enumerate() {
-                                let h = crate::brdf::hemispherical_reflectance(
-                                    &rep,
-                                    dir(t.to_radians(), 0.0),
-                                    45,
-                                    72,
-                                );
-                                for (j, v) in h.iter().enumerate() {
-                                    re2 += (v - reference[i][j]).powi(2);
-                                    rn += 1.0;
-                                }
-                            }
-                            let p = Point {
-                                rays,
-                                theta_o_bins: bins,
-                                coherence,
-                                radius,
-                                backend,
-                                representation: repr.clone(),
-                                wall_s: wall,
-                                traced_rays: stats.traces,
-                                peak_mem_mb: peak_mem_mb(),
-                                error: (e2 / n).sqrt(),
-                                stderr: (s2 / n).sqrt(),
-                                query_ns,
-                                repr_error: (re2 / rn).sqrt(),
-                            };
-                            log(&format!(
-                                "{} {} rho {} bins {} rays {}: error {:.2e} (+- {:.1e}), {:.2} s, query {:.0} ns ({})",
-                                backend,
-                                coherence.name(),
-                                radius,
-                                bins,
-                                rays,
-                                p.error,
-                                p.stderr,
-                                wall,
-                                query_ns,
-                                repr
-                            ));
-                            points.push(p);
-                        }
+    for v in &st.variants {
+        for &rays in &st.rays {
+            let (mut e2, mut s2, mut n, mut wall) = (0.0, 0.0, 0.0, 0.0);
+            let (mut dropped, mut dn) = (0.0, 0.0);
+            let mut last = None;
+            for rep in 0..st.repeats {
+                let cfg = config(st, rays, v, st.seed + rep);
+                let t0 = Instant::now();
+                let (acc, stats) = simulate(&sample, &cfg, &|_| {}).map_err(|e| e.to_string())?;
+                wall += t0.elapsed().as_secs_f64() / st.repeats as f64;
+                let r = r_table(&acc);
+                for (i, row) in r.iter().enumerate() {
+                    for (j, x) in row.iter().enumerate() {
+                        let c = acc.cell(i, j);
+                        e2 += (x - reference[i][j]).powi(2);
+                        s2 += c.r_stderr(v.coherence).unwrap_or(0.0).powi(2);
+                        n += 1.0;
+                        dropped += c.dropped / c.trees.max(1) as f64;
+                        dn += 1.0;
                     }
                 }
+                last = Some((acc, stats));
+            }
+            let (acc, stats) = last.expect("at least one repetition");
+            let data = BucketData::from_accumulator(&acc);
+            for repr in &st.representation {
+                let rep = match repr.as_str() {
+                    "kdtree" => Representation::KdTree(crate::brdf::kdtree::KdTreeBrdf::build(
+                        &data, 4, true, false,
+                    )),
+                    "subdivided" => Representation::Subdivided(
+                        crate::brdf::subdivided::SubdividedBrdf::build(&data, 0.05),
+                    ),
+                    _ => Representation::Table(crate::brdf::table::TableBrdf::build(&data)),
+                };
+                let mut out = vec![0.0; data.wavelengths_nm.len()];
+                let q0 = Instant::now();
+                let m = 2000;
+                for k in 0..m {
+                    let a = k as f64 / m as f64;
+                    rep.eval(dir(1.2 * a, 0.0), dir(1.3 * (1.0 - a), 3.0 + a), &mut out);
+                    std::hint::black_box(&out);
+                }
+                let query_ns = q0.elapsed().as_nanos() as f64 / m as f64;
+                let (mut re2, mut rn) = (0.0f64, 0.0f64);
+                for (i, t) in st.theta_i.iter().enumerate() {
+                    let h = crate::brdf::hemispherical_reflectance(
+                        &rep,
+                        dir(t.to_radians(), 0.0),
+                        45,
+                        72,
+                    );
+                    for (j, x) in h.iter().enumerate() {
+                        re2 += (x - reference[i][j]).powi(2);
+                        rn += 1.0;
+                    }
+                }
+                let p = Point {
+                    variant: *v,
+                    rays,
+                    representation: repr.clone(),
+                    wall_s: wall,
+                    traced_rays: stats.traces,
+                    peak_mem_mb: peak_mem_mb(),
+                    error: (e2 / n).sqrt(),
+                    stderr: (s2 / n).sqrt(),
+                    dropped: dropped / dn,
+                    query_ns,
+                    repr_error: (re2 / rn).sqrt(),
+                };
+                log(&format!(
+                    "{} rays {}: error {:.2e} (+- {:.1e}), dropped {:.1e}, {:.2} s, query {:.0} ns",
+                    method(&p),
+                    rays,
+                    p.error,
+                    p.stderr,
+                    p.dropped,
+                    wall,
+                    query_ns,
+                ));
+                points.push(p);
             }
         }
     }
-    Ok((points, reference_kind.to_string()))
+    Ok((points, reference_kind))
 }
 
 /// Least-squares slope of log(error) against log(rays) over points with positive error.
@@ -620,22 +821,34 @@ pub fn convergence_slope(points: &[Point]) -> Option<f64> {
     Some((n * sxy - sx * sy) / (n * sxx - sx * sx))
 }
 
+/// Whether a point's error is within the study's tolerance. The error bars are not added:
+/// they are the spread of single trees, which stratified wavelengths and R2 entry points
+/// beat by far, so they would excuse real bias.
+pub fn holds(p: &Point, tolerance: f64) -> bool {
+    p.error <= tolerance
+}
+
 /// Writes `points.csv` and `report.md` into `dir` (atomically each).
 pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
     crate::io::write_atomic(&dir.join("points.csv"), |w| {
         writeln!(
             w,
-            "backend,coherence,coherence_radius_nm,theta_o_bins,rays,representation,wall_s,traced_rays,peak_mem_mb,error,error_stderr,query_ns,repr_error"
+            "backend,coherence,coherence_radius_nm,theta_o_bins,cutoff,max_depth,phase,origin_nm,rays,representation,wall_s,traced_rays,peak_mem_mb,error,error_stderr,dropped,holds,query_ns,repr_error"
         )?;
         for p in points {
+            let v = &p.variant;
             writeln!(
                 w,
-                "{},{},{},{},{},{},{:.4},{},{:.1},{:.6e},{:.6e},{:.0},{:.6e}",
-                p.backend,
-                p.coherence.name(),
-                p.radius,
-                p.theta_o_bins,
+                "{},{},{},{},{:e},{},{},{:e},{},{},{:.4},{},{:.1},{:.6e},{:.6e},{:.3e},{},{:.0},{:.6e}",
+                v.backend,
+                v.coherence.name(),
+                v.radius,
+                v.theta_o_bins,
+                v.cutoff,
+                v.max_depth,
+                v.precision.name(),
+                v.origin_nm,
                 p.rays,
                 p.representation,
                 p.wall_s,
@@ -643,6 +856,8 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
                 p.peak_mem_mb,
                 p.error,
                 p.stderr,
+                p.dropped,
+                holds(p, st.tolerance),
                 p.query_ns,
                 p.repr_error
             )?;
@@ -651,6 +866,9 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
     })?;
     crate::io::write_atomic(&dir.join("report.md"), |w| {
         writeln!(w, "# Study: {}\n", st.name)?;
+        if !st.notes.trim().is_empty() {
+            writeln!(w, "{}\n", st.notes.trim())?;
+        }
         writeln!(
             w,
             "Sample `{}`, incident angles {:?} deg, {} wavelength bins {}..{} nm.",
@@ -662,29 +880,65 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
         )?;
         writeln!(
             w,
-            "Error: RMS over incident angles and bins of the directional reflectance against the {reference}.\n"
+            "Error: RMS over incident angles and bins of the directional reflectance against the {reference}. \
+             A point holds when its error is at most {} (the study's tolerance).\n",
+            st.tolerance
         )?;
         writeln!(
             w,
-            "| backend | estimator | radius nm | theta bins | rays | representation | wall s | error | error bars | query ns | representation error |"
+            "| method | rays | wall s | error | error bars | dropped | holds | query ns | representation error |"
         )?;
-        writeln!(w, "|---|---|---|---|---|---|---|---|---|---|---|")?;
+        writeln!(w, "|---|---|---|---|---|---|---|---|---|")?;
         for p in points {
             writeln!(
                 w,
-                "| {} | {} | {} | {} | {} | {} | {:.3} | {:.2e} | {:.1e} | {:.0} | {:.2e} |",
-                p.backend,
-                p.coherence.name(),
-                p.radius,
-                p.theta_o_bins,
+                "| {} | {} | {:.3} | {:.2e} | {:.1e} | {:.1e} | {} | {:.0} | {:.2e} |",
+                method(p),
                 p.rays,
-                p.representation,
                 p.wall_s,
                 p.error,
                 p.stderr,
+                p.dropped,
+                if holds(p, st.tolerance) {
+                    "yes"
+                } else {
+                    "**no**"
+                },
                 p.query_ns,
                 p.repr_error
             )?;
+        }
+        // Where each method breaks: its verdict at the largest ray count.
+        let mut methods: Vec<String> = points.iter().map(method).collect();
+        methods.sort();
+        methods.dedup();
+        let (mut ok, mut broken) = (Vec::new(), Vec::new());
+        for m in &methods {
+            if let Some(p) = points
+                .iter()
+                .filter(|p| &method(p) == m)
+                .max_by_key(|p| p.rays)
+            {
+                let line = format!(
+                    "`{m}` (error {:.2e}, error bars {:.1e} at {} rays)",
+                    p.error, p.stderr, p.rays
+                );
+                if holds(p, st.tolerance) {
+                    ok.push(line);
+                } else {
+                    broken.push(line);
+                }
+            }
+        }
+        writeln!(
+            w,
+            "\nWhere methods break (verdict at each method's largest ray count):\n"
+        )?;
+        for l in &broken {
+            writeln!(w, "- breaks: {l}")?;
+        }
+        for l in &ok {
+            writeln!(w, "- holds: {l}")?;
         }
         // The Pareto front: points no faster point beats in error.
         let mut order: Vec<&Point> = points.iter().collect();
@@ -711,7 +965,9 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
                 )?;
             }
         }
-        if let Some(s) = convergence_slope(points) {
+        if methods.len() == 1
+            && let Some(s) = convergence_slope(points)
+        {
             writeln!(
                 w,
                 "\nLeast-squares slope of log(error) against log(rays): {s:.3} (Monte Carlo: -0.5)."
@@ -722,20 +978,36 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
 }
 
 /// A method: everything in a point but the ray count (one line per method in the charts).
+/// Settings at their defaults are left out of the name.
 fn method(p: &Point) -> String {
-    let rho = if p.radius.is_infinite() {
+    let v = &p.variant;
+    let rho = if v.radius.is_infinite() {
         "inf".to_string()
     } else {
-        format!("{}", p.radius)
+        format!("{}", v.radius)
     };
-    format!(
+    let mut s = format!(
         "{} rho={} bins={} {} {}",
-        p.coherence.name(),
+        v.coherence.name(),
         rho,
-        p.theta_o_bins,
-        p.backend,
+        v.theta_o_bins,
+        v.backend,
         p.representation
-    )
+    );
+    let d = TraceLimits::default();
+    if v.cutoff != d.cutoff {
+        s.push_str(&format!(" cutoff={:e}", v.cutoff));
+    }
+    if v.max_depth != d.max_depth {
+        s.push_str(&format!(" depth={}", v.max_depth));
+    }
+    if v.precision != PhasePrecision::F64 {
+        s.push_str(&format!(" {}", v.precision.name()));
+    }
+    if v.origin_nm != 0.0 {
+        s.push_str(&format!(" origin={:e}nm", v.origin_nm));
+    }
+    s
 }
 
 /// Registers the embedded DejaVu Sans (the `dejavu` crate) once: no system font library.

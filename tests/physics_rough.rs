@@ -24,7 +24,7 @@ fn shipped(name: &str) -> Sample {
 
 /// The same sample tiled `k x k` times: a k^2 larger sampled area, statistically identical.
 fn tiled(s: &Sample, k: usize) -> Sample {
-    s.tiled(k)
+    s.tiled([k, k])
 }
 
 fn mono550() -> Wavelengths {

@@ -143,7 +143,7 @@ fn the_darkening_study_shows_global_falling_and_beamlet_staying() {
     let rows = goniospec::study::run_area(&st, |_| {}).unwrap();
     let r = |name: &str, k: usize| {
         rows.iter()
-            .find(|p| p.coherence.name() == name && p.tiles == k)
+            .find(|p| p.coherence.name() == name && p.tiles == [k, k])
             .unwrap()
             .r
     };

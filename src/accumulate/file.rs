@@ -37,6 +37,16 @@ pub struct Settings {
     pub max_depth: u32,
     pub theta_o_bins: u32,
     pub phi_o_bins: u32,
+    /// "f64" (default; omitted from the file) or "f32" (the precision experiment).
+    #[serde(default = "f64_name", skip_serializing_if = "is_f64")]
+    pub phase_precision: String,
+}
+
+fn f64_name() -> String {
+    "f64".into()
+}
+fn is_f64(s: &str) -> bool {
+    s == "f64"
 }
 
 /// The file header: settings plus what the runs contributed.

@@ -73,6 +73,40 @@ pub struct Estimator {
     /// Real index above (reflection side) and below (transmission side).
     pub n_up: f64,
     pub n_down: f64,
+    /// Phase precision: with `F32`, optical path lengths and exit points are rounded to
+    /// single precision and phases formed in single-precision arithmetic, as a tracer that
+    /// stores them in `f32` would (the study's f32-against-f64 experiment). `F64` is the
+    /// default and the only precision for production runs.
+    pub precision: PhasePrecision,
+}
+
+/// The floating-point precision phases are formed in (see [`Estimator::precision`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum PhasePrecision {
+    #[default]
+    F64,
+    F32,
+}
+
+impl PhasePrecision {
+    pub fn name(self) -> &'static str {
+        match self {
+            PhasePrecision::F64 => "f64",
+            PhasePrecision::F32 => "f32",
+        }
+    }
+    pub fn parse(s: &str) -> Option<PhasePrecision> {
+        match s {
+            "f64" => Some(PhasePrecision::F64),
+            "f32" => Some(PhasePrecision::F32),
+            _ => None,
+        }
+    }
+}
+
+/// `a . b` in single precision, from single-precision copies of the operands.
+fn dot32(a: [f64; 3], b: [f64; 3]) -> f32 {
+    a[0] as f32 * b[0] as f32 + a[1] as f32 * b[1] as f32 + a[2] as f32 * b[2] as f32
 }
 
 /// Reusable per-thread buffers.
@@ -112,6 +146,16 @@ struct Pair {
 }
 
 impl Estimator {
+    /// The incident wave's phase at a tree's launch point `x` (nm, world frame) for a
+    /// wave travelling along `d` at wave number `k` (1/nm): `k n_up (d . x)`, in the
+    /// estimator's precision.
+    pub fn entry_phase(&self, k: f64, d: [f64; 3], x: [f64; 3]) -> f64 {
+        match self.precision {
+            PhasePrecision::F64 => k * self.n_up * dot(d, x),
+            PhasePrecision::F32 => f64::from(k as f32 * self.n_up as f32 * dot32(d, x)),
+        }
+    }
+
     /// Prepares the wavelength-independent part of `tree` (call once per traced tree).
     pub fn prepare(&self, tree: &Tree, s: &mut Scratch) {
         let p = &mut s.prep;
@@ -166,11 +210,22 @@ impl Estimator {
                     continue;
                 }
                 let n0 = if ex[j].up { self.n_up } else { self.n_down };
+                let delta_nm = match self.precision {
+                    PhasePrecision::F64 => (ex[j].opl.re - ex[l].opl.re) - n0 * dot(wbar, dx),
+                    PhasePrecision::F32 => {
+                        let dx32 =
+                            [0, 1, 2].map(|c| (ex[j].x[c] as f32 - ex[l].x[c] as f32) as f64);
+                        f64::from(
+                            (ex[j].opl.re as f32 - ex[l].opl.re as f32)
+                                - n0 as f32 * dot32(wbar, dx32),
+                        )
+                    }
+                };
                 p.pairs.push(Pair {
                     j: j as u32,
                     l: l as u32,
                     h,
-                    delta_nm: (ex[j].opl.re - ex[l].opl.re) - n0 * dot(wbar, dx),
+                    delta_nm,
                     k_pos,
                     dw2: if plane_wave { 0.0 } else { dw2 },
                 });
@@ -229,9 +284,19 @@ impl Estimator {
             }
             return;
         }
+        // Each exit's amplitude with its phase relative to a plane through the global origin
+        // perpendicular to its direction: `exp(i k (OPL - n0 w . x))` (a complex OPL
+        // attenuates).
         s.amp.clear();
         for x in &tree.exits {
-            let f = (C64::new(0.0, k) * x.opl).exp(); // i k OPL (complex OPL attenuates)
+            let n0 = if x.up { self.n_up } else { self.n_down };
+            let phase = match self.precision {
+                PhasePrecision::F64 => k * (x.opl.re - n0 * dot(x.dir, x.x)),
+                PhasePrecision::F32 => {
+                    f64::from(k as f32 * (x.opl.re as f32 - n0 as f32 * dot32(x.dir, x.x)))
+                }
+            };
+            let f = C64::from_polar((-k * x.opl.im).exp(), phase);
             s.amp.push([x.e[0].map(|c| c * f), x.e[1].map(|c| c * f)]);
         }
         match self.mode {
@@ -242,13 +307,9 @@ impl Estimator {
                 // absolute exit points, summed per bucket.
                 s.sums.clear();
                 for (j, a) in s.amp.iter().enumerate() {
-                    let x = &tree.exits[j];
-                    let n0 = if x.up { self.n_up } else { self.n_down };
-                    let f = C64::from_polar(1.0, -k * n0 * dot(x.dir, x.x));
-                    let a = [a[0].map(|c| c * f), a[1].map(|c| c * f)];
                     match s.sums.iter_mut().find(|(kk, _)| *kk == p.keys[j]) {
-                        Some((_, acc)) => add_fields(acc, &a),
-                        None => s.sums.push((p.keys[j], a)),
+                        Some((_, acc)) => add_fields(acc, a),
+                        None => s.sums.push((p.keys[j], *a)),
                     }
                 }
                 for (kk, a) in &s.sums {
@@ -256,11 +317,9 @@ impl Estimator {
                 }
             }
             Coherence::Global => {
-                for (j, x) in tree.exits.iter().enumerate() {
-                    let n0 = if x.up { self.n_up } else { self.n_down };
-                    let f = C64::from_polar(1.0, entry_phase - k * n0 * dot(x.dir, x.x));
-                    let a = [s.amp[j][0].map(|c| c * f), s.amp[j][1].map(|c| c * f)];
-                    global.push((p.keys[j], a));
+                let f = C64::from_polar(1.0, entry_phase);
+                for (a, &kk) in s.amp.iter().zip(&p.keys) {
+                    global.push((kk, [a[0].map(|c| c * f), a[1].map(|c| c * f)]));
                 }
             }
         }

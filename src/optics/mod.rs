@@ -7,6 +7,7 @@
 //! `exp(i 2 pi (n + i k) l / lambda)`.
 
 pub mod fresnel;
+pub mod local_film;
 pub mod tmm;
 pub mod vec3;
 

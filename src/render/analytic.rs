@@ -4,7 +4,7 @@
 
 use super::{Env, Image, RenderConfig, Shape, colour};
 use crate::optics::tmm::solve_band;
-use crate::optics::vec3::{add, dot, normalize, scale, sub};
+use crate::optics::vec3::{add, dot, scale};
 use crate::sample::Sample;
 
 /// Renders the stack's exact specular reflection with the same camera and environment.
@@ -54,17 +54,7 @@ pub fn stack_image(
         })
         .collect();
     let weights = colour::bin_weights(centres_nm);
-    let (centre, _) = shape.bounds();
-    let fwd = normalize(sub(centre, cfg.camera));
-    let up0 = if fwd[2].abs() > 0.99 {
-        [0.0, 1.0, 0.0]
-    } else {
-        [0.0, 0.0, 1.0]
-    };
-    let right = normalize(crate::optics::vec3::cross(fwd, up0));
-    let up = crate::optics::vec3::cross(right, fwd);
-    let half_h = (cfg.fov_deg.to_radians() / 2.0).tan();
-    let aspect = cfg.width as f64 / cfg.height as f64;
+    let cam = super::camera_frame(shape, cfg);
     let mut img = Image {
         width: cfg.width,
         height: cfg.height,
@@ -75,9 +65,7 @@ pub fn stack_image(
     for y in 0..cfg.height {
         for x in 0..cfg.width {
             // Pixel centre (the reference needs no anti-aliasing noise).
-            let sx = (2.0 * (x as f64 + 0.5) / cfg.width as f64 - 1.0) * half_h * aspect;
-            let sy = (1.0 - 2.0 * (y as f64 + 0.5) / cfg.height as f64) * half_h;
-            let d = normalize(add(fwd, add(scale(right, sx), scale(up, sy))));
+            let d = cam.ray(cfg, x as f64 + 0.5, y as f64 + 0.5);
             let mut spec = vec![0.0; nl];
             if let Some((_, n)) = shape.hit(cfg.camera, d) {
                 let cos_o = -dot(d, n);

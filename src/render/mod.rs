@@ -13,6 +13,7 @@
 
 pub mod analytic;
 pub mod colour;
+pub mod plan;
 
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -48,6 +49,9 @@ pub enum Env {
 pub enum Shape {
     /// The unit sphere at the origin.
     Sphere,
+    /// The square `[-1, 1]^2` in the plane z = 0, facing up: a flat panel, whose every
+    /// pixel sees the light at the same incident angle.
+    Plane,
     /// A triangle mesh with smooth vertex normals.
     Mesh {
         mesh: Mesh,
@@ -84,6 +88,7 @@ impl Shape {
     pub fn bounds(&self) -> (V3, f64) {
         match self {
             Shape::Sphere => ([0.0; 3], 1.0),
+            Shape::Plane => ([0.0; 3], std::f64::consts::SQRT_2),
             Shape::Mesh { mesh, .. } => {
                 let (lo, hi) = mesh.bounds().unwrap_or(([0.0; 3], [1.0; 3]));
                 let c = scale(add(lo, hi), 0.5);
@@ -105,6 +110,20 @@ impl Shape {
                 let t = -b - disc.sqrt();
                 let t = if t > 1e-9 { t } else { -b + disc.sqrt() };
                 (t > 1e-9).then(|| (t, normalize(add(o, scale(d, t)))))
+            }
+            Shape::Plane => {
+                if d[2] == 0.0 {
+                    return None;
+                }
+                let t = -o[2] / d[2];
+                let p = add(o, scale(d, t));
+                // Seen from below, the visible side faces down.
+                let n = if o[2] >= 0.0 {
+                    [0.0, 0.0, 1.0]
+                } else {
+                    [0.0, 0.0, -1.0]
+                };
+                (t > 1e-9 && p[0].abs() <= 1.0 && p[1].abs() <= 1.0).then_some((t, n))
             }
             Shape::Mesh {
                 mesh,
@@ -140,7 +159,7 @@ impl Shape {
 
     fn occluded(&self, o: V3, d: V3) -> bool {
         match self {
-            Shape::Sphere => false, // convex
+            Shape::Sphere | Shape::Plane => false, // convex
             Shape::Mesh { .. } => self.hit(o, d).is_some(),
         }
     }
@@ -174,6 +193,46 @@ pub struct Image {
     pub bins: usize,
 }
 
+/// The pinhole camera: it looks from `cfg.camera` at the shape's centre, z up.
+pub(crate) struct CameraFrame {
+    fwd: V3,
+    right: V3,
+    up: V3,
+    /// `tan(fov / 2)`.
+    half_h: f64,
+    aspect: f64,
+}
+
+pub(crate) fn camera_frame(shape: &Shape, cfg: &RenderConfig) -> CameraFrame {
+    let (centre, _) = shape.bounds();
+    let fwd = normalize(sub(centre, cfg.camera));
+    let up0 = if fwd[2].abs() > 0.99 {
+        [0.0, 1.0, 0.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    let right = normalize(cross(fwd, up0));
+    CameraFrame {
+        fwd,
+        right,
+        up: cross(right, fwd),
+        half_h: (cfg.fov_deg.to_radians() / 2.0).tan(),
+        aspect: cfg.width as f64 / cfg.height as f64,
+    }
+}
+
+impl CameraFrame {
+    /// Unit direction through the image point `(px, py)` in pixels from the top left.
+    pub(crate) fn ray(&self, cfg: &RenderConfig, px: f64, py: f64) -> V3 {
+        let sx = (2.0 * px / cfg.width as f64 - 1.0) * self.half_h * self.aspect;
+        let sy = (1.0 - 2.0 * py / cfg.height as f64) * self.half_h;
+        normalize(add(
+            self.fwd,
+            add(scale(self.right, sx), scale(self.up, sy)),
+        ))
+    }
+}
+
 /// Hemispherical albedo `integral f(wi, wo) cos(theta_i) dwi` of an isotropic BRDF as a
 /// function of the outgoing polar angle: `n` samples of theta_o over [0, 90) deg.
 ///
@@ -202,18 +261,8 @@ pub fn render(
 ) -> Image {
     let nl = brdf.meta().wavelengths_nm.len();
     let weights = colour::bin_weights(&brdf.meta().wavelengths_nm);
-    let (centre, radius) = shape.bounds();
-    let fwd = normalize(sub(centre, cfg.camera));
-    let up0 = if fwd[2].abs() > 0.99 {
-        [0.0, 1.0, 0.0]
-    } else {
-        [0.0, 0.0, 1.0]
-    };
-    let right = normalize(cross(fwd, up0));
-    let up = cross(right, fwd);
-    let half_h = (cfg.fov_deg.to_radians() / 2.0).tan();
-    let aspect = cfg.width as f64 / cfg.height as f64;
-    let _ = radius;
+    let (_, radius) = shape.bounds();
+    let cam = camera_frame(shape, cfg);
     let rows = AtomicU64::new(0);
     let pixels: Vec<(Vec<f32>, [f32; 3])> = (0..cfg.height)
         .into_par_iter()
@@ -225,12 +274,8 @@ pub fn render(
                     let mut rng = Rng::new(cfg.seed, (y * cfg.width + x) as u64);
                     spec.iter_mut().for_each(|s| *s = 0.0);
                     for _ in 0..cfg.spp {
-                        let sx = (2.0 * (x as f64 + rng.uniform()) / cfg.width as f64 - 1.0)
-                            * half_h
-                            * aspect;
-                        let sy =
-                            (1.0 - 2.0 * (y as f64 + rng.uniform()) / cfg.height as f64) * half_h;
-                        let d = normalize(add(fwd, add(scale(right, sx), scale(up, sy))));
+                        let (jx, jy) = (rng.uniform(), rng.uniform());
+                        let d = cam.ray(cfg, x as f64 + jx, y as f64 + jy);
                         let Some((t, n)) = shape.hit(cfg.camera, d) else {
                             continue;
                         };

@@ -959,6 +959,24 @@ pub enum GeneratorSpec {
         #[serde(default)]
         z: f64,
     },
+    /// A gently curved sheet: `z + amplitude cos(2 pi x / Lx)`, one period across the tile
+    /// along x, flat along y; `resolution` cells along x. The steepest slope is
+    /// `atan(2 pi amplitude / Lx)`. Two sheets with the same amplitude and different `z`
+    /// make a curved film of constant vertical thickness.
+    Cosine {
+        amplitude: f64,
+        resolution: usize,
+        #[serde(default)]
+        z: f64,
+    },
+    /// A periodic wedge: `z + tan(slope_deg) |x - Lx/2|`, a roof of two planes of slope
+    /// `slope_deg` across the tile (one kink at the centre, one at the edges). Over a flat
+    /// sheet it makes a film whose thickness varies linearly, by `tan(slope) Lx / 2`.
+    Wedge {
+        slope_deg: f64,
+        #[serde(default)]
+        z: f64,
+    },
     /// `count` symmetric V-grooves along y with opening angle `angle_deg`, ridges at `z`.
     VGrooves {
         angle_deg: f64,
@@ -1016,6 +1034,8 @@ impl GeneratorSpec {
             GeneratorSpec::WavyFilm { .. } => "wavy-film",
             GeneratorSpec::Microfacet { .. } => "microfacet",
             GeneratorSpec::VGrooves { .. } => "v-grooves",
+            GeneratorSpec::Cosine { .. } => "cosine",
+            GeneratorSpec::Wedge { .. } => "wedge",
             GeneratorSpec::PigmentSpheres { .. } => "pigment-spheres",
             GeneratorSpec::Flakes { .. } => "flakes",
         }
@@ -1107,6 +1127,32 @@ impl GeneratorSpec {
                 count,
                 z,
             } => Generated::Sheet(v_grooves(tile_nm, count, angle_deg, z * u)?),
+            GeneratorSpec::Cosine {
+                amplitude,
+                resolution,
+                z,
+            } => {
+                check_resolution(resolution)?;
+                if !amplitude.is_finite() {
+                    return Err(format!("amplitude must be finite, got {amplitude}"));
+                }
+                let (a, z, lx) = (amplitude * u, z * u, tile_nm[0]);
+                Generated::Sheet(height_field([resolution, 1], tile_nm, move |x, _| {
+                    z + a * (std::f64::consts::TAU * x / lx).cos()
+                }))
+            }
+            GeneratorSpec::Wedge { slope_deg, z } => {
+                if slope_deg.is_nan() || slope_deg.abs() >= 45.0 {
+                    return Err(format!(
+                        "slope_deg must lie between -45 and 45 degrees, got {slope_deg}"
+                    ));
+                }
+                let (s, z, lx) = (slope_deg.to_radians().tan(), z * u, tile_nm[0]);
+                // Two cells along x put the kink exactly on a grid line.
+                Generated::Sheet(height_field([2, 1], tile_nm, move |x, _| {
+                    z + s * (x - lx / 2.0).abs()
+                }))
+            }
             GeneratorSpec::PigmentSpheres {
                 radius,
                 volume_fraction,

@@ -171,21 +171,21 @@ impl Sample {
         (all.to_soup(), first)
     }
 
-    /// The same sample repeated `k x k` times over a `k`-times larger tile: a larger
-    /// sampled area with identical statistics (for the darkening experiment).
+    /// The same sample repeated `k[0] x k[1]` times over a larger tile: a larger sampled
+    /// area with identical statistics (for the darkening experiment).
     ///
     /// # Panics
-    /// When `k` is zero.
-    pub fn tiled(&self, k: usize) -> Sample {
-        assert!(k > 0, "tile at least once");
+    /// When a count is zero.
+    pub fn tiled(&self, k: [usize; 2]) -> Sample {
+        assert!(k[0] > 0 && k[1] > 0, "tile at least once");
         let [lx, ly] = self.tile_nm;
         let mut out = self.clone();
-        out.tile_nm = [lx * k as f64, ly * k as f64];
+        out.tile_nm = [lx * k[0] as f64, ly * k[1] as f64];
         for itf in &mut out.interfaces {
             let base = itf.mesh.clone();
             let mut m = Mesh::default();
-            for i in 0..k {
-                for j in 0..k {
+            for i in 0..k[0] {
+                for j in 0..k[1] {
                     let mut c = base.clone();
                     for p in &mut c.positions_nm {
                         p[0] += i as f64 * lx;

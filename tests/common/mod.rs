@@ -78,6 +78,7 @@ pub fn config(theta_i: &[f64], wavelengths: Wavelengths, rays: u64) -> SimConfig
         tolerance: None,
         max_rays: 0,
         random_entry: false,
+        precision: Default::default(),
     }
 }
 

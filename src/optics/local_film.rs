@@ -1,0 +1,197 @@
+//! The local-film reference for gently curved or wedged films: the reflectance of a film
+//! of two sheet interfaces, computed as if every point of the top surface belonged to the
+//! flat film tangent to it.
+//!
+//! For entry points spread uniformly over the tile (uniform in the plane perpendicular to
+//! the incident beam, so each carries the same flux), the incident ray is intersected with
+//! the top interface; the local film has that triangle's normal, the distance from the hit
+//! point to the bottom interface along the inward normal as its thickness (nm), and the
+//! local angle of incidence. Its reflectance is the transfer-matrix method's (Byrnes 2016,
+//! [`super::tmm`]) averaged over the wavelength bin, and the reference is the mean over
+//! entry points. This is the geometric-optics (tangent-plane) approximation: exact for a
+//! flat film, accurate to first order in the slope for gentle curvature and small wedge
+//! angles, and blind to shadowing, to inter-reflection between facets and to the lateral
+//! walk-off of the partial waves. It shares no code with the tracer or the estimator.
+
+use super::C64;
+use super::tmm::{self, StackIndices};
+use crate::sample::Sample;
+
+/// Reflectance of each wavelength bin (`edges`, nm) at incidence `theta_i_deg` (azimuth
+/// 0) from `entries x entries` entry points. Errors when the sample is not a film of two
+/// sheets (top: ambient over film; bottom: film over substrate) or a ray misses.
+pub fn reflectance(
+    sample: &Sample,
+    theta_i_deg: f64,
+    edges: &[f64],
+    entries: usize,
+) -> Result<Vec<f64>, String> {
+    let film = Film::of(sample)?;
+    let theta = theta_i_deg.to_radians();
+    let d = [theta.sin(), 0.0, -theta.cos()];
+    let [lx, ly] = sample.tile_nm;
+    let index = |m: usize, l: f64| -> Result<C64, String> {
+        let (n, k) = sample.media[m]
+            .model
+            .eval(l)
+            .map_err(|e| format!("medium '{}': {e}", sample.media[m].name))?;
+        Ok(C64::new(n, k))
+    };
+    for &l in [edges[0], edges[edges.len() - 1]].iter() {
+        for m in [film.ambient, film.film, film.substrate] {
+            index(m, l)?;
+        }
+    }
+    let mut sum = vec![0.0; edges.len() - 1];
+    for i in 0..entries {
+        for j in 0..entries {
+            let x = (i as f64 + 0.5) / entries as f64 * lx;
+            let y = (j as f64 + 0.5) / entries as f64 * ly;
+            // Entry points uniform on a plane above the film: uniform over the periodic
+            // tile wherever the ray lands.
+            let o = [x, y, film.z_max + 1.0];
+            let (t, n) = nearest(&film.top, sample.tile_nm, o, d).ok_or_else(|| {
+                format!("local-film reference: the ray entering at ({x:.0}, {y:.0}) nm misses the top surface")
+            })?;
+            let p = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
+            let inward = [-n[0], -n[1], -n[2]];
+            let (thick, _) = nearest(&film.bottom, sample.tile_nm, p, inward).ok_or_else(|| {
+                format!(
+                    "local-film reference: no bottom surface below ({:.0}, {:.0}, {:.0}) nm",
+                    p[0], p[1], p[2]
+                )
+            })?;
+            let cos_local = -(d[0] * n[0] + d[1] * n[1] + d[2] * n[2]);
+            if cos_local <= 0.0 {
+                // The top facet faces away from the beam: shadowed in this approximation;
+                // it reflects nothing here (never for the gentle films this is meant for).
+                continue;
+            }
+            let th = cos_local.min(1.0).acos();
+            for (b, w) in edges.windows(2).enumerate() {
+                let stack_at = |l: f64| StackIndices {
+                    n: vec![
+                        index(film.ambient, l).expect("range checked"),
+                        index(film.film, l).expect("range checked"),
+                        index(film.substrate, l).expect("range checked"),
+                    ],
+                    d_nm: vec![thick],
+                };
+                sum[b] += tmm::solve_band(stack_at, w[0], w[1], th).r();
+            }
+        }
+    }
+    let n = (entries * entries) as f64;
+    Ok(sum.into_iter().map(|s| s / n).collect())
+}
+
+/// The two sheets of a film, as triangles (nm) with up-facing normals.
+struct Film {
+    top: Vec<[[f64; 3]; 3]>,
+    bottom: Vec<[[f64; 3]; 3]>,
+    ambient: usize,
+    film: usize,
+    substrate: usize,
+    z_max: f64,
+}
+
+impl Film {
+    fn of(sample: &Sample) -> Result<Film, String> {
+        let err = || {
+            format!(
+                "{}: the local-film reference needs a film of exactly two sheet interfaces (ambient over film over substrate)",
+                sample.path.display()
+            )
+        };
+        if sample.interfaces.len() != 2 || sample.interfaces.iter().any(|i| i.closed) {
+            return Err(err());
+        }
+        let mean_z = |k: usize| {
+            let m = &sample.interfaces[k].mesh;
+            m.positions_nm.iter().map(|p| p[2]).sum::<f64>() / m.positions_nm.len().max(1) as f64
+        };
+        let (t, b) = if mean_z(0) >= mean_z(1) {
+            (0, 1)
+        } else {
+            (1, 0)
+        };
+        let (top, bottom) = (&sample.interfaces[t], &sample.interfaces[b]);
+        // Normals up: front above. The film lies between top's back and bottom's front.
+        if top.back != bottom.front {
+            return Err(err());
+        }
+        let tris = |m: &crate::sample::mesh::Mesh| -> Vec<[[f64; 3]; 3]> {
+            m.triangles
+                .iter()
+                .map(|t| t.map(|k| m.positions_nm[k as usize]))
+                .collect()
+        };
+        let z_max = sample
+            .interfaces
+            .iter()
+            .flat_map(|i| i.mesh.positions_nm.iter().map(|p| p[2]))
+            .fold(f64::MIN, f64::max);
+        Ok(Film {
+            top: tris(&top.mesh),
+            bottom: tris(&bottom.mesh),
+            ambient: top.front,
+            film: top.back,
+            substrate: bottom.back,
+            z_max,
+        })
+    }
+}
+
+/// Nearest hit of the ray `o + t d` (t > 1e-9 nm) with the triangles repeated over the
+/// 3 x 3 neighbouring tiles: `(t, unit normal of the hit triangle, oriented up)`.
+/// Moller & Trumbore, "Fast, minimum storage ray/triangle intersection", JGT 2(1), 1997.
+fn nearest(
+    tris: &[[[f64; 3]; 3]],
+    tile: [f64; 2],
+    o: [f64; 3],
+    d: [f64; 3],
+) -> Option<(f64, [f64; 3])> {
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let mut best: Option<(f64, [f64; 3])> = None;
+    for ix in -1..=1 {
+        for iy in -1..=1 {
+            let shift = [f64::from(ix) * tile[0], f64::from(iy) * tile[1], 0.0];
+            let o = sub(o, shift);
+            for tri in tris {
+                let e1 = sub(tri[1], tri[0]);
+                let e2 = sub(tri[2], tri[0]);
+                let pv = cross(d, e2);
+                let det = dot(e1, pv);
+                if det.abs() < 1e-18 {
+                    continue;
+                }
+                let tv = sub(o, tri[0]);
+                let u = dot(tv, pv) / det;
+                if !(-1e-12..=1.0 + 1e-12).contains(&u) {
+                    continue;
+                }
+                let qv = cross(tv, e1);
+                let v = dot(d, qv) / det;
+                if v < -1e-12 || u + v > 1.0 + 1e-12 {
+                    continue;
+                }
+                let t = dot(e2, qv) / det;
+                if t > 1e-9 && best.is_none_or(|b| t < b.0) {
+                    let n = cross(e1, e2);
+                    let len = dot(n, n).sqrt();
+                    let s = if n[2] < 0.0 { -1.0 } else { 1.0 };
+                    best = Some((t, [s * n[0] / len, s * n[1] / len, s * n[2] / len]));
+                }
+            }
+        }
+    }
+    best
+}
