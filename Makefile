@@ -3,7 +3,7 @@
 
 CARGO ?= cargo
 
-.PHONY: demo test deps bench lint study
+.PHONY: demo test deps bench lint study stress
 
 OUT ?= out/demo
 
@@ -38,3 +38,10 @@ study: deps
 	./target/release/goniospec study studies/flat-film.toml -o out/study/flat-film
 	./target/release/goniospec study studies/rough-glass.toml -o out/study/rough-glass
 	./target/release/goniospec study studies/darkening.toml -o out/study/darkening
+
+## The stress studies (about 30 s): where each method breaks. Reports in out/stress/*/;
+## docs/stability.md summarises them.
+STRESS = grazing thick-film thin-film seed-experiment radius-flat radius-curved radius-wedge buckets v-groove precision
+stress: deps
+	$(CARGO) build --release
+	for s in $(STRESS); do ./target/release/goniospec study studies/$$s.toml -o out/stress/$$s || exit 1; done

@@ -98,6 +98,8 @@ enum Command {
     ///                    correlation_length, resolution, [seed, z]
     ///   microfacet       distribution = ggx|beckmann, alpha, resolution, [seed, z]
     ///   v-grooves        angle_deg, count, [z]
+    ///   cosine           amplitude, resolution, [z]   (z + amplitude cos(2 pi x / Lx))
+    ///   wedge            slope_deg, [z]   (z + tan(slope) |x - Lx/2|, a periodic roof)
     ///   pigment-spheres  radius, volume_fraction, layer = [z0, z1], [subdivisions, seed]
     ///   flakes           size, thickness, tilt_sd_deg, volume_fraction, layer = [z0, z1],
     ///                    [coating, seed]   (coatings go to FILE-coating.obj)
