@@ -15,6 +15,7 @@
 
 use super::C64;
 use super::tmm::{self, StackIndices};
+use super::vec3::{cross, dot, sub};
 use crate::sample::Sample;
 
 /// Reflectance of each wavelength bin (`edges`, nm) at incidence `theta_i_deg` (azimuth
@@ -151,15 +152,6 @@ fn nearest(
     o: [f64; 3],
     d: [f64; 3],
 ) -> Option<(f64, [f64; 3])> {
-    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let cross = |a: [f64; 3], b: [f64; 3]| {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    };
-    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let mut best: Option<(f64, [f64; 3])> = None;
     for ix in -1..=1 {
         for iy in -1..=1 {
