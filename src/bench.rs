@@ -251,29 +251,17 @@ pub fn simulate_bench(
     cfg: &SimulateBenchConfig,
     mut log: impl FnMut(&str),
 ) -> Result<(), crate::simulate::SimError> {
-    use crate::accumulate::{Buckets, Coherence};
+    use crate::accumulate::Coherence;
     use crate::simulate::{SimConfig, Wavelengths, simulate};
     let threads = rayon::current_num_threads();
     let base = SimConfig {
-        theta_i_deg: vec![cfg.theta_i_deg],
-        phi_i_deg: 0.0,
-        rays: cfg.rays,
-        wavelengths: Wavelengths::Bins(cfg.bins.clone()),
-        backend: Backend::Obvhs,
         seed: cfg.seed,
-        coherence: Coherence::Beamlet,
-        rho_nm: 5000.0,
-        limits: crate::trace::TraceLimits::default(),
-        buckets: Buckets {
-            theta_bins: 45,
-            phi_bins: 36,
-        },
-        path_sharing: None,
-        origin_nm: [0.0; 3],
-        tolerance: None,
-        max_rays: 0,
-        random_entry: false,
-        precision: Default::default(),
+        backend: Backend::Obvhs,
+        ..SimConfig::new(
+            vec![cfg.theta_i_deg],
+            Wavelengths::Bins(cfg.bins.clone()),
+            cfg.rays,
+        )
     };
     let nbins = cfg.bins.len() - 1;
     log(&format!(

@@ -640,10 +640,7 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         },
     )?;
     let cfg = SimConfig {
-        theta_i_deg: a.theta_i.clone(),
         phi_i_deg: a.phi_i,
-        rays: a.rays,
-        wavelengths: a.wavelengths.parse()?,
         backend: resolve_backend(a.backend)?,
         seed: a.seed,
         coherence: a.coherence,
@@ -659,11 +656,9 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
             phi_bins: a.phi_o_bins,
         },
         path_sharing: a.no_path_sharing.then_some(false),
-        origin_nm: [0.0; 3],
         tolerance: a.tolerance,
         max_rays: a.max_rays,
-        random_entry: false,
-        precision: Default::default(),
+        ..SimConfig::new(a.theta_i.clone(), a.wavelengths.parse()?, a.rays)
     };
     let total = if a.tolerance.is_some() {
         a.max_rays
@@ -1141,25 +1136,10 @@ fn scene_driven(
         needed
     );
     let sim = SimConfig {
-        theta_i_deg: needed.clone(),
-        phi_i_deg: 0.0,
-        rays: a.rays,
-        wavelengths: a.wavelengths.parse()?,
-        backend: Backend::default_available(),
         seed: a.seed,
-        coherence: goniospec::accumulate::Coherence::Beamlet,
-        rho_nm: 5000.0,
-        limits: TraceLimits::default(),
-        buckets: Buckets {
-            theta_bins: 45,
-            phi_bins: 36,
-        },
-        path_sharing: None,
-        origin_nm: [0.0; 3],
         tolerance: Some(a.tolerance),
         max_rays: a.max_rays,
-        random_entry: false,
-        precision: Default::default(),
+        ..SimConfig::new(needed.clone(), a.wavelengths.parse()?, a.rays)
     };
     let bar = indicatif::ProgressBar::new(a.max_rays * needed.len() as u64);
     bar.set_style(
@@ -1441,25 +1421,16 @@ fn bench_eval(a: EvalBenchArgs) -> Result<ExitCode> {
     let s = sample::load(&a.sample, MeshOptions::default())?;
     let run = |rays: u64| -> Result<BucketData> {
         let cfg = SimConfig {
-            theta_i_deg: vec![0.0, 15.0, 30.0, 45.0, 60.0, 75.0],
-            phi_i_deg: 0.0,
-            rays,
-            wavelengths: Wavelengths::Bins(vec![450.0, 550.0, 650.0]),
-            backend: Backend::default_available(),
             seed: rays,
-            coherence: Coherence::Beamlet,
-            rho_nm: 5000.0,
-            limits: TraceLimits::default(),
             buckets: Buckets {
                 theta_bins: 30,
                 phi_bins: 24,
             },
-            path_sharing: None,
-            origin_nm: [0.0; 3],
-            tolerance: None,
-            max_rays: 0,
-            random_entry: false,
-            precision: Default::default(),
+            ..SimConfig::new(
+                vec![0.0, 15.0, 30.0, 45.0, 60.0, 75.0],
+                Wavelengths::Bins(vec![450.0, 550.0, 650.0]),
+                rays,
+            )
         };
         let (acc, _) = goniospec::simulate::simulate(&s, &cfg, &|_| {})?;
         Ok(BucketData::from_accumulator(&acc))

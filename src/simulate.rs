@@ -81,6 +81,37 @@ pub struct SimConfig {
     pub precision: PhasePrecision,
 }
 
+impl SimConfig {
+    /// A simulation of `rays` trees per incident direction with the defaults of
+    /// `goniospec simulate`: azimuth 0, the default backend, seed 1, the beamlet estimator
+    /// with a 5 um radius, the default trace limits, 45 x 36 outgoing buckets, path
+    /// sharing where no medium is dispersive, the sample at the world origin, a fixed
+    /// budget, R2 entry points and f64 phases. Change fields with struct-update syntax.
+    pub fn new(theta_i_deg: Vec<f64>, wavelengths: Wavelengths, rays: u64) -> SimConfig {
+        SimConfig {
+            theta_i_deg,
+            phi_i_deg: 0.0,
+            rays,
+            wavelengths,
+            backend: Backend::default_available(),
+            seed: 1,
+            coherence: Coherence::Beamlet,
+            rho_nm: 5000.0,
+            limits: TraceLimits::default(),
+            buckets: Buckets {
+                theta_bins: 45,
+                phi_bins: 36,
+            },
+            path_sharing: None,
+            origin_nm: [0.0; 3],
+            tolerance: None,
+            max_rays: 0,
+            random_entry: false,
+            precision: PhasePrecision::F64,
+        }
+    }
+}
+
 /// How one incident direction ended.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DirectionStats {

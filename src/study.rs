@@ -586,10 +586,6 @@ fn peak_mem_mb() -> f64 {
 
 fn config(st: &Study, rays: u64, v: &Variant, seed: u64) -> SimConfig {
     SimConfig {
-        theta_i_deg: st.theta_i.clone(),
-        phi_i_deg: 0.0,
-        rays,
-        wavelengths: Wavelengths::Bins(st.edges.clone()),
         backend: v.backend,
         seed,
         coherence: v.coherence,
@@ -603,12 +599,14 @@ fn config(st: &Study, rays: u64, v: &Variant, seed: u64) -> SimConfig {
             theta_bins: v.theta_o_bins,
             phi_bins: 36,
         },
-        path_sharing: None,
         origin_nm: [v.origin_nm, v.origin_nm, 0.0],
-        tolerance: None,
-        max_rays: 0,
         random_entry: st.random_entry,
         precision: v.precision,
+        ..SimConfig::new(
+            st.theta_i.clone(),
+            Wavelengths::Bins(st.edges.clone()),
+            rays,
+        )
     }
 }
 

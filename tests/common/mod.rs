@@ -5,12 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use goniospec::accel::Backend;
 use goniospec::accumulate::file::Accumulator;
-use goniospec::accumulate::{Buckets, Coherence};
 use goniospec::sample::{self, MeshOptions, Sample};
 use goniospec::simulate::{SimConfig, Wavelengths, simulate};
-use goniospec::trace::TraceLimits;
 use num_complex::Complex64 as C;
 
 pub fn scratch(tag: &str) -> PathBuf {
@@ -58,28 +55,9 @@ pub fn stack_sample(
     )
 }
 
+/// The library's defaults (beamlet, 5 um, 45 x 36 buckets, seed 1) for the tests.
 pub fn config(theta_i: &[f64], wavelengths: Wavelengths, rays: u64) -> SimConfig {
-    SimConfig {
-        theta_i_deg: theta_i.to_vec(),
-        phi_i_deg: 0.0,
-        rays,
-        wavelengths,
-        backend: Backend::default_available(),
-        seed: 1,
-        coherence: Coherence::Beamlet,
-        rho_nm: 5000.0,
-        limits: TraceLimits::default(),
-        buckets: Buckets {
-            theta_bins: 45,
-            phi_bins: 36,
-        },
-        path_sharing: None,
-        origin_nm: [0.0; 3],
-        tolerance: None,
-        max_rays: 0,
-        random_entry: false,
-        precision: Default::default(),
-    }
+    SimConfig::new(theta_i.to_vec(), wavelengths, rays)
 }
 
 pub fn run(s: &Sample, cfg: &SimConfig) -> Accumulator {
