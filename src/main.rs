@@ -272,6 +272,11 @@ struct SimulateArgs {
     /// Drop degenerate triangles instead of refusing the mesh.
     #[arg(long)]
     drop_degenerate: bool,
+    /// Debugging only: write results that are physically impossible (R > 1, negative
+    /// power, energy created) instead of refusing them with exit status 1. The run still
+    /// prints what failed.
+    #[arg(long)]
+    allow_unphysical: bool,
 }
 
 #[derive(Args)]
@@ -656,6 +661,7 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
             phi_bins: a.phi_o_bins,
         },
         path_sharing: a.no_path_sharing.then_some(false),
+        allow_unphysical: a.allow_unphysical,
         tolerance: a.tolerance,
         max_rays: a.max_rays,
         ..SimConfig::new(a.theta_i.clone(), a.wavelengths.parse()?, a.rays)
@@ -676,6 +682,12 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     let (acc, stats) =
         pool.install(|| goniospec::simulate::simulate(&s, &cfg, &|n| bar.set_position(n)))?;
     bar.finish_and_clear();
+    if a.allow_unphysical
+        && let Err(e) =
+            goniospec::simulate::check_physical(&acc, &s.name, Some(&stats.limit_dropped))
+    {
+        eprintln!("warning (--allow-unphysical): {e}");
+    }
     acc.write(&a.output)
         .with_context(|| format!("writing {}", a.output.display()))?;
     eprintln!(
@@ -704,6 +716,13 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
                 }
             );
         }
+    }
+    let cut = stats.worst_limit_dropped(&acc);
+    if cut > 1e-6 {
+        eprintln!(
+            "warning: up to {cut:.1e} of the launched power per tree was cut by --max-depth or --max-segments before the ray series converged; R and T can be off by up to about 2 sqrt({cut:.1e}) = {:.1e} (raise the limits, or model thin layers as a flat [stack])",
+            2.0 * cut.sqrt()
+        );
     }
     if stats.leaks > 0 {
         eprintln!(

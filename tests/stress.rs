@@ -34,6 +34,8 @@ fn f32_phases_fail_far_from_the_origin_and_f64_phases_do_not() {
         cfg.coherence = coherence;
         cfg.precision = precision;
         cfg.origin_nm = [origin, origin, 0.0];
+        // f32 phases far from the origin are the failure this test shows: keep the result.
+        cfg.allow_unphysical = true;
         let acc = run(&s, &cfg);
         lambdas
             .iter()

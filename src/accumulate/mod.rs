@@ -128,6 +128,11 @@ struct Prepared {
     pow: Vec<f64>,
     im: Vec<f64>,
     pairs: Vec<Pair>,
+    /// Plane-wave limit: groups of exits whose directions agree to 1e-9, as ranges of
+    /// `members`; each member's phase offset from the group's first exit, nm.
+    groups: Vec<(u32, u32)>,
+    members: Vec<u32>,
+    member_delta_nm: Vec<f64>,
     absorbing: bool,
 }
 
@@ -163,6 +168,9 @@ impl Estimator {
         p.pow.clear();
         p.im.clear();
         p.pairs.clear();
+        p.groups.clear();
+        p.members.clear();
+        p.member_delta_nm.clear();
         p.absorbing = false;
         for x in &tree.exits {
             p.keys.push(key(self.buckets.index(x.dir), !x.up));
@@ -176,6 +184,10 @@ impl Estimator {
         }
         let ex = &tree.exits;
         let plane_wave = self.rho_nm.is_infinite();
+        if plane_wave {
+            self.prepare_groups(tree, p);
+            return;
+        }
         for j in 0..ex.len() {
             for l in j + 1..ex.len() {
                 if ex[j].up != ex[l].up {
@@ -189,12 +201,7 @@ impl Estimator {
                     ex[j].dir[1] + ex[l].dir[1],
                     ex[j].dir[2] + ex[l].dir[2],
                 ]);
-                let k_pos = if plane_wave {
-                    if dw2.sqrt() > 1e-9 {
-                        continue;
-                    }
-                    1.0
-                } else {
+                let k_pos = {
                     let along = dot(dx, wbar);
                     let perp = [
                         dx[0] - along * wbar[0],
@@ -210,26 +217,75 @@ impl Estimator {
                     continue;
                 }
                 let n0 = if ex[j].up { self.n_up } else { self.n_down };
-                let delta_nm = match self.precision {
-                    PhasePrecision::F64 => (ex[j].opl.re - ex[l].opl.re) - n0 * dot(wbar, dx),
-                    PhasePrecision::F32 => {
-                        let dx32 =
-                            [0, 1, 2].map(|c| (ex[j].x[c] as f32 - ex[l].x[c] as f32) as f64);
-                        f64::from(
-                            (ex[j].opl.re as f32 - ex[l].opl.re as f32)
-                                - n0 as f32 * dot32(wbar, dx32),
-                        )
-                    }
-                };
+                let delta_nm = self.path_difference(&ex[j], &ex[l], wbar, n0);
                 p.pairs.push(Pair {
                     j: j as u32,
                     l: l as u32,
                     h,
                     delta_nm,
                     k_pos,
-                    dw2: if plane_wave { 0.0 } else { dw2 },
+                    dw2,
                 });
             }
+        }
+    }
+
+    /// `Re(OPL_j - OPL_l) - n0 w . (x_j - x_l)`, nm, in the estimator's precision: the
+    /// phase difference of two exits along `w` over `2 pi / lambda`.
+    fn path_difference(
+        &self,
+        a: &crate::trace::Exit,
+        b: &crate::trace::Exit,
+        w: [f64; 3],
+        n0: f64,
+    ) -> f64 {
+        match self.precision {
+            PhasePrecision::F64 => (a.opl.re - b.opl.re) - n0 * dot(w, sub(a.x, b.x)),
+            PhasePrecision::F32 => {
+                let dx32 = [0, 1, 2].map(|c| (a.x[c] as f32 - b.x[c] as f32) as f64);
+                f64::from((a.opl.re as f32 - b.opl.re as f32) - n0 as f32 * dot32(w, dx32))
+            }
+        }
+    }
+
+    /// Plane-wave limit (`rho = inf`): only exits whose directions agree to 1e-9
+    /// interfere, fully. Such exits are grouped (sorted by hemisphere and direction,
+    /// consecutive ones within 1e-9 of the group's first), and at each wavelength a group's
+    /// amplitudes are summed coherently, `|sum_j a_j e^{i k delta_j}|^2`, which is the sum
+    /// of its exits' powers and all its pairs' cross terms `c_jl` (DESIGN.md §4) in O(n)
+    /// rather than O(n^2): a flat stack's tree has all its exits in two groups.
+    fn prepare_groups(&self, tree: &Tree, p: &mut Prepared) {
+        let ex = &tree.exits;
+        p.members.extend(0..ex.len() as u32);
+        p.members.sort_unstable_by(|&a, &b| {
+            let (a, b) = (&ex[a as usize], &ex[b as usize]);
+            b.up.cmp(&a.up)
+                .then(a.dir[0].total_cmp(&b.dir[0]))
+                .then(a.dir[1].total_cmp(&b.dir[1]))
+                .then(a.dir[2].total_cmp(&b.dir[2]))
+        });
+        let mut start = 0;
+        while start < p.members.len() {
+            let first = &ex[p.members[start] as usize];
+            let mut end = start + 1;
+            while end < p.members.len() {
+                let e = &ex[p.members[end] as usize];
+                if e.up != first.up
+                    || dot(sub(e.dir, first.dir), sub(e.dir, first.dir)).sqrt() > 1e-9
+                {
+                    break;
+                }
+                end += 1;
+            }
+            let n0 = if first.up { self.n_up } else { self.n_down };
+            for &m in &p.members[start..end] {
+                let delta = self.path_difference(&ex[m as usize], first, first.dir, n0);
+                p.member_delta_nm.push(delta);
+            }
+            if end - start > 1 {
+                p.groups.push((start as u32, end as u32));
+            }
+            start = end;
         }
     }
 
@@ -260,6 +316,31 @@ impl Estimator {
             };
             for j in 0..p.keys.len() {
                 out.push((p.keys[j], p.pow[j] * att(j)));
+            }
+            for &(g0, g1) in &p.groups {
+                let (g0, g1) = (g0 as usize, g1 as usize);
+                let mut sum = [[C64::new(0.0, 0.0); 3]; 2];
+                let mut incoherent = 0.0;
+                for (m, &j) in p.members[g0..g1].iter().enumerate() {
+                    let j = j as usize;
+                    let mut f = C64::from_polar(1.0, k * p.member_delta_nm[g0 + m]);
+                    if p.absorbing {
+                        f *= (-k * p.im[j]).exp();
+                    }
+                    for (acc, e) in sum.iter_mut().zip(&tree.exits[j].e) {
+                        for (a, c) in acc.iter_mut().zip(e) {
+                            *a += c * f;
+                        }
+                    }
+                    incoherent += p.pow[j] * att(j);
+                }
+                let cross = 0.5 * (field_power(&sum[0]) + field_power(&sum[1])) - incoherent;
+                if incoherent > 0.0 {
+                    for &j in &p.members[g0..g1] {
+                        let j = j as usize;
+                        out.push((p.keys[j], cross * p.pow[j] * att(j) / incoherent));
+                    }
+                }
             }
             let theta_w2 = (lambda_nm / (PI * self.rho_nm)).powi(2);
             for pr in &p.pairs {

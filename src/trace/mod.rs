@@ -3,8 +3,11 @@
 //! A tree starts as one ray of a plane wave on the launch plane above the sample and splits
 //! at every interface into a reflected and a transmitted child, each carrying the complex
 //! electric field of two orthogonal incident polarisations, power-normalised so `|E|^2` is
-//! the fraction of launched power, and the complex optical path length `sum (n + i k) l`
-//! (nm) from the launch plane. A child is dropped below a power cutoff or at a depth limit;
+//! the fraction of launched power where the wave is in a lossless medium, the complex
+//! index vector `N` of its (possibly inhomogeneous) plane wave, and the complex optical
+//! path length `sum N . dr` (nm) from the launch plane (`optics::fresnel` has the wave
+//! model: inside an absorbing medium the attenuation follows the depth below the interface
+//! the wave entered through, not the ray length). A child is dropped below a power cutoff or at a depth limit;
 //! dropped power is recorded, never hidden. Rays wrap around the tile's sides with their
 //! unwrapped offset kept for the phase; hits are refined in f64 against the triangle's
 //! plane; the current medium is tracked and every mismatch (a leak) is counted.
@@ -34,29 +37,32 @@ pub struct Exit {
     pub up: bool,
 }
 
-/// Power lost on a segment through an absorbing medium: `power[p] * (exp(-4 pi im0 /
-/// lambda) - exp(-4 pi im1 / lambda))`, with `im1 = inf` for power absorbed entirely.
-#[derive(Clone, Copy, Debug)]
-pub struct Loss {
-    pub power: [f64; 2],
-    pub im0: f64,
-    pub im1: f64,
-}
-
-/// Power dropped by the cutoff or the depth limit (or lost to a leak):
+/// Power dropped by the cutoff or a limit (or lost to a leak):
 /// `power[p] * exp(-4 pi im / lambda)`.
 #[derive(Clone, Copy, Debug)]
 pub struct Dropped {
     pub power: [f64; 2],
     pub im: f64,
+    /// Dropped by a limit (depth, segments, wraps) or a leak rather than by the power
+    /// cutoff: such power says the ray series was cut before it converged, and its
+    /// coherent effect on the result is not bounded by the cutoff.
+    pub limit: bool,
 }
 
 /// Everything one tree produced.
 #[derive(Clone, Debug, Default)]
 pub struct Tree {
     pub exits: Vec<Exit>,
-    pub losses: Vec<Loss>,
     pub dropped: Vec<Dropped>,
+    /// Some power entered an absorbing medium (so the tree's absorbed power is the launched
+    /// power less what left and what was dropped; zero otherwise).
+    pub absorbing: bool,
+    /// Interface events arriving from a lossless medium whose `|r|^2 + T` missed 1 by more
+    /// than 1e-9 (an arithmetic or branch fault; always 0 in a correct build).
+    pub energy_faults: u32,
+    /// Events inside an absorbing medium at a facet not parallel to the wave's entry facet
+    /// whose `|r|^2 + T` exceeded 1 and were flux-normalised (`fresnel::flux_normalise`).
+    pub flux_normalised: u32,
     pub leaks: u32,
     pub segments: u32,
 }
@@ -64,37 +70,32 @@ pub struct Tree {
 impl Tree {
     pub fn clear(&mut self) {
         self.exits.clear();
-        self.losses.clear();
         self.dropped.clear();
+        self.absorbing = false;
+        self.energy_faults = 0;
+        self.flux_normalised = 0;
         self.leaks = 0;
         self.segments = 0;
     }
 
-    /// Absorbed power at `lambda_nm`, averaged over the two polarisations (an incoherent
-    /// estimate: interference inside absorbing layers is not resolved here).
-    pub fn absorbed(&self, lambda_nm: f64) -> f64 {
+    /// Incoherent power of the exits at `lambda_nm` (the sum of `|a_j|^2`, both
+    /// polarisations averaged).
+    pub fn exit_power(&self, lambda_nm: f64) -> f64 {
         let a = -4.0 * std::f64::consts::PI / lambda_nm;
-        self.losses
+        self.exits
             .iter()
-            .map(|l| {
-                let f = (a * l.im0).exp()
-                    - if l.im1.is_finite() {
-                        (a * l.im1).exp()
-                    } else {
-                        0.0
-                    };
-                0.5 * (l.power[0] + l.power[1]) * f
-            })
+            .map(|x| 0.5 * (field_power(&x.e[0]) + field_power(&x.e[1])) * (a * x.opl.im).exp())
             .sum()
     }
 
-    /// Dropped power at `lambda_nm`, averaged over the two polarisations.
-    pub fn dropped(&self, lambda_nm: f64) -> f64 {
+    /// Dropped power at `lambda_nm`, averaged over the two polarisations: all of it, and
+    /// the part dropped by limits and leaks (see [`Dropped::limit`]).
+    pub fn dropped(&self, lambda_nm: f64) -> (f64, f64) {
         let a = -4.0 * std::f64::consts::PI / lambda_nm;
-        self.dropped
-            .iter()
-            .map(|d| 0.5 * (d.power[0] + d.power[1]) * (a * d.im).exp())
-            .sum()
+        self.dropped.iter().fold((0.0, 0.0), |(all, lim), d| {
+            let p = 0.5 * (d.power[0] + d.power[1]) * (a * d.im).exp();
+            (all + p, if d.limit { lim + p } else { lim })
+        })
     }
 }
 
@@ -266,9 +267,15 @@ impl<'a> Scene<'a> {
     ) {
         out.clear();
         stack.clear();
+        debug_assert_eq!(
+            indices[self.ambient].im, 0.0,
+            "the ambient medium is lossless"
+        );
         stack.push(RayState {
             pos: origin,
             dir,
+            n_re: scale(dir, indices[self.ambient].re),
+            n_im: [0.0; 3],
             off: [0.0; 2],
             medium: self.ambient,
             e: e0,
@@ -285,6 +292,7 @@ impl<'a> Scene<'a> {
                 out.dropped.push(Dropped {
                     power: [field_power(&r.e[0]), field_power(&r.e[1])],
                     im: r.opl.im,
+                    limit: true,
                 });
                 continue;
             }
@@ -343,6 +351,13 @@ impl<'a> Scene<'a> {
                 if t_plane <= t_side {
                     self.advance(&mut r, t_plane, n_med, out);
                     let up = r.dir[2] > 0.0;
+                    if !up && indices[r.medium].im > 0.0 {
+                        // A semi-infinite absorbing substrate absorbs everything that
+                        // enters it: nothing reaches infinity below (the exit plane is
+                        // only where the tile ends).
+                        out.absorbing = true;
+                        break;
+                    }
                     out.exits.push(Exit {
                         e: r.e,
                         opl: r.opl,
@@ -358,12 +373,16 @@ impl<'a> Scene<'a> {
                     out.dropped.push(Dropped {
                         power: [field_power(&r.e[0]), field_power(&r.e[1])],
                         im: r.opl.im,
+                        limit: true,
                     });
                     break;
                 }
                 // Wrap around the tile side; re-enter a little outside the opposite side.
                 self.advance(&mut r, t_side, n_med, out);
+                // The unwrapped position steps back by the re-entry margin: keep the plane
+                // wave's phase exact there too.
                 let l = [lx, ly][axis];
+                let before = r.pos[axis] + r.off[axis];
                 if r.dir[axis] > 0.0 {
                     r.pos[axis] = -self.eps;
                     r.off[axis] += l;
@@ -371,11 +390,14 @@ impl<'a> Scene<'a> {
                     r.pos[axis] = l + self.eps;
                     r.off[axis] -= l;
                 }
+                let jump = r.pos[axis] + r.off[axis] - before;
+                r.opl += C64::new(r.n_re[axis] * jump, r.n_im[axis] * jump);
                 wraps += 1;
                 if wraps > limits.max_wraps {
                     out.dropped.push(Dropped {
                         power: [field_power(&r.e[0]), field_power(&r.e[1])],
                         im: r.opl.im,
+                        limit: true,
                     });
                     break;
                 }
@@ -383,19 +405,22 @@ impl<'a> Scene<'a> {
         }
     }
 
-    /// Moves the ray by `t` nm, adding `n t` to its optical path and recording absorption.
+    /// Moves the ray by `t` nm, adding `N . dr` to its optical path (the phase and the
+    /// attenuation of its plane wave, DESIGN.md §3).
     #[inline]
     fn advance(&self, r: &mut RayState, t: f64, n: C64, out: &mut Tree) {
-        let im0 = r.opl.im;
-        r.opl += n * t;
-        r.pos = add(r.pos, scale(r.dir, t));
-        if n.im > 0.0 && t > 0.0 {
-            out.losses.push(Loss {
-                power: [field_power(&r.e[0]), field_power(&r.e[1])],
-                im0,
-                im1: r.opl.im,
-            });
+        let step = scale(r.dir, t);
+        if n.im == 0.0 {
+            // A lossless medium carries homogeneous waves: `N . dr = n t`.
+            r.opl += n * t;
+        } else {
+            let im = dot(r.n_im, step);
+            r.opl += C64::new(dot(r.n_re, step), im);
+            if im > 0.0 {
+                out.absorbing = true;
+            }
         }
+        r.pos = add(r.pos, step);
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -417,61 +442,77 @@ impl<'a> Scene<'a> {
         } else {
             (itf.back, itf.front, scale(n, -1.0))
         };
-        let drop = |out: &mut Tree, e: &[Field; 2], opl: C64| {
+        let drop = |out: &mut Tree, e: &[Field; 2], opl: C64, limit: bool| {
             out.dropped.push(Dropped {
                 power: [field_power(&e[0]), field_power(&e[1])],
                 im: opl.im,
+                limit,
             });
         };
         if from != r.medium {
             out.leaks += 1;
-            drop(out, &r.e, r.opl);
+            drop(out, &r.e, r.opl, true);
             return;
         }
         let (n1, n2) = (indices[from], indices[to]);
-        let g = fresnel::split_geometry(r.dir, nf, n1.re, n2.re);
-        let c = fresnel::coefficients(n1, n2, (-dot(r.dir, nf)).clamp(0.0, 1.0));
-        let (er0, et0) = fresnel::split_field(&r.e[0], &g, &c);
-        let (er1, et1) = fresnel::split_field(&r.e[1], &g, &c);
-        let depth = r.depth + 1;
-        let mut child = |e: [Field; 2], dir: V3, medium: usize, side: f64, out: &mut Tree| {
-            if depth > limits.max_depth || power_of(&e, r.opl) < limits.cutoff {
-                drop(out, &e, r.opl);
-                return;
+        let mut g = fresnel::split_wave(r.dir, r.n_re, r.n_im, nf, n1, n2);
+        if n1.im > 0.0 && norm(cross(r.n_im, nf)) > 1e-6 * norm(r.n_im) {
+            // Inside an absorbing medium, at a facet not parallel to the one the wave
+            // entered through: the reflections of this region leave in other directions,
+            // so the series no longer recombines into the exact field and each event must
+            // balance on its own (optics::fresnel, "flux-normalised events").
+            if fresnel::flux_normalise(&mut g.c) {
+                out.flux_normalised += 1;
             }
-            stack.push(RayState {
-                pos: add(r.pos, scale(nf, side * self.eps)),
-                dir,
-                off: r.off,
-                medium,
-                e,
-                opl: r.opl,
-                depth,
-            });
-        };
-        // Transmitted child first so the reflected one is traced first (stack order does
-        // not change results; it keeps the stack shallow for films).
-        match g.dir_t {
-            Some(dt) => child([et0, et1], dt, to, -1.0, out),
-            None => {
-                // No geometric transmitted direction, so no p basis vector: take the power
-                // from the s and p components directly.
-                let p = [
-                    fresnel::transmitted_power(&r.e[0], &g, &c),
-                    fresnel::transmitted_power(&r.e[1], &g, &c),
-                ];
-                if p[0] + p[1] > 0.0 {
-                    // Refraction into an absorbing medium beyond the geometric critical
-                    // angle: an evanescent wave whose power the medium absorbs.
-                    out.losses.push(Loss {
-                        power: p,
-                        im0: r.opl.im,
-                        im1: f64::INFINITY,
-                    });
-                }
+        } else if n1.im == 0.0 {
+            // From a lossless medium |r|^2 + T = 1 exactly (optics::fresnel).
+            let [es, ep] = fresnel::balance_excess(&g.c);
+            let ok = es.abs() <= 1e-9 && ep.abs() <= 1e-9;
+            debug_assert!(ok, "energy fault at an interface: {n1} -> {n2}, {:?}", g.c);
+            if !ok {
+                out.energy_faults += 1;
             }
         }
-        child([er0, er1], g.dir_r, from, 1.0, out);
+        if n2.im > 0.0 && (g.c.t_s != C64::new(0.0, 0.0) || g.c.t_p != C64::new(0.0, 0.0)) {
+            out.absorbing = true;
+        }
+        let (er0, et0) = fresnel::split_field(&r.e[0], &g);
+        let (er1, et1) = fresnel::split_field(&r.e[1], &g);
+        let depth = r.depth + 1;
+        let mut child =
+            |e: [Field; 2], dir: V3, wave: (V3, V3), medium: usize, side: f64, out: &mut Tree| {
+                if power_of(&e, r.opl) < limits.cutoff {
+                    drop(out, &e, r.opl, false);
+                    return;
+                }
+                if depth > limits.max_depth {
+                    drop(out, &e, r.opl, true);
+                    return;
+                }
+                // The child starts a little off the surface; its plane wave's phase there is
+                // `N . offset` past the hit point, so the path stays exact however thin the
+                // layer (a 5 nm film would otherwise lose 2 eps of thickness per round trip).
+                let offset = scale(nf, side * self.eps);
+                let shift = C64::new(dot(wave.0, offset), dot(wave.1, offset));
+                stack.push(RayState {
+                    pos: add(r.pos, offset),
+                    dir,
+                    n_re: wave.0,
+                    n_im: wave.1,
+                    off: r.off,
+                    medium,
+                    e,
+                    opl: r.opl + shift,
+                    depth,
+                });
+            };
+        // Transmitted child first so the reflected one is traced first (stack order does
+        // not change results; it keeps the stack shallow for films). Under total internal
+        // reflection into a lossless medium no wave propagates and T = 0.
+        if let Some(dt) = g.dir_t {
+            child([et0, et1], dt, g.n_t, to, -1.0, out);
+        }
+        child([er0, er1], g.dir_r, g.n_r, from, 1.0, out);
     }
 }
 
@@ -479,7 +520,12 @@ impl<'a> Scene<'a> {
 #[derive(Clone, Copy, Debug)]
 pub struct RayState {
     pub pos: V3,
+    /// Unit direction of travel: the real part of the index vector, normalised.
     pub dir: V3,
+    /// Complex index vector of the ray's plane wave (`optics::fresnel`): real part and
+    /// imaginary part (the latter normal to the interface the wave entered through).
+    pub n_re: V3,
+    pub n_im: V3,
     /// Unwrapped offset of the current tile copy, nm.
     pub off: [f64; 2],
     pub medium: usize,
