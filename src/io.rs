@@ -38,3 +38,12 @@ pub fn temp_path(path: &Path) -> PathBuf {
         _ => PathBuf::from(tmp_name),
     }
 }
+
+/// Peak resident memory of this process so far, MB (Linux `VmHWM` from `/proc/self/status`;
+/// `None` where that is not available).
+pub fn peak_rss_mb() -> Option<f64> {
+    let status = fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}

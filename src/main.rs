@@ -691,7 +691,7 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     acc.write(&a.output)
         .with_context(|| format!("writing {}", a.output.display()))?;
     eprintln!(
-        "{} trees ({} per direction x {} directions), {} traced trees, {} segments in {:.2} s: {:.0} trees/s, {:.2} M segments/s; path sharing {}",
+        "{} trees ({} per direction x {} directions), {} traced trees, {} segments in {:.2} s: {:.0} trees/s, {:.2} M segments/s; path sharing {}; peak memory {}",
         stats.trees,
         a.rays,
         a.theta_i.len(),
@@ -700,7 +700,8 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         stats.seconds,
         stats.trees as f64 / stats.seconds,
         stats.segments as f64 / stats.seconds / 1e6,
-        if stats.path_sharing { "on" } else { "off" }
+        if stats.path_sharing { "on" } else { "off" },
+        goniospec::io::peak_rss_mb().map_or_else(|| "unknown".into(), |m| format!("{m:.0} MB"))
     );
     if a.tolerance.is_some() {
         for d in &stats.directions {
@@ -1480,7 +1481,42 @@ fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
         .num_threads(a.threads)
         .build()?;
     pool.install(|| bench::simulate_bench(&s, &flat, &cfg, |l| println!("{l}")))?;
+    // Peak memory must not grow with the ray count: two child processes, 10x apart (each
+    // process's own high-water mark; one process could not measure the second run).
+    let dir = std::env::temp_dir().join(format!("goniospec-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let mut peaks = Vec::new();
+    for rays in [a.rays, 10 * a.rays] {
+        let out = std::process::Command::new(std::env::current_exe()?)
+            .arg("simulate")
+            .arg(&a.sample)
+            .args([
+                "--theta-i",
+                &a.theta_i.to_string(),
+                "--rays",
+                &rays.to_string(),
+            ])
+            .args(["--threads", &a.threads.to_string()])
+            .arg("-o")
+            .arg(dir.join("bench.gsa"))
+            .output()?;
+        let err = String::from_utf8_lossy(&out.stderr);
+        if !out.status.success() {
+            bail!("bench simulate: the memory run at {rays} rays failed: {err}");
+        }
+        let mb = peak_memory_of(&err).context("the simulate summary has no peak memory")?;
+        println!("peak_rss_{rays}_rays: {mb:.1} MB");
+        peaks.push(mb);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    println!("peak_rss_growth_10x_rays: {:.1} MB", peaks[1] - peaks[0]);
     Ok(ExitCode::SUCCESS)
+}
+
+/// The "peak memory N MB" figure of a `simulate` summary line.
+fn peak_memory_of(summary: &str) -> Option<f64> {
+    let rest = &summary[summary.find("peak memory ")? + "peak memory ".len()..];
+    rest.split_whitespace().next()?.parse().ok()
 }
 
 fn bench_trace(a: TraceArgs) -> Result<ExitCode> {

@@ -23,6 +23,11 @@ use crate::trace::{RayState, Scene, SceneError, TraceLimits, Tree, launch_fields
 
 /// Trees per block: the unit of parallel work and of deterministic summation.
 const BLOCK: u64 = 64;
+/// Blocks in flight at once per worker thread (at least `MIN_CHUNK_BLOCKS` in all): their
+/// sums are the only memory that grows with the work, so peak memory depends on the thread
+/// count but not on the ray count. The chunking never changes the results.
+const CHUNK_BLOCKS_PER_THREAD: u64 = 4;
+const MIN_CHUNK_BLOCKS: u64 = 16;
 
 /// Wavelength sampling.
 #[derive(Clone, Debug, PartialEq)]
@@ -465,121 +470,133 @@ pub fn simulate(
         loop {
             let end = (start + batch).min(target);
             let nblocks = (end - start).div_ceil(BLOCK);
-            let blocks: Vec<Vec<BlockCell>> = (0..nblocks)
-                .into_par_iter()
-                .map_init(
-                    || {
-                        (
-                            Vec::<RayState>::new(),
-                            Tree::default(),
-                            Scratch::default(),
-                            Vec::new(),
-                            Vec::new(),
-                            Dense::new(nl, 2 * cfg.buckets.len(), global),
-                        )
-                    },
-                    |(stack, tree, scratch, deps, glob, dense), b| {
-                        let mut out: Vec<BlockCell> =
-                            (0..nl).map(|_| BlockCell::default()).collect();
-                        let lo = start + b * BLOCK;
-                        let hi = (lo + BLOCK).min(end);
-                        for i in lo..hi {
-                            let mut rng = Rng::new(cfg.seed, (di as u64) << 40 | i);
-                            let xy = if cfg.random_entry {
-                                [
-                                    rng.range(0.0, sample.tile_nm[0]),
-                                    rng.range(0.0, sample.tile_nm[1]),
-                                ]
-                            } else {
-                                entry_point(i, shift, sample.tile_nm)
-                            };
-                            let origin = [xy[0], xy[1], scene.z_top];
-                            // Stratified jitter: tree i takes stratum i of N in every bin.
-                            let lambda_of = |j: usize, u: f64| match &cfg.wavelengths {
-                                Wavelengths::Bins(e) => {
-                                    // Adaptive runs do not know N: a golden-ratio sequence
-                                    // (low-discrepancy for every prefix) replaces the strata.
-                                    let frac = if adaptive {
-                                        (i as f64 * 0.618_033_988_749_894_9 + u).fract()
-                                    } else {
-                                        (i as f64 + u) / cfg.rays as f64
-                                    };
-                                    e[j] + (e[j + 1] - e[j]) * frac
-                                }
-                                Wavelengths::Monochromatic(v) => v[j],
-                            };
-                            let jitter: Vec<f64> = (0..nl).map(|_| rng.uniform()).collect();
-                            let world_origin = add(origin, cfg.origin_nm);
-                            let traced = |tree: &mut Tree, scratch: &mut Scratch| {
-                                for x in &mut tree.exits {
-                                    x.x = add(x.x, cfg.origin_nm);
-                                }
-                                est.prepare(tree, scratch);
-                                segments.fetch_add(u64::from(tree.segments), Ordering::Relaxed);
-                                leaks.fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
-                                traces.fetch_add(1, Ordering::Relaxed);
-                            };
-                            if sharing {
-                                scene.trace(
-                                    origin,
-                                    d,
-                                    e0,
-                                    &fixed_indices,
-                                    lambda_max,
-                                    &cfg.limits,
-                                    stack,
-                                    tree,
-                                );
-                                traced(tree, scratch);
-                            }
-                            for (j, cell) in out.iter_mut().enumerate() {
-                                let lambda = lambda_of(j, jitter[j]);
-                                if !sharing {
+            // Blocks are reduced a chunk at a time, each chunk in block order, so memory
+            // does not grow with the ray count and the sums are those of one pass over all
+            // blocks in order, whatever the chunk size or the thread count.
+            let mut chunk_lo = 0;
+            while chunk_lo < nblocks {
+                let chunk = (CHUNK_BLOCKS_PER_THREAD * rayon::current_num_threads() as u64)
+                    .max(MIN_CHUNK_BLOCKS);
+                let chunk_hi = (chunk_lo + chunk).min(nblocks);
+                let blocks: Vec<Vec<BlockCell>> = (chunk_lo..chunk_hi)
+                    .into_par_iter()
+                    .map_init(
+                        || {
+                            (
+                                Vec::<RayState>::new(),
+                                Tree::default(),
+                                Scratch::default(),
+                                Vec::new(),
+                                Vec::new(),
+                                Dense::new(nl, 2 * cfg.buckets.len(), global),
+                            )
+                        },
+                        |(stack, tree, scratch, deps, glob, dense), b| {
+                            let mut out: Vec<BlockCell> =
+                                (0..nl).map(|_| BlockCell::default()).collect();
+                            let lo = start + b * BLOCK;
+                            let hi = (lo + BLOCK).min(end);
+                            for i in lo..hi {
+                                let mut rng = Rng::new(cfg.seed, (di as u64) << 40 | i);
+                                let xy = if cfg.random_entry {
+                                    [
+                                        rng.range(0.0, sample.tile_nm[0]),
+                                        rng.range(0.0, sample.tile_nm[1]),
+                                    ]
+                                } else {
+                                    entry_point(i, shift, sample.tile_nm)
+                                };
+                                let origin = [xy[0], xy[1], scene.z_top];
+                                // Stratified jitter: tree i takes stratum i of N in every bin.
+                                let lambda_of = |j: usize, u: f64| match &cfg.wavelengths {
+                                    Wavelengths::Bins(e) => {
+                                        // Adaptive runs do not know N: a golden-ratio sequence
+                                        // (low-discrepancy for every prefix) replaces the strata.
+                                        let frac = if adaptive {
+                                            (i as f64 * 0.618_033_988_749_894_9 + u).fract()
+                                        } else {
+                                            (i as f64 + u) / cfg.rays as f64
+                                        };
+                                        e[j] + (e[j + 1] - e[j]) * frac
+                                    }
+                                    Wavelengths::Monochromatic(v) => v[j],
+                                };
+                                let jitter: Vec<f64> = (0..nl).map(|_| rng.uniform()).collect();
+                                let world_origin = add(origin, cfg.origin_nm);
+                                let traced = |tree: &mut Tree, scratch: &mut Scratch| {
+                                    for x in &mut tree.exits {
+                                        x.x = add(x.x, cfg.origin_nm);
+                                    }
+                                    est.prepare(tree, scratch);
+                                    segments.fetch_add(u64::from(tree.segments), Ordering::Relaxed);
+                                    leaks.fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
+                                    traces.fetch_add(1, Ordering::Relaxed);
+                                };
+                                if sharing {
                                     scene.trace(
                                         origin,
                                         d,
                                         e0,
-                                        &index_at(lambda),
-                                        lambda,
+                                        &fixed_indices,
+                                        lambda_max,
                                         &cfg.limits,
                                         stack,
                                         tree,
                                     );
                                     traced(tree, scratch);
                                 }
-                                deps.clear();
-                                glob.clear();
-                                let k = 2.0 * std::f64::consts::PI / lambda;
-                                let entry_phase = est.entry_phase(k, d, world_origin);
-                                est.deposit(tree, lambda, entry_phase, scratch, deps, glob);
-                                let (r, t) = dense.add_tree(j, deps, glob);
-                                let (dropped, dropped_limit) = tree.dropped(lambda);
-                                cell.trees += 1;
-                                cell.r.0 += r;
-                                cell.r.1 += r * r;
-                                cell.t.0 += t;
-                                cell.t.1 += t * t;
-                                cell.absorbed +=
-                                    absorbed_power(tree, lambda, r, t, dropped, global);
-                                cell.dropped += dropped;
-                                cell.dropped_limit += dropped_limit;
-                                energy_faults
-                                    .fetch_add(u64::from(tree.energy_faults), Ordering::Relaxed);
+                                for (j, cell) in out.iter_mut().enumerate() {
+                                    let lambda = lambda_of(j, jitter[j]);
+                                    if !sharing {
+                                        scene.trace(
+                                            origin,
+                                            d,
+                                            e0,
+                                            &index_at(lambda),
+                                            lambda,
+                                            &cfg.limits,
+                                            stack,
+                                            tree,
+                                        );
+                                        traced(tree, scratch);
+                                    }
+                                    deps.clear();
+                                    glob.clear();
+                                    let k = 2.0 * std::f64::consts::PI / lambda;
+                                    let entry_phase = est.entry_phase(k, d, world_origin);
+                                    est.deposit(tree, lambda, entry_phase, scratch, deps, glob);
+                                    let (r, t) = dense.add_tree(j, deps, glob);
+                                    let (dropped, dropped_limit) = tree.dropped(lambda);
+                                    cell.trees += 1;
+                                    cell.r.0 += r;
+                                    cell.r.1 += r * r;
+                                    cell.t.0 += t;
+                                    cell.t.1 += t * t;
+                                    cell.absorbed +=
+                                        absorbed_power(tree, lambda, r, t, dropped, global);
+                                    cell.dropped += dropped;
+                                    cell.dropped_limit += dropped_limit;
+                                    energy_faults.fetch_add(
+                                        u64::from(tree.energy_faults),
+                                        Ordering::Relaxed,
+                                    );
+                                }
                             }
-                        }
-                        dense.drain(&mut out);
-                        let n = done.fetch_add(hi - lo, Ordering::Relaxed) + (hi - lo);
-                        progress(n);
-                        out
-                    },
-                )
-                .collect();
-            // Combine blocks in block order: the sums do not depend on scheduling.
-            for block in &blocks {
-                for (j, bc) in block.iter().enumerate() {
-                    add_block(&mut cells[di * nl + j], bc);
-                    limit_dropped[di * nl + j] += bc.dropped_limit;
+                            dense.drain(&mut out);
+                            let n = done.fetch_add(hi - lo, Ordering::Relaxed) + (hi - lo);
+                            progress(n);
+                            out
+                        },
+                    )
+                    .collect();
+                // Combine blocks in block order: the sums do not depend on scheduling.
+                for block in &blocks {
+                    for (j, bc) in block.iter().enumerate() {
+                        add_block(&mut cells[di * nl + j], bc);
+                        limit_dropped[di * nl + j] += bc.dropped_limit;
+                    }
                 }
+                chunk_lo = chunk_hi;
             }
             start = end;
             let achieved = achieved_error(&cells, di, nl, cfg.coherence);

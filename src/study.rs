@@ -575,16 +575,9 @@ pub fn load(path: &Path) -> Result<Study, String> {
     })
 }
 
-/// Peak resident memory of this process so far, MB (Linux `VmHWM`; 0 elsewhere).
+/// Peak resident memory of this process so far, MB (0 where unknown).
 fn peak_mem_mb() -> f64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmHWM:"))
-                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
-        })
-        .map_or(0.0, |kb| kb / 1024.0)
+    crate::io::peak_rss_mb().unwrap_or(0.0)
 }
 
 fn config(st: &Study, rays: u64, v: &Variant, seed: u64) -> SimConfig {
