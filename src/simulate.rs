@@ -214,6 +214,12 @@ pub fn sample_hash(sample: &Sample) -> String {
     for i in &sample.interfaces {
         bytes.extend_from_slice(&(i.front as u64).to_le_bytes());
         bytes.extend_from_slice(&(i.back as u64).to_le_bytes());
+        // Coated interfaces only, so uncoated samples keep their hash.
+        for (m, d) in &i.coating {
+            bytes.extend_from_slice(b"coat");
+            bytes.extend_from_slice(&(*m as u64).to_le_bytes());
+            bytes.extend_from_slice(&d.to_le_bytes());
+        }
         for p in &i.mesh.positions_nm {
             for c in p {
                 bytes.extend_from_slice(&c.to_le_bytes());
@@ -361,10 +367,18 @@ pub fn simulate(
     let start_time = Instant::now();
     let scene = Scene::new(sample, cfg.backend)?;
     let dispersive = sample.media.iter().any(|m| m.model.is_dispersive());
-    let sharing = cfg.path_sharing.unwrap_or(!dispersive);
+    // A coating's coefficients depend on the wavelength even with constant indices.
+    let coated = sample.interfaces.iter().any(|i| !i.coating.is_empty());
+    let sharing = cfg.path_sharing.unwrap_or(!dispersive && !coated);
     if sharing && dispersive {
         return Err(SimError::Config(
             "path sharing needs non-dispersive media: this sample's indices change with wavelength"
+                .into(),
+        ));
+    }
+    if sharing && coated {
+        return Err(SimError::Config(
+            "path sharing needs wavelength-independent interfaces: this sample has coatings, whose coefficients change with wavelength"
                 .into(),
         ));
     }

@@ -284,7 +284,7 @@ fn the_cli_refuses_an_impossible_result_with_exit_1_and_no_file() {
     std::fs::write(
         d.join("s.toml"),
         format!(
-            "[sample]\nname = \"subnm\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n{}[stack]\nambient = \"air\"\nlayers = [ {{ medium = \"metal\", thickness = 0.5 }} ]\nsubstrate = \"air\"\n",
+            "[sample]\nname = \"subnm\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n{}[stack]\nmode = \"mesh\"\nambient = \"air\"\nlayers = [ {{ medium = \"metal\", thickness = 0.5 }} ]\nsubstrate = \"air\"\n",
             metal(0.166, 3.15)
         ),
     )

@@ -532,11 +532,21 @@ fn medium_definitions_need_exactly_one_model() {
 
 #[test]
 fn a_stack_generates_its_planar_interfaces() {
-    let s = sample::load(
-        &root().join("meshes/ar-coating.toml"),
-        MeshOptions::default(),
-    )
-    .unwrap();
+    let path = root().join("meshes/ar-coating.toml");
+    // Default: one flat interface carrying the layer as a coating.
+    let s = sample::load(&path, MeshOptions::default()).unwrap();
+    let name = |i: usize| s.media[i].name.as_str();
+    assert_eq!(s.interfaces.len(), 1);
+    let itf = &s.interfaces[0];
+    assert_eq!((name(itf.front), name(itf.back)), ("air", "glass"));
+    assert_eq!(itf.coating.len(), 1);
+    assert_eq!(name(itf.coating[0].0), "mgf2");
+    assert!((itf.coating[0].1 - 99.6).abs() < 1e-12);
+    // `mode = "mesh"`: every layer boundary is a flat mesh.
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("[stack]", "[stack]\nmode = \"mesh\"");
+    let s = sample::parse(&path, &text, MeshOptions::default()).unwrap();
     let st = s.stack.as_ref().unwrap();
     assert_eq!(st.layers.len(), 1);
     assert!((st.layers[0].1 - 99.6).abs() < 1e-12);

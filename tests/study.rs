@@ -18,7 +18,7 @@ fn flat_film_errors_match_an_independent_tmm_within_their_error_bars() {
         d.join("s.toml"),
         format!(
             "[study]\nname = \"flat\"\nsample = \"{}\"\ntheta_i = [0.0, 30.0]\nwavelengths = \"400:700:50\"\n[sweep]\nrays = [64, 256]\ncoherence_radius_nm = [inf]\n",
-            root().join("meshes/flat-soap-film.toml").display()
+            root().join("studies/samples/flat-soap-film-meshed.toml").display()
         ),
     )
     .unwrap();

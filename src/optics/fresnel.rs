@@ -183,6 +183,8 @@ pub struct Split {
     pub p_t: V3,
     /// The coefficients of this event.
     pub c: Coefficients,
+    /// The real tangential index `kappa` the coefficients were computed for.
+    pub kappa: f64,
 }
 
 /// The index vector `kappa + sign q m` (real and imaginary parts) of a wave with real
@@ -201,14 +203,15 @@ pub fn split_wave(d: V3, n_re: V3, n_im: V3, nf: V3, n1: C64, n2: C64) -> Split 
     debug_assert!(dot(d, nf) <= 1e-9, "normal must face the incoming ray");
     let m = scale(nf, -1.0);
     let homogeneous = n1.im == 0.0 && n_im == [0.0; 3];
-    let (c, dir_r, n_r, dir_t, n_t);
+    let (c, dir_r, n_r, dir_t, n_t, kappa);
     if homogeneous {
         // A homogeneous wave in a lossless medium: the mirror direction and, into a
         // lossless medium, Snell's law in closed form (bit-for-bit the geometry of
         // earlier versions, so lossless samples keep their results).
         let cos_i = (-dot(d, nf)).clamp(0.0, 1.0);
         let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
-        c = coefficients_kappa(n1, n2, n1.re * sin_i);
+        kappa = n1.re * sin_i;
+        c = coefficients_kappa(n1, n2, kappa);
         dir_r = normalize(add(d, scale(nf, 2.0 * cos_i)));
         n_r = (scale(dir_r, n1.re), [0.0; 3]);
         if n2.im == 0.0 {
@@ -225,7 +228,8 @@ pub fn split_wave(d: V3, n_re: V3, n_im: V3, nf: V3, n1: C64, n2: C64) -> Split 
         }
     } else {
         let kt = sub(n_re, scale(m, dot(n_re, m)));
-        c = coefficients_kappa(n1, n2, norm(kt));
+        kappa = norm(kt);
+        c = coefficients_kappa(n1, n2, kappa);
         n_r = inhomogeneous(kt, m, c.q1, -1.0);
         dir_r = normalize(n_r.0);
         n_t = inhomogeneous(kt, m, c.q2, 1.0);
@@ -254,6 +258,37 @@ pub fn split_wave(d: V3, n_re: V3, n_im: V3, nf: V3, n1: C64, n2: C64) -> Split 
         p_r: p_of(dir_r),
         p_t: dir_t.map(p_of).unwrap_or([0.0; 3]),
         c,
+        kappa,
+    }
+}
+
+/// The coefficients of a coated interface: the stack's amplitude coefficients `[(r_s,
+/// t_s), (r_p, t_p)]` (from `tmm::amplitudes`, same convention as the bare interface) with
+/// the transmission power-normalised between the outer media exactly as for a bare
+/// interface (`c` holds the outer media's normal indices). Layers between the outer media
+/// change the amplitudes, never the directions (Snell's invariant is conserved through a
+/// flat stack).
+pub fn coated(c: &Coefficients, n1: C64, n2: C64, amp: [(C64, C64); 2]) -> Coefficients {
+    let bare = coefficients_from(n1, n2, c.q1, c.q2, amp);
+    Coefficients {
+        q1: c.q1,
+        q2: c.q2,
+        ..bare
+    }
+}
+
+fn coefficients_from(n1: C64, n2: C64, q1: C64, q2: C64, amp: [(C64, C64); 2]) -> Coefficients {
+    let (c1, c2) = (q1 / n1, q2 / n2);
+    let ratio = |num: f64, den: f64| if den > 0.0 { (num / den).max(0.0) } else { 0.0 };
+    let ratio_s = ratio(q2.re, q1.re);
+    let ratio_p = ratio((n2 * c2.conj()).re, (n1 * c1.conj()).re);
+    Coefficients {
+        r_s: amp[0].0,
+        r_p: amp[1].0,
+        t_s: amp[0].1 * ratio_s.sqrt(),
+        t_p: amp[1].1 * ratio_p.sqrt(),
+        q1,
+        q2,
     }
 }
 

@@ -44,25 +44,24 @@ pub struct StackIndices {
     pub d_nm: Vec<f64>,
 }
 
-/// R and T of the stack at wavelength `lambda_nm` for incidence at `theta0_rad` in the
-/// ambient medium.
+/// Amplitude reflection and transmission coefficients `(r, t)` of a stack for s (`[0]`)
+/// and p (`[1]`) light at wavelength `lambda_nm`, for a wave whose tangential index
+/// `n sin(theta)` is `kx` (conserved through the stack). `n` runs from the incidence
+/// medium (first) to the exit medium (last); `d_nm` are the inner layers' thicknesses. The
+/// coefficients are ratios of E-field amplitudes in the convention of
+/// `optics::fresnel` (Byrnes eqs. 13-17), so a stack without inner layers gives the bare
+/// interface's Fresnel coefficients.
 ///
 /// # Panics
 /// When the number of thicknesses does not match the number of inner layers.
-pub fn solve(stack: &StackIndices, lambda_nm: f64, theta0_rad: f64) -> Rt {
-    assert_eq!(
-        stack.d_nm.len() + 2,
-        stack.n.len(),
-        "one thickness per inner layer"
-    );
-    let n0 = stack.n[0];
-    let kx = n0 * theta0_rad.sin(); // conserved n sin(theta)
-    let nc: Vec<C64> = stack.n.iter().map(|&n| n_cos(n, kx)).collect();
-    let cos: Vec<C64> = nc.iter().zip(&stack.n).map(|(a, n)| a / n).collect();
-    let last = stack.n.len() - 1;
-    let solve_pol = |p: bool| -> (f64, f64) {
+pub fn amplitudes(n: &[C64], d_nm: &[f64], kx: C64, lambda_nm: f64) -> [(C64, C64); 2] {
+    assert_eq!(d_nm.len() + 2, n.len(), "one thickness per inner layer");
+    let nc: Vec<C64> = n.iter().map(|&n| n_cos(n, kx)).collect();
+    let cos: Vec<C64> = nc.iter().zip(n).map(|(a, n)| a / n).collect();
+    let last = n.len() - 1;
+    let solve_pol = |p: bool| -> (C64, C64) {
         let interface = |j: usize, k: usize| -> (C64, C64) {
-            let (nj, nk) = (stack.n[j], stack.n[k]);
+            let (nj, nk) = (n[j], n[k]);
             if p {
                 let den = nk * cos[j] + nj * cos[k];
                 ((nk * cos[j] - nj * cos[k]) / den, 2.0 * nj * cos[j] / den)
@@ -79,7 +78,7 @@ pub fn solve(stack: &StackIndices, lambda_nm: f64, theta0_rad: f64) -> Rt {
         ];
         #[allow(clippy::needless_range_loop)] // j indexes layers and interfaces alike
         for j in 1..last {
-            let delta = 2.0 * std::f64::consts::PI * nc[j] * stack.d_nm[j - 1] / lambda_nm;
+            let delta = 2.0 * std::f64::consts::PI * nc[j] * d_nm[j - 1] / lambda_nm;
             let (r, t) = interface(j, j + 1);
             let (em, ep) = ((-C64::i() * delta).exp(), (C64::i() * delta).exp());
             let l = [[em / t, em * r / t], [ep * r / t, ep / t]];
@@ -94,18 +93,32 @@ pub fn solve(stack: &StackIndices, lambda_nm: f64, theta0_rad: f64) -> Rt {
                 ],
             ];
         }
-        let r = m[1][0] / m[0][0];
-        let t = C64::new(1.0, 0.0) / m[0][0];
-        let ratio = if p {
-            (stack.n[last] * cos[last].conj()).re / (n0 * cos[0].conj()).re
-        } else {
-            nc[last].re / nc[0].re
-        };
-        (r.norm_sqr(), (t.norm_sqr() * ratio).max(0.0))
+        (m[1][0] / m[0][0], C64::new(1.0, 0.0) / m[0][0])
     };
-    let (r_s, t_s) = solve_pol(false);
-    let (r_p, t_p) = solve_pol(true);
-    Rt { r_s, r_p, t_s, t_p }
+    [solve_pol(false), solve_pol(true)]
+}
+
+/// R and T of the stack at wavelength `lambda_nm` for incidence at `theta0_rad` in the
+/// ambient medium.
+///
+/// # Panics
+/// When the number of thicknesses does not match the number of inner layers.
+pub fn solve(stack: &StackIndices, lambda_nm: f64, theta0_rad: f64) -> Rt {
+    let n0 = stack.n[0];
+    let kx = n0 * theta0_rad.sin(); // conserved n sin(theta)
+    let [(rs, ts), (rp, tp)] = amplitudes(&stack.n, &stack.d_nm, kx, lambda_nm);
+    let last = stack.n.len() - 1;
+    let (nc0, ncl) = (n_cos(n0, kx), n_cos(stack.n[last], kx));
+    let (cos0, cosl) = (nc0 / n0, ncl / stack.n[last]);
+    // Byrnes eqs. 21-22.
+    let ratio_s = ncl.re / nc0.re;
+    let ratio_p = (stack.n[last] * cosl.conj()).re / (n0 * cos0.conj()).re;
+    Rt {
+        r_s: rs.norm_sqr(),
+        r_p: rp.norm_sqr(),
+        t_s: (ts.norm_sqr() * ratio_s).max(0.0),
+        t_p: (tp.norm_sqr() * ratio_p).max(0.0),
+    }
 }
 
 /// R and T averaged over the wavelength band `[lo_nm, hi_nm]` (composite Simpson rule,

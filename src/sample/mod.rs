@@ -130,6 +130,10 @@ pub struct Interface {
     pub front: usize,
     /// Medium on the other side.
     pub back: usize,
+    /// Thin layers on the front side, outermost first: `(medium, thickness_nm)`. Not
+    /// meshed: the tracer applies the stack's transfer-matrix coefficients at the
+    /// interface (layers thin against the beamlet and flat across it; docs/physics.md).
+    pub coating: Vec<(usize, f64)>,
 }
 
 /// A loaded sample: a periodic tile `[0, Lx) x [0, Ly)` in nanometres, its media and its
@@ -224,13 +228,16 @@ struct RawSample {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawStack {
+    /// `"coating"` (default): one flat interface carrying the layers, exact by the
+    /// transfer-matrix method; `"mesh"`: every layer boundary meshed and ray-traced.
+    mode: Option<Spanned<String>>,
     ambient: Spanned<String>,
     #[serde(default)]
     layers: Vec<RawLayer>,
     substrate: Spanned<String>,
 }
 
-#[derive(Deserialize)]
+#[derive(Deserialize, Clone)]
 #[serde(deny_unknown_fields)]
 struct RawLayer {
     medium: Spanned<String>,
@@ -244,7 +251,15 @@ struct RawBody {
     generator: Option<Spanned<GeneratorSpec>>,
     inside: Spanned<String>,
     outside: Spanned<String>,
-    coating: Option<Spanned<String>>,
+    coating: Option<RawCoating>,
+}
+
+/// A body's `coating`: a medium name for a meshed shell, or a list of thin layers.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum RawCoating {
+    Shell(Spanned<String>),
+    Layers(Vec<RawLayer>),
 }
 
 #[derive(Deserialize)]
@@ -265,6 +280,8 @@ struct RawInterface {
     generator: Option<Spanned<GeneratorSpec>>,
     front: Spanned<String>,
     back: Spanned<String>,
+    /// Thin layers on the front side, outermost first.
+    coating: Option<Vec<RawLayer>>,
 }
 
 /// 1-based line of byte offset `pos` in `text`.
@@ -376,13 +393,10 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
     let tile_nm = [tx * scale, ty * scale];
     let mut interfaces = Vec::new();
 
-    // [stack]: flat interfaces, top (ambient side) first.
-    let mut stack = None;
-    if let Some(st) = &raw.stack {
-        let ambient = medium(&st.get_ref().ambient)?;
-        let substrate = medium(&st.get_ref().substrate)?;
+    // Layers (of a [stack] or a coating) as (medium, thickness in nm).
+    let layers_of = |raw: &Option<Vec<RawLayer>>| -> Result<Vec<(usize, f64)>, SampleError> {
         let mut layers = Vec::new();
-        for l in &st.get_ref().layers {
+        for l in raw.iter().flatten() {
             let t = *l.thickness.get_ref();
             if !(t.is_finite() && t > 0.0) {
                 return Err(at(
@@ -394,6 +408,55 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
             }
             layers.push((medium(&l.medium)?, t * scale));
         }
+        Ok(layers)
+    };
+
+    // [stack]: one coated flat interface (default), or flat meshed interfaces, top
+    // (ambient side) first.
+    let mut stack = None;
+    if let Some(st) = &raw.stack {
+        let ambient = medium(&st.get_ref().ambient)?;
+        let substrate = medium(&st.get_ref().substrate)?;
+        let layers = layers_of(&Some(st.get_ref().layers.clone()))?;
+        // Default: a pure stack is one exact coated interface; a stack that shares the
+        // sample with bodies or other interfaces (a binder holding pigments) is meshed,
+        // since those live inside its layers.
+        let others = !raw.interface.is_empty() || !raw.body.is_empty();
+        let meshed = match st.get_ref().mode.as_ref() {
+            None => others,
+            Some(m) => match m.get_ref().as_str() {
+                "coating" => false,
+                "mesh" => true,
+                other => {
+                    return Err(at(
+                        m.span(),
+                        SampleErrorKind::Invalid(format!(
+                            "unknown [stack] mode '{other}' (use \"coating\", the exact default, or \"mesh\")"
+                        )),
+                    ));
+                }
+            },
+        };
+        stack = Some(Stack {
+            ambient,
+            layers: layers.clone(),
+            substrate,
+        });
+        if !meshed {
+            interfaces.push(Interface {
+                mesh: generate::flat(tile_nm, 0.0),
+                mesh_path: PathBuf::from("[stack] coated interface (z = 0 nm)"),
+                closed: false,
+                front: ambient,
+                back: substrate,
+                coating: layers.clone(),
+            });
+        }
+    }
+    if let Some(stk) = &stack
+        && interfaces.is_empty()
+    {
+        let (ambient, substrate, layers) = (stk.ambient, stk.substrate, stk.layers.clone());
         let total: f64 = layers.iter().map(|l| l.1).sum();
         let mut above = ambient;
         let mut z = total;
@@ -404,6 +467,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
                 closed: false,
                 front: above,
                 back: m,
+                coating: Vec::new(),
             });
             above = m;
             z -= t;
@@ -414,11 +478,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
             closed: false,
             front: above,
             back: substrate,
-        });
-        stack = Some(Stack {
-            ambient,
-            layers,
-            substrate,
+            coating: Vec::new(),
         });
     }
 
@@ -498,18 +558,26 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         let Generated::Sheet(mesh) = g else {
             unreachable!("sheet requested")
         };
+        let coating = layers_of(&ri.coating)?;
         interfaces.push(Interface {
             mesh,
             mesh_path: PathBuf::from(desc),
             closed: false,
             front,
             back,
+            coating,
         });
     }
     for rb in &raw.body {
         let inside = medium(&rb.inside)?;
         let outside = medium(&rb.outside)?;
-        let coating = rb.coating.as_ref().map(&medium).transpose()?;
+        // `coating = "MEDIUM"`: a meshed shell (the generator's coated bodies);
+        // `coating = [ { medium, thickness }, ... ]`: thin layers on the outside.
+        let (coating, thin) = match &rb.coating {
+            Some(RawCoating::Shell(m)) => (Some(medium(m)?), Vec::new()),
+            Some(RawCoating::Layers(l)) => (None, layers_of(&Some(l.clone()))?),
+            None => (None, Vec::new()),
+        };
         let (g, desc) = source(&rb.mesh, &rb.generator, true, "[[body]]")?;
         let Generated::Bodies(bodies) = g else {
             unreachable!("bodies requested")
@@ -523,6 +591,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
                         closed: true,
                         front: outside,
                         back: c,
+                        coating: Vec::new(),
                     });
                     interfaces.push(Interface {
                         mesh: core,
@@ -530,6 +599,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
                         closed: true,
                         front: c,
                         back: inside,
+                        coating: Vec::new(),
                     });
                 }
                 (Some(_), None) => {
@@ -546,6 +616,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
                     closed: true,
                     front: outside,
                     back: inside,
+                    coating: thin.clone(),
                 }),
             }
         }

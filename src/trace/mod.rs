@@ -20,6 +20,7 @@
 use crate::accel::{Accel, AccelError, Backend, Intersector, Ray};
 use crate::optics::C64;
 use crate::optics::fresnel::{self, Field, field_power};
+use crate::optics::tmm;
 use crate::optics::vec3::{V3, add, cross, dot, norm, normalize, scale, sub};
 use crate::sample::Sample;
 
@@ -65,6 +66,9 @@ pub struct Tree {
     pub flux_normalised: u32,
     pub leaks: u32,
     pub segments: u32,
+    /// Scratch for coated interfaces (indices and thicknesses of one event's stack).
+    n_buf: Vec<C64>,
+    d_buf: Vec<f64>,
 }
 
 impl Tree {
@@ -250,8 +254,9 @@ impl<'a> Scene<'a> {
     }
 
     /// Traces one tree. `indices[m]` is medium m's complex index at the tracing
-    /// wavelength; `lambda_prune_nm` is the wavelength at which absorption is weakest
-    /// (the longest one evaluated), used to decide dropping. `e0` are the launched fields
+    /// wavelength; `lambda_nm` is the tracing wavelength (coated interfaces need it; with
+    /// path sharing it is the longest wavelength evaluated, where absorption is weakest),
+    /// also used to decide dropping. `e0` are the launched fields
     /// (unit power) of the two polarisations; `origin` lies on the launch plane.
     #[allow(clippy::too_many_arguments)]
     pub fn trace(
@@ -260,7 +265,7 @@ impl<'a> Scene<'a> {
         dir: V3,
         e0: [Field; 2],
         indices: &[C64],
-        lambda_prune_nm: f64,
+        lambda_nm: f64,
         limits: &TraceLimits,
         stack: &mut Vec<RayState>,
         out: &mut Tree,
@@ -283,7 +288,7 @@ impl<'a> Scene<'a> {
             depth: 0,
         });
         let [lx, ly] = self.sample.tile_nm;
-        let prune = -4.0 * std::f64::consts::PI / lambda_prune_nm;
+        let prune = -4.0 * std::f64::consts::PI / lambda_nm;
         let power_of = |e: &[Field; 2], opl: C64| {
             field_power(&e[0]).max(field_power(&e[1])) * (prune * opl.im).exp()
         };
@@ -345,7 +350,9 @@ impl<'a> Scene<'a> {
                         t = f64::from(hit.t);
                     }
                     self.advance(&mut r, t, n_med, out);
-                    self.interface_event(r, hit.prim, n, indices, limits, &power_of, stack, out);
+                    self.interface_event(
+                        r, hit.prim, n, indices, lambda_nm, limits, &power_of, stack, out,
+                    );
                     break;
                 }
                 if t_plane <= t_side {
@@ -430,6 +437,7 @@ impl<'a> Scene<'a> {
         prim: u32,
         n: V3,
         indices: &[C64],
+        lambda_nm: f64,
         limits: &TraceLimits,
         power_of: &impl Fn(&[Field; 2], C64) -> f64,
         stack: &mut Vec<RayState>,
@@ -456,6 +464,28 @@ impl<'a> Scene<'a> {
         }
         let (n1, n2) = (indices[from], indices[to]);
         let mut g = fresnel::split_wave(r.dir, r.n_re, r.n_im, nf, n1, n2);
+        let coated = !itf.coating.is_empty();
+        let mut coating_absorbs = false;
+        if coated {
+            // The thin stack's transfer-matrix amplitudes in the direction of travel
+            // (front to back: outermost layer first), at this event's tangential index.
+            out.n_buf.clear();
+            out.d_buf.clear();
+            out.n_buf.push(n1);
+            let k = itf.coating.len();
+            for i in 0..k {
+                let (m, d) = itf.coating[if from == itf.front { i } else { k - 1 - i }];
+                out.n_buf.push(indices[m]);
+                out.d_buf.push(d);
+                coating_absorbs |= indices[m].im > 0.0;
+            }
+            out.n_buf.push(n2);
+            let amp = tmm::amplitudes(&out.n_buf, &out.d_buf, C64::new(g.kappa, 0.0), lambda_nm);
+            g.c = fresnel::coated(&g.c, n1, n2, amp);
+            if coating_absorbs {
+                out.absorbing = true;
+            }
+        }
         if n1.im > 0.0 && norm(cross(r.n_im, nf)) > 1e-6 * norm(r.n_im) {
             // Inside an absorbing medium, at a facet not parallel to the one the wave
             // entered through: the reflections of this region leave in other directions,
@@ -465,9 +495,14 @@ impl<'a> Scene<'a> {
                 out.flux_normalised += 1;
             }
         } else if n1.im == 0.0 {
-            // From a lossless medium |r|^2 + T = 1 exactly (optics::fresnel).
+            // From a lossless medium |r|^2 + T = 1 exactly (optics::fresnel); an absorbing
+            // coating may only take power away.
             let [es, ep] = fresnel::balance_excess(&g.c);
-            let ok = es.abs() <= 1e-9 && ep.abs() <= 1e-9;
+            let ok = if coating_absorbs {
+                es <= 1e-9 && ep <= 1e-9
+            } else {
+                es.abs() <= 1e-9 && ep.abs() <= 1e-9
+            };
             debug_assert!(ok, "energy fault at an interface: {n1} -> {n2}, {:?}", g.c);
             if !ok {
                 out.energy_faults += 1;

@@ -34,7 +34,8 @@ pub fn sample_in(dir: &Path, toml: &str) -> Sample {
     sample::load(&dir.join("s.toml"), MeshOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// A flat stack sample: `media` lines, then ambient / layers / substrate.
+/// A flat stack sample: `media` lines, then ambient / layers / substrate, every layer
+/// boundary meshed and ray-traced (`mode = "mesh"`: these tests check the tracer).
 pub fn stack_sample(
     tag: &str,
     media: &str,
@@ -49,7 +50,7 @@ pub fn stack_sample(
     sample_from(
         tag,
         &format!(
-            "[sample]\nname = \"{tag}\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n{media}\n[stack]\nambient = \"{ambient}\"\nlayers = [{}]\nsubstrate = \"{substrate}\"\n",
+            "[sample]\nname = \"{tag}\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n{media}\n[stack]\nmode = \"mesh\"\nambient = \"{ambient}\"\nlayers = [{}]\nsubstrate = \"{substrate}\"\n",
             layers.join(", ")
         ),
     )

@@ -1,0 +1,171 @@
+//! Coatings: thin layers carried by an interface and applied through their transfer-matrix
+//! coefficients (docs/physics.md), against the independent recursive TMM of tests/common.
+//! A flat coated interface gives one reflected and one transmitted exit per tree, so the
+//! result is exact whatever the beamlet radius; the tolerance 1e-6 is rounding headroom
+//! (both sides are closed forms of the same physics computed along different routes).
+
+mod common;
+
+use common::*;
+use goniospec::sample::Sample;
+use goniospec::simulate::{SimError, Wavelengths, simulate};
+
+/// A `[stack]` sample in its default mode (one coated interface).
+fn coated_stack(tag: &str, media: &str, layers: &[(&str, f64)], substrate: &str) -> Sample {
+    let layers: Vec<String> = layers
+        .iter()
+        .map(|(m, t)| format!("{{ medium = \"{m}\", thickness = {t:?} }}"))
+        .collect();
+    sample_from(
+        tag,
+        &format!(
+            "[sample]\nname = \"{tag}\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n{media}\n[stack]\nambient = \"air\"\nlayers = [{}]\nsubstrate = \"{substrate}\"\n",
+            layers.join(", ")
+        ),
+    )
+}
+
+/// Runs `s` at `thetas` x `lambdas` (exact wavelengths) with beamlet radius `rho` and
+/// checks R, T and A against the independent TMM for indices `n` and thicknesses `d`.
+fn check_against_tmm(s: &Sample, n: &[C], d: &[f64], thetas: &[f64], lambdas: &[f64], rho: f64) {
+    let mut cfg = config(thetas, Wavelengths::Monochromatic(lambdas.to_vec()), 4);
+    cfg.rho_nm = rho;
+    let acc = run(s, &cfg);
+    for (i, th) in thetas.iter().enumerate() {
+        for (j, &l) in lambdas.iter().enumerate() {
+            let (r, t) = totals(&acc, i, j);
+            let cell = acc.cell(i, j);
+            let a = cell.absorbed / cell.trees as f64;
+            let (rr, tt) = tmm_ref(n, d, l, th.to_radians());
+            let msg = format!(
+                "{}: rho {rho}, {th} deg, {l} nm: R {r} T {t} A {a} vs TMM {rr} {tt} {}",
+                s.name,
+                1.0 - rr - tt
+            );
+            assert!((r - rr).abs() < 1e-6, "{msg}");
+            assert!((t - tt).abs() < 1e-6, "{msg}");
+            assert!((a - (1.0 - rr - tt)).abs() < 1e-6, "{msg}");
+        }
+    }
+}
+
+type C = num_complex::Complex64;
+
+#[test]
+fn quarter_wave_mirrors_match_the_tmm_at_any_angle_and_radius() {
+    // (HL)^N, n = 2.4 / 1.46, on glass 1.52, centred at 550 nm: the multilayer whose meshed
+    // ray series cannot converge (spectral radius > 1 for N >= 5).
+    for pairs in [5usize, 10] {
+        let (dh, dl) = (550.0 / (4.0 * 2.4), 550.0 / (4.0 * 1.46));
+        let mut layers = Vec::new();
+        let mut n = vec![c(1.0, 0.0)];
+        let mut d = Vec::new();
+        for _ in 0..pairs {
+            layers.extend([("h", dh), ("l", dl)]);
+            n.extend([c(2.4, 0.0), c(1.46, 0.0)]);
+            d.extend([dh, dl]);
+        }
+        n.push(c(1.52, 0.0));
+        let s = coated_stack(
+            &format!("mirror{pairs}"),
+            "[media.air]\nn = 1.0\n[media.h]\nn = 2.4\n[media.l]\nn = 1.46\n[media.glass]\nn = 1.52\n",
+            &layers,
+            "glass",
+        );
+        let lambdas: Vec<f64> = (0..=12).map(|i| 400.0 + 25.0 * i as f64).collect();
+        for rho in [1000.0, 5000.0, f64::INFINITY] {
+            check_against_tmm(&s, &n, &d, &[0.0, 30.0, 60.0], &lambdas, rho);
+        }
+    }
+}
+
+#[test]
+fn thin_gold_coatings_tunnel_and_absorb_as_the_tmm_says() {
+    for (lambda, nr, k) in [
+        (450.0, 1.38, 1.92),
+        (550.0, 0.43, 2.455),
+        (650.0, 0.166, 3.15),
+    ] {
+        for thickness in [5.0, 20.0, 50.0] {
+            let s = coated_stack(
+                "gold-coating",
+                &format!("[media.air]\nn = 1.0\n[media.gold]\nn = {nr:?}\nk = {k:?}\n"),
+                &[("gold", thickness)],
+                "air",
+            );
+            check_against_tmm(
+                &s,
+                &[c(1.0, 0.0), c(nr, k), c(1.0, 0.0)],
+                &[thickness],
+                &[0.0, 30.0, 60.0],
+                &[lambda],
+                5000.0,
+            );
+        }
+    }
+}
+
+#[test]
+fn a_coated_interface_from_below_uses_the_reversed_stack() {
+    // Light from the glass side of an asymmetric coating (glass | TiO2 | MgF2 | air seen
+    // from below) must see the layers in reverse order: compare with a stack written the
+    // other way up, ambient glass, which the TMM handles as usual.
+    let up = sample_from(
+        "coat-up",
+        "[sample]\nname = \"coat-up\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n[media.air]\nn = 1.0\n[media.tio2]\nn = 2.4\n[media.mgf2]\nn = 1.38\n[media.glass]\nn = 1.52\n[[interface]]\ngenerator = { kind = \"flat\" }\nfront = \"glass\"\nback = \"air\"\ncoating = [ { medium = \"tio2\", thickness = 60.0 }, { medium = \"mgf2\", thickness = 100.0 } ]\n",
+    );
+    // The interface's front side (glass) faces up: glass is the ambient, air the
+    // substrate, and the layers lie on the glass side, TiO2 outermost.
+    check_against_tmm(
+        &up,
+        &[c(1.52, 0.0), c(2.4, 0.0), c(1.38, 0.0), c(1.0, 0.0)],
+        &[60.0, 100.0],
+        &[0.0, 20.0, 40.0],
+        &[450.0, 550.0, 650.0],
+        5000.0,
+    );
+}
+
+#[test]
+fn coatings_refuse_path_sharing_and_bad_modes() {
+    let s = coated_stack(
+        "share",
+        "[media.air]\nn = 1.0\n[media.f]\nn = 1.38\n[media.glass]\nn = 1.52\n",
+        &[("f", 100.0)],
+        "glass",
+    );
+    let mut cfg = config(&[0.0], Wavelengths::Monochromatic(vec![500.0]), 2);
+    cfg.path_sharing = Some(true);
+    match simulate(&s, &cfg, &|_| {}) {
+        Err(SimError::Config(m)) => assert!(m.contains("coatings"), "{m}"),
+        other => panic!("expected a configuration error, got {:?}", other.err()),
+    }
+    let d = scratch("badmode");
+    std::fs::write(
+        d.join("s.toml"),
+        "[sample]\nname = \"x\"\nunit = \"nm\"\ntile = [10.0, 10.0]\n[media.air]\nn = 1.0\n[stack]\nmode = \"meshy\"\nambient = \"air\"\nsubstrate = \"air\"\n",
+    )
+    .unwrap();
+    let e = goniospec::sample::load(&d.join("s.toml"), Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("meshy") && e.contains(":8"), "{e}");
+}
+
+#[test]
+fn a_pure_stack_is_coated_and_a_binder_stack_is_meshed_by_default() {
+    let s = coated_stack(
+        "pure",
+        "[media.air]\nn = 1.0\n[media.f]\nn = 1.38\n[media.glass]\nn = 1.52\n",
+        &[("f", 100.0)],
+        "glass",
+    );
+    assert_eq!(s.interfaces.len(), 1);
+    assert_eq!(s.interfaces[0].coating.len(), 1);
+    let paint = goniospec::sample::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/paint-pigments.toml"),
+        Default::default(),
+    )
+    .unwrap();
+    assert!(paint.interfaces.iter().all(|i| i.coating.is_empty()));
+}
