@@ -13,8 +13,9 @@ for s in top bottom; do
     -p roughness_rms=0.06 -p correlation_length=2 -p resolution=64 -p seed=7 -p z=0 -o thin-film-600nm-$s.obj
 done
 
-# Rough gold: GGX microfacets, alpha = 0.2, 48 x 48 facets on a 20 um tile.
-$G generate microfacet --tile 20,20 --unit um -p distribution=ggx -p alpha=0.2 -p resolution=48 -p seed=3 -o rough-gold-ggx.obj
+# Rough gold: a GGX height field, alpha = 0.2, correlation length 2.5 um (tile / 8), on a
+# 96 x 96 grid (two triangles a cell) over a 20 um tile.
+$G generate microfacet --tile 20,20 --unit um -p distribution=ggx -p alpha=0.2 -p resolution=96 -p seed=3 -o rough-gold-ggx.obj
 
 # Rough glass: Gaussian height field, 0.2 um RMS, 2 um correlation length.
 $G generate gaussian --tile 20,20 --unit um -p rms=0.2 -p correlation_length=2 -p resolution=80 -p seed=5 -o rough-glass-gaussian.obj

@@ -96,7 +96,7 @@ enum Command {
     ///   gaussian         rms, correlation_length, resolution, [seed, z]
     ///   wavy-film        surface = top|bottom, thickness, thickness_rms, roughness_rms,
     ///                    correlation_length, resolution, [seed, z]
-    ///   microfacet       distribution = ggx|beckmann, alpha, resolution, [seed, z]
+    ///   microfacet       distribution = ggx|beckmann, alpha, resolution, [correlation_length, seed, z]
     ///   v-grooves        angle_deg, count, [z]
     ///   cosine           amplitude, resolution, [z]   (z + amplitude cos(2 pi x / Lx))
     ///   wedge            slope_deg, [z]   (z + tan(slope) |x - Lx/2|, a periodic roof)

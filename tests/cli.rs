@@ -101,7 +101,7 @@ fn generate_writes_an_obj_that_loads() {
         "-p",
         "alpha=0.3",
         "-p",
-        "resolution=8",
+        "resolution=32",
         "-o",
         p.to_str().unwrap(),
     ]);

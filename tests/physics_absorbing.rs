@@ -222,6 +222,7 @@ fn steep_ggx_gold_conserves_energy_at_every_depth_limit() {
         100,
         generate::Distribution::Ggx,
         0.5,
+        2500.0,
         0.0,
     )
     .unwrap();
@@ -236,7 +237,7 @@ fn steep_ggx_gold_conserves_energy_at_every_depth_limit() {
                 .display()
         ),
     );
-    gold_energy_at_depths(&s, 400, &[8, 32]);
+    gold_energy_at_depths(&s, 400, &[8, 32, 128]);
 }
 
 /// A 0.5 nm metal film at normal incidence: its internal round trip gains amplitude, so the

@@ -117,7 +117,8 @@ fn microfacet_normals_follow_ggx_and_beckmann() {
         (Distribution::Beckmann, Distribution::Ggx),
     ] {
         for alpha in [0.15, 0.5] {
-            let mesh = generate::microfacet_surface(42, [l, l], n, dist, alpha, 0.0).unwrap();
+            let mesh =
+                generate::microfacet_surface(42, [l, l], n, dist, alpha, l / 8.0, 0.0).unwrap();
             let (chi2, dof) = facet_chi2(&mesh, cell_area, dist, alpha);
             let crit = chi2_critical(dof);
             eprintln!("{dist:?} alpha {alpha}: chi2 {chi2:.1} on {dof} dof (critical {crit:.1})");
@@ -321,11 +322,12 @@ fn every_generated_sheet_tiles() {
         ("gaussian", generate::grid_mesh(tile, 64, &h, 0.0)),
         (
             "ggx",
-            generate::microfacet_surface(1, tile, 24, Distribution::Ggx, 0.6, 0.0).unwrap(),
+            generate::microfacet_surface(1, tile, 64, Distribution::Ggx, 0.6, 200.0, 0.0).unwrap(),
         ),
         (
             "beckmann",
-            generate::microfacet_surface(2, tile, 17, Distribution::Beckmann, 0.3, 0.0).unwrap(),
+            generate::microfacet_surface(2, tile, 64, Distribution::Beckmann, 0.3, 200.0, 0.0)
+                .unwrap(),
         ),
         (
             "v-grooves",
@@ -698,7 +700,7 @@ fn check_finds_defects() {
 
     // Overlapping bodies.
     let d = scratch("overlap");
-    let mut two = sphere([400.0, 500.0, 250.0], 100.0);
+    let mut two = sphere([400.0, 500.0, 330.0], 100.0);
     two.append(&sphere([520.0, 500.0, 250.0], 100.0));
     let s = write_sample(
         &d,

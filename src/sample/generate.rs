@@ -261,22 +261,41 @@ impl Distribution {
     }
 }
 
-/// A microfacet surface whose facet normals follow `D(m) cos(theta_m)` exactly: a grid of
-/// square cells, each a planar facet through the cell centre (at height `z0`) with a normal
-/// drawn independently from the distribution, joined to its neighbours by vertical walls.
+/// A microfacet surface as a periodic height field (no vertical walls, watertight, and its
+/// facets' projected-area-weighted normals follow `D(m) cos(theta_m)`): the projected-area
+/// density of a height field's facet normals is the density of its slopes over the plane,
+/// and the slope densities are, for slope `s` (Walter et al. 2007, eqs. 25 and 33 with
+/// `D(m) cos^4(theta_m) = P22(tan theta_m)`):
 ///
-/// Every facet projects onto its cell, so the projected-area-weighted histogram of facet
-/// normals is the sampled distribution; the walls are vertical and have no projected area.
-/// (The walls do change masking and shadowing with respect to the Smith model.) Wall
-/// edges on the vertical lines through grid corners are split at every facet corner height
-/// there, so the mesh has no T-junctions, and the walls at `x = Lx` and `y = Ly` join the
-/// last cells to the periodic images of the first ones.
+/// ```text
+/// Beckmann: P22(s) = exp(-|s|^2 / alpha^2) / (pi alpha^2)     P(|s| <= r) = 1 - exp(-r^2 / alpha^2)
+/// GGX:      P22(s) = 1 / (pi alpha^2 (1 + |s|^2 / alpha^2)^2) P(|s| <= r) = r^2 / (alpha^2 + r^2)
+/// ```
+///
+/// Construction, by alternating projections: a Gaussian random field with a Gaussian
+/// autocorrelation of length `corr_nm` ([`gaussian_heights`]) fixes the spatial
+/// correlation; then `ROUNDS` times, (1) the facet slopes' magnitudes are replaced, rank for
+/// rank, by the target distribution's stratified quantiles, keeping their directions (the
+/// amplitude adjustment of Schreiber & Schmitz, "Improved surrogate data for nonlinearity
+/// tests", PRL 77 (1996) 635), and (2) the heights are re-solved as the periodic height
+/// field whose facet slopes are nearest to those in least squares (the integrability
+/// projection of Frankot & Chellappa, IEEE PAMI 10 (1988) 439), by conjugate gradients, and
+/// on a square tile made invariant under 90-degree rotations ([`symmetrise`]). For
+/// Beckmann the Gaussian field's slopes are already Gaussian, so this only fixes `alpha`
+/// exactly; for GGX's heavy-tailed slopes the projection trims the extreme tail the grid
+/// cannot hold. Heights and slopes stay uncorrelated as in a stationary random process, the
+/// assumption of the Smith masking function (Smith 1967; Heitz 2014, JCGT 3(2) §5).
+///
+/// The grid has `cells x cells` squares of two triangles each; `corr_nm` must span at least
+/// `MIN_CELLS_PER_CORRELATION` cells, and the tile should hold several correlation
+/// lengths (the default is `tile / 8`: 64 correlation areas).
 pub fn microfacet_surface(
     seed: u64,
     tile_nm: [f64; 2],
     cells: usize,
     dist: Distribution,
     alpha: f64,
+    corr_nm: f64,
     z0: f64,
 ) -> Result<Mesh, String> {
     if cells == 0 {
@@ -286,226 +305,159 @@ pub fn microfacet_surface(
         return Err(format!("alpha must be positive, got {alpha}"));
     }
     let n = cells;
-    let (dx, dy) = (tile_nm[0] / n as f64, tile_nm[1] / n as f64);
-    let mut rng = Rng::new(seed, 0xFACE7);
-    let normals: Vec<[f64; 3]> = (0..n * n)
-        .map(|_| {
-            let (u1, u2) = (rng.uniform(), rng.uniform());
-            dist.sample(alpha, u1, u2)
-        })
+    let spacing = [tile_nm[0] / n as f64, tile_nm[1] / n as f64];
+    let h_nm = spacing[0].max(spacing[1]);
+    if !(corr_nm.is_finite() && corr_nm >= MIN_CELLS_PER_CORRELATION * h_nm) {
+        return Err(format!(
+            "correlation_length {corr_nm} nm spans fewer than {MIN_CELLS_PER_CORRELATION} grid cells of {h_nm:.1} nm: raise resolution to at least {} or the correlation length",
+            (MIN_CELLS_PER_CORRELATION * tile_nm[0].max(tile_nm[1]) / corr_nm).ceil()
+        ));
+    }
+    // Start: a Gaussian field (any RMS: only its shape matters), periodic n x n.
+    let g = gaussian_heights(seed, tile_nm, n, 1.0, corr_nm)?;
+    let mut h: Vec<f64> = (0..n * n).map(|k| g[(k / n) * (n + 1) + k % n]).collect();
+    let square = (tile_nm[0] - tile_nm[1]).abs() <= 1e-12 * tile_nm[0];
+    if square {
+        symmetrise(&mut h, n);
+    }
+    let quantile = |u: f64| match dist {
+        Distribution::Beckmann => alpha * (-(1.0 - u).ln()).sqrt(),
+        Distribution::Ggx => alpha * (u / (1.0 - u)).sqrt(),
+    };
+    let m = 2 * n * n;
+    let target_r: Vec<f64> = (0..m)
+        .map(|k| quantile((k as f64 + 0.5) / m as f64))
         .collect();
-    // Height of cell (ci, cj) (unwrapped, may be -1 ..= n) at grid corner (gi, gj).
-    let height = |ci: i64, cj: i64, gi: i64, gj: i64| -> f64 {
-        let m = normals[(cj.rem_euclid(n as i64) as usize) * n + ci.rem_euclid(n as i64) as usize];
-        // Offsets from the cell centre in whole grid units, so a cell and its periodic
-        // image give bit-identical heights.
-        let (ox, oy) = (((gi - ci) as f64 - 0.5) * dx, ((gj - cj) as f64 - 0.5) * dy);
-        z0 - (m[0] * ox + m[1] * oy) / m[2]
-    };
-    let mut mesh = Mesh::default();
-    // Vertices are shared by exact position: every point is computed by one formula.
-    let mut index: HashMap<[u64; 3], u32> = HashMap::new();
-    let mut vert = |mesh: &mut Mesh, p: [f64; 3]| -> u32 {
-        *index.entry(p.map(f64::to_bits)).or_insert_with(|| {
-            mesh.positions_nm.push(p);
-            (mesh.positions_nm.len() - 1) as u32
-        })
-    };
-    let pt = |g: (i64, i64), z: f64| [g.0 as f64 * dx, g.1 as f64 * dy, z];
-    // Sorted distinct heights on the vertical line through grid corner (gi, gj).
-    let corner_heights = |gi: i64, gj: i64| -> Vec<f64> {
-        let mut hs = vec![
-            height(gi - 1, gj - 1, gi, gj),
-            height(gi, gj - 1, gi, gj),
-            height(gi - 1, gj, gi, gj),
-            height(gi, gj, gi, gj),
-        ];
-        hs.sort_by(f64::total_cmp);
-        hs.dedup();
-        hs
-    };
-    // Walls lie on grid lines between cell A (lower coordinate side) and cell B, with
-    // vertical sides at grid corners g0 and g1. Walls at x = Lx and y = Ly join the last
-    // cells to the images of the first ones.
-    struct Wall {
-        a: (i64, i64),
-        b: (i64, i64),
-        g0: (i64, i64),
-        g1: (i64, i64),
-        along_x: bool,
-    }
-    let mut walls: Vec<Wall> = Vec::new();
-    for cj in 0..n as i64 {
-        for gi in 1..=n as i64 {
-            walls.push(Wall {
-                a: (gi - 1, cj),
-                b: (gi, cj),
-                g0: (gi, cj),
-                g1: (gi, cj + 1),
-                along_x: true,
-            });
+    let mut slopes = vec![[0.0; 2]; m];
+    let mut order: Vec<u32> = (0..m as u32).collect();
+    for _ in 0..ROUNDS {
+        facet_slopes(&h, n, spacing, &mut slopes);
+        order.sort_unstable_by(|&a, &b| {
+            let r = |k: u32| slopes[k as usize][0].hypot(slopes[k as usize][1]);
+            r(a).total_cmp(&r(b))
+        });
+        for (rank, &k) in order.iter().enumerate() {
+            let s = &mut slopes[k as usize];
+            let r = s[0].hypot(s[1]);
+            let f = if r > 0.0 { target_r[rank] / r } else { 0.0 };
+            *s = [s[0] * f, s[1] * f];
+        }
+        integrate_slopes(&slopes, n, spacing, &mut h);
+        if square {
+            symmetrise(&mut h, n);
         }
     }
-    for gj in 1..=n as i64 {
-        for ci in 0..n as i64 {
-            walls.push(Wall {
-                a: (ci, gj - 1),
-                b: (ci, gj),
-                g0: (ci, gj),
-                g1: (ci + 1, gj),
-                along_x: false,
-            });
+    // The grid with the last row and column repeating the first (periodic edges coincide).
+    let mut grid = vec![0.0; (n + 1) * (n + 1)];
+    for j in 0..=n {
+        for i in 0..=n {
+            grid[j * (n + 1) + i] = h[(j % n) * n + i % n];
         }
     }
-    // Where the two facet edges of a wall cross (a "bow tie"), both facets' edges and the
-    // wall share the crossing point: (t along the wall from g0, z). Keyed by the wall's
-    // grid segment, wrapped so that the edges at x = 0 and y = 0 see the walls at Lx, Ly.
-    let heights_of = |w: &Wall| {
-        (
-            [
-                height(w.a.0, w.a.1, w.g0.0, w.g0.1),
-                height(w.a.0, w.a.1, w.g1.0, w.g1.1),
-            ],
-            [
-                height(w.b.0, w.b.1, w.g0.0, w.g0.1),
-                height(w.b.0, w.b.1, w.g1.0, w.g1.1),
-            ],
-        )
-    };
-    let mut crossing: HashMap<(bool, i64, i64), (f64, f64)> = HashMap::new();
-    for w in &walls {
-        let (za, zb) = heights_of(w);
-        let (d0, d1) = (za[0] - zb[0], za[1] - zb[1]);
-        if d0 * d1 < 0.0 {
-            let t = d0 / (d0 - d1);
-            let key = if w.along_x {
-                (true, w.g0.0 % n as i64, w.g0.1)
-            } else {
-                (false, w.g0.0, w.g0.1 % n as i64)
-            };
-            crossing.insert(key, (t, za[0] + t * (za[1] - za[0])));
-        }
-    }
-    // The crossing point on grid segment g0 -> g1 (unit step along x or y), if any.
-    let crossing_on = |g0: (i64, i64), along_x: bool| -> Option<[f64; 3]> {
-        let key = if along_x {
-            (true, g0.0 % n as i64, g0.1)
-        } else {
-            (false, g0.0, g0.1 % n as i64)
-        };
-        crossing.get(&key).map(|&(t, z)| {
-            if along_x {
-                [g0.0 as f64 * dx, (g0.1 as f64 + t) * dy, z]
-            } else {
-                [(g0.0 as f64 + t) * dx, g0.1 as f64 * dy, z]
-            }
-        })
-    };
-    // Facets: a fan from the cell centre over the corners and any crossing points on the
-    // cell's edges (counter-clockwise seen from above, so normals point up).
-    for cj in 0..n as i64 {
-        for ci in 0..n as i64 {
-            let h = |g: (i64, i64)| pt(g, height(ci, cj, g.0, g.1));
-            let (c00, c10, c11, c01) = ((ci, cj), (ci + 1, cj), (ci + 1, cj + 1), (ci, cj + 1));
-            let mut ring = vec![h(c00)];
-            ring.extend(crossing_on(c00, false)); // bottom edge, along +x
-            ring.push(h(c10));
-            ring.extend(crossing_on(c10, true)); // right edge, along +y
-            ring.push(h(c11));
-            ring.extend(crossing_on(c01, false)); // top edge, stored from c01 along +x
-            ring.push(h(c01));
-            ring.extend(crossing_on(c00, true)); // left edge, stored from c00 along +y
-            // The top and left crossings were found going +x / +y; the ring walks them
-            // backwards, which is the same point.
-            let centre = [(ci as f64 + 0.5) * dx, (cj as f64 + 0.5) * dy, z0];
-            let cid = vert(&mut mesh, centre);
-            let ids: Vec<u32> = ring.iter().map(|&p| vert(&mut mesh, p)).collect();
-            for k in 0..ids.len() {
-                mesh.triangles.push([cid, ids[k], ids[(k + 1) % ids.len()]]);
-            }
-        }
-    }
-    for w in &walls {
-        let (za, zb) = heights_of(w);
-        let (d0, d1) = (za[0] - zb[0], za[1] - zb[1]);
-        // Points of the vertical side at corner g between heights lo and hi, inclusive.
-        let side = |g: (i64, i64), lo: f64, hi: f64| -> Vec<[f64; 3]> {
-            corner_heights(g.0, g.1)
-                .into_iter()
-                .filter(|&z| z >= lo && z <= hi)
-                .map(|z| pt(g, z))
-                .collect()
-        };
-        let s0 = side(w.g0, za[0].min(zb[0]), za[0].max(zb[0]));
-        let s1 = side(w.g1, za[1].min(zb[1]), za[1].max(zb[1]));
-        let tris = if d0 * d1 >= 0.0 {
-            if s0.len() < 2 && s1.len() < 2 {
-                continue; // the facets meet along the whole edge: no wall
-            }
-            ladder(&s0, &s1)
-        } else {
-            let x = crossing_on(w.g0, w.along_x).expect("crossing recorded for every bow tie");
-            let mut t = fan(x, &s0);
-            t.extend(fan(x, &s1));
-            t
-        };
-        for tri in tris.chunks_exact(3) {
-            let [p, q, r] = [tri[0], tri[1], tri[2]];
-            // Face the region above the surface: +axis where facet A is the higher one at
-            // this triangle's position along the wall.
-            let c = [(p[0] + q[0] + r[0]) / 3.0, (p[1] + q[1] + r[1]) / 3.0];
-            let s = if w.along_x {
-                c[1] / dy - w.g0.1 as f64
-            } else {
-                c[0] / dx - w.g0.0 as f64
-            };
-            let want_positive = d0 + s * (d1 - d0) > 0.0;
-            let nrm = cross(sub(q, p), sub(r, p));
-            let axis_component = if w.along_x { nrm[0] } else { nrm[1] };
-            let ids = [p, q, r].map(|v| vert(&mut mesh, v));
-            if (axis_component > 0.0) == want_positive {
-                mesh.triangles.push(ids);
-            } else {
-                mesh.triangles.push([ids[0], ids[2], ids[1]]);
-            }
-        }
-    }
-    // Drop zero-area wall slivers (walls where both facets meet exactly).
-    let keep: Vec<bool> = (0..mesh.triangles.len())
-        .map(|i| !mesh.is_degenerate(i))
-        .collect();
-    let mut k = keep.iter();
-    mesh.triangles.retain(|_| *k.next().unwrap_or(&true));
-    Ok(mesh)
+    Ok(grid_mesh(tile_nm, n, &grid, z0))
 }
 
-/// Triangles (as a flat list of corners) between two vertical point chains, each sorted
-/// by height: the "ladder" triangulation of a convex polygon with two vertical sides.
-fn ladder(a: &[[f64; 3]], b: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    let mut out = Vec::new();
-    let (mut i, mut j) = (0, 0);
-    while i + 1 < a.len() || j + 1 < b.len() {
-        let advance_a = if i + 1 >= a.len() {
-            false
-        } else if j + 1 >= b.len() {
-            true
-        } else {
-            a[i + 1][2] <= b[j + 1][2]
-        };
-        if advance_a {
-            out.extend([a[i], a[i + 1], b[j]]);
-            i += 1;
-        } else {
-            out.extend([a[i], b[j + 1], b[j]]);
-            j += 1;
+/// Averages the periodic square height field with its copies rotated by 90, 180 and 270
+/// degrees about the grid origin, `(i, j) -> (-j, i)`: the surface becomes invariant under
+/// those rotations, so its slope directions are isotropic to 4-fold symmetry by
+/// construction (a tile of a few dozen correlation areas is visibly anisotropic by chance),
+/// while heights and slopes stay a linear, integrable field.
+fn symmetrise(h: &mut [f64], n: usize) {
+    let at = |h: &[f64], i: usize, j: usize| h[j * n + i];
+    let old = h.to_vec();
+    for j in 0..n {
+        for i in 0..n {
+            let (ni, nj) = ((n - i) % n, (n - j) % n);
+            h[j * n + i] =
+                0.25 * (at(&old, i, j) + at(&old, nj, i) + at(&old, ni, nj) + at(&old, j, ni));
         }
     }
-    out
 }
 
-/// A fan of triangles from `apex` over consecutive points of `chain`.
-fn fan(apex: [f64; 3], chain: &[[f64; 3]]) -> Vec<[f64; 3]> {
-    chain.windows(2).flat_map(|w| [apex, w[0], w[1]]).collect()
+/// Rounds of slope adjustment and integration in [`microfacet_surface`].
+const ROUNDS: usize = 12;
+/// Grid cells a microfacet surface's correlation length must span at least.
+pub const MIN_CELLS_PER_CORRELATION: f64 = 4.0;
+
+/// Facet slopes `(dz/dx, dz/dy)` of the periodic height field `h` (`n x n`, spacings `d`):
+/// per cell `(i, j)` the triangles `[(i,j), (i+1,j), (i+1,j+1)]` and `[(i,j), (i+1,j+1),
+/// (i,j+1)]` of [`grid_mesh`], at index `2 (j n + i)` and the next.
+fn facet_slopes(h: &[f64], n: usize, d: [f64; 2], out: &mut [[f64; 2]]) {
+    let at = |i: usize, j: usize| h[(j % n) * n + i % n];
+    for j in 0..n {
+        for i in 0..n {
+            let (a, b, c, e) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            out[2 * (j * n + i)] = [(b - a) / d[0], (c - b) / d[1]];
+            out[2 * (j * n + i) + 1] = [(c - e) / d[0], (e - a) / d[1]];
+        }
+    }
+}
+
+/// `A^T s`: the adjoint of [`facet_slopes`] with unit spacings, into `out`.
+fn facet_slopes_adjoint(s: &[[f64; 2]], n: usize, out: &mut [f64]) {
+    out.iter_mut().for_each(|v| *v = 0.0);
+    let idx = |i: usize, j: usize| (j % n) * n + i % n;
+    for j in 0..n {
+        for i in 0..n {
+            let [t1x, t1y] = s[2 * (j * n + i)];
+            let [t2x, t2y] = s[2 * (j * n + i) + 1];
+            // t1x = b - a, t1y = c - b, t2x = c - e, t2y = e - a.
+            out[idx(i, j)] -= t1x + t2y;
+            out[idx(i + 1, j)] += t1x - t1y;
+            out[idx(i + 1, j + 1)] += t1y + t2x;
+            out[idx(i, j + 1)] += t2y - t2x;
+        }
+    }
+}
+
+/// Least-squares heights for target facet slopes: with `A` the height differences along
+/// each facet's edges, solves `A^T A h = A^T (d s)` (target differences) on the periodic
+/// grid, as Frankot & Chellappa (1988) do, by FFT: `A^T A` is a convolution whose symbol
+/// for this triangulation is `2 (2 - 2 cos u) + 2 (2 - 2 cos v)` (each cell holds two x
+/// and two y differences), so the solution is exact in one step. The mean height is 0.
+fn integrate_slopes(s: &[[f64; 2]], n: usize, d: [f64; 2], h: &mut [f64]) {
+    use rustfft::FftPlanner;
+    use rustfft::num_complex::Complex;
+    let scaled: Vec<[f64; 2]> = s.iter().map(|v| [v[0] * d[0], v[1] * d[1]]).collect();
+    let mut rhs = vec![0.0; n * n];
+    facet_slopes_adjoint(&scaled, n, &mut rhs);
+    let mut planner = FftPlanner::<f64>::new();
+    let (fwd, inv) = (planner.plan_fft_forward(n), planner.plan_fft_inverse(n));
+    let mut grid: Vec<Complex<f64>> = rhs.iter().map(|&v| Complex::new(v, 0.0)).collect();
+    let transform = |grid: &mut Vec<Complex<f64>>, fft: &dyn rustfft::Fft<f64>| {
+        // Rows (x), then columns (y) through a transpose.
+        fft.process(grid);
+        let mut t = vec![Complex::new(0.0, 0.0); n * n];
+        for j in 0..n {
+            for i in 0..n {
+                t[i * n + j] = grid[j * n + i];
+            }
+        }
+        fft.process(&mut t);
+        for j in 0..n {
+            for i in 0..n {
+                grid[j * n + i] = t[i * n + j];
+            }
+        }
+    };
+    transform(&mut grid, fwd.as_ref());
+    for j in 0..n {
+        for i in 0..n {
+            let (u, v) = (TAU * i as f64 / n as f64, TAU * j as f64 / n as f64);
+            let symbol = 2.0 * (2.0 - 2.0 * u.cos()) + 2.0 * (2.0 - 2.0 * v.cos());
+            let k = j * n + i;
+            grid[k] = if symbol > 0.0 {
+                grid[k] / symbol
+            } else {
+                Complex::new(0.0, 0.0)
+            };
+        }
+    }
+    transform(&mut grid, inv.as_ref());
+    let scale = 1.0 / (n * n) as f64;
+    for (hk, g) in h.iter_mut().zip(&grid) {
+        *hk = g.re * scale;
+    }
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -954,6 +906,8 @@ pub enum GeneratorSpec {
         distribution: Distribution,
         alpha: f64,
         resolution: usize,
+        /// Correlation length of the heights, in the sample's unit (default: tile / 8).
+        correlation_length: Option<f64>,
         #[serde(default = "default_seed")]
         seed: u64,
         #[serde(default)]
@@ -1109,16 +1063,19 @@ impl GeneratorSpec {
                 distribution,
                 alpha,
                 resolution,
+                correlation_length,
                 seed,
                 z,
             } => {
                 check_resolution(resolution)?;
+                let corr = correlation_length.map_or(tile_nm[0] / 8.0, |l| l * u);
                 Generated::Sheet(microfacet_surface(
                     seed,
                     tile_nm,
                     resolution,
                     distribution,
                     alpha,
+                    corr,
                     z * u,
                 )?)
             }
