@@ -692,8 +692,13 @@ const ROUNDING: f64 = 1e-9;
 /// deg, 400-700 nm): at most 1.9e-3 (the seed's wavy film), 4.5e-5 on flat films, 0
 /// elsewhere. The plane-wave limit (`rho = inf`) and the other estimators get none.
 pub const BEAMLET_ENERGY_SLACK: f64 = 5e-3;
+/// Mean power per tree cut by limits above which a result is refused as not converged: its
+/// R and T are then uncertain by up to `2 sqrt(0.01) = 0.2`. (The shipped multiply
+/// scattering paints cut 3e-3 to 5e-3 at `--cutoff 1e-4`: a warning, not a refusal.)
+pub const NOT_CONVERGED: f64 = 1e-2;
 
-/// Refuses impossible results (DESIGN.md §4, "never clamp silently"): in every cell
+/// Refuses impossible and unconverged results (DESIGN.md §4, "never clamp silently"): a
+/// cell that lost more than [`NOT_CONVERGED`] of its power to limits, and in every cell
 /// (incident direction, wavelength), a reflectance or transmittance above 1 or below 0, a
 /// negative absorbed power or `R + T + dropped > 1` (energy created). (A single bucket
 /// may end negative where a pair of one tree's exits straddles a bucket edge and their
@@ -748,7 +753,12 @@ pub fn check_physical(
             } else {
                 String::new()
             };
-            let what = if r > 1.0 + tol {
+            let what = if d_limit > NOT_CONVERGED {
+                Some(format!(
+                    "the ray series did not converge: {d_limit:.1e} of the launched power per tree was cut by --max-depth / --max-segments, so R and T are uncertain by up to 2 sqrt({d_limit:.1e}) = {:.2}",
+                    2.0 * d_limit.sqrt()
+                ))
+            } else if r > 1.0 + tol {
                 Some(format!("R = {r:.9} > 1"))
             } else if r < -tol {
                 Some(format!("R = {r:.3e} < 0"))
@@ -774,9 +784,10 @@ pub fn check_physical(
                     "sample '{sample_name}', theta_i {theta} deg, phi_i {} deg, lambda {} nm: {what} \
                      (tolerance {tol:.1e}: rounding, {NOISE_SIGMAS} standard errors and the dropped \
                      power's coherent bound; energy balances also {slack:.0e} for partial coherence). The result is \
-                     impossible and was not written.{hint} Likely causes: an absorbing region thinner than \
-                     its decay length, where the ray series of a meshed layer does not converge (model \
-                     thin absorbing layers as a flat [stack] or coating); or a bug. Pass \
+                     impossible and was not written.{hint} Likely causes: meshed thin layers whose ray \
+                     series does not converge (high-contrast multilayers, absorbing layers thinner \
+                     than their decay length): model them as a coating, a [stack] in its default \
+                     mode or coating = [...] on the interface (docs/physics.md); or a bug. Pass \
                      --allow-unphysical to write it anyway for debugging.",
                     s.phi_i_deg,
                     s.wavelength(j),
