@@ -108,6 +108,11 @@ enum Command {
     ///            --param rms=0.1 --param correlation_length=2 --param resolution=128 -o rough.obj
     #[command(verbatim_doc_comment)]
     Generate(GenerateArgs),
+    /// Fits a real-time material (GGX roughness, a base and an optional thin film) to a
+    /// simulated one and writes it for glTF 2.0 (KHR_materials_iridescence / _ior), OpenPBR
+    /// and Standard Surface. Example: goniospec fit film.gsa -o film  (writes film.json and
+    /// film.gltf; prints the parameters, their residual and Delta E2000 per angle).
+    Fit(FitArgs),
     /// Benchmarks; each prints its figures.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -287,6 +292,31 @@ struct MergeArgs {
     /// Output accumulator.
     #[arg(short, long)]
     output: PathBuf,
+}
+
+#[derive(Args)]
+struct FitArgs {
+    /// A .gsa accumulator with several incident angles (more angles separate a film's
+    /// thickness from its index).
+    file: PathBuf,
+    /// Output prefix: writes PREFIX.json (the fit, OpenPBR and Standard Surface parameter
+    /// sets) and PREFIX.gltf (a sphere with the material).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Base under the film: a dielectric (one real index), a conductor (a complex index per
+    /// wavelength), or whichever fits better.
+    #[arg(long, value_enum, default_value_t = FitBase::Auto)]
+    base: FitBase,
+    /// Do not try a thin film.
+    #[arg(long)]
+    no_film: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum FitBase {
+    Auto,
+    Dielectric,
+    Conductor,
 }
 
 #[derive(Args)]
@@ -578,6 +608,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Render(a) => render(a),
         Command::Study(a) => study(a),
         Command::Generate(a) => generate(a),
+        Command::Fit(a) => fit(a),
         Command::Bench(BenchCommand::Trace(a)) => bench_trace(a),
         Command::Bench(BenchCommand::Simulate(a)) => bench_simulate(a),
         Command::Bench(BenchCommand::Eval(a)) => bench_eval(a),
@@ -733,6 +764,73 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     }
     println!("wrote {}", a.output.display());
     Ok(ExitCode::SUCCESS)
+}
+
+fn fit(a: FitArgs) -> Result<ExitCode> {
+    use goniospec::fit;
+    let acc = Accumulator::read(&a.file)?;
+    let with_ext = |ext: &str| {
+        let mut p = a.output.clone().into_os_string();
+        p.push(ext);
+        PathBuf::from(p)
+    };
+    let (json_path, gltf_path) = (with_ext(".json"), with_ext(".gltf"));
+    for p in [&json_path, &gltf_path] {
+        if same_file(p, &a.file) {
+            bail!(
+                "{} would overwrite the input {}",
+                p.display(),
+                a.file.display()
+            );
+        }
+    }
+    let data = fit::Data::from_accumulator(&acc);
+    let kind = match a.base {
+        FitBase::Auto => fit::BaseKind::Auto,
+        FitBase::Dielectric => fit::BaseKind::Dielectric,
+        FitBase::Conductor => fit::BaseKind::Conductor,
+    };
+    let f = fit::fit(&data, kind, !a.no_film);
+    fit::write_json(&json_path, &fit::to_json(&f, &data))
+        .with_context(|| format!("writing {}", json_path.display()))?;
+    let name = acc.header.settings.sample_name.clone();
+    fit::write_json(&gltf_path, &fit::to_gltf(&f, &data, &name))
+        .with_context(|| format!("writing {}", gltf_path.display()))?;
+    println!("ggx_alpha: {:.4}", f.alpha);
+    match &f.base {
+        fit::Base::Dielectric { n } => println!("base: dielectric, ior {n:.4}"),
+        fit::Base::Conductor { n } => println!(
+            "base: conductor, n + ik from {:.3} + {:.3}i to {:.3} + {:.3}i",
+            n[0].re,
+            n[0].im,
+            n[n.len() - 1].re,
+            n[n.len() - 1].im
+        ),
+    }
+    match f.film {
+        Some(m) => println!(
+            "film: thickness {:.1} nm, ior {:.4}, weight {:.3}",
+            m.thickness_nm, m.n, m.weight
+        ),
+        None => println!("film: none"),
+    }
+    println!("rms_reflectance_error: {:.2e}", f.rms_residual);
+    for (t, de) in data.theta_i_rad.iter().zip(&f.delta_e2000) {
+        println!("delta_e2000_theta_{:.0}: {de:.2}", t.to_degrees());
+    }
+    for w in &f.warnings {
+        eprintln!("warning: {w}");
+    }
+    println!("wrote {} and {}", json_path.display(), gltf_path.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Whether two paths name the same existing file.
+fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    }
 }
 
 fn merge(a: MergeArgs) -> Result<ExitCode> {

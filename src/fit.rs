@@ -1,0 +1,704 @@
+//! Fits a parametric real-time material to a simulated one: GGX roughness, a base
+//! (dielectric index, or a conductor's complex index per wavelength) and an optional thin
+//! film (thickness, index, weight), and writes them for glTF 2.0
+//! (`KHR_materials_iridescence`, `KHR_materials_ior`), OpenPBR and Autodesk Standard Surface.
+//!
+//! Model: the single-scattering GGX microfacet BRDF with height-correlated Smith masking
+//! (Walter, Marschner, Li & Torrance, EGSR 2007, eqs. 20, 33, 34; Heitz 2014, JCGT 3(2),
+//! eq. 99),
+//!
+//! ```text
+//! f(wi, wo, lambda) = F(theta_d, lambda) D(h) G2(wi, wo) / (4 cos(theta_i) cos(theta_o))
+//! F = w F_film + (1 - w) F_base
+//! ```
+//!
+//! where `F_film` is the Airy reflectance of a film of index `n_f` and thickness `d` on the
+//! base (the transfer-matrix method; Belcour & Barla, SIGGRAPH 2017, evaluate the same
+//! quantity for rendering) and `theta_d` the angle between `wi` and `h`.
+//!
+//! The fit runs in three stages on the accumulator's own buckets:
+//! 1. roughness: the wavelength-averaged lobe's shape against `D G2 / (4 cos cos)` integrated
+//!    over every bucket (4 x 4 points each), a free scale per incident angle, golden-section
+//!    search on `log(alpha)`;
+//! 2. base: directional reflectance `R(theta_i, lambda)` against `E(theta_i) F(theta_i,
+//!    lambda)`, `E` the model's own directional albedo with `F = 1` (the specular lobe is
+//!    narrow enough that `F` at `theta_i` stands for it; docs/fitting.md);
+//! 3. film: a grid over thickness (5 nm steps, 20-2000 nm) and index (1.2-2.6) for the
+//!    multimodal start, then Nelder-Mead on (d, n_f, w, n_b), with the CIELAB colour
+//!    difference of every incident angle's reflected spectrum under D65 added to the squared
+//!    reflectance error so highlights and colour both count (1 unit of Delta E weighs as
+//!    0.01 of reflectance).
+
+use std::path::Path;
+
+use crate::accumulate::file::Accumulator;
+use crate::optics::C64;
+use crate::optics::tmm::{self, StackIndices};
+use crate::optics::vec3::{dot, from_spherical};
+use crate::render::colour;
+
+/// The simulated data a fit uses.
+pub struct Data {
+    pub theta_i_rad: Vec<f64>,
+    pub phi_i_rad: f64,
+    pub lambda_nm: Vec<f64>,
+    /// `r[i][j]`: directional reflectance at incident angle i, wavelength j.
+    pub r: Vec<Vec<f64>>,
+    /// `lobe[i][b]`: wavelength-averaged power fraction in reflection bucket b.
+    pub lobe: Vec<Vec<f64>>,
+    pub buckets: crate::accumulate::Buckets,
+}
+
+impl Data {
+    pub fn from_accumulator(acc: &Accumulator) -> Data {
+        let s = &acc.header.settings;
+        let mode = s.coherence_mode();
+        let buckets = s.buckets();
+        let nl = s.wavelength_count();
+        let mut r = Vec::new();
+        let mut lobe = Vec::new();
+        for i in 0..s.theta_i_deg.len() {
+            let mut row = Vec::new();
+            let mut l = vec![0.0; buckets.len()];
+            for j in 0..nl {
+                let c = acc.cell(i, j);
+                row.push(c.totals(mode, &buckets).0);
+                for (b, v) in l.iter_mut().enumerate() {
+                    *v += c.fraction(2 * b, mode) / nl as f64;
+                }
+            }
+            r.push(row);
+            lobe.push(l);
+        }
+        Data {
+            theta_i_rad: s.theta_i_deg.iter().map(|t| t.to_radians()).collect(),
+            phi_i_rad: s.phi_i_deg.to_radians(),
+            lambda_nm: (0..nl).map(|j| s.wavelength(j)).collect(),
+            r,
+            lobe,
+            buckets,
+        }
+    }
+}
+
+/// The base under the film.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Base {
+    /// A dielectric of real index `n`.
+    Dielectric { n: f64 },
+    /// A conductor with a complex index per wavelength of the data.
+    Conductor { n: Vec<C64> },
+}
+
+/// A thin film on the base.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Film {
+    pub thickness_nm: f64,
+    pub n: f64,
+    /// Weight of the filmed Fresnel term (glTF `iridescenceFactor`), 0..1.
+    pub weight: f64,
+}
+
+/// A fitted material with its errors against the simulation.
+#[derive(Clone, Debug)]
+pub struct Fit {
+    pub alpha: f64,
+    pub base: Base,
+    pub film: Option<Film>,
+    /// RMS of `R_model - R_sim` over incident angles and wavelengths.
+    pub rms_residual: f64,
+    /// CIEDE2000 between the model's and the simulation's reflected colour under D65, per
+    /// incident angle.
+    pub delta_e2000: Vec<f64>,
+    /// Plain words on where the model falls short, if it does.
+    pub warnings: Vec<String>,
+}
+
+/// Smith's Lambda for GGX (Heitz 2014 eq. 86).
+fn ggx_lambda(alpha: f64, cos: f64) -> f64 {
+    let c2 = (cos * cos).min(1.0);
+    let tan2 = (1.0 - c2) / c2.max(1e-300);
+    0.5 * (-1.0 + (1.0 + alpha * alpha * tan2).sqrt())
+}
+
+/// Per reflection bucket: the model lobe without Fresnel, `integral over the bucket of D G2
+/// / (4 cos_i cos_o) dw_o cos_o`, for incidence at `(theta_i, phi_i)`. Computed in
+/// half-vector space, where it is `integral D(h) cos(theta_h) [G2 |wi . h| / (cos_i
+/// cos(theta_h))] dw_h` (`dw_o = 4 |wi . h| dw_h`; Walter et al. 2007 eqs. 13-14): half
+/// vectors on a stratified `K x K` grid of the GGX sampling map (eqs. 35-36), each
+/// reflected into its bucket. Exact in the limit and accurate for lobes far narrower than a
+/// bucket, where a quadrature over the buckets would miss the peak.
+fn lobe_model(data: &Data, alpha: f64, theta_i: f64) -> Vec<f64> {
+    const K: usize = 128;
+    let wi = from_spherical(theta_i, data.phi_i_rad);
+    let ci = wi[2];
+    let mut out = vec![0.0; data.buckets.len()];
+    for a in 0..K {
+        let u1 = (a as f64 + 0.5) / K as f64;
+        let tan2 = alpha * alpha * u1 / (1.0 - u1);
+        let ch = 1.0 / (1.0 + tan2).sqrt();
+        let sh = (1.0 - ch * ch).max(0.0).sqrt();
+        for c in 0..K {
+            let phi = std::f64::consts::TAU * (c as f64 + 0.5) / K as f64;
+            let h = [sh * phi.cos(), sh * phi.sin(), ch];
+            let ih = dot(wi, h);
+            if ih <= 0.0 {
+                continue;
+            }
+            let wo = [
+                2.0 * ih * h[0] - wi[0],
+                2.0 * ih * h[1] - wi[1],
+                2.0 * ih * h[2] - wi[2],
+            ];
+            if wo[2] <= 0.0 {
+                continue;
+            }
+            let g2 = 1.0 / (1.0 + ggx_lambda(alpha, ci) + ggx_lambda(alpha, wo[2]));
+            out[data.buckets.index(wo)] += g2 * ih / (ci * ch) / (K * K) as f64;
+        }
+    }
+    out
+}
+
+/// Stage 1: `alpha` from the lobe shape.
+pub fn fit_alpha(data: &Data) -> f64 {
+    let cost = |log_a: f64| {
+        let alpha = log_a.exp();
+        let mut e = 0.0;
+        for (i, &th) in data.theta_i_rad.iter().enumerate() {
+            let m = lobe_model(data, alpha, th);
+            let obs = &data.lobe[i];
+            // Best scale per incident angle (linear least squares).
+            let (mo, mm) = m
+                .iter()
+                .zip(obs)
+                .fold((0.0, 0.0), |(a, b), (x, y)| (a + x * y, b + x * x));
+            let s = if mm > 0.0 { mo / mm } else { 0.0 };
+            let norm: f64 = obs.iter().map(|y| y * y).sum::<f64>().max(1e-300);
+            e += m
+                .iter()
+                .zip(obs)
+                .map(|(x, y)| (s * x - y).powi(2))
+                .sum::<f64>()
+                / norm;
+        }
+        e
+    };
+    golden(cost, (0.01f64).ln(), (1.0f64).ln(), 40).exp()
+}
+
+/// Golden-section minimisation of `f` on `[a, b]`.
+fn golden(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64, iters: usize) -> f64 {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..iters {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - g * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + g * (b - a);
+            fd = f(d);
+        }
+    }
+    0.5 * (a + b)
+}
+
+/// Nelder-Mead minimisation from `x0` with initial steps `step` (Nelder & Mead, Computer
+/// Journal 7 (1965) 308; standard coefficients 1, 2, 0.5, 0.5).
+fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: &[f64], iters: usize) -> Vec<f64> {
+    let n = x0.len();
+    let mut pts: Vec<Vec<f64>> = vec![x0.to_vec()];
+    for k in 0..n {
+        let mut p = x0.to_vec();
+        p[k] += step[k];
+        pts.push(p);
+    }
+    let mut vals: Vec<f64> = pts.iter().map(|p| f(p)).collect();
+    for _ in 0..iters {
+        let mut idx: Vec<usize> = (0..=n).collect();
+        idx.sort_by(|&a, &b| vals[a].total_cmp(&vals[b]));
+        pts = idx.iter().map(|&i| pts[i].clone()).collect();
+        vals = idx.iter().map(|&i| vals[i]).collect();
+        let centroid: Vec<f64> = (0..n)
+            .map(|k| pts[..n].iter().map(|p| p[k]).sum::<f64>() / n as f64)
+            .collect();
+        let along = |t: f64| -> Vec<f64> {
+            (0..n)
+                .map(|k| centroid[k] + t * (pts[n][k] - centroid[k]))
+                .collect()
+        };
+        let xr = along(-1.0);
+        let fr = f(&xr);
+        if fr < vals[0] {
+            let xe = along(-2.0);
+            let fe = f(&xe);
+            if fe < fr {
+                pts[n] = xe;
+                vals[n] = fe;
+            } else {
+                pts[n] = xr;
+                vals[n] = fr;
+            }
+        } else if fr < vals[n - 1] {
+            pts[n] = xr;
+            vals[n] = fr;
+        } else {
+            let xc = along(0.5);
+            let fc = f(&xc);
+            if fc < vals[n] {
+                pts[n] = xc;
+                vals[n] = fc;
+            } else {
+                let best = pts[0].clone();
+                for i in 1..=n {
+                    for (x, b) in pts[i].iter_mut().zip(&best) {
+                        *x = b + 0.5 * (*x - b);
+                    }
+                    vals[i] = f(&pts[i]);
+                }
+            }
+        }
+    }
+    let best = (0..=n)
+        .min_by(|&a, &b| vals[a].total_cmp(&vals[b]))
+        .unwrap_or(0);
+    pts[best].clone()
+}
+
+/// Unpolarised reflectance at `theta` (radians, in air) of the base, or of the film on it,
+/// at wavelength index `j`.
+fn reflectance(base: &Base, film: Option<(f64, f64)>, theta: f64, lambda: f64, j: usize) -> f64 {
+    let nb = match base {
+        Base::Dielectric { n } => C64::new(*n, 0.0),
+        Base::Conductor { n } => n[j],
+    };
+    let (n, d_nm) = match film {
+        Some((d, nf)) => (vec![C64::new(1.0, 0.0), C64::new(nf, 0.0), nb], vec![d]),
+        None => (vec![C64::new(1.0, 0.0), nb], Vec::new()),
+    };
+    tmm::solve(&StackIndices { n, d_nm }, lambda, theta).r()
+}
+
+/// The model's reflectance table `R[i][j]` for given parameters and albedos `e[i]`.
+fn model_r(data: &Data, e: &[f64], base: &Base, film: Option<Film>) -> Vec<Vec<f64>> {
+    data.theta_i_rad
+        .iter()
+        .enumerate()
+        .map(|(i, &th)| {
+            data.lambda_nm
+                .iter()
+                .enumerate()
+                .map(|(j, &l)| {
+                    let fb = reflectance(base, None, th, l, j);
+                    let f = match film {
+                        Some(fm) => {
+                            fm.weight * reflectance(base, Some((fm.thickness_nm, fm.n)), th, l, j)
+                                + (1.0 - fm.weight) * fb
+                        }
+                        None => fb,
+                    };
+                    e[i] * f
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Sum of squared reflectance errors plus the colour term (see the module docs).
+fn cost(data: &Data, m: &[Vec<f64>], weights: &[[f64; 3]], white: [f64; 3]) -> f64 {
+    let mut e = 0.0;
+    for (mr, dr) in m.iter().zip(&data.r) {
+        for (a, b) in mr.iter().zip(dr) {
+            e += (a - b).powi(2);
+        }
+        let (la, lb) = (
+            colour::lab(colour::xyz(mr, weights), white),
+            colour::lab(colour::xyz(dr, weights), white),
+        );
+        let de2 = (0..3).map(|k| (la[k] - lb[k]).powi(2)).sum::<f64>();
+        e += 1e-4 * de2;
+    }
+    e
+}
+
+/// Which bases and films to try.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BaseKind {
+    Dielectric,
+    Conductor,
+    Auto,
+}
+
+/// Runs the three stages.
+pub fn fit(data: &Data, base_kind: BaseKind, try_film: bool) -> Fit {
+    let alpha = fit_alpha(data);
+    let e: Vec<f64> = data
+        .theta_i_rad
+        .iter()
+        .map(|&th| lobe_model(data, alpha, th).iter().sum::<f64>().min(1.0))
+        .collect();
+    let weights = colour::bin_weights(&data.lambda_nm);
+    let white = colour::xyz(&vec![1.0; data.lambda_nm.len()], &weights);
+    let total = |base: &Base, film: Option<Film>| {
+        cost(data, &model_r(data, &e, base, film), &weights, white)
+    };
+    // Stage 2: bases.
+    let mut candidates: Vec<Base> = Vec::new();
+    if base_kind != BaseKind::Conductor {
+        let n = golden(|n| total(&Base::Dielectric { n }, None), 1.0, 3.0, 50);
+        candidates.push(Base::Dielectric { n });
+    }
+    if base_kind != BaseKind::Dielectric {
+        // Per wavelength, (n, k) from the reflectance at every incident angle.
+        let n: Vec<C64> = (0..data.lambda_nm.len())
+            .map(|j| {
+                let l = data.lambda_nm[j];
+                // Bounded to metals' range (n 0.01-10, k 0-20): where single scattering cannot
+                // reach the simulated R (multiple scattering at grazing angles), k would run off.
+                let clampn =
+                    |p: &[f64]| C64::new(p[0].abs().clamp(0.01, 10.0), p[1].abs().min(20.0));
+                let f = |p: &[f64]| {
+                    let nb = clampn(p);
+                    let base = Base::Conductor { n: vec![nb; j + 1] };
+                    data.theta_i_rad
+                        .iter()
+                        .enumerate()
+                        .map(|(i, &th)| {
+                            (e[i] * reflectance(&base, None, th, l, j) - data.r[i][j]).powi(2)
+                        })
+                        .sum::<f64>()
+                };
+                let mut best = (f64::INFINITY, vec![1.0, 1.0]);
+                for start in [[0.2, 3.0], [1.0, 2.0], [1.5, 7.0], [0.5, 0.5]] {
+                    let p = nelder_mead(&f, &start, &[0.3, 0.5], 200);
+                    let v = f(&p);
+                    if v < best.0 {
+                        best = (v, p);
+                    }
+                }
+                clampn(&best.1)
+            })
+            .collect();
+        candidates.push(Base::Conductor { n });
+    }
+    // Stage 3: on each base, a film started on a grid and refined by Nelder-Mead; the film
+    // is kept only where it explains clearly more than the bare base (half the cost).
+    let mut best: Option<(f64, Base, Option<Film>)> = None;
+    for cand in candidates {
+        let bare = total(&cand, None);
+        let mut choice = (bare, cand.clone(), None);
+        if try_film {
+            // A dielectric base's index is also started at 1 (a free-standing film).
+            let mut starts = vec![cand.clone()];
+            if let Base::Dielectric { n } = cand
+                && n > 1.0 + 1e-6
+            {
+                starts.push(Base::Dielectric { n: 1.0 });
+            }
+            for st in &starts {
+                let (c, b, f) = fit_film(st, &total);
+                if c < 0.5 * bare && c < choice.0 {
+                    choice = (c, b, Some(f));
+                }
+            }
+        }
+        if best.as_ref().is_none_or(|b| choice.0 < b.0) {
+            best = Some(choice);
+        }
+    }
+    let (_, base, film) = best.expect("at least one base kind");
+    let m = model_r(data, &e, &base, film);
+    let (mut s2, mut n) = (0.0, 0.0);
+    for (mr, dr) in m.iter().zip(&data.r) {
+        for (a, b) in mr.iter().zip(dr) {
+            s2 += (a - b).powi(2);
+            n += 1.0;
+        }
+    }
+    let delta_e2000: Vec<f64> = m
+        .iter()
+        .zip(&data.r)
+        .map(|(mr, dr)| {
+            colour::delta_e2000(
+                colour::lab(colour::xyz(mr, &weights), white),
+                colour::lab(colour::xyz(dr, &weights), white),
+            )
+        })
+        .collect();
+    let rms = (s2 / n).sqrt();
+    let mut warnings = Vec::new();
+    let worst = delta_e2000.iter().copied().fold(0.0, f64::max);
+    if worst > 2.0 || rms > 0.02 {
+        warnings.push(format!(
+            "the model cannot represent this material well (RMS reflectance error {rms:.3}, worst Delta E2000 {worst:.1}): multilayers, pigments or strong multiple scattering are beyond one GGX lobe with one film"
+        ));
+    }
+    if alpha <= 0.0105 {
+        warnings.push(
+            "the lobe is narrower than the buckets resolve: alpha is at its lower bound 0.01 (a smooth or flat sample)".into(),
+        );
+    }
+    Fit {
+        alpha,
+        base,
+        film,
+        rms_residual: rms,
+        delta_e2000,
+        warnings,
+    }
+}
+
+/// A film on `base`: the best start on a thickness x index grid, refined with the
+/// dielectric base's index free. Returns (cost, base, film).
+fn fit_film(base: &Base, total: &dyn Fn(&Base, Option<Film>) -> f64) -> (f64, Base, Film) {
+    let mut start = (f64::INFINITY, 0.0, 0.0);
+    let mut d = 20.0;
+    while d <= 2000.0 {
+        let mut nf = 1.2;
+        while nf <= 2.6 + 1e-9 {
+            let c = total(
+                base,
+                Some(Film {
+                    thickness_nm: d,
+                    n: nf,
+                    weight: 1.0,
+                }),
+            );
+            if c < start.0 {
+                start = (c, d, nf);
+            }
+            nf += 0.05;
+        }
+        d += 5.0;
+    }
+    let dielectric = matches!(base, Base::Dielectric { .. });
+    let nb0 = match base {
+        Base::Dielectric { n } => *n,
+        Base::Conductor { .. } => 1.0,
+    };
+    let make = |p: &[f64]| -> (Base, Film) {
+        let b = if dielectric {
+            Base::Dielectric {
+                n: p[3].clamp(1.0, 3.0),
+            }
+        } else {
+            base.clone()
+        };
+        (
+            b,
+            Film {
+                thickness_nm: p[0].abs(),
+                n: p[1].clamp(1.0, 3.0),
+                weight: p[2].clamp(0.0, 1.0),
+            },
+        )
+    };
+    let f = |p: &[f64]| {
+        let (b, fm) = make(p);
+        total(&b, Some(fm))
+    };
+    let p = nelder_mead(
+        &f,
+        &[start.1, start.2, 1.0, nb0],
+        &[5.0, 0.03, 0.1, 0.05],
+        600,
+    );
+    let (b, fm) = make(&p);
+    (f(&p), b, fm)
+}
+
+/// The base's reflectance at normal incidence as linear sRGB under D65 (glTF baseColor of
+/// a metal), and its mean real index (dielectric `ior`).
+fn base_colour(fit: &Fit, data: &Data) -> [f64; 3] {
+    let weights = colour::bin_weights(&data.lambda_nm);
+    let white = colour::xyz(&vec![1.0; data.lambda_nm.len()], &weights);
+    let f0: Vec<f64> = data
+        .lambda_nm
+        .iter()
+        .enumerate()
+        .map(|(j, &l)| reflectance(&fit.base, None, 0.0, l, j))
+        .collect();
+    let x = colour::xyz(&f0, &weights);
+    let w = white[1].max(1e-300);
+    colour::xyz_to_linear_srgb([x[0] / w, x[1] / w, x[2] / w]).map(|v| v.clamp(0.0, 1.0))
+}
+
+/// The parameter sets as JSON: the fit, OpenPBR (`thin_film_thickness` in um) and Standard
+/// Surface (`thin_film_thickness` in nm).
+pub fn to_json(fit: &Fit, data: &Data) -> serde_json::Value {
+    use serde_json::json;
+    let roughness = fit.alpha.sqrt();
+    let colour = base_colour(fit, data);
+    let (metal, ior) = match &fit.base {
+        Base::Dielectric { n } => (0.0, *n),
+        Base::Conductor { n } => (1.0, n.iter().map(|c| c.re).sum::<f64>() / n.len() as f64),
+    };
+    let film = fit.film.unwrap_or(Film {
+        thickness_nm: 0.0,
+        n: 1.5,
+        weight: 0.0,
+    });
+    json!({
+        "fit": {
+            "ggx_alpha": fit.alpha,
+            "base": match &fit.base {
+                Base::Dielectric { n } => json!({"kind": "dielectric", "ior": n}),
+                Base::Conductor { n } => json!({
+                    "kind": "conductor",
+                    "lambda_nm": data.lambda_nm,
+                    "n": n.iter().map(|c| c.re).collect::<Vec<_>>(),
+                    "k": n.iter().map(|c| c.im).collect::<Vec<_>>(),
+                    "f0_linear_srgb": colour,
+                }),
+            },
+            "film": fit.film.map(|f| json!({"thickness_nm": f.thickness_nm, "ior": f.n, "weight": f.weight})),
+            "rms_reflectance_error": fit.rms_residual,
+            "delta_e2000_per_incident_angle": fit.delta_e2000,
+            "theta_i_deg": data.theta_i_rad.iter().map(|t| t.to_degrees()).collect::<Vec<_>>(),
+            "warnings": fit.warnings,
+        },
+        "openpbr": {
+            "base_weight": 1.0,
+            "base_color": if metal > 0.0 { colour } else { [0.0, 0.0, 0.0] },
+            "base_metalness": metal,
+            "specular_weight": 1.0,
+            "specular_color": [1.0, 1.0, 1.0],
+            "specular_roughness": roughness,
+            "specular_ior": ior,
+            "thin_film_weight": film.weight,
+            "thin_film_thickness": film.thickness_nm / 1000.0,
+            "thin_film_ior": film.n,
+        },
+        "standard_surface": {
+            "base": 1.0,
+            "base_color": if metal > 0.0 { colour } else { [0.0, 0.0, 0.0] },
+            "metalness": metal,
+            "specular": 1.0,
+            "specular_color": [1.0, 1.0, 1.0],
+            "specular_roughness": roughness,
+            "specular_IOR": ior,
+            "thin_film_thickness": film.thickness_nm * film.weight.signum(),
+            "thin_film_IOR": film.n,
+        },
+    })
+}
+
+/// A glTF 2.0 file with a UV sphere carrying the fitted material (`KHR_materials_ior`, and
+/// `KHR_materials_iridescence` with the film), its geometry in an embedded base64 buffer.
+pub fn to_gltf(fit: &Fit, data: &Data, name: &str) -> serde_json::Value {
+    use serde_json::json;
+    let (stacks, slices) = (24usize, 48usize);
+    let (mut pos, mut nrm, mut idx) = (Vec::<f32>::new(), Vec::<f32>::new(), Vec::<u16>::new());
+    for s in 0..=stacks {
+        let t = std::f64::consts::PI * s as f64 / stacks as f64;
+        for k in 0..=slices {
+            let p = std::f64::consts::TAU * k as f64 / slices as f64;
+            let v = [t.sin() * p.cos(), t.cos(), t.sin() * p.sin()];
+            pos.extend(v.map(|c| c as f32));
+            nrm.extend(v.map(|c| c as f32));
+        }
+    }
+    for s in 0..stacks {
+        for k in 0..slices {
+            let a = (s * (slices + 1) + k) as u16;
+            let b = a + (slices + 1) as u16;
+            idx.extend([a, a + 1, b, a + 1, b + 1, b]);
+        }
+    }
+    let mut bytes = Vec::new();
+    for v in pos.iter().chain(&nrm) {
+        bytes.extend_from_slice(&v.to_le_bytes());
+    }
+    for i in &idx {
+        bytes.extend_from_slice(&i.to_le_bytes());
+    }
+    while bytes.len() % 4 != 0 {
+        bytes.push(0);
+    }
+    let nv = pos.len() / 3;
+    let vb = nv * 12;
+    let colour = base_colour(fit, data);
+    let (metal, ior) = match &fit.base {
+        Base::Dielectric { n } => (0.0, *n),
+        Base::Conductor { n } => (1.0, n.iter().map(|c| c.re).sum::<f64>() / n.len() as f64),
+    };
+    let mut ext = json!({ "KHR_materials_ior": { "ior": ior.max(1.0) } });
+    let mut used = vec!["KHR_materials_ior"];
+    if let Some(f) = fit.film {
+        ext["KHR_materials_iridescence"] = json!({
+            "iridescenceFactor": f.weight,
+            "iridescenceIor": f.n,
+            // Without a thickness texture the maximum is the film's thickness (the minimum
+            // only applies to a texture).
+            "iridescenceThicknessMaximum": f.thickness_nm,
+        });
+        used.push("KHR_materials_iridescence");
+    }
+    json!({
+        "asset": { "version": "2.0", "generator": "goniospec fit" },
+        "extensionsUsed": used,
+        "scene": 0,
+        "scenes": [ { "nodes": [0] } ],
+        "nodes": [ { "mesh": 0, "name": name } ],
+        "meshes": [ { "primitives": [ {
+            "attributes": { "POSITION": 0, "NORMAL": 1 }, "indices": 2, "material": 0
+        } ] } ],
+        "materials": [ {
+            "name": name,
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [colour[0], colour[1], colour[2], 1.0],
+                "metallicFactor": metal,
+                "roughnessFactor": fit.alpha.sqrt().clamp(0.0, 1.0),
+            },
+            "extensions": ext,
+        } ],
+        "buffers": [ {
+            "byteLength": bytes.len(),
+            "uri": format!("data:application/octet-stream;base64,{}", base64(&bytes)),
+        } ],
+        "bufferViews": [
+            { "buffer": 0, "byteOffset": 0, "byteLength": vb, "target": 34962 },
+            { "buffer": 0, "byteOffset": vb, "byteLength": vb, "target": 34962 },
+            { "buffer": 0, "byteOffset": 2 * vb, "byteLength": idx.len() * 2, "target": 34963 },
+        ],
+        "accessors": [
+            { "bufferView": 0, "componentType": 5126, "count": nv, "type": "VEC3",
+              "min": [-1.0, -1.0, -1.0], "max": [1.0, 1.0, 1.0] },
+            { "bufferView": 1, "componentType": 5126, "count": nv, "type": "VEC3" },
+            { "bufferView": 2, "componentType": 5123, "count": idx.len(), "type": "SCALAR" },
+        ],
+    })
+}
+
+/// Standard base64 (RFC 4648 §4) for the glTF data URI.
+fn base64(bytes: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut s = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for c in bytes.chunks(3) {
+        let b = [c[0], *c.get(1).unwrap_or(&0), *c.get(2).unwrap_or(&0)];
+        let v = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= c.len() {
+                s.push(A[((v >> (18 - 6 * k)) & 63) as usize] as char);
+            } else {
+                s.push('=');
+            }
+        }
+    }
+    s
+}
+
+/// Writes JSON atomically.
+pub fn write_json(path: &Path, v: &serde_json::Value) -> std::io::Result<()> {
+    crate::io::write_atomic(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, v).map_err(std::io::Error::other)?;
+        std::io::Write::write_all(w, b"\n")
+    })
+}
