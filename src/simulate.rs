@@ -724,6 +724,13 @@ pub fn check_physical(
     } else {
         0.0
     };
+    let partial = |slack: f64| {
+        if slack > 0.0 {
+            " (with a finite beamlet radius this can also be the estimator's partial coherence on steeply curved films, beyond its allowance: a smaller --coherence-radius-nm pairs fewer partial waves)"
+        } else {
+            ""
+        }
+    };
     for (i, theta) in s.theta_i_deg.iter().enumerate() {
         for j in 0..nl {
             let c = acc.cell(i, j);
@@ -768,13 +775,15 @@ pub fn check_physical(
                 Some(format!("T = {t:.9} > 1"))
             } else if a < -tol_energy {
                 Some(format!(
-                    "absorbed power {a:.3e} < 0: R + T + dropped = {:.9} > 1, energy created",
-                    r + t + d
+                    "absorbed power {a:.3e} < 0: R + T + dropped = {:.9} > 1, energy created{}",
+                    r + t + d,
+                    partial(slack)
                 ))
             } else if r + t + d > 1.0 + tol_energy {
                 Some(format!(
-                    "R + T + dropped = {:.9} > 1, energy created",
-                    r + t + d
+                    "R + T + dropped = {:.9} > 1, energy created{}",
+                    r + t + d,
+                    partial(slack)
                 ))
             } else {
                 None

@@ -128,6 +128,42 @@ pub fn tmm_ref(n: &[C], d: &[f64], lambda: f64, theta0: f64) -> (f64, f64) {
     out
 }
 
+/// The reflectances `(R_s, R_p)` of [`tmm_ref`]'s recursion, per polarisation.
+pub fn tmm_ref_pol(n: &[C], d: &[f64], lambda: f64, theta0: f64) -> (f64, f64) {
+    let kx = n[0] * theta0.sin();
+    let ncos: Vec<C> = n
+        .iter()
+        .map(|&nj| {
+            let mut v = (nj * nj - kx * kx).sqrt();
+            if v.im < 0.0 || (v.im.abs() < 1e-15 && v.re < 0.0) {
+                v = -v;
+            }
+            v
+        })
+        .collect();
+    let last = n.len() - 1;
+    let pol = |p: bool| {
+        let coef = |j: usize| -> (C, C) {
+            let (a, b) = (ncos[j], ncos[j + 1]);
+            if p {
+                let (ca, cb) = (a / n[j], b / n[j + 1]);
+                let den = n[j + 1] * ca + n[j] * cb;
+                ((n[j + 1] * ca - n[j] * cb) / den, 2.0 * n[j] * ca / den)
+            } else {
+                ((a - b) / (a + b), 2.0 * a / (a + b))
+            }
+        };
+        let (mut r, _) = coef(last - 1);
+        for j in (1..last).rev() {
+            let e2 = (C::i() * 4.0 * std::f64::consts::PI * ncos[j] * d[j - 1] / lambda).exp();
+            let (rj, _) = coef(j - 1);
+            r = (rj + r * e2) / (C::new(1.0, 0.0) + rj * r * e2);
+        }
+        r.norm_sqr()
+    };
+    (pol(false), pol(true))
+}
+
 /// The independent TMM averaged over a wavelength band by fine sampling (midpoint rule).
 pub fn tmm_band(n: impl Fn(f64) -> Vec<C>, d: &[f64], lo: f64, hi: f64, theta0: f64) -> (f64, f64) {
     let steps = 4000;
