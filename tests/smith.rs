@@ -223,6 +223,9 @@ fn beckmann_gold_height_fields_match_the_smith_model() {
         let acc = run(&s, &cfg);
         let mode = acc.header.settings.coherence_mode();
         let albedo_tol = if alpha < 0.3 { 0.02 } else { 0.04 };
+        // The in-plane lobes, for plotting (target/smith-lobes-ALPHA.csv).
+        let mut csv =
+            String::from("theta_i_deg,side,theta_o_centre_deg,goniospec_brdf,smith_brdf\n");
         for (i, &th) in thetas.iter().enumerate() {
             let cell = acc.cell(i, 0);
             let (r, _) = totals(&acc, i, 0);
@@ -248,6 +251,14 @@ fn beckmann_gold_height_fields_match_the_smith_model() {
                     l1 += (g - m).abs();
                     norm += m;
                     rows.push(format!("{pb},{tb},{g:.3e},{m:.3e}"));
+                    let omega = BUCKETS.projected_solid_angle(b);
+                    csv.push_str(&format!(
+                        "{th},{},{},{:.6e},{:.6e}\n",
+                        if pb == 0 { "back" } else { "forward" },
+                        5.0 * tb as f64 + 2.5,
+                        g / omega,
+                        m / omega
+                    ));
                 }
             }
             eprintln!(
@@ -260,6 +271,13 @@ fn beckmann_gold_height_fields_match_the_smith_model() {
                 "alpha {alpha}, theta_i {th}: in-plane lobe differs by {:.1} % (relative L1)",
                 100.0 * l1 / norm
             );
+            std::fs::write(
+                std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                    .join("target")
+                    .join(format!("smith-lobes-{alpha}.csv")),
+                &csv,
+            )
+            .unwrap();
             // Backscatter: the bucket towards the light.
             if th > 0.0 {
                 let tb = (th / 5.0).floor() as u32;
