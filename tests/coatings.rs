@@ -355,3 +355,29 @@ fn each_polarisation_of_a_coated_interface_matches_the_tmm() {
         }
     }
 }
+
+#[test]
+fn a_body_can_carry_thin_layers_and_keeps_its_meshed_shell_form() {
+    // `coating = [ ... ]` on a [[body]]: thin layers on its outside, applied by the TMM;
+    // `coating = "MEDIUM"` keeps meaning a meshed shell (the flakes generator's coat).
+    let d = scratch("body-coat");
+    std::fs::write(
+        d.join("s.toml"),
+        "[sample]\nname = \"coated spheres\"\nunit = \"nm\"\ntile = [2000.0, 2000.0]\n[media.air]\nn = 1.0\n[media.tio2]\nn = 2.4\n[media.oxide]\nn = 1.6\n[[interface]]\ngenerator = { kind = \"flat\", z = 900.0 }\nfront = \"air\"\nback = \"air\"\n[[body]]\ngenerator = { kind = \"pigment-spheres\", radius = 150.0, volume_fraction = 0.02, layer = [100.0, 800.0], subdivisions = 1 }\ninside = \"tio2\"\noutside = \"air\"\ncoating = [ { medium = \"oxide\", thickness = 20.0 } ]\n",
+    )
+    .unwrap();
+    let s = goniospec::sample::load(&d.join("s.toml"), Default::default()).unwrap();
+    let bodies: Vec<_> = s.interfaces.iter().filter(|i| i.closed).collect();
+    assert!(!bodies.is_empty());
+    let oxide = s.medium_id("oxide").unwrap();
+    for b in &bodies {
+        assert_eq!(b.coating, vec![(oxide, 20.0)]);
+    }
+    // It simulates (coated, so per wavelength) and conserves energy.
+    let acc = run(
+        &s,
+        &config(&[0.0], Wavelengths::Monochromatic(vec![500.0]), 64),
+    );
+    let (r, t) = totals(&acc, 0, 0);
+    assert!(r > 0.0 && t > 0.0 && r + t <= 1.0 + 5e-3, "R {r} T {t}");
+}

@@ -113,3 +113,53 @@ fn the_fitted_gltf_passes_the_khronos_validator() {
     let issues: serde_json::Value = serde_json::from_str(report.trim()).unwrap();
     assert_eq!(issues["numErrors"], 0);
 }
+
+#[test]
+fn fit_says_plainly_when_it_cannot_represent_a_multilayer() {
+    // A 5-pair quarter-wave mirror: no single film on a base reproduces its stop band.
+    let d = scratch("fit-mirror");
+    let (dh, dl) = (550.0 / (4.0 * 2.4), 550.0 / (4.0 * 1.46));
+    let layers: Vec<String> = (0..5)
+        .flat_map(|_| {
+            [
+                format!("{{ medium = \"h\", thickness = {dh:?} }}"),
+                format!("{{ medium = \"l\", thickness = {dl:?} }}"),
+            ]
+        })
+        .collect();
+    std::fs::write(
+        d.join("m.toml"),
+        format!(
+            "[sample]\nname = \"mirror\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n[media.air]\nn = 1.0\n[media.h]\nn = 2.4\n[media.l]\nn = 1.46\n[media.glass]\nn = 1.52\n[stack]\nambient = \"air\"\nlayers = [{}]\nsubstrate = \"glass\"\n",
+            layers.join(", ")
+        ),
+    )
+    .unwrap();
+    let gs = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_goniospec"))
+            .args(args)
+            .current_dir(&d)
+            .output()
+            .unwrap()
+    };
+    let o = gs(&[
+        "simulate",
+        "m.toml",
+        "--theta-i",
+        "0,15,30,45,60",
+        "--wavelengths",
+        "400:700:10",
+        "--rays",
+        "4",
+        "-o",
+        "m.gsa",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = gs(&["fit", "m.gsa", "-o", "fit"]);
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("cannot represent"), "no warning: {err}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("fit.json")).unwrap()).unwrap();
+    assert!(!v["fit"]["warnings"].as_array().unwrap().is_empty());
+}

@@ -254,12 +254,21 @@ struct RawBody {
     coating: Option<RawCoating>,
 }
 
-/// A body's `coating`: a medium name for a meshed shell, or a list of thin layers.
+/// A body's `coating`: a medium name for a meshed shell, or a list of thin layers. (Inside
+/// an untagged enum serde buffers the value, which loses TOML spans: errors in the layers
+/// point at the body's `inside` line.)
 #[derive(Deserialize)]
 #[serde(untagged)]
 enum RawCoating {
     Shell(Spanned<String>),
-    Layers(Vec<RawLayer>),
+    Layers(Vec<RawPlainLayer>),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPlainLayer {
+    medium: String,
+    thickness: f64,
 }
 
 #[derive(Deserialize)]
@@ -575,7 +584,17 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         // `coating = [ { medium, thickness }, ... ]`: thin layers on the outside.
         let (coating, thin) = match &rb.coating {
             Some(RawCoating::Shell(m)) => (Some(medium(m)?), Vec::new()),
-            Some(RawCoating::Layers(l)) => (None, layers_of(&Some(l.clone()))?),
+            Some(RawCoating::Layers(l)) => {
+                let span = rb.inside.span();
+                let spanned: Vec<RawLayer> = l
+                    .iter()
+                    .map(|x| RawLayer {
+                        medium: Spanned::new(span.clone(), x.medium.clone()),
+                        thickness: Spanned::new(span.clone(), x.thickness),
+                    })
+                    .collect();
+                (None, layers_of(&Some(spanned))?)
+            }
             None => (None, Vec::new()),
         };
         let (g, desc) = source(&rb.mesh, &rb.generator, true, "[[body]]")?;
