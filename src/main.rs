@@ -150,6 +150,10 @@ struct WavelengthArgs {
     monochromatic: bool,
 }
 
+/// Most wavelengths (or bins) one run may ask for: each is a cell of every incident
+/// direction's accumulator, and 10,000 already resolve 0.04 nm over the visible.
+const MAX_WAVELENGTHS: usize = 10_000;
+
 impl WavelengthArgs {
     fn parse(&self) -> Result<Wavelengths> {
         let w = self.wavelengths.trim();
@@ -168,8 +172,13 @@ impl WavelengthArgs {
                     .parse()
                     .with_context(|| format!("--wavelengths: '{step}' is not a number"))?,
             );
-            if !(step > 0.0 && b > a) {
-                bail!("--wavelengths {w}: need A < B and STEP > 0");
+            if !(a.is_finite() && b.is_finite() && step.is_finite() && step > 0.0 && b > a) {
+                bail!("--wavelengths {w}: need finite A < B and STEP > 0");
+            }
+            if (b - a) / step > MAX_WAVELENGTHS as f64 {
+                bail!(
+                    "--wavelengths {w}: more than {MAX_WAVELENGTHS} wavelengths; choose a coarser STEP"
+                );
             }
             let n = ((b - a) / step).round() as usize;
             if ((a + n as f64 * step) - b).abs() > 1e-9 * b {
@@ -186,7 +195,10 @@ impl WavelengthArgs {
                 .collect::<Result<_>>()?
         };
         if values.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-            bail!("--wavelengths: every wavelength must be positive");
+            bail!("--wavelengths: every wavelength must be positive and finite");
+        }
+        if values.len() > MAX_WAVELENGTHS + 1 {
+            bail!("--wavelengths: more than {MAX_WAVELENGTHS} wavelengths");
         }
         if self.monochromatic {
             Ok(Wavelengths::Monochromatic(values))
@@ -222,10 +234,10 @@ struct SimulateArgs {
     #[arg(short, long)]
     output: PathBuf,
     /// Incident polar angles, degrees, comma-separated.
-    #[arg(long, value_delimiter = ',', default_value = "0,15,30,45,60,75")]
+    #[arg(long, value_parser = finite, value_delimiter = ',', default_value = "0,15,30,45,60,75")]
     theta_i: Vec<f64>,
     /// Incident azimuth, degrees.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, value_parser = finite, default_value_t = 0.0)]
     phi_i: f64,
     /// Launched rays (trees) per incident direction; each covers every wavelength.
     #[arg(long, default_value_t = 4096)]
@@ -254,7 +266,7 @@ struct SimulateArgs {
     #[arg(long, default_value_t = 36)]
     phi_o_bins: u32,
     /// Children below this fraction of the launched power are dropped (and reported).
-    #[arg(long, default_value_t = 1e-10)]
+    #[arg(long, value_parser = finite, default_value_t = 1e-10)]
     cutoff: f64,
     /// Interface events along one path before it is dropped.
     #[arg(long, default_value_t = 64)]
@@ -266,7 +278,7 @@ struct SimulateArgs {
     /// Adaptive budget: launch batches of --rays per incident direction until the relative
     /// standard error of the reflectance (total and every populated bucket) is at most
     /// this, e.g. 0.01; reports per direction whether it converged or ran out of budget.
-    #[arg(long)]
+    #[arg(long, value_parser = finite)]
     tolerance: Option<f64>,
     /// Largest number of rays per incident direction with --tolerance.
     #[arg(long, default_value_t = 1_000_000)]
@@ -282,6 +294,9 @@ struct SimulateArgs {
     /// prints what failed.
     #[arg(long)]
     allow_unphysical: bool,
+    /// Overwrite an existing output that is not a goniospec accumulator.
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Args)]
@@ -292,6 +307,9 @@ struct MergeArgs {
     /// Output accumulator.
     #[arg(short, long)]
     output: PathBuf,
+    /// Overwrite an existing output that is not a goniospec accumulator.
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Args)]
@@ -324,10 +342,10 @@ struct ReflectanceArgs {
     /// A .gsa accumulator.
     file: PathBuf,
     /// Incident polar angle, degrees (one of those simulated).
-    #[arg(long)]
+    #[arg(long, value_parser = finite)]
     theta_i: f64,
     /// Incident azimuth, degrees (must match the simulation's).
-    #[arg(long)]
+    #[arg(long, value_parser = finite)]
     phi_i: Option<f64>,
 }
 
@@ -336,10 +354,24 @@ struct AnalyticArgs {
     /// A sample written as a [stack].
     sample: PathBuf,
     /// Incident polar angle, degrees.
-    #[arg(long)]
+    #[arg(long, value_parser = finite)]
     theta_i: f64,
     #[command(flatten)]
     wavelengths: WavelengthArgs,
+}
+
+/// A finite number: every floating-point flag goes through this, so NaN and infinity are
+/// refused before any work starts, with the flag's name (clap's usage error, exit 2).
+fn finite(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{s} is not a finite number"))
+    }
 }
 
 fn parse_repr(s: &str) -> Result<String, String> {
@@ -361,11 +393,14 @@ struct BuildArgs {
     /// Output BRDF (.gsb), written atomically.
     #[arg(short, long)]
     output: PathBuf,
+    /// Overwrite an existing output that is not a goniospec BRDF.
+    #[arg(long)]
+    force: bool,
     /// kd-tree: neighbours blended per query.
     #[arg(long, default_value_t = 4)]
     k: usize,
     /// Subdivided: relative RMS deviation above which a cell splits.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, value_parser = finite, default_value_t = 0.05)]
     tolerance: f64,
     /// kd-tree: keep absolute azimuths instead of reducing to phi_o - phi_i.
     #[arg(long)]
@@ -380,16 +415,16 @@ struct EvalArgs {
     /// A built BRDF (.gsb).
     file: PathBuf,
     /// Incident polar angle, degrees.
-    #[arg(long, required_unless_present = "pairs")]
+    #[arg(long, value_parser = finite, required_unless_present = "pairs")]
     theta_i: Option<f64>,
     /// Incident azimuth, degrees.
-    #[arg(long, default_value_t = 0.0)]
+    #[arg(long, value_parser = finite, default_value_t = 0.0)]
     phi_i: f64,
     /// Outgoing polar angle, degrees.
-    #[arg(long, required_unless_present = "pairs")]
+    #[arg(long, value_parser = finite, required_unless_present = "pairs")]
     theta_o: Option<f64>,
     /// Outgoing azimuth, degrees.
-    #[arg(long, default_value_t = 180.0)]
+    #[arg(long, value_parser = finite, default_value_t = 180.0)]
     phi_o: f64,
     /// CSV of pairs with the header theta_i,phi_i,theta_o,phi_o (degrees).
     #[arg(long)]
@@ -407,7 +442,7 @@ struct RenderArgs {
     /// With --simulate: relative standard error each needed direction is simulated to
     /// (total R and every populated bucket, per wavelength bin). 0.05 is about one CIELAB
     /// unit at mid-grey: dL* = 21.8 dY/Y at Y = 0.18, from L* = 116 Y^(1/3) - 16.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, value_parser = finite, default_value_t = 0.05)]
     tolerance: f64,
     /// With --simulate: trees per batch per direction (the adaptive step).
     #[arg(long, default_value_t = 512)]
@@ -417,7 +452,7 @@ struct RenderArgs {
     max_rays: u64,
     /// With --simulate: spacing of the incident-angle grid, degrees (full hemisphere:
     /// 0, STEP, ..., below 90).
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, value_parser = finite, default_value_t = 5.0)]
     theta_step: f64,
     /// With --simulate: the wavelength sampling.
     #[command(flatten)]
@@ -439,19 +474,19 @@ struct RenderArgs {
     /// dir:THETA,PHI (degrees, towards the light), point:X,Y,Z, or none.
     #[arg(long, default_value = "dir:50,-120")]
     light: String,
-    #[arg(long, default_value_t = 0.8)]
+    #[arg(long, value_parser = finite, default_value_t = 0.8)]
     light_strength: f64,
     /// constant, sky or none.
     #[arg(long, default_value = "constant")]
     env: String,
-    #[arg(long, default_value_t = 0.6)]
+    #[arg(long, value_parser = finite, default_value_t = 0.6)]
     env_strength: f64,
     /// Camera position X,Y,Z; it looks at the shape's centre (default: in front of it,
     /// slightly above).
-    #[arg(long, value_delimiter = ',')]
+    #[arg(long, value_parser = finite, value_delimiter = ',')]
     camera: Vec<f64>,
     /// Vertical field of view, degrees.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, value_parser = finite, default_value_t = 30.0)]
     fov: f64,
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -487,7 +522,7 @@ struct GenerateArgs {
     #[arg(long = "param", short = 'p', value_name = "KEY=VALUE")]
     params: Vec<String>,
     /// Tile size Lx,Ly in --unit.
-    #[arg(long, value_delimiter = ',', default_values_t = [20.0, 20.0])]
+    #[arg(long, value_parser = finite, value_delimiter = ',', default_values_t = [20.0, 20.0])]
     tile: Vec<f64>,
     /// Unit of the tile, the lengths and the OBJ coordinates: nm or um.
     #[arg(long, default_value = "um")]
@@ -495,6 +530,9 @@ struct GenerateArgs {
     /// Output OBJ (written atomically).
     #[arg(short, long)]
     output: PathBuf,
+    /// Overwrite an existing output that is not an OBJ written by goniospec generate.
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Subcommand)]
@@ -535,7 +573,7 @@ struct SimBenchArgs {
     #[arg(long, default_value_t = 20_000)]
     rays: u64,
     /// Incident angle, degrees.
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, value_parser = finite, default_value_t = 30.0)]
     theta_i: f64,
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0)]
@@ -572,6 +610,16 @@ struct TraceArgs {
 
 fn parse_backend(s: &str) -> Result<Backend, String> {
     s.parse::<Backend>().map_err(|e| e.to_string())
+}
+
+/// `println!` that returns an error instead of panicking when standard output fails (a full
+/// disk, a file closed for writing): the command ends with a clear message and exit status 1.
+/// (A closed pipe ends it quietly through SIGPIPE, below.)
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($t)*).context("writing to standard output")?
+    }};
 }
 
 fn main() -> ExitCode {
@@ -626,12 +674,15 @@ fn backends() -> Result<ExitCode> {
                 } else {
                     ""
                 };
-                println!(
+                outln!(
                     "{} {}{}  [{}]",
-                    info.backend, info.version, default, info.detail
+                    info.backend,
+                    info.version,
+                    default,
+                    info.detail
                 );
             }
-            Err(msg) => println!("unavailable: {msg}"),
+            Err(msg) => outln!("unavailable: {msg}"),
         }
     }
     Ok(if any {
@@ -654,16 +705,16 @@ fn check(a: CheckArgs) -> Result<ExitCode> {
     };
     let report = sample::check::check(&s, &copts)?;
     for f in &report.facts {
-        println!("{f}");
+        outln!("{f}");
     }
     if report.defects.is_empty() {
-        println!("no defects found");
+        outln!("no defects found");
         Ok(ExitCode::SUCCESS)
     } else {
         for d in &report.defects {
-            println!("DEFECT: {d}");
+            outln!("DEFECT: {d}");
         }
-        println!("{} defects found", report.defects.len());
+        outln!("{} defects found", report.defects.len());
         Ok(ExitCode::from(1))
     }
 }
@@ -675,6 +726,21 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
             drop_degenerate: a.drop_degenerate,
         },
     )?;
+    {
+        let meshes: Vec<PathBuf> = s
+            .interfaces
+            .iter()
+            .map(|i| {
+                a.sample
+                    .parent()
+                    .unwrap_or(std::path::Path::new("."))
+                    .join(&i.mesh_path)
+            })
+            .collect();
+        let mut inputs: Vec<&std::path::Path> = vec![a.sample.as_path()];
+        inputs.extend(meshes.iter().map(|p| p.as_path()));
+        guard_output(&a.output, &inputs, OutputKind::Gsa, a.force)?;
+    }
     let cfg = SimConfig {
         phi_i_deg: a.phi_i,
         backend: resolve_backend(a.backend)?,
@@ -762,7 +828,7 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
             stats.leaks
         );
     }
-    println!("wrote {}", a.output.display());
+    outln!("wrote {}", a.output.display());
     Ok(ExitCode::SUCCESS)
 }
 
@@ -776,13 +842,7 @@ fn fit(a: FitArgs) -> Result<ExitCode> {
     };
     let (json_path, gltf_path) = (with_ext(".json"), with_ext(".gltf"));
     for p in [&json_path, &gltf_path] {
-        if same_file(p, &a.file) {
-            bail!(
-                "{} would overwrite the input {}",
-                p.display(),
-                a.file.display()
-            );
-        }
+        guard_output(p, &[a.file.as_path()], OutputKind::Any, false)?;
     }
     let data = fit::Data::from_accumulator(&acc);
     let kind = match a.base {
@@ -796,10 +856,10 @@ fn fit(a: FitArgs) -> Result<ExitCode> {
     let name = acc.header.settings.sample_name.clone();
     fit::write_json(&gltf_path, &fit::to_gltf(&f, &data, &name))
         .with_context(|| format!("writing {}", gltf_path.display()))?;
-    println!("ggx_alpha: {:.4}", f.alpha);
+    outln!("ggx_alpha: {:.4}", f.alpha);
     match &f.base {
-        fit::Base::Dielectric { n } => println!("base: dielectric, ior {n:.4}"),
-        fit::Base::Conductor { n } => println!(
+        fit::Base::Dielectric { n } => outln!("base: dielectric, ior {n:.4}"),
+        fit::Base::Conductor { n } => outln!(
             "base: conductor, n + ik from {:.3} + {:.3}i to {:.3} + {:.3}i",
             n[0].re,
             n[0].im,
@@ -808,21 +868,90 @@ fn fit(a: FitArgs) -> Result<ExitCode> {
         ),
     }
     match f.film {
-        Some(m) => println!(
+        Some(m) => outln!(
             "film: thickness {:.1} nm, ior {:.4}, weight {:.3}",
-            m.thickness_nm, m.n, m.weight
+            m.thickness_nm,
+            m.n,
+            m.weight
         ),
-        None => println!("film: none"),
+        None => outln!("film: none"),
     }
-    println!("rms_reflectance_error: {:.2e}", f.rms_residual);
+    outln!("rms_reflectance_error: {:.2e}", f.rms_residual);
     for (t, de) in data.theta_i_rad.iter().zip(&f.delta_e2000) {
-        println!("delta_e2000_theta_{:.0}: {de:.2}", t.to_degrees());
+        outln!("delta_e2000_theta_{:.0}: {de:.2}", t.to_degrees());
     }
     for w in &f.warnings {
         eprintln!("warning: {w}");
     }
-    println!("wrote {} and {}", json_path.display(), gltf_path.display());
+    outln!("wrote {} and {}", json_path.display(), gltf_path.display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// What kind of file an output may replace without `--force`.
+#[derive(Clone, Copy)]
+enum OutputKind {
+    Gsa,
+    Gsb,
+    Obj,
+    /// Images and JSON: only the same-file and directory checks.
+    Any,
+}
+
+/// Refuses an output path that is a directory, that is the same file as an input, or (for
+/// goniospec's own formats) that holds a file of another kind, unless `force`: an output
+/// never destroys an input or an unrelated file (writes are atomic, so a refused run
+/// changes nothing).
+fn guard_output(
+    out: &std::path::Path,
+    inputs: &[&std::path::Path],
+    kind: OutputKind,
+    force: bool,
+) -> Result<()> {
+    if out.is_dir() {
+        bail!("output {} is a directory; give a file name", out.display());
+    }
+    for i in inputs {
+        if same_file(out, i) {
+            bail!(
+                "output {} is the input {}: refusing to overwrite it",
+                out.display(),
+                i.display()
+            );
+        }
+    }
+    if force || !out.exists() {
+        return Ok(());
+    }
+    let head = {
+        use std::io::Read;
+        let mut b = [0u8; 32];
+        let n = std::fs::File::open(out)
+            .and_then(|mut f| f.read(&mut b))
+            .with_context(|| format!("reading {}", out.display()))?;
+        b[..n].to_vec()
+    };
+    let (ok, what) = match kind {
+        OutputKind::Gsa => (
+            head.starts_with(goniospec::accumulate::file::MAGIC),
+            "a goniospec accumulator (.gsa)",
+        ),
+        OutputKind::Gsb => (
+            head.starts_with(goniospec::brdf::file::MAGIC),
+            "a goniospec BRDF (.gsb)",
+        ),
+        OutputKind::Obj => (
+            head.starts_with(b"# goniospec generate"),
+            "an OBJ written by goniospec generate",
+        ),
+        OutputKind::Any => (true, ""),
+    };
+    if !ok {
+        bail!(
+            "refusing to overwrite {}: it is not {what}; remove it, choose another name, or pass --force",
+            out.display()
+        );
+    }
+    Ok(())
 }
 
 /// Whether two paths name the same existing file.
@@ -834,6 +963,8 @@ fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
 }
 
 fn merge(a: MergeArgs) -> Result<ExitCode> {
+    let inputs: Vec<&std::path::Path> = a.inputs.iter().map(|p| p.as_path()).collect();
+    guard_output(&a.output, &inputs, OutputKind::Gsa, a.force)?;
     let mut acc = Accumulator::read(&a.inputs[0])?;
     for p in &a.inputs[1..] {
         let other = Accumulator::read(p)?;
@@ -842,7 +973,7 @@ fn merge(a: MergeArgs) -> Result<ExitCode> {
     }
     acc.write(&a.output)
         .with_context(|| format!("writing {}", a.output.display()))?;
-    println!(
+    outln!(
         "wrote {} ({} runs, {} rays per direction)",
         a.output.display(),
         acc.header.seeds.len(),
@@ -877,7 +1008,7 @@ fn reflectance(a: ReflectanceArgs) -> Result<ExitCode> {
         })?;
     let mode = s.coherence_mode();
     let buckets = s.buckets();
-    println!("lambda_nm,R,T,absorbed,dropped,R_stderr");
+    outln!("lambda_nm,R,T,absorbed,dropped,R_stderr");
     let mut negative = 0usize;
     for j in 0..s.wavelength_count() {
         let c = acc.cell(i, j);
@@ -889,7 +1020,7 @@ fn reflectance(a: ReflectanceArgs) -> Result<ExitCode> {
         let se = c
             .r_stderr(mode)
             .map_or_else(|| "NA".to_string(), |v| format!("{v:.6e}"));
-        println!(
+        outln!(
             "{},{:.8},{:.8},{:.8},{:.3e},{}",
             s.wavelength(j),
             r,
@@ -911,6 +1042,9 @@ fn reflectance(a: ReflectanceArgs) -> Result<ExitCode> {
 }
 
 fn analytic(a: AnalyticArgs) -> Result<ExitCode> {
+    if !(0.0..90.0).contains(&a.theta_i) {
+        bail!("--theta-i must be in [0, 90) degrees, got {}", a.theta_i);
+    }
     use goniospec::optics::tmm;
     let s = sample::load(&a.sample, MeshOptions::default())?;
     if s.stack.is_none() {
@@ -926,9 +1060,9 @@ fn analytic(a: AnalyticArgs) -> Result<ExitCode> {
         tmm::stack_indices(&s, l).map_err(|e| anyhow::anyhow!(e))
     };
     let th = a.theta_i.to_radians();
-    println!("lambda_nm,Rs,Rp,R,Ts,Tp,T");
-    let print = |l: f64, rt: tmm::Rt| {
-        println!(
+    outln!("lambda_nm,Rs,Rp,R,Ts,Tp,T");
+    let print = |l: f64, rt: tmm::Rt| -> Result<()> {
+        outln!(
             "{l},{:.8},{:.8},{:.8},{:.8},{:.8},{:.8}",
             rt.r_s,
             rt.r_p,
@@ -937,11 +1071,12 @@ fn analytic(a: AnalyticArgs) -> Result<ExitCode> {
             rt.t_p,
             rt.t()
         );
+        Ok(())
     };
     match a.wavelengths.parse()? {
         Wavelengths::Monochromatic(v) => {
             for l in v {
-                print(l, tmm::solve(&stack_at(l)?, l, th));
+                print(l, tmm::solve(&stack_at(l)?, l, th))?;
             }
         }
         Wavelengths::Bins(e) => {
@@ -954,7 +1089,7 @@ fn analytic(a: AnalyticArgs) -> Result<ExitCode> {
                     w[1],
                     th,
                 );
-                print(0.5 * (w[0] + w[1]), rt);
+                print(0.5 * (w[0] + w[1]), rt)?;
             }
         }
     }
@@ -963,6 +1098,7 @@ fn analytic(a: AnalyticArgs) -> Result<ExitCode> {
 
 fn build(a: BuildArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, BucketData, Representation};
+    guard_output(&a.output, &[a.input.as_path()], OutputKind::Gsb, a.force)?;
     let acc = Accumulator::read(&a.input)?;
     let data = BucketData::from_accumulator(&acc);
     let t0 = std::time::Instant::now();
@@ -988,7 +1124,7 @@ fn build(a: BuildArgs) -> Result<ExitCode> {
     };
     let built = t0.elapsed().as_secs_f64();
     brdf::file::write(&r, &a.output).with_context(|| format!("writing {}", a.output.display()))?;
-    println!(
+    outln!(
         "wrote {} ({} representation, built in {built:.3} s)",
         a.output.display(),
         a.repr
@@ -1012,9 +1148,9 @@ fn eval(a: EvalArgs) -> Result<ExitCode> {
             let wi = d(a.theta_i.expect("clap requires it"), a.phi_i)?;
             let wo = d(a.theta_o.expect("clap requires it"), a.phi_o)?;
             r.eval(wi, wo, &mut out);
-            println!("lambda_nm,brdf");
+            outln!("lambda_nm,brdf");
             for (l, v) in lambdas.iter().zip(&out) {
-                println!("{l},{v:.8e}");
+                outln!("{l},{v:.8e}");
             }
         }
         Some(p) => {
@@ -1055,10 +1191,10 @@ fn eval(a: EvalArgs) -> Result<ExitCode> {
             }
             let mut all = vec![0.0; pairs.len() * lambdas.len()];
             r.eval_batch(&pairs, &mut all);
-            println!("pair,lambda_nm,brdf");
+            outln!("pair,lambda_nm,brdf");
             for (i, chunk) in all.chunks(lambdas.len()).enumerate() {
                 for (l, v) in lambdas.iter().zip(chunk) {
-                    println!("{i},{l},{v:.8e}");
+                    outln!("{i},{l},{v:.8e}");
                 }
             }
         }
@@ -1079,8 +1215,8 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
             .map(|x| x.trim().parse::<f64>())
             .collect::<Result<_, _>>()
             .map_err(|_| anyhow::anyhow!("{usage}"))?;
-        if p.len() != n {
-            bail!("{usage}");
+        if p.len() != n || p.iter().any(|v| !v.is_finite()) {
+            bail!("{usage} (finite numbers)");
         }
         Ok(p)
     };
@@ -1129,6 +1265,24 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
         3 => [a.camera[0], a.camera[1], a.camera[2]],
         _ => bail!("--camera needs X,Y,Z"),
     };
+    {
+        let png = a.output.with_extension("png");
+        let inputs: Vec<&std::path::Path> = a
+            .file
+            .iter()
+            .chain(a.simulate.iter())
+            .map(|p| p.as_path())
+            .collect();
+        for out in [&a.output, &png] {
+            guard_output(out, &inputs, OutputKind::Any, false)?;
+        }
+    }
+    if !(a.fov > 0.0 && a.fov < 180.0) {
+        bail!("--fov must be between 0 and 180 degrees, got {}", a.fov);
+    }
+    if a.light_strength < 0.0 || a.env_strength < 0.0 {
+        bail!("--light-strength and --env-strength must not be negative");
+    }
     let cfg = RenderConfig {
         width: a.width,
         height: a.height,
@@ -1174,7 +1328,7 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
         .with_context(|| format!("writing {}", a.output.display()))?;
     let png = a.output.with_extension("png");
     render::write_png(&img, &png).with_context(|| format!("writing {}", png.display()))?;
-    println!(
+    outln!(
         "rendered {}x{} at {} spp, {} wavelength bins ({} representation) in {secs:.2} s: {} and {}",
         a.width,
         a.height,
@@ -1193,7 +1347,7 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
         ));
         render::write_png(&reference, &apng)?;
         let d = render::analytic::compare(&img, &reference);
-        println!(
+        outln!(
             "against the analytic TMM image ({}): relative RMSE {:.4}, mean CIE DE2000 {:.3} over {} object pixels{}",
             apng.display(),
             d.rel_rmse,
@@ -1325,9 +1479,9 @@ fn study(a: StudyArgs) -> Result<ExitCode> {
             .map_err(|e| anyhow::anyhow!("sampled-area chart: {e}"))?,
     );
     for c in &charts {
-        println!("wrote {}", c.display());
+        outln!("wrote {}", c.display());
     }
-    println!(
+    outln!(
         "wrote {} and {} ({} points)",
         a.output.join("points.csv").display(),
         a.output.join("report.md").display(),
@@ -1349,53 +1503,60 @@ fn info(a: InfoArgs) -> Result<ExitCode> {
     if &head == goniospec::accumulate::file::MAGIC {
         let acc = Accumulator::read(&a.file)?;
         let h = &acc.header;
-        println!("{}: goniospec accumulator (.gsa)", a.file.display());
-        println!(
+        outln!("{}: goniospec accumulator (.gsa)", a.file.display());
+        outln!(
             "sample: '{}' (hash {})",
-            h.settings.sample_name, h.settings.sample_hash
+            h.settings.sample_name,
+            h.settings.sample_hash
         );
-        println!(
+        outln!(
             "incident angles (deg): {:?}, phi_i {} deg",
-            h.settings.theta_i_deg, h.settings.phi_i_deg
+            h.settings.theta_i_deg,
+            h.settings.phi_i_deg
         );
-        println!(
+        outln!(
             "wavelengths: {} {} ({}..{} nm)",
             h.settings.wavelength_count(),
             h.settings.wavelength_mode,
             h.settings.wavelengths_nm.first().unwrap_or(&0.0),
             h.settings.wavelengths_nm.last().unwrap_or(&0.0)
         );
-        println!(
+        outln!(
             "estimator: {}, coherence radius {} nm, cutoff {:e}, max depth {}",
             h.settings.coherence,
             h.settings.coherence_radius_nm,
             h.settings.cutoff,
             h.settings.max_depth
         );
-        println!(
+        outln!(
             "buckets: {} x {} per hemisphere",
-            h.settings.theta_o_bins, h.settings.phi_o_bins
+            h.settings.theta_o_bins,
+            h.settings.phi_o_bins
         );
-        println!(
+        outln!(
             "rays per direction: {} (seeds {:?}), backend {}, path sharing {}, leaks {}",
-            h.rays, h.seeds, h.backend, h.path_sharing, h.leaks
+            h.rays,
+            h.seeds,
+            h.backend,
+            h.path_sharing,
+            h.leaks
         );
     } else if &head == brdf::file::MAGIC {
         let r = brdf::file::read(&a.file)?;
         let m = r.meta();
-        println!(
+        outln!(
             "{}: goniospec BRDF (.gsb), representation {}",
             a.file.display(),
             m.repr
         );
-        println!("sample: '{}' (hash {})", m.sample_name, m.sample_hash);
-        println!(
+        outln!("sample: '{}' (hash {})", m.sample_name, m.sample_hash);
+        outln!(
             "wavelengths: {} ({}..{} nm)",
             m.wavelengths_nm.len(),
             m.wavelengths_nm.first().unwrap_or(&0.0),
             m.wavelengths_nm.last().unwrap_or(&0.0)
         );
-        println!(
+        outln!(
             "isotropic {}, reciprocal {}, median relative stderr of the buckets {}",
             m.isotropic,
             m.reciprocal,
@@ -1404,15 +1565,15 @@ fn info(a: InfoArgs) -> Result<ExitCode> {
         );
         match &r {
             brdf::Representation::KdTree(k) => {
-                println!("kd-tree: {} points, k = {}", k.points.len(), k.k)
+                outln!("kd-tree: {} points, k = {}", k.points.len(), k.k)
             }
-            brdf::Representation::Table(t) => println!(
+            brdf::Representation::Table(t) => outln!(
                 "table: {} incident angles x {} x {}",
                 t.theta_i.len(),
                 t.theta_bins,
                 t.phi_bins
             ),
-            brdf::Representation::Subdivided(s) => println!(
+            brdf::Representation::Subdivided(s) => outln!(
                 "subdivided: {} incident angles, {} leaves, tolerance {}",
                 s.theta_i.len(),
                 (0..s.theta_i.len())
@@ -1432,6 +1593,7 @@ fn info(a: InfoArgs) -> Result<ExitCode> {
 
 fn generate(a: GenerateArgs) -> Result<ExitCode> {
     use goniospec::sample::generate::{Generated, GeneratorSpec};
+    guard_output(&a.output, &[], OutputKind::Obj, a.force)?;
     let u = sample::nm_per_unit(&a.unit)
         .with_context(|| format!("unknown --unit '{}' (use nm or um)", a.unit))?;
     if a.tile.len() != 2 {
@@ -1477,7 +1639,7 @@ fn generate(a: GenerateArgs) -> Result<ExitCode> {
         Generated::Sheet(mesh) => {
             mesh.write_obj(&a.output, u, &comment)
                 .with_context(|| format!("writing {}", a.output.display()))?;
-            println!(
+            outln!(
                 "wrote {} ({} triangles)",
                 a.output.display(),
                 mesh.triangles.len()
@@ -1495,7 +1657,7 @@ fn generate(a: GenerateArgs) -> Result<ExitCode> {
             cores
                 .write_obj(&a.output, u, &format!("{comment}\n{} bodies", bodies.len()))
                 .with_context(|| format!("writing {}", a.output.display()))?;
-            println!(
+            outln!(
                 "wrote {} ({} bodies, {} triangles)",
                 a.output.display(),
                 bodies.len(),
@@ -1511,7 +1673,7 @@ fn generate(a: GenerateArgs) -> Result<ExitCode> {
                         &format!("{comment}\ncoating shells of {} bodies", bodies.len()),
                     )
                     .with_context(|| format!("writing {}", p.display()))?;
-                println!(
+                outln!(
                     "wrote {} ({} triangles)",
                     p.display(),
                     shells.triangles.len()
@@ -1603,11 +1765,11 @@ fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
             bail!("bench simulate: the memory run at {rays} rays failed: {err}");
         }
         let mb = peak_memory_of(&err).context("the simulate summary has no peak memory")?;
-        println!("peak_rss_{rays}_rays: {mb:.1} MB");
+        outln!("peak_rss_{rays}_rays: {mb:.1} MB");
         peaks.push(mb);
     }
     let _ = std::fs::remove_dir_all(&dir);
-    println!("peak_rss_growth_10x_rays: {:.1} MB", peaks[1] - peaks[0]);
+    outln!("peak_rss_growth_10x_rays: {:.1} MB", peaks[1] - peaks[0]);
     Ok(ExitCode::SUCCESS)
 }
 
@@ -1654,7 +1816,7 @@ fn bench_trace(a: TraceArgs) -> Result<ExitCode> {
             bench::default_surface(a.triangles, a.seed)
         }
     };
-    println!(
+    outln!(
         "bench trace: {} triangles, {} rays, backends {}",
         mesh.triangles.len(),
         a.rays,
@@ -1671,9 +1833,9 @@ fn bench_trace(a: TraceArgs) -> Result<ExitCode> {
         seed: a.seed,
     };
     let report = bench::trace_bench(&mesh, &cfg, |line| println!("{line}"))?;
-    println!("hit fraction: {:.4}", report.hit_fraction);
+    outln!("hit fraction: {:.4}", report.hit_fraction);
     if let Some(ag) = &report.agreement {
-        println!(
+        outln!(
             "agreement: {} of {} closest hits identical ({:.4} %), {} edge ties, {} other differences",
             ag.identical,
             ag.rays,
@@ -1692,7 +1854,7 @@ fn bench_trace(a: TraceArgs) -> Result<ExitCode> {
     for o in ["random", "sorted"] {
         for &t in &a.threads {
             if let (Some(e), Some(v)) = (rate(Backend::Embree, o, t), rate(Backend::Obvhs, o, t)) {
-                println!("obvhs/embree {o} {t}T: {:.2}", v / e);
+                outln!("obvhs/embree {o} {t}T: {:.2}", v / e);
             }
         }
     }

@@ -594,3 +594,104 @@ fn render_simulate_models_only_what_the_image_needs() {
         "{err}"
     );
 }
+
+/// Issue "nothing crashes": non-finite numbers, outputs over inputs, a full stdout and
+/// grazing analytic angles. Each case: its exit status, a message naming the flag or file,
+/// and no output written (inputs intact).
+#[test]
+fn bad_numbers_outputs_and_stdout_are_refused_cleanly() {
+    let d = std::env::temp_dir().join(format!("goniospec-robust-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let sample = d.join("v.toml");
+    std::fs::copy(root.join("meshes/flat-soap-film.toml"), &sample).unwrap();
+    let original = std::fs::read(&sample).unwrap();
+    let p = |x: &std::path::Path| x.to_str().unwrap().to_string();
+    let out = d.join("o.gsa");
+    let sim = |extra: &[&str], o: &str| {
+        let mut args = vec![
+            "simulate".to_string(),
+            p(&sample),
+            "--rays".into(),
+            "4".into(),
+        ];
+        args.extend(extra.iter().map(|s| s.to_string()));
+        args.extend(["-o".into(), o.to_string()]);
+        let a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+        goniospec(&a)
+    };
+    // Non-finite numbers: usage errors (exit 2) naming the flag, nothing written.
+    for (flag, value) in [
+        ("--phi-i", "nan"),
+        ("--theta-i", "inf"),
+        ("--cutoff", "nan"),
+    ] {
+        let (code, _, err) = sim(&[flag, value], &p(&out));
+        assert_eq!(code, 2, "{flag} {value}: {err}");
+        assert!(err.contains(flag), "{flag}: {err}");
+        assert!(!out.exists(), "{flag} {value}: an output appeared");
+    }
+    let (code, _, err) = sim(&["--wavelengths", "380:780:0.001"], &p(&out));
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("--wavelengths"), "{err}");
+    // Output over input: refused, the sample intact.
+    let (code, _, err) = sim(&[], &p(&sample));
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("is the input"), "{err}");
+    assert_eq!(std::fs::read(&sample).unwrap(), original);
+    let (code, _, err) = goniospec(&["generate", "flat", "-o", &p(&sample)]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("--force"), "{err}");
+    assert_eq!(std::fs::read(&sample).unwrap(), original);
+    // A real run, then build onto itself and render options out of range.
+    let (code, _, err) = sim(
+        &["--theta-i", "30", "--wavelengths", "500", "--monochromatic"],
+        &p(&out),
+    );
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = goniospec(&["build", &p(&out), "-o", &p(&out)]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("is the input"), "{err}");
+    let (code, _, err) = goniospec(&[
+        "eval",
+        &p(&out),
+        "--theta-i",
+        "30",
+        "--theta-o",
+        "30",
+        "--phi-i",
+        "nan",
+    ]);
+    assert_eq!(code, 2, "{err}");
+    // Analytic at grazing incidence: the limit, not NaN.
+    let (code, stdout, err) = goniospec(&[
+        "analytic",
+        "meshes/flat-soap-film.toml",
+        "--theta-i",
+        "89.9999999",
+        "--wavelengths",
+        "500",
+        "--monochromatic",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!stdout.contains("NaN"), "{stdout}");
+    // A full standard output (Linux's /dev/full): an error with exit 1, not a panic.
+    #[cfg(target_os = "linux")]
+    {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_goniospec"))
+            .args(["reflectance", &p(&out), "--theta-i", "30"])
+            .stdout(full)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(
+            err.contains("writing to standard output") && !err.contains("panicked"),
+            "{err}"
+        );
+    }
+}

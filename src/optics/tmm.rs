@@ -57,6 +57,11 @@ pub struct StackIndices {
 pub fn amplitudes(n: &[C64], d_nm: &[f64], kx: C64, lambda_nm: f64) -> [(C64, C64); 2] {
     assert_eq!(d_nm.len() + 2, n.len(), "one thickness per inner layer");
     let nc: Vec<C64> = n.iter().map(|&n| n_cos(n, kx)).collect();
+    if nc[0] == C64::new(0.0, 0.0) {
+        // Grazing incidence (sin(theta) rounds to 1 in the incidence medium): the limit of
+        // both Fresnel coefficients is -1 and nothing enters (Born & Wolf §1.5.2).
+        return [(C64::new(-1.0, 0.0), C64::new(0.0, 0.0)); 2];
+    }
     let cos: Vec<C64> = nc.iter().zip(n).map(|(a, n)| a / n).collect();
     let last = n.len() - 1;
     let solve_pol = |p: bool| -> (C64, C64) {
@@ -110,9 +115,10 @@ pub fn solve(stack: &StackIndices, lambda_nm: f64, theta0_rad: f64) -> Rt {
     let last = stack.n.len() - 1;
     let (nc0, ncl) = (n_cos(n0, kx), n_cos(stack.n[last], kx));
     let (cos0, cosl) = (nc0 / n0, ncl / stack.n[last]);
-    // Byrnes eqs. 21-22.
-    let ratio_s = ncl.re / nc0.re;
-    let ratio_p = (stack.n[last] * cosl.conj()).re / (n0 * cos0.conj()).re;
+    // Byrnes eqs. 21-22 (no transmitted power at grazing incidence, where Re(nc0) = 0).
+    let ratio = |num: f64, den: f64| if den > 0.0 { num / den } else { 0.0 };
+    let ratio_s = ratio(ncl.re, nc0.re);
+    let ratio_p = ratio((stack.n[last] * cosl.conj()).re, (n0 * cos0.conj()).re);
     Rt {
         r_s: rs.norm_sqr(),
         r_p: rp.norm_sqr(),
