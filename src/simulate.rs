@@ -760,7 +760,11 @@ pub fn check_physical(
             } else {
                 String::new()
             };
-            let what = if d_limit > NOT_CONVERGED {
+            let what = if !(r.is_finite() && t.is_finite() && a.is_finite() && d.is_finite()) {
+                Some(format!(
+                    "a non-finite result (R {r}, T {t}, absorbed {a}, dropped {d}): a medium's index or the geometry is outside what the optics can represent"
+                ))
+            } else if d_limit > NOT_CONVERGED {
                 Some(format!(
                     "the ray series did not converge: {d_limit:.1e} of the launched power per tree was cut by --max-depth / --max-segments, so R and T are uncertain by up to 2 sqrt({d_limit:.1e}) = {:.2}",
                     2.0 * d_limit.sqrt()

@@ -342,3 +342,26 @@ fn every_shipped_sample_loads() {
     }
     assert!(n >= 2, "expected shipped samples in {}", dir.display());
 }
+
+#[test]
+fn physically_meaningless_indices_are_refused_with_file_and_line() {
+    // n = 1e300, 1e-300 or k = 1e300 made R and T NaN with exit status 0.
+    let d = std::env::temp_dir().join(format!("goniospec-nk-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    for (medium, want) in [
+        ("n = 1e300", "n must be between"),
+        ("n = 1e-300", "n must be between"),
+        ("n = 1.5\nk = 1e300", "k must be between"),
+    ] {
+        let p = d.join("m.toml");
+        std::fs::write(
+            &p,
+            format!("[sample]\nname = \"m\"\nunit = \"nm\"\ntile = [1000.0, 1000.0]\n[media.air]\nn = 1.0\n[media.x]\n{medium}\n[stack]\nambient = \"air\"\nsubstrate = \"x\"\n"),
+        )
+        .unwrap();
+        let e = goniospec::sample::load(&p, Default::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want) && e.contains("m.toml:7"), "{medium}: {e}");
+    }
+}

@@ -10,6 +10,15 @@ use serde::Deserialize;
 
 /// Range assumed for a Cauchy or Sellmeier formula whose TOML gives no `range_nm`: the
 /// visible and near infrared, where such fits are normally made.
+
+/// The range of refractive indices accepted as physical: from metals' smallest real parts
+/// (about 0.01 for silver and gold in the near infrared) to a margin above the largest
+/// known in the infrared, and extinction coefficients up to far-infrared metals'. Values
+/// outside (1e300, 1e-300) make the optics overflow to NaN; they are refused on loading.
+pub const N_MIN: f64 = 1e-3;
+pub const N_MAX: f64 = 100.0;
+pub const K_MAX: f64 = 1000.0;
+
 pub const DEFAULT_FORMULA_RANGE_NM: [f64; 2] = [300.0, 2000.0];
 
 /// How a medium's complex index depends on wavelength.
@@ -242,14 +251,14 @@ pub(crate) fn build_model(
     }
     let model = if let Some(n) = raw.n {
         let k = raw.k.unwrap_or(0.0);
-        if !(n.is_finite() && n > 0.0) {
+        if !(n.is_finite() && (N_MIN..=N_MAX).contains(&n)) {
             return Err(MediumDefError::msg(format!(
-                "n must be positive and finite, got {n}"
+                "n must be between {N_MIN} and {N_MAX} (a real material's index), got {n:?}"
             )));
         }
-        if !(k.is_finite() && k >= 0.0) {
+        if !(k.is_finite() && (0.0..=K_MAX).contains(&k)) {
             return Err(MediumDefError::msg(format!(
-                "k must be finite and >= 0, got {k}"
+                "k must be between 0 and {K_MAX}, got {k:?}"
             )));
         }
         IndexModel::Constant { n, k }
@@ -296,9 +305,13 @@ fn check_model(model: &IndexModel) -> Result<(), MediumDefError> {
             let (n, k) = model
                 .eval(l)
                 .map_err(|e| MediumDefError::msg(e.to_string()))?;
-            if !(n.is_finite() && n > 0.0 && k.is_finite() && k >= 0.0) {
+            if !(n.is_finite()
+                && (N_MIN..=N_MAX).contains(&n)
+                && k.is_finite()
+                && (0.0..=K_MAX).contains(&k))
+            {
                 return Err(MediumDefError::msg(format!(
-                    "the formula gives n = {n}, k = {k} at {l:.1} nm, inside its range; check the coefficients or range_nm"
+                    "the formula gives n = {n}, k = {k} at {l:.1} nm, inside its range (a real material has {N_MIN} <= n <= {N_MAX}, 0 <= k <= {K_MAX}); check the coefficients or range_nm"
                 )));
             }
         }
@@ -397,13 +410,18 @@ pub fn load_table(path: &Path) -> Result<IndexModel, MediumDefError> {
                 ),
             ));
         }
-        if nv <= 0.0 {
-            return Err(err(Some(line), format!("n must be positive, got {nv}")));
-        }
-        if kv < 0.0 {
+        if !(N_MIN..=N_MAX).contains(&nv) {
             return Err(err(
                 Some(line),
-                format!("k must be >= 0 (absorbing), got {kv}"),
+                format!(
+                    "n must be between {N_MIN} and {N_MAX} (a real material's index), got {nv:?}"
+                ),
+            ));
+        }
+        if !(0.0..=K_MAX).contains(&kv) {
+            return Err(err(
+                Some(line),
+                format!("k must be between 0 and {K_MAX}, got {kv:?}"),
             ));
         }
         l.push(lv);
