@@ -8,9 +8,6 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-/// Range assumed for a Cauchy or Sellmeier formula whose TOML gives no `range_nm`: the
-/// visible and near infrared, where such fits are normally made.
-
 /// The range of refractive indices accepted as physical: from metals' smallest real parts
 /// (about 0.01 for silver and gold in the near infrared) to a margin above the largest
 /// known in the infrared, and extinction coefficients up to far-infrared metals'. Values
@@ -19,6 +16,8 @@ pub const N_MIN: f64 = 1e-3;
 pub const N_MAX: f64 = 100.0;
 pub const K_MAX: f64 = 1000.0;
 
+/// Range assumed for a Cauchy or Sellmeier formula whose TOML gives no `range_nm`: the
+/// visible and near infrared, where such fits are normally made.
 pub const DEFAULT_FORMULA_RANGE_NM: [f64; 2] = [300.0, 2000.0];
 
 /// How a medium's complex index depends on wavelength.
