@@ -8,11 +8,12 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-/// The range of refractive indices accepted as physical: from metals' smallest real parts
-/// (about 0.01 for silver and gold in the near infrared) to a margin above the largest
-/// known in the infrared, and extinction coefficients up to far-infrared metals'. Values
+/// The range of refractive indices accepted as physical: real parts from 1e-9 (a
+/// near-perfect conductor, `n -> 0`, as furnace tests use; metals' smallest real parts are
+/// about 0.01) to a margin above the largest known in the infrared, and extinction
+/// coefficients up to far-infrared metals'. Values
 /// outside (1e300, 1e-300) make the optics overflow to NaN; they are refused on loading.
-pub const N_MIN: f64 = 1e-3;
+pub const N_MIN: f64 = 1e-9;
 pub const N_MAX: f64 = 100.0;
 pub const K_MAX: f64 = 1000.0;
 
@@ -250,12 +251,22 @@ pub(crate) fn build_model(
     }
     let model = if let Some(n) = raw.n {
         let k = raw.k.unwrap_or(0.0);
-        if !(n.is_finite() && (N_MIN..=N_MAX).contains(&n)) {
+        if !(n.is_finite() && n > 0.0) {
             return Err(MediumDefError::msg(format!(
-                "n must be between {N_MIN} and {N_MAX} (a real material's index), got {n:?}"
+                "n must be positive and finite, got {n}"
             )));
         }
-        if !(k.is_finite() && (0.0..=K_MAX).contains(&k)) {
+        if !(N_MIN..=N_MAX).contains(&n) {
+            return Err(MediumDefError::msg(format!(
+                "n must be between {N_MIN:e} and {N_MAX} (a real material's index), got {n:?}"
+            )));
+        }
+        if !(k.is_finite() && k >= 0.0) {
+            return Err(MediumDefError::msg(format!(
+                "k must be finite and >= 0, got {k}"
+            )));
+        }
+        if k > K_MAX {
             return Err(MediumDefError::msg(format!(
                 "k must be between 0 and {K_MAX}, got {k:?}"
             )));
@@ -310,7 +321,7 @@ fn check_model(model: &IndexModel) -> Result<(), MediumDefError> {
                 && (0.0..=K_MAX).contains(&k))
             {
                 return Err(MediumDefError::msg(format!(
-                    "the formula gives n = {n}, k = {k} at {l:.1} nm, inside its range (a real material has {N_MIN} <= n <= {N_MAX}, 0 <= k <= {K_MAX}); check the coefficients or range_nm"
+                    "the formula gives n = {n}, k = {k} at {l:.1} nm, inside its range (a real material has {N_MIN:e} <= n <= {N_MAX}, 0 <= k <= {K_MAX}); check the coefficients or range_nm"
                 )));
             }
         }
@@ -417,7 +428,13 @@ pub fn load_table(path: &Path) -> Result<IndexModel, MediumDefError> {
                 ),
             ));
         }
-        if !(0.0..=K_MAX).contains(&kv) {
+        if kv < 0.0 {
+            return Err(err(
+                Some(line),
+                format!("k must be >= 0 (absorbing), got {kv}"),
+            ));
+        }
+        if kv > K_MAX {
             return Err(err(
                 Some(line),
                 format!("k must be between 0 and {K_MAX}, got {kv:?}"),
