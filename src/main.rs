@@ -150,6 +150,9 @@ struct WavelengthArgs {
     monochromatic: bool,
 }
 
+/// Most worker threads a command may ask for (each holds its own scratch buffers).
+const MAX_THREADS: usize = 1024;
+
 /// Most wavelengths (or bins) one run may ask for: each is a cell of every incident
 /// direction's accumulator, and 10,000 already resolve 0.04 nm over the visible.
 const MAX_WAVELENGTHS: usize = 10_000;
@@ -773,6 +776,12 @@ fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} trees  {per_sec}  eta {eta}")
             .expect("a valid template"),
     );
+    if a.threads > MAX_THREADS {
+        bail!(
+            "--threads {} is more than {MAX_THREADS}; 0 uses every core",
+            a.threads
+        );
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads)
         .build()?;

@@ -859,8 +859,44 @@ fn validate(cfg: &SimConfig) -> Result<(), SimError> {
     if cfg.buckets.theta_bins == 0 || cfg.buckets.phi_bins == 0 {
         return bad("bucket counts must be at least 1".into());
     }
+    // Sizes are estimated before anything is allocated (checked arithmetic throughout).
+    let buckets = u64::from(cfg.buckets.theta_bins).checked_mul(u64::from(cfg.buckets.phi_bins));
+    if buckets.is_none_or(|b| b > MAX_BUCKETS) {
+        return bad(format!(
+            "--theta-o-bins {} x --phi-o-bins {} is more than {MAX_BUCKETS} buckets per hemisphere",
+            cfg.buckets.theta_bins, cfg.buckets.phi_bins
+        ));
+    }
+    // The accumulator: per (direction, wavelength) cell, two hemispheres of buckets with a
+    // sum, a sum of squares and a count (24 bytes each).
+    let bytes = buckets
+        .and_then(|b| b.checked_mul(2 * 24))
+        .and_then(|b| b.checked_mul(cfg.theta_i_deg.len() as u64))
+        .and_then(|b| b.checked_mul(cfg.wavelengths.count() as u64));
+    if bytes.is_none_or(|b| b > MAX_ACCUMULATOR_BYTES) {
+        return bad(format!(
+            "the accumulator would need more than {} GiB ({} incident angles x {} wavelengths x {} buckets): use fewer --theta-o-bins/--phi-o-bins, wavelengths or angles",
+            MAX_ACCUMULATOR_BYTES >> 30,
+            cfg.theta_i_deg.len(),
+            cfg.wavelengths.count(),
+            buckets.unwrap_or(u64::MAX)
+        ));
+    }
+    if cfg.rays > MAX_RAYS || cfg.max_rays > MAX_RAYS {
+        return bad(format!(
+            "--rays / --max-rays above {MAX_RAYS:e} per direction would run for weeks; split the work into seeds and merge"
+        ));
+    }
     Ok(())
 }
+
+/// Buckets per hemisphere (4096 x 1024 bins, far finer than any measurement).
+const MAX_BUCKETS: u64 = 1 << 22;
+/// The accumulator's cells must fit comfortably in memory (the machines this runs on have
+/// tens of GiB).
+const MAX_ACCUMULATOR_BYTES: u64 = 8 << 30;
+/// Trees per incident direction.
+const MAX_RAYS: u64 = 1_000_000_000_000;
 
 fn add_block(cell: &mut Cell, b: &BlockCell) {
     for &(k, sum, sq, n) in &b.entries {

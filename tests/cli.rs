@@ -631,9 +631,21 @@ fn bad_numbers_outputs_and_stdout_are_refused_cleanly() {
         assert!(err.contains(flag), "{flag}: {err}");
         assert!(!out.exists(), "{flag} {value}: an output appeared");
     }
-    let (code, _, err) = sim(&["--wavelengths", "380:780:0.001"], &p(&out));
-    assert_eq!(code, 1, "{err}");
-    assert!(err.contains("--wavelengths"), "{err}");
+    // Sizes that cannot fit or finish: refused before allocating, naming the flags.
+    for (args, flag) in [
+        (&["--wavelengths", "380:780:0.001"][..], "--wavelengths"),
+        (
+            &["--theta-o-bins", "65536", "--phi-o-bins", "65536"][..],
+            "--theta-o-bins",
+        ),
+        (&["--max-rays", "18446744073709551615"][..], "--max-rays"),
+        (&["--threads", "100000"][..], "--threads"),
+    ] {
+        let (code, _, err) = sim(args, &p(&out));
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(err.contains(flag), "{args:?}: {err}");
+        assert!(!out.exists(), "{args:?}: an output appeared");
+    }
     // Output over input: refused, the sample intact.
     let (code, _, err) = sim(&[], &p(&sample));
     assert_eq!(code, 1, "{err}");
