@@ -530,16 +530,22 @@ fn base_colour(fit: &Fit, data: &Data) -> [f64; 3] {
     colour::xyz_to_linear_srgb([x[0] / w, x[1] / w, x[2] / w]).map(|v| v.clamp(0.0, 1.0))
 }
 
+/// Metalness (0 or 1) and the real index a renderer's `ior` takes: the dielectric's, or a
+/// conductor's mean real part.
+fn metal_and_ior(fit: &Fit) -> (f64, f64) {
+    match &fit.base {
+        Base::Dielectric { n } => (0.0, *n),
+        Base::Conductor { n } => (1.0, n.iter().map(|c| c.re).sum::<f64>() / n.len() as f64),
+    }
+}
+
 /// The parameter sets as JSON: the fit, OpenPBR (`thin_film_thickness` in um) and Standard
 /// Surface (`thin_film_thickness` in nm).
 pub fn to_json(fit: &Fit, data: &Data) -> serde_json::Value {
     use serde_json::json;
     let roughness = fit.alpha.sqrt();
     let colour = base_colour(fit, data);
-    let (metal, ior) = match &fit.base {
-        Base::Dielectric { n } => (0.0, *n),
-        Base::Conductor { n } => (1.0, n.iter().map(|c| c.re).sum::<f64>() / n.len() as f64),
-    };
+    let (metal, ior) = metal_and_ior(fit);
     let film = fit.film.unwrap_or(Film {
         thickness_nm: 0.0,
         n: 1.5,
@@ -625,10 +631,7 @@ pub fn to_gltf(fit: &Fit, data: &Data, name: &str) -> serde_json::Value {
     let nv = pos.len() / 3;
     let vb = nv * 12;
     let colour = base_colour(fit, data);
-    let (metal, ior) = match &fit.base {
-        Base::Dielectric { n } => (0.0, *n),
-        Base::Conductor { n } => (1.0, n.iter().map(|c| c.re).sum::<f64>() / n.len() as f64),
-    };
+    let (metal, ior) = metal_and_ior(fit);
     let mut ext = json!({ "KHR_materials_ior": { "ior": ior.max(1.0) } });
     let mut used = vec!["KHR_materials_ior"];
     if let Some(f) = fit.film {

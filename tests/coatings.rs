@@ -12,17 +12,7 @@ use goniospec::simulate::{SimError, Wavelengths, simulate};
 
 /// A `[stack]` sample in its default mode (one coated interface).
 fn coated_stack(tag: &str, media: &str, layers: &[(&str, f64)], substrate: &str) -> Sample {
-    let layers: Vec<String> = layers
-        .iter()
-        .map(|(m, t)| format!("{{ medium = \"{m}\", thickness = {t:?} }}"))
-        .collect();
-    sample_from(
-        tag,
-        &format!(
-            "[sample]\nname = \"{tag}\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n{media}\n[stack]\nambient = \"air\"\nlayers = [{}]\nsubstrate = \"{substrate}\"\n",
-            layers.join(", ")
-        ),
-    )
+    sample_from(tag, &stack_toml(tag, "coating", media, layers, substrate))
 }
 
 /// Runs `s` at `thetas` x `lambdas` (exact wavelengths) with beamlet radius `rho` and
@@ -56,22 +46,16 @@ fn quarter_wave_mirrors_match_the_tmm_at_any_angle_and_radius() {
     // (HL)^N, n = 2.4 / 1.46, on glass 1.52, centred at 550 nm: the multilayer whose meshed
     // ray series cannot converge (spectral radius > 1 for N >= 5).
     for pairs in [5usize, 10] {
-        let (dh, dl) = (550.0 / (4.0 * 2.4), 550.0 / (4.0 * 1.46));
-        let mut layers = Vec::new();
+        let (media, layers) = quarter_wave_mirror(pairs);
         let mut n = vec![c(1.0, 0.0)];
-        let mut d = Vec::new();
-        for _ in 0..pairs {
-            layers.extend([("h", dh), ("l", dl)]);
-            n.extend([c(2.4, 0.0), c(1.46, 0.0)]);
-            d.extend([dh, dl]);
-        }
-        n.push(c(1.52, 0.0));
-        let s = coated_stack(
-            &format!("mirror{pairs}"),
-            "[media.air]\nn = 1.0\n[media.h]\nn = 2.4\n[media.l]\nn = 1.46\n[media.glass]\nn = 1.52\n",
-            &layers,
-            "glass",
+        n.extend(
+            layers
+                .iter()
+                .map(|(m, _)| c(if *m == "h" { 2.4 } else { 1.46 }, 0.0)),
         );
+        n.push(c(1.52, 0.0));
+        let d: Vec<f64> = layers.iter().map(|l| l.1).collect();
+        let s = coated_stack(&format!("mirror{pairs}"), media, &layers, "glass");
         let lambdas: Vec<f64> = (0..=12).map(|i| 400.0 + 25.0 * i as f64).collect();
         for rho in [1000.0, 5000.0, f64::INFINITY] {
             check_against_tmm(&s, &n, &d, &[0.0, 30.0, 60.0], &lambdas, rho);
@@ -208,15 +192,8 @@ fn an_absorbing_four_layer_stack_matches_the_tmm_at_every_angle() {
 fn a_meshed_mirror_that_cannot_converge_is_refused_with_a_pointer_to_coatings() {
     // The 5-pair mirror meshed layer by layer: its ray series has a spectral radius above 1
     // (the issue measured R off by 0.83 with 83 % of the power cut at the segment cap).
-    let (dh, dl) = (550.0 / (4.0 * 2.4), 550.0 / (4.0 * 1.46));
-    let layers: Vec<(&str, f64)> = (0..5).flat_map(|_| [("h", dh), ("l", dl)]).collect();
-    let s = stack_sample(
-        "meshed-mirror",
-        "[media.air]\nn = 1.0\n[media.h]\nn = 2.4\n[media.l]\nn = 1.46\n[media.glass]\nn = 1.52\n",
-        "air",
-        &layers,
-        "glass",
-    );
+    let (media, layers) = quarter_wave_mirror(5);
+    let s = stack_sample("meshed-mirror", media, "air", &layers, "glass");
     let cfg = config(
         &[0.0, 30.0, 60.0],
         Wavelengths::Monochromatic(vec![450.0, 550.0, 650.0]),

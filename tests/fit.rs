@@ -118,21 +118,10 @@ fn the_fitted_gltf_passes_the_khronos_validator() {
 fn fit_says_plainly_when_it_cannot_represent_a_multilayer() {
     // A 5-pair quarter-wave mirror: no single film on a base reproduces its stop band.
     let d = scratch("fit-mirror");
-    let (dh, dl) = (550.0 / (4.0 * 2.4), 550.0 / (4.0 * 1.46));
-    let layers: Vec<String> = (0..5)
-        .flat_map(|_| {
-            [
-                format!("{{ medium = \"h\", thickness = {dh:?} }}"),
-                format!("{{ medium = \"l\", thickness = {dl:?} }}"),
-            ]
-        })
-        .collect();
+    let (media, layers) = quarter_wave_mirror(5);
     std::fs::write(
         d.join("m.toml"),
-        format!(
-            "[sample]\nname = \"mirror\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n[media.air]\nn = 1.0\n[media.h]\nn = 2.4\n[media.l]\nn = 1.46\n[media.glass]\nn = 1.52\n[stack]\nambient = \"air\"\nlayers = [{}]\nsubstrate = \"glass\"\n",
-            layers.join(", ")
-        ),
+        stack_toml("mirror", "coating", media, &layers, "glass"),
     )
     .unwrap();
     let gs = |args: &[&str]| {

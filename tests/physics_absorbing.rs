@@ -255,19 +255,8 @@ fn subnm_film() -> Sample {
 /// A meshed 5-pair quarter-wave mirror: its ray series does not converge (the issue's
 /// spectral radius 1.10); at the default limits 83 % of the power is cut.
 fn meshed_mirror_toml() -> String {
-    let (dh, dl) = (550.0 / (4.0 * 2.4), 550.0 / (4.0 * 1.46));
-    let layers: Vec<String> = (0..5)
-        .flat_map(|_| {
-            [
-                format!("{{ medium = \"h\", thickness = {dh:?} }}"),
-                format!("{{ medium = \"l\", thickness = {dl:?} }}"),
-            ]
-        })
-        .collect();
-    format!(
-        "[sample]\nname = \"meshed mirror\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n[media.air]\nn = 1.0\n[media.h]\nn = 2.4\n[media.l]\nn = 1.46\n[media.glass]\nn = 1.52\n[stack]\nmode = \"mesh\"\nambient = \"air\"\nlayers = [{}]\nsubstrate = \"glass\"\n",
-        layers.join(", ")
-    )
+    let (media, layers) = quarter_wave_mirror(5);
+    stack_toml("meshed mirror", "mesh", media, &layers, "glass")
 }
 
 #[test]

@@ -193,28 +193,47 @@ fn smith_walk(
     (out, mean, ((sumsq / m - mean * mean) / m).sqrt())
 }
 
+/// A Beckmann height field (20 um tile, 320^2 cells, 1,024 correlation areas) written as a
+/// sample whose front is air, with `media` lines and the interface's extra `lines`.
+fn beckmann_sample(
+    name: &str,
+    seed: u64,
+    alpha: f64,
+    media: &str,
+    back: &str,
+    lines: &str,
+) -> goniospec::sample::Sample {
+    let tile = 20_000.0;
+    let mesh = generate::microfacet_surface(
+        seed,
+        [tile, tile],
+        320,
+        Distribution::Beckmann,
+        alpha,
+        tile / 32.0,
+        0.0,
+    )
+    .unwrap();
+    let d = scratch("beckmann");
+    mesh.write_obj(&d.join("b.obj"), 1.0, "beckmann").unwrap();
+    sample_in(
+        &d,
+        &format!(
+            "[sample]\nname = \"{name}\"\nunit = \"nm\"\ntile = [{tile:?}, {tile:?}]\n[media.air]\nn = 1.0\n{media}[[interface]]\nmesh = \"b.obj\"\nfront = \"air\"\nback = \"{back}\"\n{lines}"
+        ),
+    )
+}
+
 #[test]
 fn beckmann_gold_height_fields_match_the_smith_model() {
-    let tile = 20_000.0;
     for alpha in [0.2, 0.5] {
-        let mesh = generate::microfacet_surface(
+        let s = beckmann_sample(
+            &format!("beckmann {alpha} gold"),
             11,
-            [tile, tile],
-            320,
-            Distribution::Beckmann,
             alpha,
-            tile / 32.0,
-            0.0,
-        )
-        .unwrap();
-        let d = scratch("smith");
-        mesh.write_obj(&d.join("b.obj"), 1.0, "beckmann").unwrap();
-        let s = sample_in(
-            &d,
-            &format!(
-                "[sample]\nname = \"beckmann {alpha} gold\"\nunit = \"nm\"\ntile = [{tile:?}, {tile:?}]\n[media.air]\nn = 1.0\n[media.gold]\nn = {:?}\nk = {:?}\n[[interface]]\nmesh = \"b.obj\"\nfront = \"air\"\nback = \"gold\"\n",
-                GOLD.0, GOLD.1
-            ),
+            &format!("[media.gold]\nn = {:?}\nk = {:?}\n", GOLD.0, GOLD.1),
+            "gold",
+            "",
         );
         let thetas = [0.0, 30.0, 60.0];
         let mut cfg = config(&thetas, Wavelengths::Monochromatic(vec![550.0]), 20_000);
@@ -355,25 +374,14 @@ fn a_rough_metal_with_a_thin_oxide_coating_matches_a_microfacet_airy_model() {
     // term is the film's Airy reflectance (Belcour & Barla, "A practical extension to
     // microfacet theory for the modeling of varying iridescence", SIGGRAPH 2017) is the
     // reference; here the film reflectance comes from the test's own TMM at each bounce.
-    let tile = 20_000.0;
     let alpha = 0.1;
-    let mesh = generate::microfacet_surface(
+    let s = beckmann_sample(
+        "oxidised aluminium",
         13,
-        [tile, tile],
-        320,
-        Distribution::Beckmann,
         alpha,
-        tile / 32.0,
-        0.0,
-    )
-    .unwrap();
-    let d = scratch("oxide");
-    mesh.write_obj(&d.join("b.obj"), 1.0, "beckmann").unwrap();
-    let s = sample_in(
-        &d,
-        &format!(
-            "[sample]\nname = \"oxidised aluminium\"\nunit = \"nm\"\ntile = [{tile:?}, {tile:?}]\n[media.air]\nn = 1.0\n[media.oxide]\nn = 1.65\n[media.al]\nn = 0.96\nk = 6.69\n[[interface]]\nmesh = \"b.obj\"\nfront = \"air\"\nback = \"al\"\ncoating = [ {{ medium = \"oxide\", thickness = 120.0 }} ]\n"
-        ),
+        "[media.oxide]\nn = 1.65\n[media.al]\nn = 0.96\nk = 6.69\n",
+        "al",
+        "coating = [ { medium = \"oxide\", thickness = 120.0 } ]\n",
     );
     for lambda in [450.0, 550.0, 650.0] {
         let film = |c: f64| {

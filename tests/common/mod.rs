@@ -80,6 +80,26 @@ pub fn totals(acc: &Accumulator, i: usize, j: usize) -> (f64, f64) {
 /// Properties of Thin Solid Films, 1955, §4; Macleod, Thin-Film Optical Filters, §2.6), and
 /// the transmission coefficients multiply likewise. Returns (R, T) for unpolarised light.
 pub fn tmm_ref(n: &[C], d: &[f64], lambda: f64, theta0: f64) -> (f64, f64) {
+    let ([(rs, ts), (rp, tp)], ncos) = tmm_ref_amplitudes(n, d, lambda, theta0);
+    let last = n.len() - 1;
+    let ratio_s = ncos[last].re / ncos[0].re;
+    let ratio_p =
+        (n[last] * (ncos[last] / n[last]).conj()).re / (n[0] * (ncos[0] / n[0]).conj()).re;
+    (
+        0.5 * (rs.norm_sqr() + rp.norm_sqr()),
+        0.5 * (ts.norm_sqr() * ratio_s + tp.norm_sqr() * ratio_p),
+    )
+}
+
+/// The reflectances `(R_s, R_p)` of [`tmm_ref`]'s recursion, per polarisation.
+pub fn tmm_ref_pol(n: &[C], d: &[f64], lambda: f64, theta0: f64) -> (f64, f64) {
+    let ([(rs, _), (rp, _)], _) = tmm_ref_amplitudes(n, d, lambda, theta0);
+    (rs.norm_sqr(), rp.norm_sqr())
+}
+
+/// The recursion of [`tmm_ref`]: amplitude `(r, t)` for s and p, and the normal indices
+/// `n_j cos(theta_j)` of every medium.
+fn tmm_ref_amplitudes(n: &[C], d: &[f64], lambda: f64, theta0: f64) -> ([(C, C); 2], Vec<C>) {
     let kx = n[0] * theta0.sin();
     let ncos: Vec<C> = n
         .iter()
@@ -92,8 +112,7 @@ pub fn tmm_ref(n: &[C], d: &[f64], lambda: f64, theta0: f64) -> (f64, f64) {
         })
         .collect();
     let last = n.len() - 1;
-    let mut out = (0.0, 0.0);
-    for p in [false, true] {
+    let pol = |p: bool| -> (C, C) {
         // Interface coefficients between j and j+1.
         let coef = |j: usize| -> (C, C) {
             let (a, b) = (ncos[j], ncos[j + 1]);
@@ -117,51 +136,37 @@ pub fn tmm_ref(n: &[C], d: &[f64], lambda: f64, theta0: f64) -> (f64, f64) {
             t = tj * t * e1 / den;
             r = r_new;
         }
-        let ratio = if p {
-            (n[last] * (ncos[last] / n[last]).conj()).re / (n[0] * (ncos[0] / n[0]).conj()).re
-        } else {
-            ncos[last].re / ncos[0].re
-        };
-        out.0 += 0.5 * r.norm_sqr();
-        out.1 += 0.5 * t.norm_sqr() * ratio;
-    }
-    out
+        (r, t)
+    };
+    ([pol(false), pol(true)], ncos)
 }
 
-/// The reflectances `(R_s, R_p)` of [`tmm_ref`]'s recursion, per polarisation.
-pub fn tmm_ref_pol(n: &[C], d: &[f64], lambda: f64, theta0: f64) -> (f64, f64) {
-    let kx = n[0] * theta0.sin();
-    let ncos: Vec<C> = n
+/// A quarter-wave mirror `(HL)^pairs` of n = 2.4 / 1.46 centred at 550 nm on glass 1.52:
+/// the media lines (air, h, l, glass) and the layers, top first.
+pub fn quarter_wave_mirror(pairs: usize) -> (&'static str, Vec<(&'static str, f64)>) {
+    let (dh, dl) = (550.0 / (4.0 * 2.4), 550.0 / (4.0 * 1.46));
+    (
+        "[media.air]\nn = 1.0\n[media.h]\nn = 2.4\n[media.l]\nn = 1.46\n[media.glass]\nn = 1.52\n",
+        (0..pairs).flat_map(|_| [("h", dh), ("l", dl)]).collect(),
+    )
+}
+
+/// TOML for a `[stack]` sample in `mode` ("coating" or "mesh") from `media` lines and layers.
+pub fn stack_toml(
+    name: &str,
+    mode: &str,
+    media: &str,
+    layers: &[(&str, f64)],
+    substrate: &str,
+) -> String {
+    let layers: Vec<String> = layers
         .iter()
-        .map(|&nj| {
-            let mut v = (nj * nj - kx * kx).sqrt();
-            if v.im < 0.0 || (v.im.abs() < 1e-15 && v.re < 0.0) {
-                v = -v;
-            }
-            v
-        })
+        .map(|(m, t)| format!("{{ medium = \"{m}\", thickness = {t:?} }}"))
         .collect();
-    let last = n.len() - 1;
-    let pol = |p: bool| {
-        let coef = |j: usize| -> (C, C) {
-            let (a, b) = (ncos[j], ncos[j + 1]);
-            if p {
-                let (ca, cb) = (a / n[j], b / n[j + 1]);
-                let den = n[j + 1] * ca + n[j] * cb;
-                ((n[j + 1] * ca - n[j] * cb) / den, 2.0 * n[j] * ca / den)
-            } else {
-                ((a - b) / (a + b), 2.0 * a / (a + b))
-            }
-        };
-        let (mut r, _) = coef(last - 1);
-        for j in (1..last).rev() {
-            let e2 = (C::i() * 4.0 * std::f64::consts::PI * ncos[j] * d[j - 1] / lambda).exp();
-            let (rj, _) = coef(j - 1);
-            r = (rj + r * e2) / (C::new(1.0, 0.0) + rj * r * e2);
-        }
-        r.norm_sqr()
-    };
-    (pol(false), pol(true))
+    format!(
+        "[sample]\nname = \"{name}\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n{media}\n[stack]\nmode = \"{mode}\"\nambient = \"air\"\nlayers = [{}]\nsubstrate = \"{substrate}\"\n",
+        layers.join(", ")
+    )
 }
 
 /// The independent TMM averaged over a wavelength band by fine sampling (midpoint rule).
