@@ -441,3 +441,57 @@ fn damaged_accumulator_files_are_refused() {
     assert!(e.contains("version 99"), "{e}");
     assert!(Accumulator::from_bytes(&bytes, "f.gsa").is_ok());
 }
+
+#[test]
+fn accumulators_with_a_valid_checksum_but_senseless_content_are_refused() {
+    // The checksum proves a file was not damaged, not that its writer made sense: a NaN
+    // angle, an unknown estimator (read as beamlet before), no rays, a wrapped grid.
+    let s = shipped("flat-soap-film.toml");
+    let good = run(&s, &config(&[0.0], mono550(), 4));
+    type Damage = Box<dyn Fn(&mut Accumulator)>;
+    let cases: Vec<(&str, Damage)> = vec![
+        (
+            "theta_i_deg",
+            Box::new(|a| a.header.settings.theta_i_deg = vec![f64::NAN]),
+        ),
+        (
+            "coherence",
+            Box::new(|a| a.header.settings.coherence = "bogus".into()),
+        ),
+        ("no rays", Box::new(|a| a.header.rays = 0)),
+        (
+            "wavelengths",
+            Box::new(|a| a.header.settings.wavelengths_nm = vec![-550.0]),
+        ),
+        ("non-finite", Box::new(|a| a.cells[0].r_sum = f64::NAN)),
+    ];
+    for (want, damage) in cases {
+        let mut a = good.clone();
+        damage(&mut a);
+        let e = Accumulator::from_bytes(&a.to_bytes(), "x.gsa")
+            .expect_err(want)
+            .to_string();
+        assert!(e.contains(want) && e.contains("x.gsa"), "{want}: {e}");
+    }
+    // A grid whose size wraps: the header rewritten in the bytes, the checksum recomputed
+    // (the library's writer would refuse to lay out such a file itself).
+    let bytes = good.to_bytes();
+    let hlen = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let text = std::str::from_utf8(&bytes[16..16 + hlen])
+        .unwrap()
+        .replace("theta_o_bins = 45", "theta_o_bins = 65536")
+        .replace("phi_o_bins = 36", "phi_o_bins = 65536");
+    assert!(text.contains("65536"));
+    let mut crafted = bytes[..12].to_vec();
+    crafted.extend_from_slice(&(text.len() as u32).to_le_bytes());
+    crafted.extend_from_slice(text.as_bytes());
+    crafted.extend_from_slice(&bytes[16 + hlen..bytes.len() - 8]);
+    let sum = goniospec::accumulate::file::fnv1a(&crafted);
+    crafted.extend_from_slice(&sum.to_le_bytes());
+    let e = Accumulator::from_bytes(&crafted, "x.gsa")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("bucket grid"), "{e}");
+    // The undamaged file still reads.
+    assert!(Accumulator::from_bytes(&good.to_bytes(), "x.gsa").is_ok());
+}

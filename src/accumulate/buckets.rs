@@ -13,7 +13,8 @@ pub struct Buckets {
 
 impl Buckets {
     pub fn len(&self) -> usize {
-        (self.theta_bins * self.phi_bins) as usize
+        // In usize: the product of two u32 counts can wrap a u32.
+        self.theta_bins as usize * self.phi_bins as usize
     }
 
     pub fn is_empty(&self) -> bool {

@@ -64,6 +64,63 @@ pub struct Header {
     pub leaks: u64,
 }
 
+impl Header {
+    /// Checks every value a reader relies on (angles, wavelengths, modes, grid sizes, ray
+    /// counts); the message names the field.
+    pub fn validate(&self) -> Result<(), String> {
+        let s = &self.settings;
+        if s.theta_i_deg.is_empty() || s.theta_i_deg.iter().any(|t| !(0.0..90.0).contains(t)) {
+            return Err(format!(
+                "theta_i_deg must be angles in [0, 90), got {:?}",
+                s.theta_i_deg
+            ));
+        }
+        if !s.phi_i_deg.is_finite() {
+            return Err(format!("phi_i_deg must be finite, got {}", s.phi_i_deg));
+        }
+        match s.wavelength_mode.as_str() {
+            "bins" | "monochromatic" => {}
+            other => return Err(format!("unknown wavelength_mode '{other}'")),
+        }
+        let w = &s.wavelengths_nm;
+        if s.wavelength_count() == 0 || w.len() > 100_001 {
+            return Err(format!("{} wavelengths: none, or absurdly many", w.len()));
+        }
+        if w.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
+            return Err("wavelengths_nm must be positive and finite".into());
+        }
+        if s.wavelength_mode == "bins" && w.windows(2).any(|p| p[1] <= p[0]) {
+            return Err("wavelength bin edges must increase".into());
+        }
+        if Coherence::parse(&s.coherence).is_none() {
+            return Err(format!("unknown coherence '{}'", s.coherence));
+        }
+        if s.coherence_radius_nm.is_nan() || s.coherence_radius_nm <= 0.0 {
+            return Err(format!(
+                "coherence_radius_nm must be positive (or inf), got {}",
+                s.coherence_radius_nm
+            ));
+        }
+        if crate::accumulate::PhasePrecision::parse(&s.phase_precision).is_none() {
+            return Err(format!("unknown phase_precision '{}'", s.phase_precision));
+        }
+        if !(s.cutoff >= 0.0 && s.cutoff < 1.0) {
+            return Err(format!("cutoff must be in [0, 1), got {}", s.cutoff));
+        }
+        let buckets = u64::from(s.theta_o_bins).checked_mul(u64::from(s.phi_o_bins));
+        if s.theta_o_bins == 0 || s.phi_o_bins == 0 || buckets.is_none_or(|b| b > 1 << 22) {
+            return Err(format!(
+                "bucket grid {} x {} is empty or too large",
+                s.theta_o_bins, s.phi_o_bins
+            ));
+        }
+        if self.rays == 0 || self.seeds.is_empty() {
+            return Err("no rays or no seeds recorded".into());
+        }
+        Ok(())
+    }
+}
+
 impl Settings {
     pub fn coherence_mode(&self) -> Coherence {
         Coherence::parse(&self.coherence).unwrap_or(Coherence::Beamlet)
@@ -239,16 +296,10 @@ impl Accumulator {
                 });
             }
         };
-        let s = &header.settings;
-        if s.theta_o_bins == 0
-            || s.phi_o_bins == 0
-            || s.theta_i_deg.is_empty()
-            || s.wavelength_count() == 0
-        {
-            return Err(FileError::Header {
-                path: p,
-                message: "empty grid".into(),
-            });
+        // A file is data from outside: its checksum proves it was not damaged, not that a
+        // writer made sense. Every value the reader relies on is validated.
+        if let Err(message) = header.validate() {
+            return Err(FileError::Header { path: p, message });
         }
         let mut acc = Accumulator {
             header,
@@ -256,7 +307,15 @@ impl Accumulator {
         };
         let ncells = acc.header.settings.theta_i_deg.len() * acc.header.settings.wavelength_count();
         let per = 8 + 8 * acc.cell_f64s();
-        let expected = 16 + hlen + ncells * per + 8;
+        let Some(expected) = ncells
+            .checked_mul(per)
+            .and_then(|b| b.checked_add(16 + hlen + 8))
+        else {
+            return Err(FileError::Header {
+                path: p,
+                message: "the declared grid is too large".into(),
+            });
+        };
         if bytes.len() != expected {
             return Err(FileError::Truncated {
                 path: p,
@@ -301,6 +360,18 @@ impl Accumulator {
                         *z = C64::new(re, im);
                     }
                 }
+            }
+            let finite = c.sum.iter().chain(&c.sumsq).all(|v| v.is_finite())
+                && [
+                    c.r_sum, c.r_sumsq, c.t_sum, c.t_sumsq, c.absorbed, c.dropped,
+                ]
+                .iter()
+                .all(|v| v.is_finite());
+            if !finite {
+                return Err(FileError::Header {
+                    path: p,
+                    message: "a cell holds non-finite sums".into(),
+                });
             }
             acc.cells.push(c);
         }
