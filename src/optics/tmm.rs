@@ -56,23 +56,26 @@ pub struct StackIndices {
 /// When the number of thicknesses does not match the number of inner layers.
 pub fn amplitudes(n: &[C64], d_nm: &[f64], kx: C64, lambda_nm: f64) -> [(C64, C64); 2] {
     assert_eq!(d_nm.len() + 2, n.len(), "one thickness per inner layer");
-    let nc: Vec<C64> = n.iter().map(|&n| n_cos(n, kx)).collect();
-    if nc[0] == C64::new(0.0, 0.0) {
+    // Normal indices and cosines are formed on the fly: a coated interface calls this once
+    // per ray event, which must not allocate.
+    let nc = |j: usize| n_cos(n[j], kx);
+    if nc(0) == C64::new(0.0, 0.0) {
         // Grazing incidence (sin(theta) rounds to 1 in the incidence medium): the limit of
         // both Fresnel coefficients is -1 and nothing enters (Born & Wolf §1.5.2).
         return [(C64::new(-1.0, 0.0), C64::new(0.0, 0.0)); 2];
     }
-    let cos: Vec<C64> = nc.iter().zip(n).map(|(a, n)| a / n).collect();
     let last = n.len() - 1;
     let solve_pol = |p: bool| -> (C64, C64) {
         let interface = |j: usize, k: usize| -> (C64, C64) {
             let (nj, nk) = (n[j], n[k]);
+            let (qj, qk) = (nc(j), nc(k));
             if p {
-                let den = nk * cos[j] + nj * cos[k];
-                ((nk * cos[j] - nj * cos[k]) / den, 2.0 * nj * cos[j] / den)
+                let (cj, ck) = (qj / nj, qk / nk);
+                let den = nk * cj + nj * ck;
+                ((nk * cj - nj * ck) / den, 2.0 * nj * cj / den)
             } else {
-                let den = nc[j] + nc[k];
-                ((nc[j] - nc[k]) / den, 2.0 * nc[j] / den)
+                let den = qj + qk;
+                ((qj - qk) / den, 2.0 * qj / den)
             }
         };
         // M = (1/t01) [[1, r01], [r01, 1]] * prod_j (1/t_j,j+1) P_j [[1, r], [r, 1]]
@@ -81,9 +84,8 @@ pub fn amplitudes(n: &[C64], d_nm: &[f64], kx: C64, lambda_nm: f64) -> [(C64, C6
             [C64::new(1.0, 0.0) / t01, r01 / t01],
             [r01 / t01, C64::new(1.0, 0.0) / t01],
         ];
-        #[allow(clippy::needless_range_loop)] // j indexes layers and interfaces alike
         for j in 1..last {
-            let delta = 2.0 * std::f64::consts::PI * nc[j] * d_nm[j - 1] / lambda_nm;
+            let delta = 2.0 * std::f64::consts::PI * nc(j) * d_nm[j - 1] / lambda_nm;
             let (r, t) = interface(j, j + 1);
             let (em, ep) = ((-C64::i() * delta).exp(), (C64::i() * delta).exp());
             let l = [[em / t, em * r / t], [ep * r / t, ep / t]];
