@@ -602,16 +602,7 @@ outside = "glass"
     let s = sample::load(&d.join("s.toml"), MeshOptions::default()).unwrap();
     assert!(s.interfaces.len() > 3);
     assert!(s.interfaces[2..].iter().all(|i| i.closed));
-    let report = check(
-        &s,
-        &CheckOptions {
-            leak_rays: 3000,
-            ..Default::default()
-        },
-    )
-    .unwrap();
-    assert!(report.defects.is_empty(), "{:?}", report.defects);
-    assert!(report.leak.crossings > 3000 && report.leak.leaks == 0);
+    assert_leak_free(&s, 3000, "flakes");
 
     // A sheet generator in [[body]] is refused, with the line.
     let t = std::fs::read_to_string(d.join("s.toml")).unwrap().replace("kind = \"pigment-spheres\", radius = 0.2, volume_fraction = 0.05, layer = [0.5, 2.5], subdivisions = 1", "kind = \"flat\"");
@@ -639,6 +630,25 @@ outside = "glass"
 
 // ---------------------------------------------------------------- check
 
+/// Runs `check` with `rays` leak-test walks and asserts no defect, no leak, and that the
+/// walks crossed the interfaces at least `rays` times (the test had something to test).
+fn assert_leak_free(s: &sample::Sample, rays: usize, what: &str) {
+    let r = check(
+        s,
+        &CheckOptions {
+            leak_rays: rays,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert!(r.defects.is_empty(), "{what}: {:?}", r.defects);
+    assert_eq!(r.leak.leaks, 0, "{what}: leaks");
+    assert!(
+        r.leak.crossings >= rays,
+        "{what}: the leak test crossed too little"
+    );
+}
+
 #[test]
 fn every_shipped_sample_passes_check_with_zero_leaks() {
     let mut n = 0;
@@ -648,21 +658,7 @@ fn every_shipped_sample_passes_check_with_zero_leaks() {
             continue;
         }
         let s = sample::load(&p, MeshOptions::default()).unwrap_or_else(|e| panic!("{e}"));
-        let r = check(
-            &s,
-            &CheckOptions {
-                leak_rays: 4000,
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        assert!(r.defects.is_empty(), "{}: {:?}", p.display(), r.defects);
-        assert_eq!(r.leak.leaks, 0, "{}", p.display());
-        assert!(
-            r.leak.crossings >= 4000,
-            "{}: the leak test crossed too little",
-            p.display()
-        );
+        assert_leak_free(&s, 4000, &p.display().to_string());
         n += 1;
     }
     assert!(n >= 6);
@@ -869,20 +865,7 @@ fn generated_microfacet_height_fields_pass_check_with_zero_leaks() {
             )
             .unwrap();
             let s = sample::load(&d.join("mf.toml"), MeshOptions::default()).unwrap();
-            let r = check(
-                &s,
-                &CheckOptions {
-                    leak_rays: 4000,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
-            assert!(r.defects.is_empty(), "{name} {alpha}: {:?}", r.defects);
-            assert_eq!(r.leak.leaks, 0, "{name} {alpha}: leaks");
-            assert!(
-                r.leak.crossings >= 4000,
-                "{name} {alpha}: too few crossings"
-            );
+            assert_leak_free(&s, 4000, &format!("{name} {alpha}"));
         }
     }
 }
