@@ -707,3 +707,181 @@ fn bad_numbers_outputs_and_stdout_are_refused_cleanly() {
         );
     }
 }
+
+/// Issue 12, items 2, 4 and 9: generator sizes, lengths after unit scaling and sample
+/// syntax that used to panic, abort, hang or pass silently. Each is refused with exit 1,
+/// a message naming the key (and line, where the sample file has one), and no output.
+#[test]
+fn sizes_lengths_and_shapes_are_refused_before_work() {
+    let d = std::env::temp_dir().join(format!("goniospec-limits-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let out = d.join("o.obj");
+    let o = out.to_str().unwrap();
+    for (args, says) in [
+        (
+            &[
+                "v-grooves",
+                "-p",
+                "angle_deg=90",
+                "-p",
+                "count=9223372036854775807",
+            ][..],
+            "count",
+        ),
+        (
+            &[
+                "pigment-spheres",
+                "-p",
+                "radius=1",
+                "-p",
+                "volume_fraction=0.1",
+                "-p",
+                "layer=[0,inf]",
+            ][..],
+            "layer",
+        ),
+        (
+            &[
+                "flakes",
+                "-p",
+                "size=1",
+                "-p",
+                "thickness=0.1",
+                "-p",
+                "tilt_sd_deg=5",
+                "-p",
+                "volume_fraction=0.1",
+                "-p",
+                "layer=[0,inf]",
+            ][..],
+            "layer",
+        ),
+        (
+            &[
+                "pigment-spheres",
+                "-p",
+                "radius=0.0001",
+                "-p",
+                "volume_fraction=0.1",
+                "-p",
+                "layer=[0,1]",
+            ][..],
+            "limits are 1000000 bodies",
+        ),
+        (
+            &[
+                "pigment-spheres",
+                "-p",
+                "radius=0.05",
+                "-p",
+                "volume_fraction=0.3",
+                "-p",
+                "layer=[0,1]",
+                "-p",
+                "subdivisions=0",
+                "--tile",
+                "10,10",
+            ][..],
+            "random sequential addition",
+        ),
+        (&["flat", "-p", "z=nan"][..], "NaN"),
+        (
+            &["cosine", "-p", "amplitude=1e308", "-p", "resolution=16"][..],
+            "amplitude",
+        ),
+        (
+            &[
+                "flakes",
+                "-p",
+                "size=1",
+                "-p",
+                "thickness=0.1",
+                "-p",
+                "tilt_sd_deg=5",
+                "-p",
+                "volume_fraction=0.1",
+                "-p",
+                "layer=[0,1,2]",
+            ][..],
+            "[z0, z1]",
+        ),
+    ] {
+        let mut a = vec!["generate"];
+        a.extend_from_slice(args);
+        a.extend_from_slice(&["-o", o]);
+        let (code, _, err) = goniospec(&a);
+        assert_eq!(code, 1, "{args:?}: {err}");
+        assert!(
+            err.contains(says) && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
+        assert!(!out.exists(), "{args:?}: an output appeared");
+    }
+
+    // Sample files: a flat glass sheet, meshed, with one value changed.
+    let sheet = "[sample]\nname = \"glass sheet\"\nunit = \"um\"\ntile = [20, 20]\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[stack]\nmode = \"mesh\"\nambient = \"air\"\nlayers = [{ medium = \"glass\", thickness = 1.0 }]\nsubstrate = \"air\"\n";
+    let s = d.join("s.toml");
+    for (from, to, line, says) in [
+        ("tile = [20, 20]", "tile = [1e306, 1e306]", 4, "tile side x"),
+        (
+            "tile = [20, 20]",
+            "tile = [20, 20, 1]",
+            4,
+            "tile must be [Lx, Ly]",
+        ),
+        (
+            "thickness = 1.0",
+            "thickness = 1e306",
+            12,
+            "layer thickness",
+        ),
+        (
+            "thickness = 1.0",
+            "thickness = 1e17",
+            12,
+            "exceeds the 1e8 nm",
+        ),
+        (
+            "thickness = 1.0",
+            "thickness = 1e9",
+            12,
+            "exceeds the 1e8 nm",
+        ),
+        (
+            "thickness = 1.0",
+            "thickness = 1e-300",
+            12,
+            "thinner than f32 geometry",
+        ),
+    ] {
+        std::fs::write(&s, sheet.replace(from, to)).unwrap();
+        let (code, _, err) = goniospec(&["check", s.to_str().unwrap()]);
+        assert_eq!(code, 1, "{to}: {err}");
+        assert!(
+            err.contains(&format!("s.toml:{line}:")) && err.contains(says),
+            "{to}: {err}"
+        );
+    }
+    // The same 1e-300 nm layer as an exact coating is fine: no geometry to collapse. The
+    // TMM of a vanishing layer between air and air reflects nothing.
+    std::fs::write(
+        &s,
+        sheet
+            .replace("thickness = 1.0", "thickness = 1e-300")
+            .replace("mode = \"mesh\"\n", ""),
+    )
+    .unwrap();
+    let (code, stdout, err) = goniospec(&[
+        "analytic",
+        s.to_str().unwrap(),
+        "--theta-i",
+        "0",
+        "--wavelengths",
+        "500",
+        "--monochromatic",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let row = stdout.lines().last().unwrap();
+    let r: f64 = row.split(',').nth(3).unwrap().parse().unwrap(); // lambda,Rs,Rp,R,...
+    assert!(r.abs() < 1e-12, "{stdout}");
+}

@@ -466,8 +466,22 @@ fn malformed_tables_are_refused_with_their_line() {
         (
             "nan",
             "lambda_nm,n,k\n400,abc,0\n500,1.5,0\n",
-            "n 'abc' is not a finite number",
+            "n is not a finite number",
             Some(2),
+        ),
+        (
+            // A file that is not a table: its content is never quoted back.
+            "not-a-table",
+            "root:secret:20228:0\n",
+            "missing column lambda_nm, n, k",
+            Some(1),
+        ),
+        (
+            // Lone CR line endings are line ends (the error is on the third line).
+            "cr-endings",
+            "lambda_nm,n,k\r400,1.5,0\r300,1.5,0\r",
+            "sorted strictly increasing",
+            Some(3),
         ),
         (
             "one-row",
@@ -481,10 +495,27 @@ fn malformed_tables_are_refused_with_their_line() {
         std::fs::write(&p, text).unwrap();
         let e = load_table(&p).unwrap_err();
         assert!(e.message.contains(msg), "{tag}: {e:?}");
+        assert!(
+            !e.message.contains("secret"),
+            "{tag}: file content echoed: {e:?}"
+        );
         let (file, l) = e.file.clone().unwrap();
         assert_eq!(file, p);
         assert_eq!(l, line, "{tag}: {e:?}");
     }
+    // A UTF-8 byte-order mark (as spreadsheet programs write) is not part of the header.
+    std::fs::write(
+        d.join("bom.csv"),
+        "\u{feff}lambda_nm,n,k\r\n400,1.5,0.1\r\n500,1.7,0.3\r\n",
+    )
+    .unwrap();
+    let m = load_table(&d.join("bom.csv")).expect("a table with a byte-order mark loads");
+    // Linear interpolation halfway between the rows.
+    let (n, k) = m.eval(450.0).unwrap();
+    assert!(
+        (n - 1.6).abs() < 1e-12 && (k - 0.2).abs() < 1e-12,
+        "{n} {k}"
+    );
     // Through a sample: the error names the table file and line.
     std::fs::write(d.join("bad.csv"), "lambda_nm,n,k\n400,1.5,0\n300,1.5,0\n").unwrap();
     std::fs::write(

@@ -136,7 +136,7 @@ fn malformed_obj_names_the_line() {
     let obj = "v 0 0 0\nv 1 0 0\nv 1 abc 0\nf 1 2 3\n";
     let m = err_case("malformed", &good_toml(), obj).to_string();
     assert!(
-        m.contains("m.obj:3:") && m.contains("'abc' is not a number"),
+        m.contains("m.obj:3:") && m.contains("coordinate 2 is not a number"),
         "{m}"
     );
 
@@ -153,6 +153,24 @@ fn malformed_obj_names_the_line() {
         m.contains("m.obj:1:") && m.contains("needs 3 coordinates"),
         "{m}"
     );
+
+    // Issue 12, item 9: a trailing comment, CR-only line endings and a byte-order mark are
+    // read as the same square; a weight of zero and a concave face are refused at their
+    // line.
+    let want = load_case("square", &good_toml(), SQUARE_OBJ, MeshOptions::default()).unwrap();
+    for (tag, obj) in [
+        ("comment", SQUARE_OBJ.replace("\nf", " # corner\nf")),
+        ("cr", SQUARE_OBJ.replace('\n', "\r")),
+        ("bom", format!("\u{feff}{SQUARE_OBJ}")),
+    ] {
+        let s = load_case(tag, &good_toml(), &obj, MeshOptions::default()).unwrap();
+        assert_eq!(s.interfaces[0].mesh, want.interfaces[0].mesh, "{tag}");
+    }
+    let m = err_case("w0", &good_toml(), "v 0 0 0 0\n").to_string();
+    assert!(m.contains("m.obj:1:") && m.contains("weight"), "{m}");
+    let concave = "v 0 0 0\nv 4 0 0\nv 4 4 0\nv 2 1 0\nv 0 4 0\nf 1 2 3 4 5\n";
+    let m = err_case("concave", &good_toml(), concave).to_string();
+    assert!(m.contains("m.obj:6:") && m.contains("not convex"), "{m}");
 }
 
 #[test]
@@ -291,7 +309,7 @@ fn generated_obj_round_trips() {
     let p = d.join("hf.obj");
     mesh.write_obj(&p, 1000.0, "height field\nin um").unwrap();
     let back = sample::load_obj(&p, 1000.0, MeshOptions::default()).unwrap();
-    // tobj may renumber vertices; the triangles' corners, in order, must survive.
+    // The reader renumbers vertices in order of first use; the triangles' corners, in order, must survive.
     assert_eq!(back.triangles.len(), mesh.triangles.len());
     for (ta, tb) in back.triangles.iter().zip(&mesh.triangles) {
         for c in 0..3 {

@@ -193,6 +193,12 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
         r.defects.push(
             "vertical rays from above miss the sample: no sheet covers the tile, so the medium above it is undefined".into(),
         );
+    } else if r.leak.crossings == 0 && opts.leak_rays > 0 {
+        // A check that crossed nothing tested nothing: never report it as clean.
+        r.defects.push(format!(
+            "the leak test's {} walks crossed no interface: it tested nothing (is the geometry far taller than the tile, or does the walk miss it?)",
+            r.leak.walks
+        ));
     }
     r.facts.push(format!(
         "leak test: {} walks, {} crossings, {} leaks, {} walks abandoned after {} crossings",
@@ -206,6 +212,10 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
     }
     Ok(r)
 }
+
+/// Tile-side crossings of one leak-test walk before it is abandoned (a walk in a sample
+/// much taller than its tile wraps many times between crossings).
+const MAX_WRAPS: u32 = 10_000;
 
 /// Edge statistics of a mesh meant to be closed.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -368,8 +378,9 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
         let mut medium = ambient;
         stats.walks += 1;
         let mut events = 0;
+        let mut wraps = 0u32;
         loop {
-            if events >= opts.max_events {
+            if events >= opts.max_events || wraps >= MAX_WRAPS {
                 stats.abandoned += 1;
                 break;
             }
@@ -409,6 +420,7 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
             if !hit.is_hit() || f64::from(hit.t) > t_limit {
                 if t_side.is_finite() {
                     // Wrap around the tile side and go on.
+                    wraps += 1;
                     for k in 0..3 {
                         pos[k] += t_side * dir[k];
                     }

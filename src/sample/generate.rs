@@ -477,6 +477,19 @@ pub fn v_grooves(tile_nm: [f64; 2], count: usize, angle_deg: f64, z0: f64) -> Re
     if count == 0 {
         return Err("count must be at least 1".into());
     }
+    let max = MAX_GENERATED_TRIANGLES / 4;
+    if count as u64 > max {
+        return Err(format!(
+            "count {count} exceeds {max}: {MAX_GENERATED_TRIANGLES} triangles are the most a generator makes"
+        ));
+    }
+    let res = super::f32_resolution_nm(tile_nm[0].max(tile_nm[1]));
+    if tile_nm[0] / (count as f64) < 64.0 * res {
+        return Err(format!(
+            "count {count} makes grooves {:.3e} nm wide, below what f32 geometry resolves in this tile (64 x {res:.2e} nm)",
+            tile_nm[0] / count as f64
+        ));
+    }
     if !(angle_deg > 0.0 && angle_deg < 180.0) {
         return Err(format!("angle_deg must be in (0, 180), got {angle_deg}"));
     }
@@ -612,23 +625,34 @@ pub fn pigment_spheres(
     let unit = icosphere(subdivisions);
     let scale = (4.0 / 3.0 * PI / enclosed_volume(&unit)).cbrt();
     let rc = radius_nm * scale; // circumscribed radius of the scaled icosphere
-    let thickness = layer_nm[1] - layer_nm[0];
+    let thickness = check_layer(layer_nm)?;
     if 2.0 * rc >= thickness || 2.0 * rc >= tile_nm[0] || 2.0 * rc >= tile_nm[1] {
         return Err(format!(
             "spheres of radius {radius_nm} nm do not fit in the layer ({thickness} nm) and tile"
         ));
     }
-    let v_sphere = 4.0 / 3.0 * PI * radius_nm.powi(3);
-    let count = (volume_fraction * tile_nm[0] * tile_nm[1] * thickness / v_sphere).round() as usize;
-    if count == 0 {
-        return Err(
-            "the volume fraction gives no sphere in this tile; enlarge the tile or the fraction"
-                .into(),
-        );
+    // Placement tests the circumscribed radius within the room centres can take: beyond
+    // the jamming limit of random sequential addition (about 0.38 for spheres, Feder 1980)
+    // no placement can finish, so say so before trying.
+    let room = (tile_nm[0] - 2.0 * rc) * (tile_nm[1] - 2.0 * rc) * (thickness - 2.0 * rc);
+    let effective =
+        volume_fraction * (rc / radius_nm).powi(3) * tile_nm[0] * tile_nm[1] * thickness / room;
+    if effective > RSA_JAMMING_SPHERES {
+        return Err(format!(
+            "volume_fraction {volume_fraction} is {effective:.2} for placement (the icosphere's circumscribed radius and the layer's margins), above the {RSA_JAMMING_SPHERES} random sequential addition can reach: lower it, raise subdivisions, or widen the layer"
+        ));
     }
+    let v_sphere = 4.0 / 3.0 * PI * radius_nm.powi(3);
+    let count = body_count(
+        "sphere",
+        volume_fraction * tile_nm[0] * tile_nm[1] * thickness / v_sphere,
+        unit.triangles.len(),
+    )?;
     let mut rng = Rng::new(seed, 0x5F4E);
     let mut centres: Vec<[f64; 3]> = Vec::with_capacity(count);
     let min_d2 = (2.0 * rc * 1.001).powi(2);
+    // Only spheres in neighbouring cells can overlap a candidate: O(1) per attempt.
+    let mut grid = NeighbourGrid::new(1.01 * min_d2.sqrt());
     let mut attempts = 0usize;
     while centres.len() < count {
         attempts += 1;
@@ -643,9 +667,11 @@ pub fn pigment_spheres(
             rng.range(rc, tile_nm[1] - rc),
             rng.range(layer_nm[0] + rc, layer_nm[1] - rc),
         ];
-        if centres.iter().all(|o| {
+        if grid.near(c).all(|k| {
+            let o = centres[k];
             (o[0] - c[0]).powi(2) + (o[1] - c[1]).powi(2) + (o[2] - c[2]).powi(2) >= min_d2
         }) {
+            grid.insert(c, centres.len());
             centres.push(c);
         }
     }
@@ -777,15 +803,15 @@ pub fn flakes(
             "volume_fraction must be in (0, 0.5), got {volume_fraction}"
         ));
     }
-    let thickness = layer_nm[1] - layer_nm[0];
+    let thickness = check_layer(layer_nm)?;
     let v_flake = size_nm * size_nm * thickness_nm;
-    let count = (volume_fraction * tile_nm[0] * tile_nm[1] * thickness / v_flake).round() as usize;
-    if count == 0 {
-        return Err(
-            "the volume fraction gives no flake in this tile; enlarge the tile or the fraction"
-                .into(),
-        );
-    }
+    // 12 triangles per box, twice with a coating shell.
+    let per_flake = if coating_nm > 0.0 { 24 } else { 12 };
+    let count = body_count(
+        "flake",
+        volume_fraction * tile_nm[0] * tile_nm[1] * thickness / v_flake,
+        per_flake,
+    )?;
     let outer_half = [
         size_nm / 2.0 + coating_nm,
         size_nm / 2.0 + coating_nm,
@@ -793,6 +819,10 @@ pub fn flakes(
     ];
     let mut rng = Rng::new(seed, 0xF1A4E);
     let mut placed: Vec<Obb> = Vec::with_capacity(count);
+    // Two boxes can overlap only if their centres are closer than twice the bounding
+    // sphere radius of the (margin-enlarged) box.
+    let bound = 1.001 * outer_half.iter().map(|h| h * h).sum::<f64>().sqrt();
+    let mut grid = NeighbourGrid::new(1.01 * 2.0 * bound);
     let mut attempts = 0usize;
     while placed.len() < count {
         attempts += 1;
@@ -831,7 +861,8 @@ pub fn flakes(
             axes,
             half: outer_half.map(|h| h * 1.001),
         };
-        if placed.iter().all(|o| !o.overlaps(&cand)) {
+        if grid.near(c).all(|k| !placed[k].overlaps(&cand)) {
+            grid.insert(c, placed.len());
             placed.push(cand);
         }
     }
@@ -852,6 +883,90 @@ pub fn flakes(
             (core.mesh(), shell)
         })
         .collect())
+}
+
+/// The most triangles one generator makes: 2^26 (67 million), about 10 GB once the
+/// accelerators are built (`../shared/DESIGN.md` §2; the largest height field, resolution
+/// 4096, makes 2 x 4096^2 = 33.5 million).
+pub const MAX_GENERATED_TRIANGLES: u64 = 1 << 26;
+
+/// The volume fraction beyond which random sequential addition of spheres cannot finish:
+/// its jamming limit is 0.382 (Feder 1980, J. Theor. Biol. 87; Torquato, Uche & Stillinger
+/// 2006, Phys. Rev. E 74), and the last percent takes unbounded attempts.
+const RSA_JAMMING_SPHERES: f64 = 0.37;
+
+/// The most bodies one generator places (each becomes an interface of its own).
+pub const MAX_BODIES: u64 = 1_000_000;
+
+/// Checks a body layer `[z0, z1]` (nm): finite, ordered, within the length limit; returns
+/// its thickness.
+fn check_layer(layer_nm: [f64; 2]) -> Result<f64, String> {
+    let [z0, z1] = layer_nm;
+    let lim = super::MAX_LENGTH_NM;
+    if !(z0.is_finite() && z1.is_finite() && z0.abs() <= lim && z1.abs() <= lim) {
+        return Err(format!(
+            "layer = [{z0}, {z1}] nm must be finite and within +-{lim:e} nm"
+        ));
+    }
+    if z1 <= z0 {
+        return Err(format!(
+            "layer = [z0, z1] needs z0 < z1, got [{z0}, {z1}] nm"
+        ));
+    }
+    Ok(z1 - z0)
+}
+
+/// The number of bodies for an expected (real) count, checked before anything is
+/// allocated: at least one, at most [`MAX_BODIES`] and [`MAX_GENERATED_TRIANGLES`].
+fn body_count(what: &str, expected: f64, triangles_each: usize) -> Result<usize, String> {
+    if !expected.is_finite() {
+        return Err(format!("the {what} count is not finite: check the lengths"));
+    }
+    let count = expected.round();
+    if count < 1.0 {
+        return Err(format!(
+            "the volume fraction gives no {what} in this tile; enlarge the tile or the fraction"
+        ));
+    }
+    let triangles = count * triangles_each as f64;
+    if count > MAX_BODIES as f64 || triangles > MAX_GENERATED_TRIANGLES as f64 {
+        return Err(format!(
+            "this tile and volume fraction need {count:.3e} {what}s ({triangles:.3e} triangles); the limits are {MAX_BODIES} bodies and {MAX_GENERATED_TRIANGLES} triangles: make the {what}s larger, the tile smaller or the fraction lower"
+        ));
+    }
+    Ok(count as usize)
+}
+
+/// A uniform hash grid over points: a point's neighbours within one cell size lie in the
+/// 27 cells around its own, which makes non-overlap placement O(1) per attempt instead of
+/// O(n). The accept/reject decisions are those of testing every placed body.
+struct NeighbourGrid {
+    cell: f64,
+    cells: HashMap<[i64; 3], Vec<usize>>,
+}
+
+impl NeighbourGrid {
+    fn new(cell: f64) -> Self {
+        NeighbourGrid {
+            cell,
+            cells: HashMap::new(),
+        }
+    }
+    fn key(&self, p: [f64; 3]) -> [i64; 3] {
+        p.map(|c| (c / self.cell).floor() as i64)
+    }
+    fn insert(&mut self, p: [f64; 3], id: usize) {
+        self.cells.entry(self.key(p)).or_default().push(id);
+    }
+    /// Ids of the points in the 27 cells around `p`.
+    fn near(&self, p: [f64; 3]) -> impl Iterator<Item = usize> + '_ {
+        let k = self.key(p);
+        (0..27).flat_map(move |n| {
+            let d = [n % 3 - 1, n / 3 % 3 - 1, n / 9 - 1];
+            let key = [k[0] + d[0], k[1] + d[1], k[2] + d[2]];
+            self.cells.get(&key).into_iter().flatten().copied()
+        })
+    }
 }
 
 /// Which surface of a wavy film.
@@ -942,6 +1057,7 @@ pub enum GeneratorSpec {
     PigmentSpheres {
         radius: f64,
         volume_fraction: f64,
+        #[serde(deserialize_with = "exactly_two")]
         layer: [f64; 2],
         #[serde(default = "default_subdivisions")]
         subdivisions: u32,
@@ -957,10 +1073,22 @@ pub enum GeneratorSpec {
         #[serde(default)]
         coating: f64,
         volume_fraction: f64,
+        #[serde(deserialize_with = "exactly_two")]
         layer: [f64; 2],
         #[serde(default = "default_seed")]
         seed: u64,
     },
+}
+
+/// A `[z0, z1]` pair: exactly two numbers (serde would otherwise ignore extra ones).
+fn exactly_two<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
+    let v = Vec::<f64>::deserialize(d)?;
+    <[f64; 2]>::try_from(v.as_slice()).map_err(|_| {
+        serde::de::Error::custom(format!(
+            "expected [z0, z1] (two numbers), got {} values",
+            v.len()
+        ))
+    })
 }
 
 fn default_seed() -> u64 {
@@ -1003,8 +1131,35 @@ impl GeneratorSpec {
         )
     }
 
-    /// Runs the generator; `u` is nanometres per sample unit.
+    /// Runs the generator; `u` is nanometres per sample unit. Sizes are checked before
+    /// anything is allocated, and every coordinate of the result must be finite and within
+    /// [`super::MAX_LENGTH_NM`] (a NaN `z` or a huge amplitude is refused, not written).
     pub fn generate(&self, tile_nm: [f64; 2], u: f64) -> Result<Generated, String> {
+        let out = self.run(tile_nm, u)?;
+        let meshes: Vec<&Mesh> = match &out {
+            Generated::Sheet(m) => vec![m],
+            Generated::Bodies(b) => b
+                .iter()
+                .flat_map(|(c, s)| std::iter::once(c).chain(s.as_ref()))
+                .collect(),
+        };
+        let lim = super::MAX_LENGTH_NM;
+        for m in meshes {
+            if let Some(c) = m
+                .positions_nm
+                .iter()
+                .flatten()
+                .find(|c| !(c.is_finite() && c.abs() <= lim))
+            {
+                return Err(format!(
+                    "a generated coordinate is {c:e} nm: lengths (z, amplitude, layer, ...) must be finite and keep the mesh within +-{lim:e} nm"
+                ));
+            }
+        }
+        Ok(out)
+    }
+
+    fn run(&self, tile_nm: [f64; 2], u: f64) -> Result<Generated, String> {
         Ok(match *self {
             GeneratorSpec::Flat { z } => Generated::Sheet(flat(tile_nm, z * u)),
             GeneratorSpec::Gaussian {
@@ -1158,12 +1313,27 @@ impl GeneratorSpec {
     }
 }
 
+/// A height-field resolution: 1 to 4096 cells per side, and, since the mesh and the
+/// spectral arrays behind it are built in memory, no more than this machine has
+/// available (about 100 bytes per triangle while generating).
 fn check_resolution(r: usize) -> Result<(), String> {
-    if (1..=4096).contains(&r) {
-        Ok(())
-    } else {
-        Err(format!(
+    if !(1..=4096).contains(&r) {
+        return Err(format!(
             "resolution must be between 1 and 4096 cells per side, got {r}"
-        ))
+        ));
     }
+    let bytes = 2.0 * (r as f64).powi(2) * GENERATE_BYTES_PER_TRIANGLE;
+    if let Some(avail) = crate::io::available_memory_bytes()
+        && bytes > avail as f64
+    {
+        return Err(format!(
+            "resolution {r} needs about {:.1} GB to generate, more than the {:.1} GB available",
+            bytes / 1e9,
+            avail as f64 / 1e9
+        ));
+    }
+    Ok(())
 }
+
+/// Bytes per height-field triangle while generating (mesh, heights, FFT buffers).
+const GENERATE_BYTES_PER_TRIANGLE: f64 = 100.0;

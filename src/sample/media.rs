@@ -360,8 +360,7 @@ pub fn load_table(path: &Path) -> Result<IndexModel, MediumDefError> {
         std::fs::read_to_string(path).map_err(|e| err(None, format!("cannot read file: {e}")))?;
     let mut header: Option<[usize; 3]> = None;
     let (mut l, mut n, mut k) = (Vec::new(), Vec::new(), Vec::new());
-    for (i, raw) in text.lines().enumerate() {
-        let line = i + 1;
+    for (line, raw) in super::obj::numbered_lines(&text) {
         let s = raw.trim();
         if s.is_empty() || s.starts_with('#') {
             continue;
@@ -379,8 +378,9 @@ pub fn load_table(path: &Path) -> Result<IndexModel, MediumDefError> {
                     return Err(err(
                         Some(line),
                         format!(
-                            "header must name the columns lambda_nm,n,k; missing column {} in '{s}'",
-                            missing.join(", ")
+                            "header must name the columns lambda_nm,n,k; missing column {} (the line has {} comma-separated fields)",
+                            missing.join(", "),
+                            fields.len()
                         ),
                     ));
                 }
@@ -397,7 +397,7 @@ pub fn load_table(path: &Path) -> Result<IndexModel, MediumDefError> {
             f.parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
-                .ok_or_else(|| err(Some(line), format!("{name} '{f}' is not a finite number")))
+                .ok_or_else(|| err(Some(line), format!("{name} is not a finite number")))
         };
         let (lv, nv, kv) = (
             get(cols[0], "lambda_nm")?,

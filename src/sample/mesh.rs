@@ -30,20 +30,22 @@ impl Mesh {
     /// line. The test is relative, `|e1 x e2| <= 1e-12 * max_edge²`, so it does not
     /// depend on the unit.
     pub fn is_degenerate(&self, i: usize) -> bool {
-        let [a, b, c] = self.triangles[i].map(|k| self.positions_nm[k as usize]);
-        let d2 = |p: [f64; 3], q: [f64; 3]| {
-            (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)
-        };
-        let max_edge2 = d2(a, b).max(d2(b, c)).max(d2(c, a));
-        let n = self.area_vector(i);
-        let cross = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        max_edge2 == 0.0 || cross <= 1e-12 * max_edge2
+        degenerate(self.triangles[i].map(|k| self.positions_nm[k as usize]))
     }
 
     /// Indices of the degenerate triangles.
     pub fn degenerate_triangles(&self) -> Vec<usize> {
         (0..self.triangles.len())
             .filter(|&i| self.is_degenerate(i))
+            .collect()
+    }
+
+    /// Indices of the triangles that are degenerate once their corners are rounded to f32,
+    /// as the accelerators store them.
+    pub fn degenerate_triangles_f32(&self) -> Vec<usize> {
+        let f32_corner = |k: u32| self.positions_nm[k as usize].map(|c| f64::from(c as f32));
+        (0..self.triangles.len())
+            .filter(|&i| degenerate(self.triangles[i].map(f32_corner)))
             .collect()
     }
 
@@ -102,4 +104,21 @@ impl Mesh {
             Ok(())
         })
     }
+}
+
+/// Whether the triangle `[a, b, c]` has (numerically) no area (see [`Mesh::is_degenerate`]).
+fn degenerate([a, b, c]: [[f64; 3]; 3]) -> bool {
+    let d2 = |p: [f64; 3], q: [f64; 3]| {
+        (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)
+    };
+    let max_edge2 = d2(a, b).max(d2(b, c)).max(d2(c, a));
+    let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    let n = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    let cross = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    max_edge2 == 0.0 || cross <= 1e-12 * max_edge2
 }

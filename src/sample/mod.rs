@@ -276,7 +276,7 @@ struct RawPlainLayer {
 struct RawHeader {
     name: String,
     unit: Spanned<String>,
-    tile: Spanned<[f64; 2]>,
+    tile: Spanned<Vec<f64>>,
     #[serde(default)]
     #[allow(dead_code)]
     description: Option<String>,
@@ -295,11 +295,49 @@ struct RawInterface {
 
 /// 1-based line of byte offset `pos` in `text`.
 pub(crate) fn line_of(text: &str, pos: usize) -> usize {
-    text[..pos.min(text.len())]
-        .bytes()
-        .filter(|&b| b == b'\n')
+    line_of_bytes(text.as_bytes(), pos)
+}
+
+/// 1-based line of byte offset `pos` in `bytes` (`\n` ends a line).
+pub(crate) fn line_of_bytes(bytes: &[u8], pos: usize) -> usize {
+    bytes[..pos.min(bytes.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
         .count()
         + 1
+}
+
+/// Every coordinate finite and within [`MAX_LENGTH_NM`], and no triangle that collapses
+/// when the accelerator rounds its corners to f32 (it would be invisible, or hide its
+/// neighbour). The message names the interface.
+fn check_geometry(interfaces: &[Interface], tile_nm: [f64; 2]) -> Result<(), String> {
+    let mut extent = tile_nm[0].max(tile_nm[1]);
+    for itf in interfaces {
+        for p in &itf.mesh.positions_nm {
+            for &c in p {
+                if !(c.is_finite() && c.abs() <= MAX_LENGTH_NM) {
+                    return Err(format!(
+                        "{}: coordinate {c:e} nm is beyond the {MAX_LENGTH_NM:e} nm (10 cm) limit of f32 geometry and f64 phase",
+                        itf.mesh_path.display()
+                    ));
+                }
+                extent = extent.max(c.abs());
+            }
+        }
+    }
+    for itf in interfaces {
+        let collapsed = itf.mesh.degenerate_triangles_f32();
+        if !collapsed.is_empty() {
+            return Err(format!(
+                "{}: {} of {} triangles collapse when the accelerator rounds coordinates to f32 (spacing {:.2e} nm where the sample reaches {extent:e} nm): enlarge the features or shrink the sample",
+                itf.mesh_path.display(),
+                collapsed.len(),
+                itf.mesh.triangles.len(),
+                f32_resolution_nm(extent)
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Nanometres per unit for the sample's declared unit.
@@ -309,6 +347,46 @@ pub fn nm_per_unit(unit: &str) -> Option<f64> {
         "um" | "µm" | "μm" => Some(1000.0),
         _ => None,
     }
+}
+
+/// The largest tile side, layer thickness or coordinate a sample may have, nm (10 cm).
+///
+/// The accelerators hold vertices in f32 (a 24-bit significand): at 1e8 nm neighbouring
+/// f32 values are 8 nm apart, already coarser than a thin film. Phases are formed in f64:
+/// over 1e8 nm at 380 nm, `k L` is 1.7e6 rad with a rounding error near 4e-10 rad
+/// (`../shared/DESIGN.md` §1). Microgeometry tiles are micrometres to millimetres.
+pub const MAX_LENGTH_NM: f64 = 1e8;
+
+/// The separation f32 vertices can resolve in a scene whose coordinates reach `extent_nm`:
+/// the f32 spacing there (`extent * 2^-23`), floored at the tracer's 1e-4 nm restart
+/// offset. Interfaces closer than a few of these cannot be told apart by the accelerator.
+pub fn f32_resolution_nm(extent_nm: f64) -> f64 {
+    (extent_nm * f64::from(f32::EPSILON)).max(1e-4)
+}
+
+/// Interfaces meshed closer than this many [`f32_resolution_nm`] are refused.
+const MIN_SEPARATION_RESOLUTIONS: f64 = 16.0;
+
+/// Checks a length after scaling to nanometres: finite, positive and at most
+/// [`MAX_LENGTH_NM`]; `what` names it in the message.
+fn check_length(what: &str, value: f64, unit: &str, nm: f64) -> Result<(), String> {
+    // Very large or small values in scientific notation, not hundreds of digits.
+    let value = if value == 0.0 || (1e-4..1e6).contains(&value.abs()) {
+        format!("{value}")
+    } else {
+        format!("{value:e}")
+    };
+    if !(nm.is_finite() && nm > 0.0) {
+        return Err(format!(
+            "{what} must be positive and finite, got {value} {unit}"
+        ));
+    }
+    if nm > MAX_LENGTH_NM {
+        return Err(format!(
+            "{what} {value} {unit} ({nm:e} nm) exceeds the {MAX_LENGTH_NM:e} nm (10 cm) limit of f32 geometry and f64 phase"
+        ));
+    }
+    Ok(())
 }
 
 /// Loads a sample description and every mesh it names.
@@ -338,7 +416,18 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
             SampleErrorKind::BadUnit(unit.clone()),
         )
     })?;
-    let [tx, ty] = *raw.sample.tile.get_ref();
+    let [tx, ty] = match raw.sample.tile.get_ref()[..] {
+        [x, y] => [x, y],
+        ref other => {
+            return Err(at(
+                raw.sample.tile.span(),
+                SampleErrorKind::Invalid(format!(
+                    "tile must be [Lx, Ly] (two lengths; the tile is periodic in x and y only), got {} values",
+                    other.len()
+                )),
+            ));
+        }
+    };
     if !(tx.is_finite() && ty.is_finite() && tx > 0.0 && ty > 0.0) {
         return Err(at(raw.sample.tile.span(), SampleErrorKind::BadTile(tx, ty)));
     }
@@ -400,6 +489,10 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
             })
     };
     let tile_nm = [tx * scale, ty * scale];
+    for (axis, v, nm) in [("x", tx, tile_nm[0]), ("y", ty, tile_nm[1])] {
+        check_length(&format!("tile side {axis}"), v, unit, nm)
+            .map_err(|m| at(raw.sample.tile.span(), SampleErrorKind::Invalid(m)))?;
+    }
     let mut interfaces = Vec::new();
 
     // Layers (of a [stack] or a coating) as (medium, thickness in nm).
@@ -407,14 +500,8 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         let mut layers = Vec::new();
         for l in raw.iter().flatten() {
             let t = *l.thickness.get_ref();
-            if !(t.is_finite() && t > 0.0) {
-                return Err(at(
-                    l.thickness.span(),
-                    SampleErrorKind::Invalid(format!(
-                        "layer thickness must be positive and finite, got {t}"
-                    )),
-                ));
-            }
+            check_length("layer thickness", t, unit, t * scale)
+                .map_err(|m| at(l.thickness.span(), SampleErrorKind::Invalid(m)))?;
             layers.push((medium(&l.medium)?, t * scale));
         }
         Ok(layers)
@@ -446,6 +533,23 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
                 }
             },
         };
+        if meshed {
+            // Every layer becomes two meshed planes: they must stay apart in f32.
+            let total: f64 = layers.iter().map(|l| l.1).sum();
+            check_length("total stack thickness", total / scale, unit, total)
+                .map_err(|m| at(st.span(), SampleErrorKind::Invalid(m)))?;
+            let res = f32_resolution_nm(tile_nm[0].max(tile_nm[1]).max(total));
+            for (l, &(_, t)) in st.get_ref().layers.iter().zip(&layers) {
+                if t < MIN_SEPARATION_RESOLUTIONS * res {
+                    return Err(at(
+                        l.thickness.span(),
+                        SampleErrorKind::Invalid(format!(
+                            "a meshed layer of {t:e} nm is thinner than f32 geometry can separate at this tile size ({MIN_SEPARATION_RESOLUTIONS} x {res:.2e} nm); use the exact [stack] mode = \"coating\""
+                        )),
+                    ));
+                }
+            }
+        }
         stack = Some(Stack {
             ambient,
             layers: layers.clone(),
@@ -643,6 +747,8 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
     if interfaces.is_empty() {
         return Err(SampleError::file(path, SampleErrorKind::NoInterfaces));
     }
+    check_geometry(&interfaces, tile_nm)
+        .map_err(|m| SampleError::file(path, SampleErrorKind::Invalid(m)))?;
 
     Ok(Sample {
         name: raw.sample.name,
