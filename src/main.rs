@@ -153,64 +153,9 @@ struct WavelengthArgs {
 /// Most worker threads a command may ask for (each holds its own scratch buffers).
 const MAX_THREADS: usize = 1024;
 
-/// Most wavelengths (or bins) one run may ask for: each is a cell of every incident
-/// direction's accumulator, and 10,000 already resolve 0.04 nm over the visible.
-const MAX_WAVELENGTHS: usize = 10_000;
-
 impl WavelengthArgs {
     fn parse(&self) -> Result<Wavelengths> {
-        let w = self.wavelengths.trim();
-        let values: Vec<f64> = if let Some((a, rest)) = w.split_once(':') {
-            let (b, step) = rest
-                .split_once(':')
-                .with_context(|| format!("--wavelengths '{w}': expected A:B:STEP"))?;
-            let (a, b, step): (f64, f64, f64) = (
-                a.trim()
-                    .parse()
-                    .with_context(|| format!("--wavelengths: '{a}' is not a number"))?,
-                b.trim()
-                    .parse()
-                    .with_context(|| format!("--wavelengths: '{b}' is not a number"))?,
-                step.trim()
-                    .parse()
-                    .with_context(|| format!("--wavelengths: '{step}' is not a number"))?,
-            );
-            if !(a.is_finite() && b.is_finite() && step.is_finite() && step > 0.0 && b > a) {
-                bail!("--wavelengths {w}: need finite A < B and STEP > 0");
-            }
-            if (b - a) / step > MAX_WAVELENGTHS as f64 {
-                bail!(
-                    "--wavelengths {w}: more than {MAX_WAVELENGTHS} wavelengths; choose a coarser STEP"
-                );
-            }
-            let n = ((b - a) / step).round() as usize;
-            if ((a + n as f64 * step) - b).abs() > 1e-9 * b {
-                bail!("--wavelengths {w}: (B - A) must be a whole number of STEPs");
-            }
-            (0..=n).map(|i| a + i as f64 * step).collect()
-        } else {
-            w.split(',')
-                .map(|v| {
-                    v.trim()
-                        .parse::<f64>()
-                        .with_context(|| format!("--wavelengths: '{v}' is not a number"))
-                })
-                .collect::<Result<_>>()?
-        };
-        if values.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-            bail!("--wavelengths: every wavelength must be positive and finite");
-        }
-        if values.len() > MAX_WAVELENGTHS + 1 {
-            bail!("--wavelengths: more than {MAX_WAVELENGTHS} wavelengths");
-        }
-        if self.monochromatic {
-            Ok(Wavelengths::Monochromatic(values))
-        } else {
-            if values.len() < 2 {
-                bail!("--wavelengths: bins need at least two edges (or pass --monochromatic)");
-            }
-            Ok(Wavelengths::Bins(values))
-        }
+        Wavelengths::parse(&self.wavelengths, self.monochromatic).map_err(anyhow::Error::msg)
     }
 }
 
@@ -928,6 +873,13 @@ fn guard_output(
             );
         }
     }
+    // Before any work: the folder exists and takes a new file.
+    goniospec::io::check_writable(out).with_context(|| {
+        format!(
+            "cannot write {} (does its folder exist, and may you write there?)",
+            out.display()
+        )
+    })?;
     if force || !out.exists() {
         return Ok(());
     }
@@ -1217,38 +1169,8 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
     if a.width == 0 || a.height == 0 || a.spp == 0 {
         bail!("--width, --height and --spp must be positive");
     }
-    // `n` comma-separated numbers, or the usage message.
-    let numbers = |v: &str, n: usize, usage: &str| -> Result<Vec<f64>> {
-        let p: Vec<f64> = v
-            .split(',')
-            .map(|x| x.trim().parse::<f64>())
-            .collect::<Result<_, _>>()
-            .map_err(|_| anyhow::anyhow!("{usage}"))?;
-        if p.len() != n || p.iter().any(|v| !v.is_finite()) {
-            bail!("{usage} (finite numbers)");
-        }
-        Ok(p)
-    };
-    let light = if a.light == "none" {
-        Light::None
-    } else if let Some(v) = a.light.strip_prefix("dir:") {
-        let p = numbers(v, 2, "--light dir:THETA,PHI needs two angles in degrees")?;
-        Light::Directional(brdf::dir(p[0].to_radians(), p[1].to_radians()))
-    } else if let Some(v) = a.light.strip_prefix("point:") {
-        let p = numbers(v, 3, "--light point:X,Y,Z needs three numbers")?;
-        Light::Point([p[0], p[1], p[2]])
-    } else {
-        bail!(
-            "--light must be dir:THETA,PHI, point:X,Y,Z or none (got '{}')",
-            a.light
-        );
-    };
-    let env = match a.env.as_str() {
-        "constant" => Env::Constant,
-        "sky" => Env::Sky,
-        "none" => Env::None,
-        other => bail!("--env must be constant, sky or none (got '{other}')"),
-    };
+    let light = Light::parse(&a.light).map_err(anyhow::Error::msg)?;
+    let env = Env::parse(&a.env).map_err(anyhow::Error::msg)?;
     let shape = if a.shape == "sphere" {
         Shape::Sphere
     } else if a.shape == "plane" {
@@ -1274,6 +1196,10 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
         3 => [a.camera[0], a.camera[1], a.camera[2]],
         _ => bail!("--camera needs X,Y,Z"),
     };
+    // The output folder is made, and checked writable, before any work.
+    if let Some(dir) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
     {
         let png = a.output.with_extension("png");
         let inputs: Vec<&std::path::Path> = a
@@ -1307,9 +1233,6 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads)
         .build()?;
-    if let Some(dir) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
     let r = match (&a.file, &a.simulate) {
         (Some(f), _) => brdf::file::read(f)?,
         (None, Some(sp)) => pool.install(|| scene_driven(&a, sp, &shape, &cfg))?,
@@ -1333,10 +1256,14 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
     });
     bar.finish_and_clear();
     let secs = t0.elapsed().as_secs_f64();
-    render::write_exr(&img, &a.output)
-        .with_context(|| format!("writing {}", a.output.display()))?;
+    // Both files are written before either replaces an old one.
     let png = a.output.with_extension("png");
-    render::write_png(&img, &png).with_context(|| format!("writing {}", png.display()))?;
+    let exr_file = render::stage_exr(&img, &a.output)
+        .with_context(|| format!("writing {}", a.output.display()))?;
+    let png_file =
+        render::stage_png(&img, &png).with_context(|| format!("writing {}", png.display()))?;
+    goniospec::io::commit_all(vec![exr_file, png_file])
+        .with_context(|| format!("replacing {} and {}", a.output.display(), png.display()))?;
     outln!(
         "rendered {}x{} at {} spp, {} wavelength bins ({} representation) in {secs:.2} s: {} and {}",
         a.width,
@@ -1543,12 +1470,25 @@ fn info(a: InfoArgs) -> Result<ExitCode> {
             h.settings.phi_o_bins
         );
         outln!(
-            "rays per direction: {} (seeds {:?}), backend {}, path sharing {}, leaks {}",
-            h.rays,
+            "rays per direction: {:?} (seeds {:?}), backend {}, path sharing {}, leaks {}",
+            h.rays_per_direction,
             h.seeds,
             h.backend,
-            h.path_sharing,
+            h.settings.path_sharing,
             h.leaks
+        );
+        let st = &h.settings;
+        outln!(
+            "limits: cutoff {:e}, max depth {}, max wraps {}, max segments {}; entry points {}{}",
+            st.cutoff,
+            st.max_depth,
+            st.max_wraps,
+            st.max_segments,
+            st.entry_points,
+            match (st.tolerance, st.max_rays) {
+                (Some(t), Some(m)) => format!("; adaptive to {t} relative error, at most {m} rays"),
+                _ => String::new(),
+            }
         );
     } else if &head == brdf::file::MAGIC {
         let r = brdf::file::read(&a.file)?;

@@ -316,30 +316,27 @@ pub fn write_area(points: &[AreaPoint], dir: &Path) -> Result<Vec<PathBuf>, Stri
         .collect();
     let png = dir.join("reflectance-vs-area.png");
     let svg = dir.join("reflectance-vs-area.svg");
-    let tmp_png = dir.join(format!(
-        ".reflectance-vs-area.tmp-{}.png",
-        std::process::id()
-    ));
     let title = "Total reflectance against sampled area (rays in proportion)";
-    draw_chart(
-        BitMapBackend::new(&tmp_png, (900, 600)).into_drawing_area(),
-        title,
-        "sampled area (um^2)",
-        "total reflectance R",
-        &series,
-        None,
-    )?;
-    std::fs::rename(&tmp_png, &png).map_err(|e| e.to_string())?;
-    let tmp_svg = crate::io::temp_path(&svg);
-    draw_chart(
-        SVGBackend::new(&tmp_svg, (900, 600)).into_drawing_area(),
-        title,
-        "sampled area (um^2)",
-        "total reflectance R",
-        &series,
-        None,
-    )?;
-    std::fs::rename(&tmp_svg, &svg).map_err(|e| e.to_string())?;
+    chart_file(&png, |tmp| {
+        draw_chart(
+            BitMapBackend::new(tmp, (900, 600)).into_drawing_area(),
+            title,
+            "sampled area (um^2)",
+            "total reflectance R",
+            &series,
+            None,
+        )
+    })?;
+    chart_file(&svg, |tmp| {
+        draw_chart(
+            SVGBackend::new(tmp, (900, 600)).into_drawing_area(),
+            title,
+            "sampled area (um^2)",
+            "total reflectance R",
+            &series,
+            None,
+        )
+    })?;
     Ok(vec![png, svg])
 }
 
@@ -372,8 +369,14 @@ pub struct Point {
 pub fn load(path: &Path) -> Result<Study, String> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| format!("{}: cannot read file: {e}", path.display()))?;
-    let raw: StudyFile = toml::from_str(&text).map_err(|e| {
-        let line = e.span().map(|s| crate::sample::line_of(&text, s.start));
+    parse(path, &text)
+}
+
+/// Parses and validates the text of a study file read from `path` (named in errors;
+/// samples are resolved beside it).
+pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
+    let raw: StudyFile = toml::from_str(text).map_err(|e| {
+        let line = e.span().map(|s| crate::sample::line_of(text, s.start));
         match line {
             Some(l) => format!(
                 "{}:{l}: invalid study: {}",
@@ -832,6 +835,12 @@ pub fn holds(p: &Point, tolerance: f64) -> bool {
     p.error <= tolerance && p.unphysical.is_none()
 }
 
+/// Draws a chart into `path` atomically (`draw` renders to the temporary path it is given).
+fn chart_file(path: &Path, draw: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), String> {
+    crate::io::write_atomic_path(path, |tmp| draw(tmp).map_err(std::io::Error::other))
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// Writes `points.csv` and `report.md` into `dir` (atomically each).
 pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
@@ -1202,25 +1211,25 @@ pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, String> {
     ] {
         let png = dir.join(format!("{stem}.png"));
         let svg = dir.join(format!("{stem}.svg"));
-        // The bitmap backend picks its format from the extension: keep ".png" last.
-        let tmp_png = dir.join(format!(".{stem}.tmp-{}.png", std::process::id()));
-        draw_loglog(
-            BitMapBackend::new(&tmp_png, (900, 600)).into_drawing_area(),
-            title,
-            xlabel,
-            data,
-            g.clone(),
-        )?;
-        std::fs::rename(&tmp_png, &png).map_err(|e| e.to_string())?;
-        let tmp_svg = crate::io::temp_path(&svg);
-        draw_loglog(
-            SVGBackend::new(&tmp_svg, (900, 600)).into_drawing_area(),
-            title,
-            xlabel,
-            data,
-            g,
-        )?;
-        std::fs::rename(&tmp_svg, &svg).map_err(|e| e.to_string())?;
+        // The bitmap backend picks its format from the extension: the temporary keeps it.
+        chart_file(&png, |tmp| {
+            draw_loglog(
+                BitMapBackend::new(tmp, (900, 600)).into_drawing_area(),
+                title,
+                xlabel,
+                data,
+                g.clone(),
+            )
+        })?;
+        chart_file(&svg, |tmp| {
+            draw_loglog(
+                SVGBackend::new(tmp, (900, 600)).into_drawing_area(),
+                title,
+                xlabel,
+                data,
+                g.clone(),
+            )
+        })?;
         written.push(png);
         written.push(svg);
     }

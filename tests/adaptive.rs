@@ -81,3 +81,67 @@ fn tolerance_is_met_with_fewer_rays_than_a_fixed_budget() {
         .install(|| run(&s, &cfg));
     assert!(one.to_bytes() == acc.to_bytes());
 }
+
+/// Issue 12, item 7: every setting that changes results takes part in the merge check
+/// (a run that dropped most of its power at `max_segments = 5` never merges with a default
+/// one), and the header records what was done: each direction's own ray count in an
+/// adaptive run, path sharing, limits and entry points, all kept through a merge.
+#[test]
+fn merges_check_every_setting_and_headers_record_what_was_done() {
+    // The seed's wavy soap film: constant indices, so paths are shared by default.
+    let s = shipped("thin-film-600nm.toml");
+    let mut cfg = config(&[20.0, 75.0], Wavelengths::Monochromatic(vec![550.0]), 64);
+    cfg.buckets = Buckets {
+        theta_bins: 9,
+        phi_bins: 8,
+    };
+    let base = run(&s, &cfg);
+    let other_seed = |mut c: goniospec::simulate::SimConfig| {
+        c.seed = 2;
+        c
+    };
+    type Change = fn(&mut goniospec::simulate::SimConfig);
+    let changes: [(&str, Change); 5] = [
+        ("max_segments", |c| {
+            // Written only with --allow-unphysical: most of the power is cut.
+            c.limits.max_segments = 5;
+            c.allow_unphysical = true;
+        }),
+        ("max_wraps", |c| c.limits.max_wraps = 3),
+        ("entry_points", |c| c.random_entry = true),
+        ("path_sharing", |c| c.path_sharing = Some(false)),
+        ("tolerance", |c| {
+            c.tolerance = Some(0.2);
+            c.max_rays = 4096;
+        }),
+    ];
+    for (key, change) in changes {
+        let mut c = other_seed(cfg.clone());
+        change(&mut c);
+        let b = run(&s, &c);
+        let mut a = base.clone();
+        let e = a.merge(&b).expect_err(key).to_string();
+        assert!(e.contains(key), "{key}: {e}");
+        // The file says what was done, and reads back the same.
+        let back =
+            goniospec::accumulate::file::Accumulator::from_bytes(&b.to_bytes(), "b.gsa").unwrap();
+        assert_eq!(back.header, b.header, "{key}");
+    }
+    // Adaptive: each direction's trees, as the cells hold them; merged by direction.
+    let mut c = other_seed(cfg.clone());
+    c.tolerance = Some(0.2);
+    c.max_rays = 4096;
+    let (a1, _) = simulate(&s, &c, &|_| {}).unwrap();
+    let per: Vec<u64> = (0..2).map(|i| a1.cell(i, 0).trees).collect();
+    assert_eq!(a1.header.rays_per_direction, per);
+    assert_eq!(a1.header.rays, *per.iter().max().unwrap());
+    let mut c3 = c.clone();
+    c3.seed = 3;
+    let (a3, _) = simulate(&s, &c3, &|_| {}).unwrap();
+    let mut m = a1.clone();
+    m.merge(&a3).unwrap();
+    for i in 0..2 {
+        assert_eq!(m.header.rays_per_direction[i], m.cell(i, 0).trees);
+    }
+    assert_eq!(m.header.settings.tolerance, Some(0.2));
+}

@@ -294,3 +294,112 @@ fn gsb_files_round_trip_and_refuse_damage() {
         assert!(e.contains("wrong magic") || e.contains("truncated"), "{e}");
     }
 }
+
+/// Issue 12, item 6: `.gsb` files whose checksum is valid but whose content is not (a NaN
+/// angle, no angles, a child index out of range or pointing backwards, cell bounds of 1e9,
+/// a declared array length near 2^64) are refused with a message, never a panic or hang.
+#[test]
+fn gsb_files_with_a_valid_checksum_but_senseless_content_are_refused() {
+    let (data, _) = rough_data(Buckets {
+        theta_bins: 18,
+        phi_bins: 12,
+    });
+    let table = TableBrdf::build(&data);
+    let sub = SubdividedBrdf::build(&data, 0.05);
+    assert!(
+        sub.cells[0].iter().any(|c| c.child != u32::MAX),
+        "the test needs a split cell"
+    );
+    type Damage = Box<dyn Fn(&mut Representation)>;
+    let table_case = |f: fn(&mut TableBrdf)| -> Damage {
+        Box::new(move |r| match r {
+            Representation::Table(t) => f(t),
+            _ => unreachable!(),
+        })
+    };
+    let sub_case = |f: fn(&mut SubdividedBrdf)| -> Damage {
+        Box::new(move |r| match r {
+            Representation::Subdivided(s) => f(s),
+            _ => unreachable!(),
+        })
+    };
+    let cases: Vec<(&str, Representation, Damage)> = vec![
+        (
+            "incident angles",
+            Representation::Table(table.clone()),
+            table_case(|t| t.theta_i[0] = f64::NAN),
+        ),
+        (
+            "table size",
+            Representation::Table(table.clone()),
+            table_case(|t| {
+                t.theta_i.clear();
+                t.values.clear();
+            }),
+        ),
+        (
+            "table value",
+            Representation::Table(table.clone()),
+            table_case(|t| t.values[3] = f64::INFINITY),
+        ),
+        (
+            "children outside",
+            Representation::Subdivided(sub.clone()),
+            sub_case(|s| {
+                let k = s.cells[0].iter().position(|c| c.child != u32::MAX).unwrap();
+                s.cells[0][k].child = 1_000_000;
+            }),
+        ),
+        (
+            "children outside",
+            Representation::Subdivided(sub.clone()),
+            sub_case(|s| {
+                // A child pointing at its own parent: a descent would never end.
+                let k = s.cells[0].iter().position(|c| c.child != u32::MAX).unwrap();
+                s.cells[0][k].child = k as u32;
+            }),
+        ),
+        (
+            "outside the bucket grid",
+            Representation::Subdivided(sub.clone()),
+            sub_case(|s| {
+                let last = s.cells[0].len() - 1;
+                s.cells[0][last].t1 = 1_000_000_000;
+            }),
+        ),
+        (
+            "do not partition",
+            Representation::Subdivided(sub.clone()),
+            sub_case(|s| {
+                let k = s.cells[0].iter().position(|c| c.child != u32::MAX).unwrap();
+                let first = s.cells[0][k].child as usize;
+                let c = s.cells[0][first];
+                s.cells[0][first + 1] = c; // two children now overlap
+            }),
+        ),
+    ];
+    for (want, mut r, damage) in cases {
+        damage(&mut r);
+        let e = file::from_bytes(&file::to_bytes(&r), "x.gsb")
+            .err()
+            .unwrap_or_else(|| panic!("{want}: accepted"))
+            .to_string();
+        assert!(e.contains(want) && e.contains("x.gsb"), "{want}: {e}");
+    }
+    // A declared array length near 2^64, with the checksum made valid again.
+    let mut bytes = file::to_bytes(&Representation::Table(table.clone()));
+    let hlen = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    bytes[16 + hlen..16 + hlen + 8].copy_from_slice(&(u64::MAX - 3).to_le_bytes());
+    let n = bytes.len();
+    let sum = goniospec::accumulate::file::fnv1a(&bytes[..n - 8]);
+    bytes[n - 8..].copy_from_slice(&sum.to_le_bytes());
+    let e = file::from_bytes(&bytes, "x.gsb").err().unwrap().to_string();
+    assert!(e.contains("truncated"), "{e}");
+    // The undamaged files still read.
+    for r in [
+        Representation::Table(table),
+        Representation::Subdivided(sub),
+    ] {
+        assert!(file::from_bytes(&file::to_bytes(&r), "x.gsb").is_ok());
+    }
+}

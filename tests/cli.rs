@@ -382,7 +382,7 @@ fn build_eval_and_info() {
     let (code, out, _) = goniospec(&["info", gsa.to_str().unwrap()]);
     assert_eq!(code, 0);
     assert!(
-        out.contains("accumulator") && out.contains("rays per direction: 2000"),
+        out.contains("accumulator") && out.contains("rays per direction: [2000, 2000, 2000]"),
         "{out}"
     );
     // Errors.

@@ -310,7 +310,7 @@ fn path_sharing_gives_the_same_result_as_tracing_each_wavelength() {
         let (a, b) = (totals(&shared, 0, j).0, totals(&separate, 0, j).0);
         assert!((a - b).abs() < 1e-12, "bin {j}: {a} vs {b}");
     }
-    assert!(shared.header.path_sharing && !separate.header.path_sharing);
+    assert!(shared.header.settings.path_sharing && !separate.header.settings.path_sharing);
 }
 
 #[test]

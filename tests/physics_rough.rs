@@ -3,24 +3,12 @@
 
 mod common;
 
-use std::path::Path;
-
 use common::*;
 use goniospec::accel::Backend;
 use goniospec::accumulate::file::Accumulator;
 use goniospec::accumulate::{Buckets, Coherence};
-use goniospec::sample::{self, Sample, generate};
+use goniospec::sample::{Sample, generate};
 use goniospec::simulate::Wavelengths;
-
-fn shipped(name: &str) -> Sample {
-    sample::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("meshes")
-            .join(name),
-        Default::default(),
-    )
-    .unwrap()
-}
 
 /// The same sample tiled `k x k` times: a k^2 larger sampled area, statistically identical.
 fn tiled(s: &Sample, k: usize) -> Sample {
@@ -402,7 +390,10 @@ fn merge_adds_runs_and_refuses_mismatches() {
     cfg3.seed = 3;
     cfg3.rho_nm = 1000.0;
     let e = a.clone().merge(&run(&s, &cfg3)).unwrap_err().to_string();
-    assert!(e.contains("different settings"), "{e}");
+    assert!(
+        e.contains("coherence_radius_nm: 5000.0 against 1000.0"),
+        "{e}"
+    );
     let other = shipped("rough-glass.toml");
     let e = a
         .clone()

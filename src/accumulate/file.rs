@@ -16,7 +16,7 @@ use super::{Buckets, Cell, Coherence};
 use crate::optics::C64;
 
 pub const MAGIC: &[u8; 8] = b"GSPECACC";
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 
 /// Everything that defines what was simulated; two files merge only when these agree.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -40,6 +40,20 @@ pub struct Settings {
     /// "f64" (default; omitted from the file) or "f32" (the precision experiment).
     #[serde(default = "f64_name", skip_serializing_if = "is_f64")]
     pub phase_precision: String,
+    /// Tile-side crossings of one segment chain before it is dropped.
+    pub max_wraps: u32,
+    /// Traced segments of one tree before its remaining rays are dropped.
+    pub max_segments: u32,
+    /// Entry points: "r2" (the low-discrepancy sequence) or "uniform" (plain Monte Carlo).
+    pub entry_points: String,
+    /// Geometry traced once for all wavelengths (same expectation, other bits).
+    pub path_sharing: bool,
+    /// Adaptive budget: the target relative standard error, and the most trees per
+    /// direction; absent for a fixed budget.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_rays: Option<u64>,
 }
 
 fn f64_name() -> String {
@@ -56,10 +70,12 @@ pub struct Header {
     pub settings: Settings,
     /// Seeds of the runs merged into this file.
     pub seeds: Vec<u64>,
-    /// Launched trees per incident direction and wavelength, over all runs.
+    /// Launched trees per incident direction and wavelength, over all runs: the same for
+    /// every direction with a fixed budget, the largest with an adaptive one.
     pub rays: u64,
+    /// Launched trees of each incident direction, over all runs (adaptive runs differ).
+    pub rays_per_direction: Vec<u64>,
     pub backend: String,
-    pub path_sharing: bool,
     /// Rays that met an interface from the wrong medium, over all runs.
     pub leaks: u64,
 }
@@ -116,6 +132,28 @@ impl Header {
         }
         if self.rays == 0 || self.seeds.is_empty() {
             return Err("no rays or no seeds recorded".into());
+        }
+        if self.rays_per_direction.len() != s.theta_i_deg.len()
+            || self.rays_per_direction.contains(&0)
+            || self.rays_per_direction.iter().max() != Some(&self.rays)
+        {
+            return Err(format!(
+                "rays_per_direction {:?} does not match {} directions and rays = {}",
+                self.rays_per_direction,
+                s.theta_i_deg.len(),
+                self.rays
+            ));
+        }
+        if !matches!(s.entry_points.as_str(), "r2" | "uniform") {
+            return Err(format!("unknown entry_points '{}'", s.entry_points));
+        }
+        if s.tolerance.is_some_and(|t| !(t > 0.0 && t < 1.0))
+            || s.tolerance.is_some() != s.max_rays.is_some()
+        {
+            return Err(format!(
+                "an adaptive run needs tolerance in (0, 1) and max_rays together, got {:?} and {:?}",
+                s.tolerance, s.max_rays
+            ));
         }
         Ok(())
     }
@@ -388,10 +426,25 @@ impl Accumulator {
             )));
         }
         if a != b {
+            // Name the settings that differ, one per line, as the files record them.
+            let (ta, tb) = (
+                toml::Table::try_from(a).unwrap_or_default(),
+                toml::Table::try_from(b).unwrap_or_default(),
+            );
+            let mut keys: Vec<&String> = ta.keys().chain(tb.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            let show = |t: &toml::Table, k: &str| {
+                t.get(k).map_or("(absent)".to_string(), |v| v.to_string())
+            };
+            let diff: Vec<String> = keys
+                .into_iter()
+                .filter(|k| ta.get(*k) != tb.get(*k))
+                .map(|k| format!("  {k}: {} against {}", show(&ta, k), show(&tb, k)))
+                .collect();
             return Err(FileError::Merge(format!(
-                "different settings:\n{}\nagainst\n{}",
-                toml::to_string(a).unwrap_or_default(),
-                toml::to_string(b).unwrap_or_default()
+                "the runs differ in settings that change results:\n{}",
+                diff.join("\n")
             )));
         }
         if let Some(s) = other
@@ -408,7 +461,23 @@ impl Accumulator {
             x.merge(y);
         }
         self.header.seeds.extend_from_slice(&other.header.seeds);
-        self.header.rays += other.header.rays;
+        for (x, y) in self
+            .header
+            .rays_per_direction
+            .iter_mut()
+            .zip(&other.header.rays_per_direction)
+        {
+            *x = x
+                .checked_add(*y)
+                .ok_or_else(|| FileError::Merge("ray counts overflow".into()))?;
+        }
+        self.header.rays = self
+            .header
+            .rays_per_direction
+            .iter()
+            .copied()
+            .max()
+            .unwrap_or(0);
         self.header.leaks += other.header.leaks;
         if self.header.backend != other.header.backend {
             self.header.backend = format!("{}+{}", self.header.backend, other.header.backend);

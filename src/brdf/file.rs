@@ -221,49 +221,68 @@ pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Representation, GsbError> 
         );
         pos += 8 * len;
     }
+    let content_err = content;
+    let r = decode(header, arrays).map_err(|m| content_err(&m))?;
+    validate(&r).map_err(|m| content_err(&m))?;
+    Ok(r)
+}
+
+/// Builds the representation the arrays describe; sizes are checked with checked
+/// arithmetic, and grid values are converted only when they are exact integers.
+fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, String> {
     let nl = header.meta.wavelengths_nm.len();
     let pr = &header.params;
-    let need = |k: usize| -> Result<(), GsbError> {
+    let need = |k: usize| -> Result<(), String> {
         if arrays.len() == k {
             Ok(())
         } else {
-            Err(content(&format!(
-                "expected {k} arrays, found {}",
-                arrays.len()
-            )))
+            Err(format!("expected {k} arrays, found {}", arrays.len()))
         }
     };
+    let times = |a: usize, b: usize| a.checked_mul(b).ok_or("array sizes overflow");
     match header.meta.repr.as_str() {
         "kdtree" => {
             need(2)?;
+            if arrays[0].len() % 4 != 0 {
+                return Err("kd-tree points are not 4-vectors".into());
+            }
             let points: Vec<[f64; 4]> = arrays[0]
                 .chunks_exact(4)
                 .map(|c| [c[0], c[1], c[2], c[3]])
                 .collect();
-            if arrays[1].len() != points.len() * nl {
-                return Err(content("values do not match the points"));
+            if arrays[1].len() != times(points.len(), nl)? {
+                return Err("values do not match the points".into());
             }
-            let k = pr.k.ok_or_else(|| content("missing k"))? as usize;
+            let k = pr.k.ok_or("missing k")?;
+            if !(1..=1024).contains(&k) || points.is_empty() {
+                return Err(format!(
+                    "k = {k} neighbours (1 to 1024) over {} points",
+                    points.len()
+                ));
+            }
+            if let Some(p) = points.iter().find(|p| p.iter().any(|c| !c.is_finite())) {
+                return Err(format!("kd-tree point {p:?} is not finite"));
+            }
             Ok(Representation::KdTree(KdTreeBrdf::from_parts(
                 points,
                 arrays.swap_remove(1),
-                k,
+                k as usize,
                 header.meta,
             )))
         }
         "table" => {
             need(2)?;
             let (tb, pb) = (
-                pr.theta_bins.ok_or_else(|| content("missing theta_bins"))? as usize,
-                pr.phi_bins.ok_or_else(|| content("missing phi_bins"))? as usize,
+                pr.theta_bins.ok_or("missing theta_bins")? as usize,
+                pr.phi_bins.ok_or("missing phi_bins")? as usize,
             );
             let theta_i = arrays[0].clone();
-            if arrays[1].len() != theta_i.len() * tb * pb * nl
-                || tb == 0
+            if tb == 0
                 || pb == 0
                 || theta_i.is_empty()
+                || arrays[1].len() != times(times(times(theta_i.len(), tb)?, pb)?, nl)?
             {
-                return Err(content("table size does not match its axes"));
+                return Err("table size does not match its axes".into());
             }
             Ok(Representation::Table(TableBrdf {
                 theta_i,
@@ -275,26 +294,44 @@ pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Representation, GsbError> 
             }))
         }
         "subdivided" => {
-            let ni = pr
-                .incident_angles
-                .ok_or_else(|| content("missing incident_angles"))? as usize;
-            need(1 + 2 * ni)?;
+            let ni = pr.incident_angles.ok_or("missing incident_angles")?;
+            if ni == 0 || ni != arrays.len().saturating_sub(1) as u64 / 2 {
+                return Err(format!(
+                    "incident_angles = {ni} does not match the {} arrays",
+                    arrays.len()
+                ));
+            }
+            need(1 + 2 * ni as usize)?;
+            // A stored grid index: an exact integer that fits a u32.
+            let index = |v: f64| -> Result<u32, String> {
+                if v.fract() == 0.0 && (0.0..=f64::from(u32::MAX)).contains(&v) {
+                    Ok(v as u32)
+                } else {
+                    Err(format!("cell index {v} is not an integer in the u32 range"))
+                }
+            };
             let mut cells = Vec::new();
             let mut flux = Vec::new();
-            for i in 0..ni {
-                let c: Vec<Cell> = arrays[1 + 2 * i]
+            for i in 0..ni as usize {
+                let raw = &arrays[1 + 2 * i];
+                if raw.len() % 6 != 0 {
+                    return Err("subdivided cells are not 6-vectors".into());
+                }
+                let c: Vec<Cell> = raw
                     .chunks_exact(6)
-                    .map(|c| Cell {
-                        t0: c[0] as u32,
-                        t1: c[1] as u32,
-                        p0: c[2] as u32,
-                        p1: c[3] as u32,
-                        child: c[4] as u32,
-                        omega: c[5],
+                    .map(|c| {
+                        Ok(Cell {
+                            t0: index(c[0])?,
+                            t1: index(c[1])?,
+                            p0: index(c[2])?,
+                            p1: index(c[3])?,
+                            child: index(c[4])?,
+                            omega: c[5],
+                        })
                     })
-                    .collect();
-                if arrays[2 + 2 * i].len() != c.len() * nl || c.is_empty() {
-                    return Err(content("cells do not match their flux"));
+                    .collect::<Result<_, String>>()?;
+                if c.is_empty() || arrays[2 + 2 * i].len() != times(c.len(), nl)? {
+                    return Err("cells do not match their flux".into());
                 }
                 cells.push(c);
                 flux.push(arrays[2 + 2 * i].clone());
@@ -303,8 +340,8 @@ pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Representation, GsbError> 
                 theta_i: arrays[0].clone(),
                 phi_i: pr.phi_i.unwrap_or(0.0),
                 buckets: Buckets {
-                    theta_bins: pr.theta_bins.ok_or_else(|| content("missing theta_bins"))?,
-                    phi_bins: pr.phi_bins.ok_or_else(|| content("missing phi_bins"))?,
+                    theta_bins: pr.theta_bins.ok_or("missing theta_bins")?,
+                    phi_bins: pr.phi_bins.ok_or("missing phi_bins")?,
                 },
                 cells,
                 flux,
@@ -312,8 +349,124 @@ pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Representation, GsbError> 
                 meta: header.meta,
             }))
         }
-        other => Err(content(&format!("unknown representation '{other}'"))),
+        other => Err(format!("unknown representation '{other}'")),
     }
+}
+
+/// Incident angles: at least one, finite, in [0, pi/2) radians, strictly increasing.
+fn check_theta_i(theta_i: &[f64]) -> Result<(), String> {
+    if theta_i.is_empty()
+        || theta_i
+            .iter()
+            .any(|t| !(0.0..std::f64::consts::FRAC_PI_2).contains(t))
+        || theta_i.windows(2).any(|w| w[1] <= w[0])
+    {
+        return Err(format!(
+            "incident angles must be increasing radians in [0, pi/2), got {theta_i:?}"
+        ));
+    }
+    Ok(())
+}
+
+/// Checks everything the evaluators rely on: a file is data from outside, and its
+/// checksum proves only that it was not damaged.
+fn validate(r: &Representation) -> Result<(), String> {
+    let meta = match r {
+        Representation::KdTree(k) => &k.meta,
+        Representation::Table(t) => &t.meta,
+        Representation::Subdivided(s) => &s.meta,
+    };
+    let w = &meta.wavelengths_nm;
+    if w.is_empty() || w.len() > 100_001 || w.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
+        return Err(format!(
+            "{} wavelengths: need 1 to 100001 positive finite values",
+            w.len()
+        ));
+    }
+    let finite = |what: &str, v: &[f64]| -> Result<(), String> {
+        match v.iter().position(|x| !x.is_finite()) {
+            Some(i) => Err(format!("{what} value {i} is {}", v[i])),
+            None => Ok(()),
+        }
+    };
+    let grid = |tb: u64, pb: u64| -> Result<(), String> {
+        if tb == 0 || pb == 0 || tb * pb > 1 << 22 {
+            return Err(format!("bucket grid {tb} x {pb} is empty or too large"));
+        }
+        Ok(())
+    };
+    match r {
+        Representation::KdTree(k) => finite("kd-tree", &k.values),
+        Representation::Table(t) => {
+            check_theta_i(&t.theta_i)?;
+            grid(t.theta_bins as u64, t.phi_bins as u64)?;
+            if !t.phi_i.is_finite() {
+                return Err(format!("phi_i = {} is not finite", t.phi_i));
+            }
+            finite("table", &t.values)
+        }
+        Representation::Subdivided(s) => {
+            check_theta_i(&s.theta_i)?;
+            let (tb, pb) = (s.buckets.theta_bins, s.buckets.phi_bins);
+            grid(u64::from(tb), u64::from(pb))?;
+            if !s.phi_i.is_finite() || s.cells.len() != s.theta_i.len() {
+                return Err("phi_i is not finite, or the cells do not match the angles".into());
+            }
+            for (cells, flux) in s.cells.iter().zip(&s.flux) {
+                finite("flux", flux)?;
+                check_cells(cells, tb, pb)?;
+            }
+            Ok(())
+        }
+    }
+}
+
+/// The cell tree of one incident angle: the root covers the bucket grid, every cell lies
+/// in it with a finite, non-negative solid angle, and every split cell has four children
+/// after it in the list that partition it (disjoint, inside, areas adding up), so a
+/// descent always ends and always finds its cell.
+fn check_cells(cells: &[Cell], tb: u32, pb: u32) -> Result<(), String> {
+    let root = &cells[0];
+    if (root.t0, root.t1, root.p0, root.p1) != (0, tb, 0, pb) {
+        return Err("the root cell does not cover the bucket grid".into());
+    }
+    let area = |c: &Cell| u64::from(c.t1 - c.t0) * u64::from(c.p1 - c.p0);
+    for (k, c) in cells.iter().enumerate() {
+        if c.t0 > c.t1 || c.t1 > tb || c.p0 > c.p1 || c.p1 > pb {
+            return Err(format!("cell {k} lies outside the bucket grid"));
+        }
+        if !(c.omega.is_finite() && c.omega >= 0.0) {
+            return Err(format!("cell {k} has solid angle {}", c.omega));
+        }
+    }
+    for (k, c) in cells.iter().enumerate() {
+        if c.child == u32::MAX {
+            continue;
+        }
+        let first = c.child as usize;
+        if first <= k || first.checked_add(4).is_none_or(|end| end > cells.len()) {
+            return Err(format!("cell {k} points at children outside the list"));
+        }
+        let kids = &cells[first..first + 4];
+        let inside = kids
+            .iter()
+            .all(|d| d.t0 >= c.t0 && d.t1 <= c.t1 && d.p0 >= c.p0 && d.p1 <= c.p1);
+        let disjoint = (0..4).all(|a| {
+            (a + 1..4).all(|b| {
+                let (x, y) = (&kids[a], &kids[b]);
+                area(x) == 0
+                    || area(y) == 0
+                    || x.t1 <= y.t0
+                    || y.t1 <= x.t0
+                    || x.p1 <= y.p0
+                    || y.p1 <= x.p0
+            })
+        });
+        if !inside || !disjoint || kids.iter().map(area).sum::<u64>() != area(c) {
+            return Err(format!("the children of cell {k} do not partition it"));
+        }
+    }
+    Ok(())
 }
 
 /// The file length the array headers promise, when they can be read.

@@ -15,7 +15,7 @@ use crate::accumulate::Buckets;
 use crate::optics::vec3::V3;
 
 /// A quad-tree cell over bucket index ranges `[t0, t1) x [p0, p1)`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cell {
     pub t0: u32,
     pub t1: u32,
@@ -27,6 +27,7 @@ pub struct Cell {
     pub omega: f64,
 }
 
+#[derive(Clone, Debug)]
 pub struct SubdividedBrdf {
     /// Simulated incident angles, ascending (radians).
     pub theta_i: Vec<f64>,
@@ -83,7 +84,7 @@ impl SubdividedBrdf {
             // Breadth-first: cells are appended, children as four consecutive entries.
             let mut k = 0;
             while k < cells.len() {
-                let c = cells[k].clone();
+                let c = cells[k];
                 let (f, om, noise) = sum_cell(&c);
                 cells[k].omega = om;
                 flux.extend_from_slice(&f);

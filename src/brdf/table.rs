@@ -7,6 +7,7 @@ use std::f64::consts::TAU;
 use super::{BucketData, Meta, angles};
 use crate::optics::vec3::V3;
 
+#[derive(Clone, Debug)]
 pub struct TableBrdf {
     /// Simulated incident angles, ascending (radians).
     pub theta_i: Vec<f64>,

@@ -36,6 +36,41 @@ pub enum Light {
     Point(V3),
 }
 
+impl Light {
+    /// Parses `--light`: `dir:THETA,PHI` (degrees), `point:X,Y,Z` or `none`. The message
+    /// names the flag.
+    pub fn parse(s: &str) -> Result<Light, String> {
+        // `n` comma-separated finite numbers, or the usage message.
+        let numbers = |v: &str, n: usize, usage: &str| -> Result<Vec<f64>, String> {
+            let p: Vec<f64> = v
+                .split(',')
+                .map(|x| x.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| usage.to_string())?;
+            if p.len() != n || p.iter().any(|v| !v.is_finite()) {
+                return Err(format!("{usage} (finite numbers)"));
+            }
+            Ok(p)
+        };
+        if s == "none" {
+            Ok(Light::None)
+        } else if let Some(v) = s.strip_prefix("dir:") {
+            let p = numbers(v, 2, "--light dir:THETA,PHI needs two angles in degrees")?;
+            Ok(Light::Directional(crate::brdf::dir(
+                p[0].to_radians(),
+                p[1].to_radians(),
+            )))
+        } else if let Some(v) = s.strip_prefix("point:") {
+            let p = numbers(v, 3, "--light point:X,Y,Z needs three numbers")?;
+            Ok(Light::Point([p[0], p[1], p[2]]))
+        } else {
+            Err(format!(
+                "--light must be dir:THETA,PHI, point:X,Y,Z or none (got '{s}')"
+            ))
+        }
+    }
+}
+
 /// The environment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Env {
@@ -43,6 +78,20 @@ pub enum Env {
     Constant,
     /// Brighter towards the zenith: `0.25 + 0.75 max(0, z)`.
     Sky,
+}
+
+impl Env {
+    /// Parses `--env`: `constant`, `sky` or `none`.
+    pub fn parse(s: &str) -> Result<Env, String> {
+        match s {
+            "constant" => Ok(Env::Constant),
+            "sky" => Ok(Env::Sky),
+            "none" => Ok(Env::None),
+            other => Err(format!(
+                "--env must be constant, sky or none (got '{other}')"
+            )),
+        }
+    }
 }
 
 /// What to render.
@@ -380,30 +429,26 @@ pub fn render(
     img
 }
 
-/// Writes the image as a linear-sRGB EXR, atomically.
-pub fn write_exr(img: &Image, path: &Path) -> std::io::Result<()> {
-    let tmp = crate::io::temp_path(path);
-    let r = exr::prelude::write_rgb_file(&tmp, img.width, img.height, |x, y| {
-        let c = img.rgb[y * img.width + x];
-        (c[0], c[1], c[2])
-    });
-    match r {
-        Ok(()) => std::fs::rename(&tmp, path),
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            Err(std::io::Error::other(e.to_string()))
-        }
-    }
+/// Stages the image as a linear-sRGB EXR (written and flushed; [`crate::io::Staged::commit`]
+/// puts it in place).
+pub fn stage_exr(img: &Image, path: &Path) -> std::io::Result<crate::io::Staged> {
+    crate::io::Staged::write_path(path, |tmp| {
+        exr::prelude::write_rgb_file(tmp, img.width, img.height, |x, y| {
+            let c = img.rgb[y * img.width + x];
+            (c[0], c[1], c[2])
+        })
+        .map_err(|e| std::io::Error::other(e.to_string()))
+    })
 }
 
-/// Writes an 8-bit sRGB-encoded PNG preview (values clamped to [0, 1]), atomically.
-pub fn write_png(img: &Image, path: &Path) -> std::io::Result<()> {
+/// Stages an 8-bit sRGB-encoded PNG preview (values clamped to [0, 1]).
+pub fn stage_png(img: &Image, path: &Path) -> std::io::Result<crate::io::Staged> {
     let data: Vec<u8> = img
         .rgb
         .iter()
         .flat_map(|c| c.map(|v| (colour::srgb_encode(f64::from(v)) * 255.0).round() as u8))
         .collect();
-    crate::io::write_atomic(path, |w| {
+    crate::io::Staged::write(path, |w| {
         let mut enc = png::Encoder::new(w, img.width as u32, img.height as u32);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
@@ -412,4 +457,14 @@ pub fn write_png(img: &Image, path: &Path) -> std::io::Result<()> {
         wr.write_image_data(&data).map_err(std::io::Error::other)?;
         wr.finish().map_err(std::io::Error::other)
     })
+}
+
+/// Writes the image as a linear-sRGB EXR, atomically.
+pub fn write_exr(img: &Image, path: &Path) -> std::io::Result<()> {
+    stage_exr(img, path)?.commit()
+}
+
+/// Writes an 8-bit sRGB-encoded PNG preview, atomically.
+pub fn write_png(img: &Image, path: &Path) -> std::io::Result<()> {
+    stage_png(img, path)?.commit()
 }

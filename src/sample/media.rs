@@ -337,8 +337,18 @@ pub fn load_model_file(path: &Path) -> Result<IndexModel, MediumDefError> {
     };
     let text =
         std::fs::read_to_string(path).map_err(|e| at(None, format!("cannot read file: {e}")))?;
-    let raw: RawMedium = toml::from_str(&text).map_err(|e| {
-        let line = e.span().map(|s| super::line_of(&text, s.start));
+    parse_model_file(path, &text)
+}
+
+/// Parses the text of a `data/*.toml` model file read from `path` (named in errors; files
+/// it refers to are resolved beside it).
+pub fn parse_model_file(path: &Path, text: &str) -> Result<IndexModel, MediumDefError> {
+    let at = |line: Option<usize>, message: String| MediumDefError {
+        message,
+        file: Some((path.to_path_buf(), line)),
+    };
+    let raw: RawMedium = toml::from_str(text).map_err(|e| {
+        let line = e.span().map(|s| super::line_of(text, s.start));
         at(line, e.message().trim().to_string())
     })?;
     let base = path.parent().unwrap_or(Path::new(""));
@@ -358,9 +368,18 @@ pub fn load_table(path: &Path) -> Result<IndexModel, MediumDefError> {
     };
     let text =
         std::fs::read_to_string(path).map_err(|e| err(None, format!("cannot read file: {e}")))?;
+    parse_table(path, &text)
+}
+
+/// Parses the text of a `lambda_nm,n,k` table read from `path` (named in errors).
+pub fn parse_table(path: &Path, text: &str) -> Result<IndexModel, MediumDefError> {
+    let err = |line: Option<usize>, message: String| MediumDefError {
+        message,
+        file: Some((path.to_path_buf(), line)),
+    };
     let mut header: Option<[usize; 3]> = None;
     let (mut l, mut n, mut k) = (Vec::new(), Vec::new(), Vec::new());
-    for (line, raw) in super::obj::numbered_lines(&text) {
+    for (line, raw) in super::obj::numbered_lines(text) {
         let s = raw.trim();
         if s.is_empty() || s.starts_with('#') {
             continue;

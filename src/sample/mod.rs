@@ -41,7 +41,7 @@ use generate::{Generated, GeneratorSpec};
 use media::RawMedium;
 pub use media::{IndexModel, Medium};
 pub use mesh::Mesh;
-pub use obj::{MeshOptions, load_obj};
+pub use obj::{MeshOptions, load_obj, parse_obj};
 
 /// A sample input error: the file, the line where known, and what is wrong.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -536,8 +536,10 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         if meshed {
             // Every layer becomes two meshed planes: they must stay apart in f32.
             let total: f64 = layers.iter().map(|l| l.1).sum();
-            check_length("total stack thickness", total / scale, unit, total)
-                .map_err(|m| at(st.span(), SampleErrorKind::Invalid(m)))?;
+            if !layers.is_empty() {
+                check_length("total stack thickness", total / scale, unit, total)
+                    .map_err(|m| at(st.span(), SampleErrorKind::Invalid(m)))?;
+            }
             let res = f32_resolution_nm(tile_nm[0].max(tile_nm[1]).max(total));
             for (l, &(_, t)) in st.get_ref().layers.iter().zip(&layers) {
                 if t < MIN_SEPARATION_RESOLUTIONS * res {

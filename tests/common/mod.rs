@@ -22,6 +22,17 @@ pub fn scratch(tag: &str) -> PathBuf {
     d
 }
 
+/// The repository root.
+pub fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A shipped sample, `meshes/NAME`.
+pub fn shipped(name: &str) -> Sample {
+    sample::load(&root().join("meshes").join(name), MeshOptions::default())
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// Writes `toml` as a sample file in a fresh folder and loads it.
 pub fn sample_from(tag: &str, toml: &str) -> Sample {
     let d = scratch(tag);
