@@ -3,7 +3,7 @@
 
 CARGO ?= cargo
 
-.PHONY: demo test deps bench lint study stress
+.PHONY: demo test deps bench lint study stress fuzz fuzz-smoke
 
 OUT ?= out/demo
 
@@ -45,3 +45,16 @@ STRESS = grazing thick-film thin-film seed-experiment radius-flat radius-curved 
 stress: deps
 	$(CARGO) build --release
 	for s in $(STRESS); do ./target/release/goniospec study studies/$$s.toml -o out/stress/$$s || exit 1; done
+
+## Fuzz every parser (OBJ, sample TOML, media tables and models, .gsa, .gsb, studies, CLI
+## values) with AFL++ through afl.rs on stable Rust, FUZZ_SECONDS each (default 600).
+## Installs cargo-afl when missing. Findings in out/fuzz/; see fuzz/README.md.
+FUZZ_SECONDS ?= 600
+fuzz: deps
+	./scripts/fuzz.sh $(FUZZ_SECONDS)
+
+## What CI runs: the harnesses build and replay every corpus and regression input, then
+## each target is fuzzed for a few seconds (about a minute in all).
+fuzz-smoke: deps
+	cd fuzz && $(CARGO) test --release
+	./scripts/fuzz.sh 6

@@ -171,6 +171,54 @@ pub fn check_writable(path: &Path) -> io::Result<()> {
     fs::remove_file(&probe)
 }
 
+/// The most bytes a text input (sample, medium table or model, study) may have: 256 MiB.
+pub const MAX_TEXT_BYTES: u64 = 256 << 20;
+
+/// Reads a whole input file of at most `max_bytes`. Devices (`/dev/urandom`, a terminal)
+/// are refused rather than read forever; pipes and regular files are read up to the limit.
+pub fn read_input(path: &Path, max_bytes: u64) -> io::Result<Vec<u8>> {
+    use std::io::Read;
+    let meta = fs::metadata(path)?;
+    if meta.is_dir() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "is a directory",
+        ));
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let t = meta.file_type();
+        if t.is_char_device() || t.is_block_device() || t.is_socket() {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                "is a device, not a file",
+            ));
+        }
+    }
+    let mut buf = Vec::new();
+    File::open(path)?
+        .take(max_bytes.saturating_add(1))
+        .read_to_end(&mut buf)?;
+    if buf.len() as u64 > max_bytes {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!("is larger than the {max_bytes} bytes this kind of file may have"),
+        ));
+    }
+    Ok(buf)
+}
+
+/// [`read_input`] of UTF-8 text (at most [`MAX_TEXT_BYTES`]).
+pub fn read_text(path: &Path) -> io::Result<String> {
+    String::from_utf8(read_input(path, MAX_TEXT_BYTES)?).map_err(|e| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!("is not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
+        )
+    })
+}
+
 /// Peak resident memory of this process so far, MB (Linux `VmHWM` from `/proc/self/status`;
 /// `None` where that is not available).
 pub fn peak_rss_mb() -> Option<f64> {

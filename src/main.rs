@@ -412,13 +412,15 @@ struct RenderArgs {
     /// computed from its triangles).
     #[arg(long, default_value = "sphere")]
     shape: String,
-    #[arg(long, default_value_t = 512)]
-    width: usize,
-    #[arg(long, default_value_t = 512)]
-    height: usize,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 16)]
-    spp: usize,
+    /// Image width, pixels (1 to 16384).
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: u32,
+    /// Image height, pixels (1 to 16384).
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: u32,
+    /// Samples per pixel (1 to 65536).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    spp: u32,
     /// dir:THETA,PHI (degrees, towards the light), point:X,Y,Z, or none.
     #[arg(long, default_value = "dir:50,-120")]
     light: String,
@@ -1116,7 +1118,7 @@ fn eval(a: EvalArgs) -> Result<ExitCode> {
         }
         Some(p) => {
             let text =
-                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+                goniospec::io::read_text(p).with_context(|| format!("reading {}", p.display()))?;
             let mut lines = text
                 .lines()
                 .enumerate()
@@ -1219,9 +1221,9 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
         bail!("--light-strength and --env-strength must not be negative");
     }
     let cfg = RenderConfig {
-        width: a.width,
-        height: a.height,
-        spp: a.spp,
+        width: a.width as usize,
+        height: a.height as usize,
+        spp: a.spp as usize,
         light,
         light_strength: a.light_strength,
         env,
@@ -1238,6 +1240,20 @@ fn render(a: RenderArgs) -> Result<ExitCode> {
         (None, Some(sp)) => pool.install(|| scene_driven(&a, sp, &shape, &cfg))?,
         (None, None) => bail!("give a .gsb file or --simulate SAMPLE.toml"),
     };
+    // The image holds RGB and a spectrum per pixel (f32): refuse what cannot fit.
+    let bins = r.meta().wavelengths_nm.len() as f64;
+    let bytes = f64::from(a.width) * f64::from(a.height) * 4.0 * (3.0 + bins) * 2.0;
+    if let Some(avail) = goniospec::io::available_memory_bytes()
+        && bytes > avail as f64
+    {
+        bail!(
+            "--width {} x --height {} with {bins} wavelength bins needs about {:.1} GB, more than the {:.1} GB available",
+            a.width,
+            a.height,
+            bytes / 1e9,
+            avail as f64 / 1e9
+        );
+    }
     let t0 = std::time::Instant::now();
     let albedo = if env == Env::Constant {
         Some(pool.install(|| render::albedo_table(&r, 90)))

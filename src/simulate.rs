@@ -39,6 +39,10 @@ pub enum Wavelengths {
     Monochromatic(Vec<f64>),
 }
 
+/// The smallest `--tolerance`: a relative standard error of 1e-6 already needs about 1e12
+/// trees per direction for a reflectance near 1 with unit spread.
+pub const MIN_TOLERANCE: f64 = 1e-6;
+
 /// Most wavelengths (or bins) one run may ask for: each is a cell of every incident
 /// direction's accumulator, and 10,000 already resolve 0.04 nm over the visible.
 pub const MAX_WAVELENGTHS: usize = 10_000;
@@ -887,10 +891,10 @@ fn validate(cfg: &SimConfig) -> Result<(), SimError> {
         return bad("--rays must be at least 1".into());
     }
     if let Some(t) = cfg.tolerance
-        && !(t > 0.0 && t.is_finite())
+        && !(MIN_TOLERANCE..1.0).contains(&t)
     {
         return bad(format!(
-            "--tolerance must be a positive relative error, got {t}"
+            "--tolerance must be a relative standard error in [{MIN_TOLERANCE:e}, 1), got {t:e} (below 1e-6 needs some 1e12 trees per direction)"
         ));
     }
     if cfg.wavelengths.count() == 0 {

@@ -367,7 +367,7 @@ pub struct Point {
 
 /// Reads and validates a study file; errors name the file and line.
 pub fn load(path: &Path) -> Result<Study, String> {
-    let text = std::fs::read_to_string(path)
+    let text = crate::io::read_text(path)
         .map_err(|e| format!("{}: cannot read file: {e}", path.display()))?;
     parse(path, &text)
 }

@@ -862,6 +862,53 @@ fn sizes_lengths_and_shapes_are_refused_before_work() {
             "{to}: {err}"
         );
     }
+    // Devices are not read forever, work that cannot finish is refused, and an output
+    // folder that cannot be written is found before any work.
+    #[cfg(target_os = "linux")]
+    for (args, code_want, says) in [
+        (&["check", "/dev/urandom"][..], 1, "is a device"),
+        (&["info", "/dev/zero"][..], 1, "neither a .gsa nor a .gsb"),
+        (
+            &[
+                "simulate",
+                "meshes/flat-soap-film.toml",
+                "--tolerance",
+                "1e-320",
+                "-o",
+                o,
+            ][..],
+            1,
+            "--tolerance",
+        ),
+        (
+            &["render", "x.gsb", "--width", "99999", "-o", "x.exr"][..],
+            2,
+            "--width",
+        ),
+        (
+            &["render", "x.gsb", "--spp", "4294967296", "-o", "x.exr"][..],
+            2,
+            "--spp",
+        ),
+        (
+            // /proc takes no new files, even from root.
+            &[
+                "simulate",
+                "meshes/flat-soap-film.toml",
+                "-o",
+                "/proc/goniospec-x.gsa",
+            ][..],
+            1,
+            "cannot write",
+        ),
+    ] {
+        let (code, _, err) = goniospec(args);
+        assert_eq!(code, code_want, "{args:?}: {err}");
+        assert!(
+            err.contains(says) && !err.contains("panicked"),
+            "{args:?}: {err}"
+        );
+    }
     // The same 1e-300 nm layer as an exact coating is fine: no geometry to collapse. The
     // TMM of a vanishing layer between air and air reflects nothing.
     std::fs::write(

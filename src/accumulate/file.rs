@@ -284,7 +284,7 @@ impl Accumulator {
     /// Reads and validates a file.
     pub fn read(path: &Path) -> Result<Accumulator, FileError> {
         let p = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| FileError::Io {
+        let bytes = crate::io::read_input(path, u64::MAX).map_err(|source| FileError::Io {
             path: p.clone(),
             source,
         })?;

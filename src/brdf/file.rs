@@ -156,7 +156,7 @@ pub fn write(r: &Representation, path: &Path) -> std::io::Result<()> {
 /// Reads and validates a `.gsb` file.
 pub fn read(path: &Path) -> Result<Representation, GsbError> {
     let p = path.display().to_string();
-    let bytes = std::fs::read(path).map_err(|source| GsbError::Io {
+    let bytes = crate::io::read_input(path, u64::MAX).map_err(|source| GsbError::Io {
         path: p.clone(),
         source,
     })?;

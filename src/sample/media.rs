@@ -336,7 +336,7 @@ pub fn load_model_file(path: &Path) -> Result<IndexModel, MediumDefError> {
         file: Some((path.to_path_buf(), line)),
     };
     let text =
-        std::fs::read_to_string(path).map_err(|e| at(None, format!("cannot read file: {e}")))?;
+        crate::io::read_text(path).map_err(|e| at(None, format!("cannot read file: {e}")))?;
     parse_model_file(path, &text)
 }
 
@@ -367,7 +367,7 @@ pub fn load_table(path: &Path) -> Result<IndexModel, MediumDefError> {
         file: Some((path.to_path_buf(), line)),
     };
     let text =
-        std::fs::read_to_string(path).map_err(|e| err(None, format!("cannot read file: {e}")))?;
+        crate::io::read_text(path).map_err(|e| err(None, format!("cannot read file: {e}")))?;
     parse_table(path, &text)
 }
 

@@ -391,7 +391,7 @@ fn check_length(what: &str, value: f64, unit: &str, nm: f64) -> Result<(), Strin
 
 /// Loads a sample description and every mesh it names.
 pub fn load(path: &Path, opts: MeshOptions) -> Result<Sample, SampleError> {
-    let text = std::fs::read_to_string(path)
+    let text = crate::io::read_text(path)
         .map_err(|e| SampleError::file(path, SampleErrorKind::Io(e.to_string())))?;
     parse(path, &text, opts)
 }

@@ -52,7 +52,7 @@ pub(crate) fn numbered_lines(text: &str) -> impl Iterator<Item = (usize, &str)> 
 /// (also after scaling), concave polygons, no triangles, and degenerate triangles unless
 /// `opts.drop_degenerate`.
 pub fn load_obj(path: &Path, nm_per_unit: f64, opts: MeshOptions) -> Result<Mesh, SampleError> {
-    let bytes = std::fs::read(path)
+    let bytes = crate::io::read_input(path, u64::MAX)
         .map_err(|e| SampleError::file(path, SampleErrorKind::Io(e.to_string())))?;
     let text = match std::str::from_utf8(&bytes) {
         Ok(t) => t,

@@ -1,0 +1,120 @@
+//! One function per parser: each takes arbitrary bytes and must return (an error is
+//! fine) without panicking, aborting or hanging. Binary formats get their checksum
+//! recomputed first, so mutations reach the content validation behind it.
+
+use std::path::Path;
+
+use goniospec::sample::{self, MeshOptions};
+
+/// A harness: arbitrary bytes in, nothing out.
+pub type Harness = fn(&[u8]);
+
+/// The targets, by name.
+pub const TARGETS: &[(&str, Harness)] = &[
+    ("obj", obj),
+    ("sample", sample),
+    ("media-table", media_table),
+    ("media-model", media_model),
+    ("gsa", gsa),
+    ("gsb", gsb),
+    ("study", study),
+    ("cli-values", cli_values),
+];
+
+/// The target called `name`.
+pub fn target(name: &str) -> Option<Harness> {
+    TARGETS.iter().find(|(n, _)| *n == name).map(|(_, f)| *f)
+}
+
+/// Where relative paths in fuzzed files resolve: a folder that does not exist, so a
+/// fuzzed sample or study never reads the repository's files by accident.
+fn base() -> &'static Path {
+    Path::new("/nonexistent-goniospec-fuzz/input")
+}
+
+fn text(data: &[u8]) -> Option<&str> {
+    std::str::from_utf8(data).ok()
+}
+
+pub fn obj(data: &[u8]) {
+    if let Some(t) = text(data) {
+        for drop_degenerate in [false, true] {
+            let _ = sample::parse_obj(base(), t, 1000.0, MeshOptions { drop_degenerate });
+        }
+    }
+}
+
+pub fn sample(data: &[u8]) {
+    if let Some(t) = text(data) {
+        let _ = sample::parse(&base().join("s.toml"), t, MeshOptions::default());
+    }
+}
+
+pub fn media_table(data: &[u8]) {
+    if let Some(t) = text(data)
+        && let Ok(m) = sample::media::parse_table(base(), t)
+    {
+        for l in [200.0, 380.0, 550.0, 780.0, 2000.0] {
+            let _ = m.eval(l);
+        }
+    }
+}
+
+pub fn media_model(data: &[u8]) {
+    if let Some(t) = text(data)
+        && let Ok(m) = sample::media::parse_model_file(&base().join("m.toml"), t)
+    {
+        for l in [200.0, 380.0, 550.0, 780.0, 2000.0] {
+            let _ = m.eval(l);
+        }
+    }
+}
+
+/// Replaces the trailing FNV-1a checksum with the right one.
+fn with_checksum(data: &[u8]) -> Vec<u8> {
+    let mut b = data.to_vec();
+    if b.len() >= 8 {
+        let n = b.len();
+        let sum = goniospec::accumulate::file::fnv1a(&b[..n - 8]);
+        b[n - 8..].copy_from_slice(&sum.to_le_bytes());
+    }
+    b
+}
+
+pub fn gsa(data: &[u8]) {
+    let b = with_checksum(data);
+    if let Ok(acc) = goniospec::accumulate::file::Accumulator::from_bytes(&b, "fuzz.gsa") {
+        // What readers do next: merge with itself (refused: same seed), build a BRDF.
+        let mut m = acc.clone();
+        let _ = m.merge(&acc);
+        let _ = goniospec::brdf::BucketData::from_accumulator(&acc);
+    }
+}
+
+pub fn gsb(data: &[u8]) {
+    use goniospec::brdf::{Brdf, dir};
+    let b = with_checksum(data);
+    if let Ok(r) = goniospec::brdf::file::from_bytes(&b, "fuzz.gsb") {
+        let mut out = vec![0.0; r.meta().wavelengths_nm.len()];
+        for (ti, to, p) in [(0.0, 0.3, 1.0), (0.7, 0.7, 3.1), (1.5, 0.1, 6.0)] {
+            r.eval(dir(ti, 0.0), dir(to, p), &mut out);
+        }
+    }
+}
+
+pub fn study(data: &[u8]) {
+    if let Some(t) = text(data) {
+        let _ = goniospec::study::parse(&base().join("study.toml"), t);
+    }
+}
+
+/// The command line's value parsers: `--wavelengths` (both modes) and `--light`, `--env`.
+pub fn cli_values(data: &[u8]) {
+    if let Some(t) = text(data) {
+        for mono in [false, true] {
+            let _ = goniospec::simulate::Wavelengths::parse(t, mono);
+        }
+        let _ = goniospec::render::Light::parse(t);
+        let _ = goniospec::render::Env::parse(t);
+    }
+}
