@@ -7,11 +7,14 @@ CARGO ?= cargo
 
 OUT ?= out/demo
 
+# The release binary, wherever cargo puts it (CARGO_TARGET_DIR is honoured).
+BIN = $(or $(CARGO_TARGET_DIR),target)/release/goniospec
+
 ## Run the main job on the built-in default sample: simulate the seed's 600 nm wavy soap
 ## film, build its BRDF, render a sphere made of it (EXR + PNG), and write a short summary.
 demo: deps
 	$(CARGO) build --release
-	./scripts/demo.sh $(OUT)
+	GONIOSPEC=$(BIN) ./scripts/demo.sh $(OUT)
 
 ## Benchmarks: raw intersector throughput, and end-to-end simulation speed.
 bench: deps
@@ -35,16 +38,16 @@ deps:
 ## A small default study (a few seconds): CSV, report and charts in out/study.
 study: deps
 	$(CARGO) build --release
-	./target/release/goniospec study studies/flat-film.toml -o out/study/flat-film
-	./target/release/goniospec study studies/rough-glass.toml -o out/study/rough-glass
-	./target/release/goniospec study studies/darkening.toml -o out/study/darkening
+	$(BIN) study studies/flat-film.toml -o out/study/flat-film
+	$(BIN) study studies/rough-glass.toml -o out/study/rough-glass
+	$(BIN) study studies/darkening.toml -o out/study/darkening
 
 ## The stress studies (about 30 s): where each method breaks. Reports in out/stress/*/;
 ## docs/stability.md summarises them.
 STRESS = grazing thick-film thin-film seed-experiment radius-flat radius-curved radius-wedge buckets v-groove precision
 stress: deps
 	$(CARGO) build --release
-	for s in $(STRESS); do ./target/release/goniospec study studies/$$s.toml -o out/stress/$$s || exit 1; done
+	for s in $(STRESS); do $(BIN) study studies/$$s.toml -o out/stress/$$s || exit 1; done
 
 ## Fuzz every parser (OBJ, sample TOML, media tables and models, .gsa, .gsb, studies, CLI
 ## values) with AFL++ through afl.rs on stable Rust, FUZZ_SECONDS each (default 600).

@@ -6,7 +6,7 @@
 # |R_coated - R_meshed| over 400-700 nm. Run from the repository root after
 # `cargo build --release` (about a minute).
 set -euo pipefail
-G=$(realpath "${GONIOSPEC:-target/release/goniospec}")
+G=$(realpath "${GONIOSPEC:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 cd "$T"

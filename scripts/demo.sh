@@ -3,7 +3,7 @@
 # render a sphere made of it, and summarise. Output folder: $1 (default out/demo).
 set -euo pipefail
 OUT=${1:-out/demo}
-G=${GONIOSPEC:-target/release/goniospec}
+G=${GONIOSPEC:-${CARGO_TARGET_DIR:-target}/release/goniospec}
 mkdir -p "$OUT"
 start=$(date +%s.%N)
 echo "== checking meshes/thin-film-600nm.toml"

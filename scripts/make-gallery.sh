@@ -2,7 +2,7 @@
 # Renders every shipped sample as a sphere into docs/gallery/ (small PNGs linked from the
 # README). Run from the repository root after `cargo build --release`.
 set -euo pipefail
-G=$(realpath "${GONIOSPEC:-target/release/goniospec}")
+G=$(realpath "${GONIOSPEC:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 OUT=docs/gallery
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT

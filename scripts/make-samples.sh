@@ -3,7 +3,7 @@
 # Deterministic: the same binary writes the same files. Run from the repository root:
 #   cargo build --release && scripts/make-samples.sh
 set -euo pipefail
-G=$(realpath "${GONIOSPEC:-target/release/goniospec}")
+G=$(realpath "${GONIOSPEC:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 cd meshes
 
 # The seed's wavy soap film: 600 nm mean thickness, 8 nm RMS thickness variation,

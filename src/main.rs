@@ -564,7 +564,7 @@ fn parse_backend(s: &str) -> Result<Backend, String> {
 
 /// `println!` that returns an error instead of panicking when standard output fails (a full
 /// disk, a file closed for writing): the command ends with a clear message and exit status 1.
-/// (A closed pipe ends it quietly through SIGPIPE, below.)
+/// (A closed pipe ends it quietly: see `main`.)
 macro_rules! outln {
     ($($t:tt)*) => {{
         use std::io::Write as _;
@@ -572,16 +572,34 @@ macro_rules! outln {
     }};
 }
 
-fn main() -> ExitCode {
-    // Die quietly on a closed pipe (`goniospec reflectance f.gsa | head`), as Unix tools do.
-    #[cfg(unix)]
-    // SAFETY: restoring the default disposition of SIGPIPE before any thread starts.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+/// Prints one line of a long-running command's report from a callback (benchmarks): a
+/// closed pipe ends the process quietly, any other failure with a message and status 1.
+fn emit(line: &str) {
+    use std::io::Write as _;
+    if let Err(e) = writeln!(std::io::stdout().lock(), "{line}") {
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            eprintln!("error: writing to standard output: {e}");
+            std::process::exit(1);
+        }
+        std::process::exit(0);
     }
+}
+
+/// Whether an error comes from writing into a closed pipe.
+fn broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(code) => code,
+        // `goniospec reflectance f.gsa | head`: the reader has what it wanted. End quietly,
+        // as ripgrep does (Rust ignores SIGPIPE, so the write returns BrokenPipe).
+        Err(e) if broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
             for cause in e.chain().skip(1) {
@@ -1685,7 +1703,7 @@ fn bench_eval(a: EvalBenchArgs) -> Result<ExitCode> {
         s.name, a.rays[0], a.rays[1]
     );
     let (low, high) = (run(a.rays[0])?, run(a.rays[1])?);
-    bench::eval_bench(Some((&low, &high)), |l| println!("{l}"));
+    bench::eval_bench(Some((&low, &high)), emit);
     Ok(ExitCode::SUCCESS)
 }
 
@@ -1705,7 +1723,7 @@ fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(a.threads)
         .build()?;
-    pool.install(|| bench::simulate_bench(&s, &flat, &cfg, |l| println!("{l}")))?;
+    pool.install(|| bench::simulate_bench(&s, &flat, &cfg, emit))?;
     // Peak memory must not grow with the ray count: two child processes, 10x apart (each
     // process's own high-water mark; one process could not measure the second run).
     let dir = std::env::temp_dir().join(format!("goniospec-bench-{}", std::process::id()));
@@ -1797,7 +1815,7 @@ fn bench_trace(a: TraceArgs) -> Result<ExitCode> {
         backends,
         seed: a.seed,
     };
-    let report = bench::trace_bench(&mesh, &cfg, |line| println!("{line}"))?;
+    let report = bench::trace_bench(&mesh, &cfg, emit)?;
     outln!("hit fraction: {:.4}", report.hit_fraction);
     if let Some(ag) = &report.agreement {
         outln!(

@@ -687,6 +687,34 @@ fn bad_numbers_outputs_and_stdout_are_refused_cleanly() {
     ]);
     assert_eq!(code, 0, "{err}");
     assert!(!stdout.contains("NaN"), "{stdout}");
+    // A reader that stops early (`| head -1`): 8001 rows (about 0.5 MB) overflow the pipe,
+    // so the writer meets the closed pipe; it ends quietly with status 0, never a panic.
+    {
+        use std::io::BufRead;
+        let mut child = Command::new(env!("CARGO_BIN_EXE_goniospec"))
+            .args([
+                "analytic",
+                "meshes/flat-soap-film.toml",
+                "--theta-i",
+                "30",
+                "--wavelengths",
+                "380:780:0.05",
+                "--monochromatic",
+            ])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let mut first = String::new();
+        std::io::BufReader::new(child.stdout.take().unwrap())
+            .read_line(&mut first)
+            .unwrap();
+        assert!(first.starts_with("lambda_nm"), "{first}");
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(0), "{err}");
+        assert!(err.is_empty(), "{err}");
+    }
     // A full standard output (Linux's /dev/full): an error with exit 1, not a panic.
     #[cfg(target_os = "linux")]
     {
@@ -694,17 +722,39 @@ fn bad_numbers_outputs_and_stdout_are_refused_cleanly() {
             .write(true)
             .open("/dev/full")
             .unwrap();
-        let o = Command::new(env!("CARGO_BIN_EXE_goniospec"))
-            .args(["reflectance", &p(&out), "--theta-i", "30"])
-            .stdout(full)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(1), "{err}");
-        assert!(
-            err.contains("writing to standard output") && !err.contains("panicked"),
-            "{err}"
-        );
+        let gsb = d.join("o.gsb");
+        let (code, _, err) = goniospec(&["build", &p(&out), "-o", &p(&gsb)]);
+        assert_eq!(code, 0, "{err}");
+        for args in [
+            vec![
+                "reflectance".to_string(),
+                p(&out),
+                "--theta-i".into(),
+                "30".into(),
+            ],
+            vec!["check".to_string(), p(&sample)],
+            vec![
+                "eval".to_string(),
+                p(&gsb),
+                "--theta-i".into(),
+                "30".into(),
+                "--theta-o".into(),
+                "30".into(),
+            ],
+            vec!["info".to_string(), p(&gsb)],
+        ] {
+            let o = Command::new(env!("CARGO_BIN_EXE_goniospec"))
+                .args(&args)
+                .stdout(full.try_clone().unwrap())
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+            assert!(
+                err.contains("writing to standard output") && !err.contains("panicked"),
+                "{args:?}: {err}"
+            );
+        }
     }
 }
 
