@@ -575,7 +575,9 @@ fn render_simulate_models_only_what_the_image_needs() {
         .and_then(|s| s.split(' ').next())
         .and_then(|s| s.parse().ok())
         .unwrap_or_else(|| panic!("no DE2000: {out}"));
-    assert!(de < 1.2, "mean DE2000 {de}: {out}");
+    // Below one just-noticeable difference (DE2000 = 1; Sharma, Wu & Dalal 2005): the
+    // simulated film is indistinguishable from the analytic one on average.
+    assert!(de < 1.0, "mean DE2000 {de}: {out}");
     // Either a .gsb or --simulate, and clear errors for bad settings.
     let (code, _, err) = goniospec(&["render", "-o", exr.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");

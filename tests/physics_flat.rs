@@ -8,6 +8,14 @@ use goniospec::accumulate::Coherence;
 use goniospec::simulate::Wavelengths;
 use num_complex::Complex64 as C;
 
+/// How far a plane-wave-limit result may sit from the exact (TMM or Fresnel) value: f64
+/// rounding (1e-9 over a few thousand summed partial waves), plus what the power cut at the
+/// cutoff can change. A dropped partial wave of power D interferes with the kept field of
+/// power P by at most 2 sqrt(D P) + D (Cauchy-Schwarz), the bound `simulate` itself uses.
+fn exact_tolerance(dropped: f64, kept: f64) -> f64 {
+    1e-9 + 2.0 * (dropped * kept).sqrt() + dropped
+}
+
 /// Fresnel reflectance of a single interface from vacuum onto `n2` (complex), unpolarised:
 /// Born & Wolf §1.5.2 / §14.2.
 fn fresnel_r(n2: C, theta: f64) -> f64 {
@@ -42,8 +50,9 @@ fn single_interfaces_match_the_fresnel_equations() {
         for (i, &t) in thetas.iter().enumerate() {
             let (r, tr) = totals(&acc, i, 0);
             let want = fresnel_r(n2, t.to_radians());
+            // One reflection per tree, nothing to interfere with or drop: exact to rounding.
             assert!(
-                (r - want).abs() < 1e-3,
+                (r - want).abs() < 1e-12,
                 "{}: theta {t}: R {r} vs Fresnel {want}",
                 s.name
             );
@@ -94,13 +103,25 @@ fn soap_film_matches_an_independent_tmm_and_conserves_energy() {
                     l,
                     th.to_radians(),
                 );
+                // Exact in the plane-wave limit, and at normal incidence for any beamlet (the
+                // partial waves leave from one point, every overlap is 1). At 45 degrees
+                // they leave 2 d tan(theta_t) = 0.7 um apart per round trip: the 5 um beamlet
+                // overlap exp(-dx^2 / (2 rho^2)) = 0.99 weakens the first fringe term, by
+                // 2 |r1 r2| (1 - 0.99) < 1e-3 in R (DESIGN.md §4).
+                let cell = acc.cell(i, j);
+                let dropped = cell.dropped / cell.trees as f64;
+                let tol = if rho.is_infinite() || *th == 0.0 {
+                    exact_tolerance(dropped, 1.0)
+                } else {
+                    1e-3
+                };
                 assert!(
-                    (r - rr).abs() < 1e-3,
-                    "rho {rho} theta {th} lambda {l}: R {r} vs TMM {rr}"
+                    (r - rr).abs() < tol,
+                    "rho {rho} theta {th} lambda {l}: R {r} vs TMM {rr} (tolerance {tol:e})"
                 );
                 assert!(
-                    (t - tt).abs() < 1e-3,
-                    "rho {rho} theta {th} lambda {l}: T {t} vs TMM {tt}"
+                    (t - tt).abs() < tol,
+                    "rho {rho} theta {th} lambda {l}: T {t} vs TMM {tt} (tolerance {tol:e})"
                 );
                 assert!(
                     (r + t - 1.0).abs() < 1e-4,
@@ -159,34 +180,48 @@ fn quarter_wave_mgf2_and_an_absorbing_stack_match_tmm() {
             for (j, &l) in lambdas.iter().enumerate() {
                 let (r, t) = totals(&acc, i, j);
                 let (rr, tt) = tmm_ref(&n, &dd, l, th.to_radians());
-                let a_tmm = 1.0 - rr - tt;
-                assert!(
-                    (r - rr).abs() < 1e-3,
-                    "{} theta {th} lambda {l}: R {r} vs {rr}",
-                    s.name
-                );
-                assert!(
-                    (t - tt).abs() < 1e-3,
-                    "{} theta {th} lambda {l}: T {t} vs {tt}",
-                    s.name
-                );
-                assert!(
-                    (r + t + a_tmm - 1.0).abs() < 2e-3,
-                    "{}: R + T + A = {}",
-                    s.name,
-                    r + t + a_tmm
-                );
-                // The tracer's own (incoherent) absorption estimate closes the balance too.
+                // Normal incidence and the plane-wave limit are exact; at 30 degrees with the
+                // 5 um beamlet, the kernel weakens interference of partial waves that leave
+                // apart (see above), here by up to 1e-3.
                 let cell = acc.cell(i, j);
-                let a = cell.absorbed / cell.trees as f64;
                 let dropped = cell.dropped / cell.trees as f64;
-                // (It ignores interference inside the absorbing layer, so it is close, not exact.)
+                let tol = if *th == 30.0 {
+                    1e-3
+                } else {
+                    exact_tolerance(dropped, 1.0)
+                };
                 assert!(
-                    (r + t + a + dropped - 1.0).abs() < 0.05,
-                    "{} theta {th} lambda {l}: R + T + A_est = {}",
-                    s.name,
-                    r + t + a + dropped
+                    (r - rr).abs() < tol,
+                    "{} theta {th} lambda {l}: R {r} vs {rr} (tolerance {tol:e})",
+                    s.name
                 );
+                assert!(
+                    (t - tt).abs() < tol,
+                    "{} theta {th} lambda {l}: T {t} vs {tt} (tolerance {tol:e})",
+                    s.name
+                );
+                // Absorbed power: none in a lossless stack, where R and T (summed separately)
+                // must then account for everything not dropped; in the absorbing stack the
+                // TMM's absorptance 1 - R - T.
+                let a = cell.absorbed / cell.trees as f64;
+                if s.name == "absorbing" {
+                    let want = 1.0 - rr - tt;
+                    assert!(
+                        (a - want).abs() < 2.0 * tol,
+                        "{} theta {th} lambda {l}: absorbed {a} vs TMM {want}",
+                        s.name
+                    );
+                } else {
+                    assert_eq!(a, 0.0, "{}: a lossless stack absorbed {a}", s.name);
+                    // Coherent R and T miss the dropped partial waves' interference terms:
+                    // the same Cauchy-Schwarz bound (or the beamlet kernel's 1e-3).
+                    assert!(
+                        (r + t + dropped - 1.0).abs() < tol,
+                        "{} theta {th} lambda {l}: R + T + dropped = {}",
+                        s.name,
+                        r + t + dropped
+                    );
+                }
             }
         }
     }
@@ -290,7 +325,13 @@ fn dispersive_media_trace_per_wavelength_and_match_tmm() {
             ];
             let (rr, _) = tmm_ref(&n, &[99.6], l, th.to_radians());
             let (r, _) = totals(&acc, i, j);
-            assert!((r - rr).abs() < 1e-3, "theta {th} lambda {l}: {r} vs {rr}");
+            // The shipped sample is an exact coating (one TMM evaluation per event).
+            let cell = acc.cell(i, j);
+            let tol = exact_tolerance(cell.dropped / cell.trees as f64, 1.0);
+            assert!(
+                (r - rr).abs() < tol,
+                "theta {th} lambda {l}: {r} vs {rr} (tolerance {tol:e})"
+            );
         }
     }
 }
@@ -333,9 +374,12 @@ fn bucket_and_global_modes_are_exact_for_a_flat_film() {
                     *l,
                     th.to_radians(),
                 );
+                // Every exit of a flat film leaves parallel, so these modes sum them fully.
+                let cell = acc.cell(i, j);
+                let tol = exact_tolerance(cell.dropped / cell.trees as f64, 1.0);
                 assert!(
-                    (r - rr).abs() < 1e-3,
-                    "{mode:?} theta {th} lambda {l}: {r} vs {rr}"
+                    (r - rr).abs() < tol,
+                    "{mode:?} theta {th} lambda {l}: {r} vs {rr} (tolerance {tol:e})"
                 );
             }
         }
