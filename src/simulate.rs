@@ -12,7 +12,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::accel::Backend;
-use crate::accumulate::file::{Accumulator, Header, Settings, fnv1a};
+use crate::accumulate::file::{Accumulator, EntryPoints, Header, Settings, WavelengthMode, fnv1a};
 use crate::accumulate::{Buckets, Cell, Coherence, Estimator, PhasePrecision, Scratch, add_fields};
 use crate::optics::C64;
 use crate::optics::fresnel::Field;
@@ -261,7 +261,9 @@ pub enum SimError {
     Unphysical(String),
 }
 
-/// Hash of everything in a sample that changes results: tile, media models and geometry.
+/// Hash of everything in a sample that changes results: FNV-1a 64 of a canonical encoding of the sample's physics inputs: tile, media (names
+/// and index models, [`crate::sample::IndexModel::canonical_bytes`]), interfaces (media,
+/// coatings, vertices and triangles). Runs merge only when it agrees.
 pub fn sample_hash(sample: &Sample) -> String {
     let mut bytes: Vec<u8> = Vec::new();
     for v in sample.tile_nm {
@@ -269,7 +271,7 @@ pub fn sample_hash(sample: &Sample) -> String {
     }
     for m in &sample.media {
         bytes.extend_from_slice(m.name.as_bytes());
-        bytes.extend_from_slice(format!("{:?}", m.model).as_bytes());
+        m.model.canonical_bytes(&mut bytes);
     }
     for i in &sample.interfaces {
         bytes.extend_from_slice(&(i.front as u64).to_le_bytes());
@@ -497,20 +499,24 @@ pub fn simulate(
         theta_i_deg: cfg.theta_i_deg.clone(),
         phi_i_deg: cfg.phi_i_deg,
         wavelength_mode: match cfg.wavelengths {
-            Wavelengths::Bins(_) => "bins".into(),
-            Wavelengths::Monochromatic(_) => "monochromatic".into(),
+            Wavelengths::Bins(_) => WavelengthMode::Bins,
+            Wavelengths::Monochromatic(_) => WavelengthMode::Monochromatic,
         },
         wavelengths_nm: lambdas.clone(),
-        coherence: cfg.coherence.name().into(),
+        coherence: cfg.coherence,
         coherence_radius_nm: cfg.rho_nm,
         cutoff: cfg.limits.cutoff,
         max_depth: cfg.limits.max_depth,
         theta_o_bins: cfg.buckets.theta_bins,
         phi_o_bins: cfg.buckets.phi_bins,
-        phase_precision: cfg.precision.name().into(),
+        phase_precision: cfg.precision,
         max_wraps: cfg.limits.max_wraps,
         max_segments: cfg.limits.max_segments,
-        entry_points: if cfg.random_entry { "uniform" } else { "r2" }.into(),
+        entry_points: if cfg.random_entry {
+            EntryPoints::Uniform
+        } else {
+            EntryPoints::R2
+        },
         path_sharing: sharing,
         tolerance: cfg.tolerance,
         max_rays: cfg.tolerance.map(|_| cfg.max_rays),

@@ -446,10 +446,6 @@ fn accumulators_with_a_valid_checksum_but_senseless_content_are_refused() {
             "theta_i_deg",
             Box::new(|a| a.header.settings.theta_i_deg = vec![f64::NAN]),
         ),
-        (
-            "coherence",
-            Box::new(|a| a.header.settings.coherence = "bogus".into()),
-        ),
         ("no rays", Box::new(|a| a.header.rays = 0)),
         (
             "wavelengths",
@@ -465,25 +461,31 @@ fn accumulators_with_a_valid_checksum_but_senseless_content_are_refused() {
             .to_string();
         assert!(e.contains(want) && e.contains("x.gsa"), "{want}: {e}");
     }
-    // A grid whose size wraps: the header rewritten in the bytes, the checksum recomputed
-    // (the library's writer would refuse to lay out such a file itself).
+    // Headers rewritten in the bytes, the checksum recomputed (the library's types cannot
+    // hold these values, so its writer could not lay out such a file): a grid whose size
+    // wraps, and an unknown estimator (read as beamlet before; now refused by name).
     let bytes = good.to_bytes();
     let hlen = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-    let text = std::str::from_utf8(&bytes[16..16 + hlen])
-        .unwrap()
-        .replace("theta_o_bins = 45", "theta_o_bins = 65536")
-        .replace("phi_o_bins = 36", "phi_o_bins = 65536");
-    assert!(text.contains("65536"));
-    let mut crafted = bytes[..12].to_vec();
-    crafted.extend_from_slice(&(text.len() as u32).to_le_bytes());
-    crafted.extend_from_slice(text.as_bytes());
-    crafted.extend_from_slice(&bytes[16 + hlen..bytes.len() - 8]);
-    let sum = goniospec::accumulate::file::fnv1a(&crafted);
-    crafted.extend_from_slice(&sum.to_le_bytes());
-    let e = Accumulator::from_bytes(&crafted, "x.gsa")
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("bucket grid"), "{e}");
+    let header = std::str::from_utf8(&bytes[16..16 + hlen]).unwrap();
+    for (from, to, want) in [
+        ("theta_o_bins = 45", "theta_o_bins = 65536", "bucket grid"),
+        ("coherence = \"beamlet\"", "coherence = \"bogus\"", "bogus"),
+    ] {
+        let text = header
+            .replace(from, to)
+            .replace("phi_o_bins = 36", "phi_o_bins = 65536");
+        assert!(text.contains(to), "{from}");
+        let mut crafted = bytes[..12].to_vec();
+        crafted.extend_from_slice(&(text.len() as u32).to_le_bytes());
+        crafted.extend_from_slice(text.as_bytes());
+        crafted.extend_from_slice(&bytes[16 + hlen..bytes.len() - 8]);
+        let sum = goniospec::accumulate::file::fnv1a(&crafted);
+        crafted.extend_from_slice(&sum.to_le_bytes());
+        let e = Accumulator::from_bytes(&crafted, "x.gsa")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want) && e.contains("x.gsa"), "{from}: {e}");
+    }
     // The undamaged file still reads.
     assert!(Accumulator::from_bytes(&good.to_bytes(), "x.gsa").is_ok());
 }

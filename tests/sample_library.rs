@@ -900,3 +900,25 @@ fn generated_microfacet_height_fields_pass_check_with_zero_leaks() {
         }
     }
 }
+
+/// The sample hash (what merges compare) covers the physics, not how it was written down:
+/// the same table under another file name hashes the same, other rows do not.
+#[test]
+fn the_sample_hash_covers_physics_not_file_names() {
+    use goniospec::simulate::sample_hash;
+    let d = scratch("hash");
+    let rows = "lambda_nm,n,k\n400,1.5,0\n800,1.4,0\n";
+    std::fs::write(d.join("a.csv"), rows).unwrap();
+    std::fs::write(d.join("b.csv"), rows).unwrap();
+    std::fs::write(d.join("c.csv"), rows.replace("1.4,0", "1.41,0")).unwrap();
+    let hash = |table: &str| {
+        std::fs::write(
+            d.join("s.toml"),
+            format!("[sample]\nname = \"x\"\nunit = \"nm\"\ntile = [10.0, 10.0]\n[media.air]\nn = 1.0\n[media.m]\ntable = \"{table}\"\n[stack]\nambient = \"air\"\nlayers = []\nsubstrate = \"m\"\n"),
+        )
+        .unwrap();
+        sample_hash(&sample::load(&d.join("s.toml"), MeshOptions::default()).unwrap())
+    };
+    assert_eq!(hash("a.csv"), hash("b.csv"));
+    assert_ne!(hash("a.csv"), hash("c.csv"));
+}

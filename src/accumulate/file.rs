@@ -12,7 +12,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Buckets, Cell, Coherence};
+use super::{Buckets, Cell, Coherence, PhasePrecision};
 use crate::optics::C64;
 
 pub const MAGIC: &[u8; 8] = b"GSPECACC";
@@ -27,25 +27,25 @@ pub struct Settings {
     pub sample_hash: String,
     pub theta_i_deg: Vec<f64>,
     pub phi_i_deg: f64,
-    /// "bins" (values are the bin edges) or "monochromatic" (values are the wavelengths).
-    pub wavelength_mode: String,
+    /// Bins (values are the bin edges) or monochromatic (values are the wavelengths).
+    pub wavelength_mode: WavelengthMode,
     pub wavelengths_nm: Vec<f64>,
-    pub coherence: String,
+    pub coherence: Coherence,
     /// Beamlet radius, nm; `inf` for the plane-wave limit.
     pub coherence_radius_nm: f64,
     pub cutoff: f64,
     pub max_depth: u32,
     pub theta_o_bins: u32,
     pub phi_o_bins: u32,
-    /// "f64" (default; omitted from the file) or "f32" (the precision experiment).
-    #[serde(default = "f64_name", skip_serializing_if = "is_f64")]
-    pub phase_precision: String,
+    /// f64 (default; omitted from the file) or f32 (the precision experiment).
+    #[serde(default, skip_serializing_if = "is_f64")]
+    pub phase_precision: PhasePrecision,
     /// Tile-side crossings of one segment chain before it is dropped.
     pub max_wraps: u32,
     /// Traced segments of one tree before its remaining rays are dropped.
     pub max_segments: u32,
-    /// Entry points: "r2" (the low-discrepancy sequence) or "uniform" (plain Monte Carlo).
-    pub entry_points: String,
+    /// Entry points: the R2 low-discrepancy sequence or uniform (plain Monte Carlo).
+    pub entry_points: EntryPoints,
     /// Geometry traced once for all wavelengths (same expectation, other bits).
     pub path_sharing: bool,
     /// Adaptive budget: the target relative standard error, and the most trees per
@@ -56,11 +56,46 @@ pub struct Settings {
     pub max_rays: Option<u64>,
 }
 
-fn f64_name() -> String {
-    "f64".into()
+fn is_f64(p: &PhasePrecision) -> bool {
+    *p == PhasePrecision::F64
 }
-fn is_f64(s: &str) -> bool {
-    s == "f64"
+
+/// What the wavelength values of a run are (written "bins" or "monochromatic").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WavelengthMode {
+    /// Bin edges; each tree draws a jittered wavelength in each bin.
+    Bins,
+    /// Exact wavelengths.
+    Monochromatic,
+}
+
+impl std::fmt::Display for WavelengthMode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            WavelengthMode::Bins => "bins",
+            WavelengthMode::Monochromatic => "monochromatic",
+        })
+    }
+}
+
+/// How entry points are drawn (written "r2" or "uniform").
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EntryPoints {
+    /// The R2 low-discrepancy sequence (Roberts 2018).
+    R2,
+    /// Independent uniform points.
+    Uniform,
+}
+
+impl std::fmt::Display for EntryPoints {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            EntryPoints::R2 => "r2",
+            EntryPoints::Uniform => "uniform",
+        })
+    }
 }
 
 /// The file header: settings plus what the runs contributed.
@@ -94,10 +129,6 @@ impl Header {
         if !s.phi_i_deg.is_finite() {
             return Err(format!("phi_i_deg must be finite, got {}", s.phi_i_deg));
         }
-        match s.wavelength_mode.as_str() {
-            "bins" | "monochromatic" => {}
-            other => return Err(format!("unknown wavelength_mode '{other}'")),
-        }
         let w = &s.wavelengths_nm;
         if s.wavelength_count() == 0 || w.len() > 100_001 {
             return Err(format!("{} wavelengths: none, or absurdly many", w.len()));
@@ -105,20 +136,14 @@ impl Header {
         if w.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
             return Err("wavelengths_nm must be positive and finite".into());
         }
-        if s.wavelength_mode == "bins" && w.windows(2).any(|p| p[1] <= p[0]) {
+        if s.wavelength_mode == WavelengthMode::Bins && w.windows(2).any(|p| p[1] <= p[0]) {
             return Err("wavelength bin edges must increase".into());
-        }
-        if Coherence::parse(&s.coherence).is_none() {
-            return Err(format!("unknown coherence '{}'", s.coherence));
         }
         if s.coherence_radius_nm.is_nan() || s.coherence_radius_nm <= 0.0 {
             return Err(format!(
                 "coherence_radius_nm must be positive (or inf), got {}",
                 s.coherence_radius_nm
             ));
-        }
-        if crate::accumulate::PhasePrecision::parse(&s.phase_precision).is_none() {
-            return Err(format!("unknown phase_precision '{}'", s.phase_precision));
         }
         if !(s.cutoff >= 0.0 && s.cutoff < 1.0) {
             return Err(format!("cutoff must be in [0, 1), got {}", s.cutoff));
@@ -144,9 +169,6 @@ impl Header {
                 self.rays
             ));
         }
-        if !matches!(s.entry_points.as_str(), "r2" | "uniform") {
-            return Err(format!("unknown entry_points '{}'", s.entry_points));
-        }
         if s.tolerance.is_some_and(|t| !(t > 0.0 && t < 1.0))
             || s.tolerance.is_some() != s.max_rays.is_some()
         {
@@ -161,7 +183,7 @@ impl Header {
 
 impl Settings {
     pub fn coherence_mode(&self) -> Coherence {
-        Coherence::parse(&self.coherence).unwrap_or(Coherence::Beamlet)
+        self.coherence
     }
     pub fn buckets(&self) -> Buckets {
         Buckets {
@@ -171,7 +193,7 @@ impl Settings {
     }
     /// Number of wavelength cells.
     pub fn wavelength_count(&self) -> usize {
-        if self.wavelength_mode == "bins" {
+        if self.wavelength_mode == WavelengthMode::Bins {
             self.wavelengths_nm.len().saturating_sub(1)
         } else {
             self.wavelengths_nm.len()
@@ -179,7 +201,7 @@ impl Settings {
     }
     /// Representative wavelength of cell `j` (bin centre, or the exact wavelength).
     pub fn wavelength(&self, j: usize) -> f64 {
-        if self.wavelength_mode == "bins" {
+        if self.wavelength_mode == WavelengthMode::Bins {
             0.5 * (self.wavelengths_nm[j] + self.wavelengths_nm[j + 1])
         } else {
             self.wavelengths_nm[j]

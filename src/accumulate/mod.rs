@@ -31,8 +31,10 @@ use crate::optics::fresnel::{Field, field_power, hermitian};
 use crate::optics::vec3::{dot, normalize, sub};
 use crate::trace::Tree;
 
-/// How contributions interfere.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+/// How contributions interfere (written by name in files: "beamlet", "bucket", "global";
+/// an unknown name is refused).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Coherence {
     Beamlet,
     Bucket,
@@ -54,6 +56,12 @@ impl Coherence {
             "global" => Some(Coherence::Global),
             _ => None,
         }
+    }
+}
+
+impl std::fmt::Display for Coherence {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
     }
 }
 
@@ -80,8 +88,12 @@ pub struct Estimator {
     pub precision: PhasePrecision,
 }
 
-/// The floating-point precision phases are formed in (see [`Estimator::precision`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+/// The floating-point precision phases are formed in (see [`Estimator::precision`]);
+/// written by name ("f64", "f32").
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
 pub enum PhasePrecision {
     #[default]
     F64,

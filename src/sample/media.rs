@@ -62,6 +62,47 @@ pub struct OutOfRange {
 }
 
 impl IndexModel {
+    /// Appends a canonical encoding of the physics this model describes (for the sample
+    /// hash): a tag, then every number as little-endian f64 with lists prefixed by their
+    /// length. Where a table came from does not enter, only its rows.
+    pub fn canonical_bytes(&self, out: &mut Vec<u8>) {
+        let mut put = |v: &[f64]| {
+            out.extend_from_slice(&(v.len() as u64).to_le_bytes());
+            for x in v {
+                out.extend_from_slice(&x.to_le_bytes());
+            }
+        };
+        match self {
+            IndexModel::Constant { n, k } => {
+                put(&[0.0]);
+                put(&[*n, *k]);
+            }
+            IndexModel::Cauchy {
+                a,
+                b_nm2,
+                c_nm4,
+                range_nm,
+            } => {
+                put(&[1.0]);
+                put(&[*a, *b_nm2, *c_nm4, range_nm[0], range_nm[1]]);
+            }
+            IndexModel::Sellmeier { b, c_um2, range_nm } => {
+                put(&[2.0]);
+                put(b);
+                put(c_um2);
+                put(range_nm);
+            }
+            IndexModel::Table {
+                lambda_nm, n, k, ..
+            } => {
+                put(&[3.0]);
+                put(lambda_nm);
+                put(n);
+                put(k);
+            }
+        }
+    }
+
     /// `(n, k)` at `lambda_nm`.
     pub fn eval(&self, lambda_nm: f64) -> Result<(f64, f64), OutOfRange> {
         if let Some([lo, hi]) = self.range_nm()
