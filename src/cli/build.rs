@@ -1,0 +1,75 @@
+//! `goniospec build`: turn an accumulator into a BRDF representation.
+
+use super::*;
+
+pub(super) fn parse_repr(s: &str) -> Result<String, String> {
+    match s {
+        "kdtree" | "subdivided" | "table" => Ok(s.to_string()),
+        _ => Err(format!(
+            "unknown representation '{s}' (kdtree, subdivided or table)"
+        )),
+    }
+}
+
+#[derive(Args)]
+pub(super) struct BuildArgs {
+    /// The accumulator (.gsa).
+    input: PathBuf,
+    /// Representation: kdtree, subdivided or table.
+    #[arg(long, default_value = "kdtree", value_parser = parse_repr)]
+    repr: String,
+    /// Output BRDF (.gsb), written atomically.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Overwrite an existing output that is not a goniospec BRDF.
+    #[arg(long)]
+    force: bool,
+    /// kd-tree: neighbours blended per query.
+    #[arg(long, default_value_t = 4)]
+    k: usize,
+    /// Subdivided: relative RMS deviation above which a cell splits.
+    #[arg(long, value_parser = finite, default_value_t = 0.05)]
+    tolerance: f64,
+    /// kd-tree: keep absolute azimuths instead of reducing to phi_o - phi_i.
+    #[arg(long)]
+    anisotropic: bool,
+    /// kd-tree: also enter each bucket as its reciprocal pair (wo, wi).
+    #[arg(long)]
+    reciprocal: bool,
+}
+
+pub(super) fn build(a: BuildArgs) -> Result<ExitCode> {
+    use goniospec::brdf::{self, BucketData, Representation};
+    guard_output(&a.output, &[a.input.as_path()], OutputKind::Gsb, a.force)?;
+    let acc = Accumulator::read(&a.input)?;
+    let data = BucketData::from_accumulator(&acc);
+    let t0 = std::time::Instant::now();
+    let r = match a.repr.as_str() {
+        "kdtree" => {
+            if a.k == 0 {
+                bail!("--k must be at least 1");
+            }
+            Representation::KdTree(brdf::kdtree::KdTreeBrdf::build(
+                &data,
+                a.k,
+                !a.anisotropic,
+                a.reciprocal,
+            ))
+        }
+        "subdivided" => {
+            if !(a.tolerance > 0.0 && a.tolerance.is_finite()) {
+                bail!("--tolerance must be positive");
+            }
+            Representation::Subdivided(brdf::subdivided::SubdividedBrdf::build(&data, a.tolerance))
+        }
+        _ => Representation::Table(brdf::table::TableBrdf::build(&data)),
+    };
+    let built = t0.elapsed().as_secs_f64();
+    brdf::file::write(&r, &a.output).with_context(|| format!("writing {}", a.output.display()))?;
+    outln!(
+        "wrote {} ({} representation, built in {built:.3} s)",
+        a.output.display(),
+        a.repr
+    );
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,83 @@
+//! `goniospec fit`: fit a real-time material and write glTF / OpenPBR / Standard Surface.
+
+use super::*;
+
+#[derive(Args)]
+pub(super) struct FitArgs {
+    /// A .gsa accumulator with several incident angles (more angles separate a film's
+    /// thickness from its index).
+    file: PathBuf,
+    /// Output prefix: writes PREFIX.json (the fit, OpenPBR and Standard Surface parameter
+    /// sets) and PREFIX.gltf (a sphere with the material).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Base under the film: a dielectric (one real index), a conductor (a complex index per
+    /// wavelength), or whichever fits better.
+    #[arg(long, value_enum, default_value_t = FitBase::Auto)]
+    base: FitBase,
+    /// Do not try a thin film.
+    #[arg(long)]
+    no_film: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub(super) enum FitBase {
+    Auto,
+    Dielectric,
+    Conductor,
+}
+
+pub(super) fn fit(a: FitArgs) -> Result<ExitCode> {
+    use goniospec::fit;
+    let acc = Accumulator::read(&a.file)?;
+    let with_ext = |ext: &str| {
+        let mut p = a.output.clone().into_os_string();
+        p.push(ext);
+        PathBuf::from(p)
+    };
+    let (json_path, gltf_path) = (with_ext(".json"), with_ext(".gltf"));
+    for p in [&json_path, &gltf_path] {
+        guard_output(p, &[a.file.as_path()], OutputKind::Any, false)?;
+    }
+    let data = fit::Data::from_accumulator(&acc);
+    let kind = match a.base {
+        FitBase::Auto => fit::BaseKind::Auto,
+        FitBase::Dielectric => fit::BaseKind::Dielectric,
+        FitBase::Conductor => fit::BaseKind::Conductor,
+    };
+    let f = fit::fit(&data, kind, !a.no_film);
+    fit::write_json(&json_path, &fit::to_json(&f, &data))
+        .with_context(|| format!("writing {}", json_path.display()))?;
+    let name = acc.header.settings.sample_name.clone();
+    fit::write_json(&gltf_path, &fit::to_gltf(&f, &data, &name))
+        .with_context(|| format!("writing {}", gltf_path.display()))?;
+    outln!("ggx_alpha: {:.4}", f.alpha);
+    match &f.base {
+        fit::Base::Dielectric { n } => outln!("base: dielectric, ior {n:.4}"),
+        fit::Base::Conductor { n } => outln!(
+            "base: conductor, n + ik from {:.3} + {:.3}i to {:.3} + {:.3}i",
+            n[0].re,
+            n[0].im,
+            n[n.len() - 1].re,
+            n[n.len() - 1].im
+        ),
+    }
+    match f.film {
+        Some(m) => outln!(
+            "film: thickness {:.1} nm, ior {:.4}, weight {:.3}",
+            m.thickness_nm,
+            m.n,
+            m.weight
+        ),
+        None => outln!("film: none"),
+    }
+    outln!("rms_reflectance_error: {:.2e}", f.rms_residual);
+    for (t, de) in data.theta_i_rad.iter().zip(&f.delta_e2000) {
+        outln!("delta_e2000_theta_{:.0}: {de:.2}", t.to_degrees());
+    }
+    for w in &f.warnings {
+        eprintln!("warning: {w}");
+    }
+    outln!("wrote {} and {}", json_path.display(), gltf_path.display());
+    Ok(ExitCode::SUCCESS)
+}

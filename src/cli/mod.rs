@@ -1,0 +1,343 @@
+//! The command line: argument types and one file per command. Shared here: the
+//! top-level parser, value parsers, output guards and the `outln!` macro.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, bail};
+use clap::{Args, Parser, Subcommand};
+
+use goniospec::accel::{self, Backend};
+use goniospec::accumulate::file::Accumulator;
+use goniospec::accumulate::{Buckets, Coherence};
+use goniospec::sample::{self, MeshOptions};
+use goniospec::simulate::{SimConfig, Wavelengths};
+use goniospec::trace::TraceLimits;
+
+/// A virtual goniospectrometer: trace a microgeometry sample (thin films, coatings,
+/// pigments, flakes, rough surfaces) with coherent spectral ray optics and turn it into a
+/// measured-like BRDF.
+///
+/// Lengths are in nanometres unless a sample declares otherwise; angles on the command
+/// line are in degrees.
+#[derive(Parser)]
+#[command(name = "goniospec", version, propagate_version = true)]
+pub(crate) struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List the ray-tracing backends this build offers, with their library versions.
+    Backends,
+    /// Load a sample and look for defects before a long simulation.
+    ///
+    /// Reports triangle counts, bounding boxes, media and interface orientation, and checks
+    /// that closed bodies are watertight, that no interfaces cut through each other, that
+    /// sheets tile periodically, and (with random walks that track the current medium) that
+    /// no ray ever crosses an interface from the wrong medium. Exits with status 1 when it
+    /// finds a defect or cannot load the sample (the error names the file and line).
+    Check(CheckArgs),
+    /// Simulate the virtual goniospectrometer: trace coherent ray trees through a sample
+    /// and accumulate its BRDF and BTDF into a .gsa file.
+    ///
+    /// For each incident direction, RAYS trees are launched on a low-discrepancy grid of
+    /// entry points over the periodic tile; each splits at every interface into reflected
+    /// and transmitted children carrying the complex E-field of both polarisations and the
+    /// optical path. Exits are accumulated with the beamlet estimator (contributions of one
+    /// tree interfere within a Gaussian beamlet of --coherence-radius-nm; trees add
+    /// incoherently), so estimates converge as RAYS grows and do not darken with the
+    /// sampled area. Example:
+    ///
+    ///   goniospec simulate meshes/thin-film-600nm.toml --theta-i 0,30,60 --rays 4096 -o film.gsa
+    #[command(verbatim_doc_comment)]
+    Simulate(SimulateArgs),
+    /// Add runs of the same sample and settings made with different seeds.
+    Merge(MergeArgs),
+    /// Print the directional-hemispherical reflectance of a .gsa file as CSV:
+    /// lambda_nm,R,T,absorbed,dropped,R_stderr.
+    Reflectance(ReflectanceArgs),
+    /// Print the analytic transfer-matrix R and T of a [stack] sample as CSV:
+    /// lambda_nm,Rs,Rp,R,Ts,Tp,T (bin-averaged for wavelength bins).
+    Analytic(AnalyticArgs),
+    /// Build a queryable BRDF (.gsb) from an accumulator: the seed's 4-D spherical
+    /// kd-tree, Gondek's adaptively subdivided hemisphere, or a dense table.
+    Build(BuildArgs),
+    /// Evaluate a built BRDF: CSV lambda_nm,brdf for one direction pair, or
+    /// pair,lambda_nm,brdf for the pairs of --pairs FILE.csv (columns theta_i,phi_i,
+    /// theta_o,phi_o in degrees).
+    Eval(EvalArgs),
+    /// Describe a .gsa or .gsb file.
+    Info(InfoArgs),
+    /// Render an object made of a built BRDF: a spectral image written as a linear-sRGB
+    /// EXR and an sRGB PNG preview beside it (same name, .png).
+    ///
+    /// With --simulate SAMPLE.toml instead of a .gsb, it first simulates only what the
+    /// image needs: a pre-pass finds the incident angles (on a --theta-step grid) that the
+    /// light and the environment query, each is simulated adaptively to --tolerance, and
+    /// the saving against a full-hemisphere simulation is reported. The accumulator and
+    /// the BRDF table are written beside the image (.gsa, .gsb).
+    ///
+    /// Examples: goniospec render film.gsb -o out/film.exr --shape sphere --spp 16
+    ///           goniospec render --simulate meshes/flat-soap-film.toml -o out/panel.exr --shape plane
+    Render(RenderArgs),
+    /// Run a speed-against-accuracy study (a sweep of rays, bucket resolution, estimator,
+    /// beamlet radius, backend and representation) and write points.csv and report.md.
+    ///
+    /// Example: goniospec study studies/flat-film.toml -o out/study
+    Study(StudyArgs),
+    /// Generate a periodic microgeometry mesh and write it as an OBJ.
+    ///
+    /// Kinds and their parameters (lengths in --unit):
+    ///   flat             z
+    ///   gaussian         rms, correlation_length, resolution, [seed, z]
+    ///   wavy-film        surface = top|bottom, thickness, thickness_rms, roughness_rms,
+    ///                    correlation_length, resolution, [seed, z]
+    ///   microfacet       distribution = ggx|beckmann, alpha, resolution, [correlation_length, seed, z]
+    ///   v-grooves        angle_deg, count, [z]
+    ///   cosine           amplitude, resolution, [z]   (z + amplitude cos(2 pi x / Lx))
+    ///   wedge            slope_deg, [z]   (z + tan(slope) |x - Lx/2|, a periodic roof)
+    ///   pigment-spheres  radius, volume_fraction, layer = [z0, z1], [subdivisions, seed]
+    ///   flakes           size, thickness, tilt_sd_deg, volume_fraction, layer = [z0, z1],
+    ///                    [coating, seed]   (coatings go to FILE-coating.obj)
+    ///
+    /// Example: goniospec generate gaussian --tile 20,20 --unit um
+    ///            --param rms=0.1 --param correlation_length=2 --param resolution=128 -o rough.obj
+    #[command(verbatim_doc_comment)]
+    Generate(GenerateArgs),
+    /// Fits a real-time material (GGX roughness, a base and an optional thin film) to a
+    /// simulated one and writes it for glTF 2.0 (KHR_materials_iridescence / _ior), OpenPBR
+    /// and Standard Surface. Example: goniospec fit film.gsa -o film  (writes film.json and
+    /// film.gltf; prints the parameters, their residual and Delta E2000 per angle).
+    Fit(FitArgs),
+    /// Benchmarks; each prints its figures.
+    #[command(subcommand)]
+    Bench(BenchCommand),
+}
+
+/// Wavelength sampling on the command line.
+#[derive(Args, Clone, Debug)]
+struct WavelengthArgs {
+    /// Wavelengths, nm: A:B:STEP gives bins of width STEP from A to B (or, with
+    /// --monochromatic, the wavelengths A, A+STEP, ..., B); a comma list gives bin edges
+    /// (or exact wavelengths with --monochromatic).
+    #[arg(long, default_value = "380:780:10")]
+    wavelengths: String,
+    /// Use the exact wavelengths instead of jittered bins.
+    #[arg(long)]
+    monochromatic: bool,
+}
+
+/// Most worker threads a command may ask for (each holds its own scratch buffers).
+const MAX_THREADS: usize = 1024;
+
+impl WavelengthArgs {
+    fn parse(&self) -> Result<Wavelengths> {
+        Wavelengths::parse(&self.wavelengths, self.monochromatic).map_err(anyhow::Error::msg)
+    }
+}
+
+fn parse_radius(s: &str) -> Result<f64, String> {
+    if s.eq_ignore_ascii_case("inf") {
+        return Ok(f64::INFINITY);
+    }
+    match s.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("'{s}' is not a positive radius in nm (or inf)")),
+    }
+}
+
+fn parse_coherence(s: &str) -> Result<Coherence, String> {
+    Coherence::parse(s)
+        .ok_or_else(|| format!("unknown coherence '{s}' (beamlet, bucket or global)"))
+}
+
+/// A finite number: every floating-point flag goes through this, so NaN and infinity are
+/// refused before any work starts, with the flag's name (clap's usage error, exit 2).
+fn finite(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number"))?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(format!("{s} is not a finite number"))
+    }
+}
+
+fn parse_backend(s: &str) -> Result<Backend, String> {
+    s.parse::<Backend>().map_err(|e| e.to_string())
+}
+
+/// `println!` that returns an error instead of panicking when standard output fails (a full
+/// disk, a file closed for writing): the command ends with a clear message and exit status 1.
+/// (A closed pipe ends it quietly: see `main`.)
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout().lock(), $($t)*).context("writing to standard output")?
+    }};
+}
+
+mod analytic;
+mod bench;
+mod build;
+mod check;
+mod eval;
+mod fit;
+mod generate;
+mod info;
+mod merge;
+mod reflectance;
+mod render;
+mod simulate;
+mod study;
+
+use analytic::*;
+use bench::*;
+use build::*;
+use check::*;
+use eval::*;
+use fit::*;
+use generate::*;
+use info::*;
+use merge::*;
+use reflectance::*;
+use render::*;
+use simulate::*;
+use study::*;
+
+/// Prints one line of a long-running command's report from a callback (benchmarks): a
+/// closed pipe ends the process quietly, any other failure with a message and status 1.
+fn emit(line: &str) {
+    use std::io::Write as _;
+    if let Err(e) = writeln!(std::io::stdout().lock(), "{line}") {
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            eprintln!("error: writing to standard output: {e}");
+            std::process::exit(1);
+        }
+        std::process::exit(0);
+    }
+}
+
+/// Whether an error comes from writing into a closed pipe.
+pub(crate) fn broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
+    match cli.command {
+        Command::Backends => backends(),
+        Command::Check(a) => check(a),
+        Command::Simulate(a) => simulate(a),
+        Command::Merge(a) => merge(a),
+        Command::Reflectance(a) => reflectance(a),
+        Command::Analytic(a) => analytic(a),
+        Command::Build(a) => build(a),
+        Command::Eval(a) => eval(a),
+        Command::Info(a) => info(a),
+        Command::Render(a) => render(a),
+        Command::Study(a) => study(a),
+        Command::Generate(a) => generate(a),
+        Command::Fit(a) => fit(a),
+        Command::Bench(BenchCommand::Trace(a)) => bench_trace(a),
+        Command::Bench(BenchCommand::Simulate(a)) => bench_simulate(a),
+        Command::Bench(BenchCommand::Eval(a)) => bench_eval(a),
+    }
+}
+
+/// What kind of file an output may replace without `--force`.
+#[derive(Clone, Copy)]
+enum OutputKind {
+    Gsa,
+    Gsb,
+    Obj,
+    /// Images and JSON: only the same-file and directory checks.
+    Any,
+}
+
+/// Refuses an output path that is a directory, that is the same file as an input, or (for
+/// goniospec's own formats) that holds a file of another kind, unless `force`: an output
+/// never destroys an input or an unrelated file (writes are atomic, so a refused run
+/// changes nothing).
+fn guard_output(
+    out: &std::path::Path,
+    inputs: &[&std::path::Path],
+    kind: OutputKind,
+    force: bool,
+) -> Result<()> {
+    if out.is_dir() {
+        bail!("output {} is a directory; give a file name", out.display());
+    }
+    for i in inputs {
+        if same_file(out, i) {
+            bail!(
+                "output {} is the input {}: refusing to overwrite it",
+                out.display(),
+                i.display()
+            );
+        }
+    }
+    // Before any work: the folder exists and takes a new file.
+    goniospec::io::check_writable(out).with_context(|| {
+        format!(
+            "cannot write {} (does its folder exist, and may you write there?)",
+            out.display()
+        )
+    })?;
+    if force || !out.exists() {
+        return Ok(());
+    }
+    let head = {
+        use std::io::Read;
+        let mut b = [0u8; 32];
+        let n = std::fs::File::open(out)
+            .and_then(|mut f| f.read(&mut b))
+            .with_context(|| format!("reading {}", out.display()))?;
+        b[..n].to_vec()
+    };
+    let (ok, what) = match kind {
+        OutputKind::Gsa => (
+            head.starts_with(goniospec::accumulate::file::MAGIC),
+            "a goniospec accumulator (.gsa)",
+        ),
+        OutputKind::Gsb => (
+            head.starts_with(goniospec::brdf::file::MAGIC),
+            "a goniospec BRDF (.gsb)",
+        ),
+        OutputKind::Obj => (
+            head.starts_with(b"# goniospec generate"),
+            "an OBJ written by goniospec generate",
+        ),
+        OutputKind::Any => (true, ""),
+    };
+    if !ok {
+        bail!(
+            "refusing to overwrite {}: it is not {what}; remove it, choose another name, or pass --force",
+            out.display()
+        );
+    }
+    Ok(())
+}
+
+/// Whether two paths name the same existing file.
+fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    }
+}
+
+/// The requested backend, or the default; refuses one this build lacks.
+fn resolve_backend(b: Option<Backend>) -> Result<Backend> {
+    let b = b.unwrap_or_else(Backend::default_available);
+    if !b.is_available() {
+        bail!(accel::AccelError::EmbreeUnavailable);
+    }
+    Ok(b)
+}

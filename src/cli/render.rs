@@ -1,0 +1,324 @@
+//! `goniospec render`: render a shape made of a BRDF (or simulate what the image needs first).
+
+use super::*;
+
+#[derive(Args)]
+pub(super) struct RenderArgs {
+    /// A built BRDF (.gsb); or give --simulate SAMPLE.toml instead.
+    #[arg(required_unless_present = "simulate", conflicts_with = "simulate")]
+    file: Option<PathBuf>,
+    /// Simulate the sample first, only at the incident angles the image needs.
+    #[arg(long, value_name = "SAMPLE.toml")]
+    simulate: Option<PathBuf>,
+    /// With --simulate: relative standard error each needed direction is simulated to
+    /// (total R and every populated bucket, per wavelength bin). 0.05 is about one CIELAB
+    /// unit at mid-grey: dL* = 21.8 dY/Y at Y = 0.18, from L* = 116 Y^(1/3) - 16.
+    #[arg(long, value_parser = finite, default_value_t = 0.05)]
+    tolerance: f64,
+    /// With --simulate: trees per batch per direction (the adaptive step).
+    #[arg(long, default_value_t = 512)]
+    rays: u64,
+    /// With --simulate: the most trees per direction.
+    #[arg(long, default_value_t = 16_384)]
+    max_rays: u64,
+    /// With --simulate: spacing of the incident-angle grid, degrees (full hemisphere:
+    /// 0, STEP, ..., below 90).
+    #[arg(long, value_parser = finite, default_value_t = 5.0)]
+    theta_step: f64,
+    /// With --simulate: the wavelength sampling.
+    #[command(flatten)]
+    wavelengths: WavelengthArgs,
+    /// Output EXR; the PNG preview goes beside it.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// sphere, plane (a flat square panel facing up), or an OBJ file (smooth normals are
+    /// computed from its triangles).
+    #[arg(long, default_value = "sphere")]
+    shape: String,
+    /// Image width, pixels (1 to 16384).
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: u32,
+    /// Image height, pixels (1 to 16384).
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: u32,
+    /// Samples per pixel (1 to 65536).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    spp: u32,
+    /// dir:THETA,PHI (degrees, towards the light), point:X,Y,Z, or none.
+    #[arg(long, default_value = "dir:50,-120")]
+    light: String,
+    #[arg(long, value_parser = finite, default_value_t = 0.8)]
+    light_strength: f64,
+    /// constant, sky or none.
+    #[arg(long, default_value = "constant")]
+    env: String,
+    #[arg(long, value_parser = finite, default_value_t = 0.6)]
+    env_strength: f64,
+    /// Camera position X,Y,Z; it looks at the shape's centre (default: in front of it,
+    /// slightly above).
+    #[arg(long, value_parser = finite, value_delimiter = ',')]
+    camera: Vec<f64>,
+    /// Vertical field of view, degrees.
+    #[arg(long, value_parser = finite, default_value_t = 30.0)]
+    fov: f64,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Worker threads (0: all cores). Images do not depend on it.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Also render the [stack] sample's analytic (TMM) reflectance under the same
+    /// environment and report the difference (relative RMSE, mean CIE DE2000).
+    #[arg(long, value_name = "SAMPLE.toml")]
+    analytic: Option<PathBuf>,
+}
+
+pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
+    use goniospec::brdf::{self, Brdf};
+    use goniospec::render::{self, Env, Light, RenderConfig, Shape};
+    if a.width == 0 || a.height == 0 || a.spp == 0 {
+        bail!("--width, --height and --spp must be positive");
+    }
+    let light = Light::parse(&a.light).map_err(anyhow::Error::msg)?;
+    let env = Env::parse(&a.env).map_err(anyhow::Error::msg)?;
+    let shape = if a.shape == "sphere" {
+        Shape::Sphere
+    } else if a.shape == "plane" {
+        Shape::Plane
+    } else {
+        let p = PathBuf::from(&a.shape);
+        let mesh = sample::load_obj(
+            &p,
+            1.0,
+            MeshOptions {
+                drop_degenerate: true,
+            },
+        )?;
+        Shape::mesh(mesh, Backend::default_available())?
+    };
+    let (centre, radius) = shape.bounds();
+    let camera = match a.camera.len() {
+        0 => [
+            centre[0],
+            centre[1] - 4.2 * radius,
+            centre[2] + 1.6 * radius,
+        ],
+        3 => [a.camera[0], a.camera[1], a.camera[2]],
+        _ => bail!("--camera needs X,Y,Z"),
+    };
+    // The output folder is made, and checked writable, before any work.
+    if let Some(dir) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    {
+        let png = a.output.with_extension("png");
+        let inputs: Vec<&std::path::Path> = a
+            .file
+            .iter()
+            .chain(a.simulate.iter())
+            .map(|p| p.as_path())
+            .collect();
+        for out in [&a.output, &png] {
+            guard_output(out, &inputs, OutputKind::Any, false)?;
+        }
+    }
+    if !(a.fov > 0.0 && a.fov < 180.0) {
+        bail!("--fov must be between 0 and 180 degrees, got {}", a.fov);
+    }
+    if a.light_strength < 0.0 || a.env_strength < 0.0 {
+        bail!("--light-strength and --env-strength must not be negative");
+    }
+    let cfg = RenderConfig {
+        width: a.width as usize,
+        height: a.height as usize,
+        spp: a.spp as usize,
+        light,
+        light_strength: a.light_strength,
+        env,
+        env_strength: a.env_strength,
+        camera,
+        fov_deg: a.fov,
+        seed: a.seed,
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads)
+        .build()?;
+    let r = match (&a.file, &a.simulate) {
+        (Some(f), _) => brdf::file::read(f)?,
+        (None, Some(sp)) => pool.install(|| scene_driven(&a, sp, &shape, &cfg))?,
+        (None, None) => bail!("give a .gsb file or --simulate SAMPLE.toml"),
+    };
+    // The image holds RGB and a spectrum per pixel (f32): refuse what cannot fit.
+    let bins = r.meta().wavelengths_nm.len() as f64;
+    let bytes = f64::from(a.width) * f64::from(a.height) * 4.0 * (3.0 + bins) * 2.0;
+    if let Some(avail) = goniospec::io::available_memory_bytes()
+        && bytes > avail as f64
+    {
+        bail!(
+            "--width {} x --height {} with {bins} wavelength bins needs about {:.1} GB, more than the {:.1} GB available",
+            a.width,
+            a.height,
+            bytes / 1e9,
+            avail as f64 / 1e9
+        );
+    }
+    let t0 = std::time::Instant::now();
+    let albedo = if env == Env::Constant {
+        Some(pool.install(|| render::albedo_table(&r, 90)))
+    } else {
+        None
+    };
+    let bar = indicatif::ProgressBar::new(a.height as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} rows  eta {eta}")
+            .expect("a valid template"),
+    );
+    let img = pool.install(|| {
+        render::render(&r, &shape, &cfg, albedo.as_deref(), &|n| {
+            bar.set_position(n)
+        })
+    });
+    bar.finish_and_clear();
+    let secs = t0.elapsed().as_secs_f64();
+    // Both files are written before either replaces an old one.
+    let png = a.output.with_extension("png");
+    let exr_file = render::stage_exr(&img, &a.output)
+        .with_context(|| format!("writing {}", a.output.display()))?;
+    let png_file =
+        render::stage_png(&img, &png).with_context(|| format!("writing {}", png.display()))?;
+    goniospec::io::commit_all(vec![exr_file, png_file])
+        .with_context(|| format!("replacing {} and {}", a.output.display(), png.display()))?;
+    outln!(
+        "rendered {}x{} at {} spp, {} wavelength bins ({} representation) in {secs:.2} s: {} and {}",
+        a.width,
+        a.height,
+        a.spp,
+        r.meta().wavelengths_nm.len(),
+        r.meta().repr,
+        a.output.display(),
+        png.display()
+    );
+    if let Some(sp) = &a.analytic {
+        let s = sample::load(sp, MeshOptions::default())?;
+        let reference = render::analytic::stack_image(&s, &r.meta().wavelengths_nm, &shape, &cfg)?;
+        let apng = a.output.with_file_name(format!(
+            "{}-analytic.png",
+            a.output.file_stem().unwrap_or_default().to_string_lossy()
+        ));
+        render::write_png(&reference, &apng)?;
+        let d = render::analytic::compare(&img, &reference);
+        outln!(
+            "against the analytic TMM image ({}): relative RMSE {:.4}, mean CIE DE2000 {:.3} over {} object pixels{}",
+            apng.display(),
+            d.rel_rmse,
+            d.mean_de2000,
+            d.pixels,
+            if cfg.light != Light::None {
+                " (the light's delta reflection is left out of both)"
+            } else {
+                ""
+            }
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `render --simulate`: simulates the incident angles the image needs (see
+/// `goniospec::render::plan`), writes the .gsa and .gsb beside the image, reports the
+/// saving against a full-hemisphere simulation, and returns the BRDF table.
+pub(super) fn scene_driven(
+    a: &RenderArgs,
+    sample_path: &std::path::Path,
+    shape: &goniospec::render::Shape,
+    cfg: &goniospec::render::RenderConfig,
+) -> Result<goniospec::brdf::Representation> {
+    use goniospec::brdf::{BucketData, Representation, table::TableBrdf};
+    if !(a.tolerance > 0.0 && a.tolerance.is_finite()) {
+        bail!("--tolerance must be a positive number, got {}", a.tolerance);
+    }
+    if a.rays == 0 || a.max_rays < a.rays {
+        bail!(
+            "--rays must be positive and at most --max-rays (got {} and {})",
+            a.rays,
+            a.max_rays
+        );
+    }
+    if !(a.theta_step > 0.0 && a.theta_step < 90.0) {
+        bail!(
+            "--theta-step must lie between 0 and 90 degrees, got {}",
+            a.theta_step
+        );
+    }
+    let s = sample::load(sample_path, MeshOptions::default())?;
+    let steps = (90.0 / a.theta_step - 1e-9).ceil() as usize;
+    let grid: Vec<f64> = (0..steps).map(|k| k as f64 * a.theta_step).collect();
+    let plan = goniospec::render::plan::plan(shape, cfg, &grid);
+    let needed = plan.needed();
+    if needed.is_empty() {
+        bail!(
+            "the image needs no incident direction: the object is not visible or not lit (check --camera, --light and --env)"
+        );
+    }
+    eprintln!(
+        "scene-driven simulation: the image ({} object pixels) needs {} of the {} incident angles of the {}-degree grid: {:?}",
+        plan.object_pixels,
+        needed.len(),
+        grid.len(),
+        a.theta_step,
+        needed
+    );
+    let sim = SimConfig {
+        seed: a.seed,
+        tolerance: Some(a.tolerance),
+        max_rays: a.max_rays,
+        ..SimConfig::new(needed.clone(), a.wavelengths.parse()?, a.rays)
+    };
+    let bar = indicatif::ProgressBar::new(a.max_rays * needed.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} trees (at most)  eta {eta}")
+            .expect("a valid template"),
+    );
+    let (acc, stats) = goniospec::simulate::simulate(&s, &sim, &|n| bar.set_position(n))?;
+    bar.finish_and_clear();
+    let gsa = a.output.with_extension("gsa");
+    acc.write(&gsa)
+        .with_context(|| format!("writing {}", gsa.display()))?;
+    let rep = Representation::Table(TableBrdf::build(&BucketData::from_accumulator(&acc)));
+    let gsb = a.output.with_extension("gsb");
+    goniospec::brdf::file::write(&rep, &gsb)
+        .with_context(|| format!("writing {}", gsb.display()))?;
+    let spent: u64 = stats.directions.iter().map(|d| d.rays).sum();
+    let worst = stats.directions.iter().map(|d| d.rays).max().unwrap_or(0);
+    let converged = stats.directions.iter().filter(|d| d.converged).count();
+    for d in &stats.directions {
+        eprintln!(
+            "  theta_i {:>4.1} deg: {:>6} trees, achieved {} ({})",
+            d.theta_i_deg,
+            d.rays,
+            d.achieved.map_or("n/a".to_string(), |e| format!("{e:.4}")),
+            if d.converged {
+                "converged"
+            } else {
+                "budget exhausted"
+            }
+        );
+    }
+    // A full-hemisphere run with one fixed budget must give every grid angle at least what
+    // the hardest needed angle took: a lower bound on its cost.
+    let full = worst * grid.len() as u64;
+    eprintln!(
+        "simulated {} trees in {:.2} s ({} of {} directions converged to {}); a full-hemisphere simulation giving each of its directions the largest budget used here needs at least {} x {} = {} trees: {:.0} % saved ({:.0} % by skipping directions, the rest by adaptive budgets). Wrote {} and {}",
+        spent,
+        stats.seconds,
+        converged,
+        needed.len(),
+        a.tolerance,
+        grid.len(),
+        worst,
+        full,
+        100.0 * (1.0 - spent as f64 / full.max(1) as f64),
+        100.0 * (1.0 - needed.len() as f64 / grid.len() as f64),
+        gsa.display(),
+        gsb.display()
+    );
+    Ok(rep)
+}

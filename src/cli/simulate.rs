@@ -1,0 +1,195 @@
+//! `goniospec simulate`: trace a sample and write its accumulator.
+
+use super::*;
+
+#[derive(Args)]
+pub(super) struct SimulateArgs {
+    /// The sample description (TOML).
+    sample: PathBuf,
+    /// Output accumulator (.gsa), written atomically.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Incident polar angles, degrees, comma-separated.
+    #[arg(long, value_parser = finite, value_delimiter = ',', default_value = "0,15,30,45,60,75")]
+    theta_i: Vec<f64>,
+    /// Incident azimuth, degrees.
+    #[arg(long, value_parser = finite, default_value_t = 0.0)]
+    phi_i: f64,
+    /// Launched rays (trees) per incident direction; each covers every wavelength.
+    #[arg(long, default_value_t = 4096)]
+    rays: u64,
+    #[command(flatten)]
+    wavelengths: WavelengthArgs,
+    /// Accelerator: embree or obvhs (default: embree where available).
+    #[arg(long, value_parser = parse_backend)]
+    backend: Option<Backend>,
+    /// Seed of entry points and wavelength jitter.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Worker threads (0: all cores). Results do not depend on it.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Estimator: beamlet (default), or the failing comparison modes bucket and global.
+    #[arg(long, default_value = "beamlet", value_parser = parse_coherence)]
+    coherence: Coherence,
+    /// Beamlet radius in nm, or inf for the plane-wave limit.
+    #[arg(long, default_value = "5000", value_parser = parse_radius)]
+    coherence_radius_nm: f64,
+    /// Polar bins of the outgoing hemispheres (equal in theta).
+    #[arg(long, default_value_t = 45)]
+    theta_o_bins: u32,
+    /// Azimuth bins of the outgoing hemispheres.
+    #[arg(long, default_value_t = 36)]
+    phi_o_bins: u32,
+    /// Children below this fraction of the launched power are dropped (and reported).
+    #[arg(long, value_parser = finite, default_value_t = 1e-10)]
+    cutoff: f64,
+    /// Interface events along one path before it is dropped.
+    #[arg(long, default_value_t = 64)]
+    max_depth: u32,
+    /// Segments of one tree before its remaining rays are dropped (multiply scattering
+    /// samples; raise --cutoff to 1e-4..1e-6 for pigments and flakes).
+    #[arg(long, default_value_t = 20_000)]
+    max_segments: u32,
+    /// Adaptive budget: launch batches of --rays per incident direction until the relative
+    /// standard error of the reflectance (total and every populated bucket) is at most
+    /// this, e.g. 0.01; reports per direction whether it converged or ran out of budget.
+    #[arg(long, value_parser = finite)]
+    tolerance: Option<f64>,
+    /// Largest number of rays per incident direction with --tolerance.
+    #[arg(long, default_value_t = 1_000_000)]
+    max_rays: u64,
+    /// Trace every wavelength separately even when no medium is dispersive.
+    #[arg(long)]
+    no_path_sharing: bool,
+    /// Drop degenerate triangles instead of refusing the mesh.
+    #[arg(long)]
+    drop_degenerate: bool,
+    /// Debugging only: write results that are physically impossible (R > 1, negative
+    /// power, energy created) instead of refusing them with exit status 1. The run still
+    /// prints what failed.
+    #[arg(long)]
+    allow_unphysical: bool,
+    /// Overwrite an existing output that is not a goniospec accumulator.
+    #[arg(long)]
+    force: bool,
+}
+
+pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
+    let s = sample::load(
+        &a.sample,
+        MeshOptions {
+            drop_degenerate: a.drop_degenerate,
+        },
+    )?;
+    {
+        let meshes: Vec<PathBuf> = s
+            .interfaces
+            .iter()
+            .map(|i| {
+                a.sample
+                    .parent()
+                    .unwrap_or(std::path::Path::new("."))
+                    .join(&i.mesh_path)
+            })
+            .collect();
+        let mut inputs: Vec<&std::path::Path> = vec![a.sample.as_path()];
+        inputs.extend(meshes.iter().map(|p| p.as_path()));
+        guard_output(&a.output, &inputs, OutputKind::Gsa, a.force)?;
+    }
+    let cfg = SimConfig {
+        phi_i_deg: a.phi_i,
+        backend: resolve_backend(a.backend)?,
+        seed: a.seed,
+        coherence: a.coherence,
+        rho_nm: a.coherence_radius_nm,
+        limits: TraceLimits {
+            cutoff: a.cutoff,
+            max_depth: a.max_depth,
+            max_segments: a.max_segments,
+            ..Default::default()
+        },
+        buckets: Buckets {
+            theta_bins: a.theta_o_bins,
+            phi_bins: a.phi_o_bins,
+        },
+        path_sharing: a.no_path_sharing.then_some(false),
+        allow_unphysical: a.allow_unphysical,
+        tolerance: a.tolerance,
+        max_rays: a.max_rays,
+        ..SimConfig::new(a.theta_i.clone(), a.wavelengths.parse()?, a.rays)
+    };
+    let total = if a.tolerance.is_some() {
+        a.max_rays
+    } else {
+        a.rays
+    } * a.theta_i.len() as u64;
+    let bar = indicatif::ProgressBar::new(total);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} trees  {per_sec}  eta {eta}")
+            .expect("a valid template"),
+    );
+    if a.threads > MAX_THREADS {
+        bail!(
+            "--threads {} is more than {MAX_THREADS}; 0 uses every core",
+            a.threads
+        );
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(a.threads)
+        .build()?;
+    let (acc, stats) =
+        pool.install(|| goniospec::simulate::simulate(&s, &cfg, &|n| bar.set_position(n)))?;
+    bar.finish_and_clear();
+    if a.allow_unphysical
+        && let Err(e) =
+            goniospec::simulate::check_physical(&acc, &s.name, Some(&stats.limit_dropped))
+    {
+        eprintln!("warning (--allow-unphysical): {e}");
+    }
+    acc.write(&a.output)
+        .with_context(|| format!("writing {}", a.output.display()))?;
+    eprintln!(
+        "{} trees ({} per direction x {} directions), {} traced trees, {} segments in {:.2} s: {:.0} trees/s, {:.2} M segments/s; path sharing {}; peak memory {}",
+        stats.trees,
+        a.rays,
+        a.theta_i.len(),
+        stats.traces,
+        stats.segments,
+        stats.seconds,
+        stats.trees as f64 / stats.seconds,
+        stats.segments as f64 / stats.seconds / 1e6,
+        if stats.path_sharing { "on" } else { "off" },
+        goniospec::io::peak_rss_mb().map_or_else(|| "unknown".into(), |m| format!("{m:.0} MB"))
+    );
+    if a.tolerance.is_some() {
+        for d in &stats.directions {
+            eprintln!(
+                "theta_i {} deg: {} rays, relative standard error {} ({})",
+                d.theta_i_deg,
+                d.rays,
+                d.achieved.map_or("undefined".into(), |v| format!("{v:.4}")),
+                if d.converged {
+                    "converged"
+                } else {
+                    "budget exhausted"
+                }
+            );
+        }
+    }
+    let cut = stats.worst_limit_dropped(&acc);
+    if cut > 1e-6 {
+        eprintln!(
+            "warning: up to {cut:.1e} of the launched power per tree was cut by --max-depth or --max-segments before the ray series converged; R and T can be off by up to about 2 sqrt({cut:.1e}) = {:.1e} (raise the limits, or model thin layers as a flat [stack])",
+            2.0 * cut.sqrt()
+        );
+    }
+    if stats.leaks > 0 {
+        eprintln!(
+            "warning: {} rays met an interface from the wrong medium (leaky geometry); their power is counted as dropped. Run goniospec check.",
+            stats.leaks
+        );
+    }
+    outln!("wrote {}", a.output.display());
+    Ok(ExitCode::SUCCESS)
+}
