@@ -1,0 +1,315 @@
+//! Running a study: the simulation of every point, its reference (TMM or a high-budget
+//! run), the sampled-area sweep, and the summaries (convergence slope, verdicts).
+
+use super::*;
+
+/// One row of the sampled-area experiment.
+#[derive(Clone, Debug)]
+pub struct AreaPoint {
+    pub coherence: Coherence,
+    /// Repeats along x and y.
+    pub tiles: [usize; 2],
+    pub area_um2: f64,
+    pub rays: u64,
+    /// Directional reflectance averaged over incident angles and bins.
+    pub r: f64,
+}
+
+/// Runs the sampled-area experiment of a study (empty when it has none).
+pub fn run_area(st: &Study, mut log: impl FnMut(&str)) -> Result<Vec<AreaPoint>, String> {
+    let Some(a) = &st.area else {
+        return Ok(Vec::new());
+    };
+    let sample: Sample =
+        sample::load(&st.sample_path, MeshOptions::default()).map_err(|e| e.to_string())?;
+    let mut out = Vec::new();
+    for name in &a.coherence {
+        let coherence =
+            Coherence::parse(name).ok_or_else(|| format!("unknown coherence '{name}'"))?;
+        for t in &a.tiles {
+            let k = t.counts();
+            let big = sample.tiled(k);
+            let rays = a.rays * (k[0] * k[1]) as u64;
+            let v = Variant {
+                coherence,
+                ..st.variants[0]
+            };
+            let cfg = config(st, rays, &v, st.seed);
+            let (acc, _) = simulate(&big, &cfg, &|_| {}).map_err(|e| e.to_string())?;
+            let rt = r_table(&acc);
+            let r =
+                rt.iter().flatten().sum::<f64>() / rt.iter().map(|v| v.len()).sum::<usize>() as f64;
+            log(&format!(
+                "area {}x{}: {} with {rays} rays: R = {r:.4e}",
+                k[0],
+                k[1],
+                coherence.name()
+            ));
+            out.push(AreaPoint {
+                coherence,
+                tiles: k,
+                area_um2: big.tile_nm[0] * big.tile_nm[1] * 1e-6,
+                rays,
+                r,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Peak resident memory of this process so far, MB (0 where unknown).
+pub(super) fn peak_mem_mb() -> f64 {
+    crate::io::peak_rss_mb().unwrap_or(0.0)
+}
+
+pub(super) fn config(st: &Study, rays: u64, v: &Variant, seed: u64) -> SimConfig {
+    SimConfig {
+        backend: v.backend,
+        seed,
+        coherence: v.coherence,
+        rho_nm: v.radius,
+        limits: TraceLimits {
+            cutoff: v.cutoff,
+            max_depth: v.max_depth,
+            ..TraceLimits::default()
+        },
+        buckets: Buckets {
+            theta_bins: v.theta_o_bins,
+            phi_bins: 36,
+        },
+        origin_nm: [v.origin_nm, v.origin_nm, 0.0],
+        random_entry: st.random_entry,
+        precision: v.precision,
+        // The study compares methods, some of them known to fail (bucket, global, f32):
+        // an impossible result is recorded as a failure of the point, not an abort.
+        allow_unphysical: true,
+        ..SimConfig::new(
+            st.theta_i.clone(),
+            Wavelengths::Bins(st.edges.clone()),
+            rays,
+        )
+    }
+}
+
+/// Directional reflectance per (incident angle, bin) of an accumulator.
+pub(super) fn r_table(acc: &Accumulator) -> Vec<Vec<f64>> {
+    let s = &acc.header.settings;
+    (0..s.theta_i_deg.len())
+        .map(|i| {
+            (0..s.wavelength_count())
+                .map(|j| acc.cell(i, j).totals(s.coherence_mode(), &s.buckets()).0)
+                .collect()
+        })
+        .collect()
+}
+
+/// The reference reflectance per (incident angle, bin) and a description of it.
+pub(super) fn reference(
+    st: &Study,
+    sample: &Sample,
+    log: &mut impl FnMut(&str),
+) -> Result<(Vec<Vec<f64>>, String), String> {
+    let kind = match st.reference {
+        ReferenceKind::Auto if sample.stack.is_some() => "tmm",
+        ReferenceKind::Auto | ReferenceKind::Run => "run",
+        ReferenceKind::LocalFilm => "local-film",
+    };
+    match kind {
+        "tmm" => {
+            for &l in [st.edges[0], st.edges[st.edges.len() - 1]].iter() {
+                tmm::stack_indices(sample, l)?;
+            }
+            let r = st
+                .theta_i
+                .iter()
+                .map(|t| {
+                    st.edges
+                        .windows(2)
+                        .map(|w| {
+                            tmm::solve_band(
+                                |l| tmm::stack_indices(sample, l).expect("range checked"),
+                                w[0],
+                                w[1],
+                                t.to_radians(),
+                            )
+                            .r()
+                        })
+                        .collect()
+                })
+                .collect();
+            Ok((r, "analytic TMM (bin-averaged)".into()))
+        }
+        "local-film" => {
+            let entries = 48;
+            let r = st
+                .theta_i
+                .iter()
+                .map(|&t| crate::optics::local_film::reflectance(sample, t, &st.edges, entries))
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok((
+                r,
+                format!(
+                    "local-film (tangent-plane) TMM reference, {entries} x {entries} entry points"
+                ),
+            ))
+        }
+        _ => {
+            log(&format!(
+                "reference: {} rays per direction",
+                st.reference_rays
+            ));
+            // Low-discrepancy entry points and default settings for the reference whatever
+            // the study sweeps: its error falls about as 1/N, far below the points'.
+            let v = Variant {
+                coherence: Coherence::Beamlet,
+                radius: 5000.0,
+                cutoff: TraceLimits::default().cutoff,
+                max_depth: TraceLimits::default().max_depth,
+                precision: PhasePrecision::F64,
+                origin_nm: 0.0,
+                ..st.variants[0]
+            };
+            let mut cfg = config(st, st.reference_rays, &v, st.seed.wrapping_add(1_000_003));
+            cfg.random_entry = false;
+            let r = r_table(
+                &simulate(sample, &cfg, &|_| {})
+                    .map_err(|e| e.to_string())?
+                    .0,
+            );
+            Ok((
+                r,
+                format!(
+                    "high-budget beamlet run ({} rays per direction, radius 5 um)",
+                    st.reference_rays
+                ),
+            ))
+        }
+    }
+}
+
+/// Runs the study; `log` receives progress lines.
+pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String), String> {
+    let sample: Sample =
+        sample::load(&st.sample_path, MeshOptions::default()).map_err(|e| e.to_string())?;
+    let (reference, reference_kind) = reference(st, &sample, &mut log)?;
+    let mut points = Vec::new();
+    for v in &st.variants {
+        for &rays in &st.rays {
+            let (mut e2, mut s2, mut n, mut wall) = (0.0, 0.0, 0.0, 0.0);
+            let (mut dropped, mut dn) = (0.0, 0.0);
+            let mut last = None;
+            let mut unphysical = None;
+            for rep in 0..st.repeats {
+                let cfg = config(st, rays, v, st.seed + rep);
+                let t0 = Instant::now();
+                let (acc, stats) = simulate(&sample, &cfg, &|_| {}).map_err(|e| e.to_string())?;
+                wall += t0.elapsed().as_secs_f64() / st.repeats as f64;
+                if let Err(e) =
+                    crate::simulate::check_physical(&acc, &sample.name, Some(&stats.limit_dropped))
+                {
+                    unphysical.get_or_insert(e.to_string());
+                }
+                let r = r_table(&acc);
+                for (i, row) in r.iter().enumerate() {
+                    for (j, x) in row.iter().enumerate() {
+                        let c = acc.cell(i, j);
+                        e2 += (x - reference[i][j]).powi(2);
+                        s2 += c.r_stderr(v.coherence).unwrap_or(0.0).powi(2);
+                        n += 1.0;
+                        dropped += c.dropped / c.trees.max(1) as f64;
+                        dn += 1.0;
+                    }
+                }
+                last = Some((acc, stats));
+            }
+            let (acc, stats) = last.expect("at least one repetition");
+            let data = BucketData::from_accumulator(&acc);
+            for repr in &st.representation {
+                let rep = match repr.as_str() {
+                    "kdtree" => Representation::KdTree(crate::brdf::kdtree::KdTreeBrdf::build(
+                        &data, 4, true, false,
+                    )),
+                    "subdivided" => Representation::Subdivided(
+                        crate::brdf::subdivided::SubdividedBrdf::build(&data, 0.05),
+                    ),
+                    _ => Representation::Table(crate::brdf::table::TableBrdf::build(&data)),
+                };
+                let mut out = vec![0.0; data.wavelengths_nm.len()];
+                let q0 = Instant::now();
+                let m = 2000;
+                for k in 0..m {
+                    let a = k as f64 / m as f64;
+                    rep.eval(dir(1.2 * a, 0.0), dir(1.3 * (1.0 - a), 3.0 + a), &mut out);
+                    std::hint::black_box(&out);
+                }
+                let query_ns = q0.elapsed().as_nanos() as f64 / m as f64;
+                let (mut re2, mut rn) = (0.0f64, 0.0f64);
+                for (i, t) in st.theta_i.iter().enumerate() {
+                    let h = crate::brdf::hemispherical_reflectance(
+                        &rep,
+                        dir(t.to_radians(), 0.0),
+                        45,
+                        72,
+                    );
+                    for (j, x) in h.iter().enumerate() {
+                        re2 += (x - reference[i][j]).powi(2);
+                        rn += 1.0;
+                    }
+                }
+                let p = Point {
+                    variant: *v,
+                    rays,
+                    representation: repr.clone(),
+                    wall_s: wall,
+                    traced_rays: stats.traces,
+                    peak_mem_mb: peak_mem_mb(),
+                    error: (e2 / n).sqrt(),
+                    stderr: (s2 / n).sqrt(),
+                    dropped: dropped / dn,
+                    query_ns,
+                    repr_error: (re2 / rn).sqrt(),
+                    unphysical: unphysical.clone(),
+                };
+                log(&format!(
+                    "{} rays {}: error {:.2e} (+- {:.1e}), dropped {:.1e}, {:.2} s, query {:.0} ns",
+                    method(&p),
+                    rays,
+                    p.error,
+                    p.stderr,
+                    p.dropped,
+                    wall,
+                    query_ns,
+                ));
+                points.push(p);
+            }
+        }
+    }
+    Ok((points, reference_kind))
+}
+
+/// Least-squares slope of log(error) against log(rays) over points with positive error.
+pub fn convergence_slope(points: &[Point]) -> Option<f64> {
+    let xy: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|p| p.error > 0.0)
+        .map(|p| ((p.rays as f64).ln(), p.error.ln()))
+        .collect();
+    if xy.len() < 2 {
+        return None;
+    }
+    let n = xy.len() as f64;
+    let (sx, sy) = (
+        xy.iter().map(|p| p.0).sum::<f64>(),
+        xy.iter().map(|p| p.1).sum::<f64>(),
+    );
+    let sxx = xy.iter().map(|p| p.0 * p.0).sum::<f64>();
+    let sxy = xy.iter().map(|p| p.0 * p.1).sum::<f64>();
+    Some((n * sxy - sx * sy) / (n * sxx - sx * sx))
+}
+
+/// Whether a point's error is within the study's tolerance. The error bars are not added:
+/// they are the spread of single trees, which stratified wavelengths and R2 entry points
+/// beat by far, so they would excuse real bias.
+pub fn holds(p: &Point, tolerance: f64) -> bool {
+    p.error <= tolerance && p.unphysical.is_none()
+}
