@@ -3,7 +3,8 @@
 
 use super::{Hit, INVALID_PRIM, Ray, TriangleSoup};
 
-/// Ray–triangle intersection in f64 with edges included.
+/// Ray–triangle intersection in f64 with edges included: the one routine the brute-force
+/// intersector and the local-film reference share.
 ///
 /// Möller & Trumbore, "Fast, Minimum Storage Ray/Triangle Intersection", J. Graphics Tools
 /// 2(1), 1997. Returns `(t, u, v)` with the hit point `(1-u-v) v0 + u v1 + v v2`.
@@ -11,6 +12,18 @@ pub fn intersect_triangle_f64(
     origin: [f64; 3],
     dir: [f64; 3],
     corners: [[f64; 3]; 3],
+) -> Option<(f64, f64, f64)> {
+    intersect_triangle_f64_widened(origin, dir, corners, 0.0)
+}
+
+/// [`intersect_triangle_f64`] with the triangle widened by `edge` in barycentric
+/// coordinates, so a ray through a shared edge or vertex of a mesh hits one of its
+/// triangles whatever the rounding.
+pub fn intersect_triangle_f64_widened(
+    origin: [f64; 3],
+    dir: [f64; 3],
+    corners: [[f64; 3]; 3],
+    edge: f64,
 ) -> Option<(f64, f64, f64)> {
     let [v0, v1, v2] = corners;
     let e1 = sub(v1, v0);
@@ -23,12 +36,12 @@ pub fn intersect_triangle_f64(
     let inv = 1.0 / det;
     let s = sub(origin, v0);
     let u = dot(s, p) * inv;
-    if !(0.0..=1.0).contains(&u) {
+    if !(-edge..=1.0 + edge).contains(&u) {
         return None;
     }
     let q = cross(s, e1);
     let v = dot(dir, q) * inv;
-    if v < 0.0 || u + v > 1.0 {
+    if v < -edge || u + v > 1.0 + edge {
         return None;
     }
     Some((dot(e2, q) * inv, u, v))

@@ -144,8 +144,8 @@ impl Film {
 }
 
 /// Nearest hit of the ray `o + t d` (t > 1e-9 nm) with the triangles repeated over the
-/// 3 x 3 neighbouring tiles: `(t, unit normal of the hit triangle, oriented up)`.
-/// Moller & Trumbore, "Fast, minimum storage ray/triangle intersection", JGT 2(1), 1997.
+/// 3 x 3 neighbouring tiles: `(t, unit normal of the hit triangle, oriented up)`
+/// (Möller–Trumbore, [`crate::accel::brute::intersect_triangle_f64_widened`]).
 fn nearest(
     tris: &[[[f64; 3]; 3]],
     tile: [f64; 2],
@@ -158,26 +158,13 @@ fn nearest(
             let shift = [f64::from(ix) * tile[0], f64::from(iy) * tile[1], 0.0];
             let o = sub(o, shift);
             for tri in tris {
-                let e1 = sub(tri[1], tri[0]);
-                let e2 = sub(tri[2], tri[0]);
-                let pv = cross(d, e2);
-                let det = dot(e1, pv);
-                if det.abs() < 1e-18 {
+                let Some((t, _, _)) =
+                    crate::accel::brute::intersect_triangle_f64_widened(o, d, *tri, 1e-12)
+                else {
                     continue;
-                }
-                let tv = sub(o, tri[0]);
-                let u = dot(tv, pv) / det;
-                if !(-1e-12..=1.0 + 1e-12).contains(&u) {
-                    continue;
-                }
-                let qv = cross(tv, e1);
-                let v = dot(d, qv) / det;
-                if v < -1e-12 || u + v > 1.0 + 1e-12 {
-                    continue;
-                }
-                let t = dot(e2, qv) / det;
+                };
                 if t > 1e-9 && best.is_none_or(|b| t < b.0) {
-                    let n = cross(e1, e2);
+                    let n = cross(sub(tri[1], tri[0]), sub(tri[2], tri[0]));
                     let len = dot(n, n).sqrt();
                     let s = if n[2] < 0.0 { -1.0 } else { 1.0 };
                     best = Some((t, [s * n[0] / len, s * n[1] / len, s * n[2] / len]));
