@@ -456,15 +456,18 @@ pub fn simulate(
                 .map_err(|e| SimError::Config(format!("medium '{}': {e}", m.name)))?;
         }
     }
+    // Every medium's complex index at `l`, into `out` (reused: no allocation per tree).
+    let indices_into = |l: f64, out: &mut Vec<C64>| {
+        out.clear();
+        out.extend(sample.media.iter().map(|m| {
+            let (n, k) = m.model.eval(l).expect("range checked above");
+            C64::new(n, k)
+        }));
+    };
     let index_at = |l: f64| -> Vec<C64> {
-        sample
-            .media
-            .iter()
-            .map(|m| {
-                let (n, k) = m.model.eval(l).expect("range checked above");
-                C64::new(n, k)
-            })
-            .collect()
+        let mut v = Vec::new();
+        indices_into(l, &mut v);
+        v
     };
     let nl = cfg.wavelengths.count();
     let lambda_max = cfg.wavelengths.max();
@@ -575,9 +578,10 @@ pub fn simulate(
                                 Vec::new(),
                                 Vec::new(),
                                 Dense::new(nl, 2 * cfg.buckets.len(), global),
+                                Vec::<C64>::new(),
                             )
                         },
-                        |(stack, tree, scratch, deps, glob, dense), b| {
+                        |(stack, tree, scratch, deps, glob, dense, indices), b| {
                             let mut out: Vec<BlockCell> =
                                 (0..nl).map(|_| BlockCell::default()).collect();
                             let lo = start + b * BLOCK;
@@ -607,7 +611,6 @@ pub fn simulate(
                                     }
                                     Wavelengths::Monochromatic(v) => v[j],
                                 };
-                                let jitter: Vec<f64> = (0..nl).map(|_| rng.uniform()).collect();
                                 let world_origin = add(origin, cfg.origin_nm);
                                 let traced = |tree: &mut Tree, scratch: &mut Scratch| {
                                     for x in &mut tree.exits {
@@ -632,13 +635,16 @@ pub fn simulate(
                                     traced(tree, scratch);
                                 }
                                 for (j, cell) in out.iter_mut().enumerate() {
-                                    let lambda = lambda_of(j, jitter[j]);
+                                    // The tree's jitter in bin j: the j-th draw of its stream
+                                    // (tracing draws nothing from it).
+                                    let lambda = lambda_of(j, rng.uniform());
                                     if !sharing {
+                                        indices_into(lambda, indices);
                                         scene.trace(
                                             origin,
                                             d,
                                             e0,
-                                            &index_at(lambda),
+                                            indices,
                                             lambda,
                                             &cfg.limits,
                                             stack,
