@@ -119,9 +119,7 @@ pub(super) fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
             .collect(),
         seed: 1,
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads)
-        .build()?;
+    let pool = thread_pool(a.threads)?;
     pool.install(|| goniospec::bench::simulate_bench(&s, &flat, &cfg, emit))?;
     // Peak memory must not grow with the ray count: two child processes, 10x apart (each
     // process's own high-water mark; one process could not measure the second run).

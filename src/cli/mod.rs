@@ -334,6 +334,30 @@ fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
 }
 
 /// The requested backend, or the default; refuses one this build lacks.
+/// The worker pool of a command: `threads` workers (0: one per core), at most
+/// [`MAX_THREADS`]; the one set-up every command uses.
+fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
+    if threads > MAX_THREADS {
+        bail!("--threads {threads} is more than {MAX_THREADS}; 0 uses every core");
+    }
+    Ok(rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?)
+}
+
+/// The progress bar of a long run: `len` units of `what` (trees, rows), with rate and
+/// time left, on standard error (indicatif draws nothing when that is not a terminal).
+fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "{{bar:40}} {{pos}}/{{len}} {what}  {{per_sec}}  eta {{eta}}"
+        ))
+        .expect("a valid template"),
+    );
+    bar
+}
+
 fn resolve_backend(b: Option<Backend>) -> Result<Backend> {
     let b = b.unwrap_or_else(Backend::default_available);
     if !b.is_available() {

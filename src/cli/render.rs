@@ -139,9 +139,7 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
         fov_deg: a.fov,
         seed: a.seed,
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads)
-        .build()?;
+    let pool = thread_pool(a.threads)?;
     let r = match (&a.file, &a.simulate) {
         (Some(f), _) => brdf::file::read(f)?,
         (None, Some(sp)) => pool.install(|| scene_driven(&a, sp, &shape, &cfg))?,
@@ -167,11 +165,7 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     } else {
         None
     };
-    let bar = indicatif::ProgressBar::new(a.height as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} rows  eta {eta}")
-            .expect("a valid template"),
-    );
+    let bar = progress_bar(u64::from(a.height), "rows");
     let img = pool.install(|| {
         render::render(&r, &shape, &cfg, albedo.as_deref(), &|n| {
             bar.set_position(n)
@@ -272,11 +266,7 @@ pub(super) fn scene_driven(
         max_rays: a.max_rays,
         ..SimConfig::new(needed.clone(), a.wavelengths.parse()?, a.rays)
     };
-    let bar = indicatif::ProgressBar::new(a.max_rays * needed.len() as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} trees (at most)  eta {eta}")
-            .expect("a valid template"),
-    );
+    let bar = progress_bar(a.max_rays * needed.len() as u64, "trees (at most)");
     let (acc, stats) = goniospec::simulate::simulate(&s, &sim, &|n| bar.set_position(n))?;
     bar.finish_and_clear();
     let gsa = a.output.with_extension("gsa");

@@ -124,20 +124,8 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     } else {
         a.rays
     } * a.theta_i.len() as u64;
-    let bar = indicatif::ProgressBar::new(total);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} trees  {per_sec}  eta {eta}")
-            .expect("a valid template"),
-    );
-    if a.threads > MAX_THREADS {
-        bail!(
-            "--threads {} is more than {MAX_THREADS}; 0 uses every core",
-            a.threads
-        );
-    }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(a.threads)
-        .build()?;
+    let pool = thread_pool(a.threads)?;
+    let bar = progress_bar(total, "trees");
     let (acc, stats) =
         pool.install(|| goniospec::simulate::simulate(&s, &cfg, &|n| bar.set_position(n)))?;
     bar.finish_and_clear();
