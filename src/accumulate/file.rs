@@ -116,6 +116,48 @@ pub struct Header {
 }
 
 impl Header {
+    /// What `goniospec info` prints about a run, one fact per line.
+    pub fn describe(&self) -> String {
+        let st = &self.settings;
+        let mut s = format!("sample: '{}' (hash {})\n", st.sample_name, st.sample_hash);
+        s += &format!(
+            "incident angles (deg): {:?}, phi_i {} deg\n",
+            st.theta_i_deg, st.phi_i_deg
+        );
+        s += &format!(
+            "wavelengths: {} {} ({}..{} nm)\n",
+            st.wavelength_count(),
+            st.wavelength_mode,
+            st.wavelengths_nm.first().unwrap_or(&0.0),
+            st.wavelengths_nm.last().unwrap_or(&0.0)
+        );
+        s += &format!(
+            "estimator: {}, coherence radius {} nm, cutoff {:e}, max depth {}\n",
+            st.coherence, st.coherence_radius_nm, st.cutoff, st.max_depth
+        );
+        s += &format!(
+            "buckets: {} x {} per hemisphere\n",
+            st.theta_o_bins, st.phi_o_bins
+        );
+        s += &format!(
+            "rays per direction: {:?} (seeds {:?}), backend {}, path sharing {}, leaks {}\n",
+            self.rays_per_direction, self.seeds, self.backend, st.path_sharing, self.leaks
+        );
+        s += &format!(
+            "limits: cutoff {:e}, max depth {}, max wraps {}, max segments {}; entry points {}{}\n",
+            st.cutoff,
+            st.max_depth,
+            st.max_wraps,
+            st.max_segments,
+            st.entry_points,
+            match (st.tolerance, st.max_rays) {
+                (Some(t), Some(m)) => format!("; adaptive to {t} relative error, at most {m} rays"),
+                _ => String::new(),
+            }
+        );
+        s
+    }
+
     /// Checks every value a reader relies on (angles, wavelengths, modes, grid sizes, ray
     /// counts); the message names the field.
     pub fn validate(&self) -> Result<(), String> {

@@ -219,3 +219,44 @@ impl Brdf for Representation {
         }
     }
 }
+
+impl Representation {
+    /// What `goniospec info` prints about a BRDF, one fact per line.
+    pub fn describe(&self) -> String {
+        let m = self.meta();
+        let mut s = format!("sample: '{}' (hash {})\n", m.sample_name, m.sample_hash);
+        s += &format!(
+            "wavelengths: {} ({}..{} nm)\n",
+            m.wavelengths_nm.len(),
+            m.wavelengths_nm.first().unwrap_or(&0.0),
+            m.wavelengths_nm.last().unwrap_or(&0.0)
+        );
+        s += &format!(
+            "isotropic {}, reciprocal {}, median relative stderr of the buckets {}\n",
+            m.isotropic,
+            m.reciprocal,
+            m.median_rel_stderr
+                .map_or("unknown".to_string(), |v| format!("{v:.3}"))
+        );
+        s += &match self {
+            Representation::KdTree(k) => {
+                format!("kd-tree: {} points, k = {}\n", k.points.len(), k.k)
+            }
+            Representation::Table(t) => format!(
+                "table: {} incident angles x {} x {}\n",
+                t.theta_i.len(),
+                t.theta_bins,
+                t.phi_bins
+            ),
+            Representation::Subdivided(d) => format!(
+                "subdivided: {} incident angles, {} leaves, tolerance {}\n",
+                d.theta_i.len(),
+                (0..d.theta_i.len())
+                    .map(|i| d.leaves(i).count())
+                    .sum::<usize>(),
+                d.tolerance
+            ),
+        };
+        s
+    }
+}
