@@ -3,14 +3,10 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use common::*;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// Simulates `sample` at 0-60 degrees and fits it through the CLI; returns the JSON.
 fn simulate_and_fit(sample: &Path, rays: &str, dir: &Path) -> serde_json::Value {

@@ -2,24 +2,16 @@
 //! (chi-square), requested height statistics, volume fractions, tile periodicity, published
 //! optical constants, and `check` on every shipped sample.
 
-use std::f64::consts::PI;
-use std::path::{Path, PathBuf};
+mod common;
 
+use std::f64::consts::PI;
+use std::path::Path;
+
+use common::{root, scratch};
 use goniospec::sample::check::{CheckOptions, check, periodicity, watertightness};
 use goniospec::sample::generate::{self, Distribution, enclosed_volume};
 use goniospec::sample::media::{IndexModel, load_table};
 use goniospec::sample::{self, Mesh, MeshOptions};
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn scratch(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("goniospec-lib-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 // ---------------------------------------------------------------- microfacet chi-square
 

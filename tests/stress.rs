@@ -3,16 +3,10 @@
 
 mod common;
 
-use std::path::Path;
-
 use common::*;
 use goniospec::accumulate::PhasePrecision;
 use goniospec::render::{Env, Light, RenderConfig, Shape};
 use goniospec::simulate::Wavelengths;
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// f64 phases are exact wherever the sample sits; f32 phases are too once the sample is a
 /// metre from the world origin (an f32 resolves 64 nm there). Reference: the independent

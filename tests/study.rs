@@ -3,13 +3,7 @@
 
 mod common;
 
-use std::path::Path;
-
 use common::*;
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
 
 #[test]
 fn flat_film_errors_match_an_independent_tmm_within_their_error_bars() {
