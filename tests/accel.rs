@@ -3,8 +3,7 @@
 //! triangle is accepted only when the brute-force list of all hits shows it at the same
 //! distance.
 
-use goniospec::accel::{Accel, Backend, Hit, Intersector, Ray, TriangleSoup, brute};
-use goniospec::bench;
+use goniospec::accel::{Accel, Backend, Hit, Intersector, Ray, TriangleSoup, brute, workload};
 use goniospec::rng::Rng;
 use goniospec::sample::generate;
 
@@ -344,22 +343,22 @@ fn rays_that_miss_everything_report_a_miss() {
 #[cfg(embree)]
 #[test]
 fn embree_and_obvhs_agree_on_a_large_height_field() {
-    let mesh = bench::default_surface(100_000, 42);
+    let mesh = workload::default_surface(100_000, 42);
     let soup = mesh.to_soup();
     assert!(soup.triangles.len() >= 99_000);
-    let rays = bench::random_rays(&mesh, 100_000, 43);
+    let rays = workload::random_rays(&mesh, 100_000, 43);
     let e = Accel::build(Backend::Embree, &soup).unwrap();
     let o = Accel::build(Backend::Obvhs, &soup).unwrap();
     let mut he = vec![Hit::MISS; rays.len()];
     let mut ho = vec![Hit::MISS; rays.len()];
-    bench::trace_all(&e, &rays, &mut he);
-    bench::trace_all(&o, &rays, &mut ho);
+    workload::trace_all(&e, &rays, &mut he);
+    workload::trace_all(&o, &rays, &mut ho);
     let hits = he.iter().filter(|h| h.is_hit()).count();
     assert!(
         hits > 50_000,
         "only {hits} rays hit: the test would be vacuous"
     );
-    let ag = bench::agreement(&he, &ho);
+    let ag = workload::agreement(&he, &ho);
     let frac = ag.identical as f64 / ag.rays as f64;
     if frac < 0.9999 {
         for (i, (a, b)) in he

@@ -15,6 +15,7 @@ pub mod cwbvh;
 pub mod embree;
 #[cfg(embree)]
 pub(crate) mod embree_sys;
+pub mod workload;
 
 use std::fmt;
 use std::str::FromStr;

@@ -193,7 +193,7 @@ pub(super) fn bench_trace(a: TraceArgs) -> Result<ExitCode> {
                 "generating a periodic height field of about {} triangles",
                 a.triangles
             );
-            goniospec::bench::default_surface(a.triangles, a.seed)
+            goniospec::accel::workload::default_surface(a.triangles, a.seed)
         }
     };
     outln!(
