@@ -12,10 +12,10 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use crate::accel::Backend;
+use crate::accumulate::block::{BlockCell, Dense, add_block};
 use crate::accumulate::file::{Accumulator, EntryPoints, Header, Settings, WavelengthMode, fnv1a};
-use crate::accumulate::{Buckets, Cell, Coherence, Estimator, PhasePrecision, Scratch, add_fields};
+use crate::accumulate::{Buckets, Cell, Coherence, Estimator, PhasePrecision, Scratch};
 use crate::optics::C64;
-use crate::optics::fresnel::Field;
 use crate::optics::vec3::{add, from_spherical, scale};
 use crate::rng::Rng;
 use crate::sample::Sample;
@@ -305,121 +305,12 @@ fn entry_point(i: u64, shift: [f64; 2], tile: [f64; 2]) -> [f64; 2] {
     [f(0) * tile[0], f(1) * tile[1]]
 }
 
-/// Sums of one block of trees for one cell, sparse and sorted by key.
-#[derive(Default)]
-struct BlockCell {
-    trees: u64,
-    /// `(key, sum, sum of squares, count)`.
-    entries: Vec<(u32, f64, f64, u64)>,
-    global: Vec<(u32, [Field; 2])>,
-    r: (f64, f64),
-    t: (f64, f64),
-    absorbed: f64,
-    dropped: f64,
-    dropped_limit: f64,
-}
-
-/// Per-thread dense accumulators with touched lists: no allocation and no hashing per
-/// tree.
-struct Dense {
-    nkeys: usize,
-    /// One tree's deposits per key (combined before squaring), and whether touched.
-    tree: Vec<(f64, bool)>,
-    tree_touched: Vec<u32>,
-    /// The block's sums per (wavelength, key).
-    block: Vec<(f64, f64, u64)>,
-    block_touched: Vec<u32>,
-    glob: Vec<([Field; 2], bool)>,
-    glob_touched: Vec<u32>,
-}
-
-impl Dense {
-    fn new(nl: usize, nkeys: usize, global: bool) -> Dense {
-        Dense {
-            nkeys,
-            tree: vec![(0.0, false); nkeys],
-            tree_touched: Vec::new(),
-            block: vec![(0.0, 0.0, 0); nl * nkeys],
-            block_touched: Vec::new(),
-            glob: if global {
-                vec![([[C64::new(0.0, 0.0); 3]; 2], false); nl * nkeys]
-            } else {
-                Vec::new()
-            },
-            glob_touched: Vec::new(),
-        }
-    }
-
-    /// Adds one tree's deposits at wavelength `j`; returns its (R, T) totals.
-    fn add_tree(
-        &mut self,
-        j: usize,
-        deps: &[(u32, f64)],
-        glob: &[(u32, [Field; 2])],
-    ) -> (f64, f64) {
-        for &(k, v) in deps {
-            let e = &mut self.tree[k as usize];
-            if !e.1 {
-                e.1 = true;
-                self.tree_touched.push(k);
-            }
-            e.0 += v;
-        }
-        let (mut r, mut t) = (0.0, 0.0);
-        // Each touched key holds one tree's value; the order of keys does not matter.
-        for &k in &self.tree_touched {
-            let v = std::mem::take(&mut self.tree[k as usize]).0;
-            if k & 1 == 0 {
-                r += v;
-            } else {
-                t += v;
-            }
-            let idx = j * self.nkeys + k as usize;
-            let e = &mut self.block[idx];
-            if e.2 == 0 {
-                self.block_touched.push(idx as u32);
-            }
-            e.0 += v;
-            e.1 += v * v;
-            e.2 += 1;
-        }
-        self.tree_touched.clear();
-        for (k, a) in glob {
-            let idx = j * self.nkeys + *k as usize;
-            let e = &mut self.glob[idx];
-            if !e.1 {
-                e.1 = true;
-                self.glob_touched.push(idx as u32);
-            }
-            add_fields(&mut e.0, a);
-        }
-        (r, t)
-    }
-
-    /// Moves the block's sums into `out` (one `BlockCell` per wavelength), sorted by key,
-    /// and clears the dense arrays.
-    fn drain(&mut self, out: &mut [BlockCell]) {
-        self.block_touched.sort_unstable();
-        for &idx in &self.block_touched {
-            let (j, k) = (idx as usize / self.nkeys, idx as usize % self.nkeys);
-            let e = std::mem::take(&mut self.block[idx as usize]);
-            out[j].entries.push((k as u32, e.0, e.1, e.2));
-        }
-        self.block_touched.clear();
-        self.glob_touched.sort_unstable();
-        for &idx in &self.glob_touched {
-            let (j, k) = (idx as usize / self.nkeys, idx as usize % self.nkeys);
-            let (a, _) = std::mem::replace(
-                &mut self.glob[idx as usize],
-                ([[C64::new(0.0, 0.0); 3]; 2], false),
-            );
-            out[j].global.push((k as u32, a));
-        }
-        self.glob_touched.clear();
-    }
-}
-
 /// Runs the simulation. `progress` receives the number of trees finished so far.
+///
+/// Three stages: [`Run::prepare`] (scene, media, estimator, the header's settings),
+/// [`Run::direction`] for every incident direction (blocks of trees traced in parallel and
+/// reduced in block order), and [`Run::finish`] (statistics, header, and the refusal of
+/// impossible results).
 pub fn simulate(
     sample: &Sample,
     cfg: &SimConfig,
@@ -427,119 +318,193 @@ pub fn simulate(
 ) -> Result<(Accumulator, SimStats), SimError> {
     validate(cfg)?;
     let start_time = Instant::now();
-    let scene = Scene::new(sample, cfg.backend)?;
-    let dispersive = sample.media.iter().any(|m| m.model.is_dispersive());
-    // A coating's coefficients depend on the wavelength even with constant indices.
-    let coated = sample.interfaces.iter().any(|i| !i.coating.is_empty());
-    let sharing = cfg.path_sharing.unwrap_or(!dispersive && !coated);
-    if sharing && dispersive {
-        return Err(SimError::Config(
-            "path sharing needs non-dispersive media: this sample's indices change with wavelength"
-                .into(),
-        ));
-    }
-    if sharing && coated {
-        return Err(SimError::Config(
-            "path sharing needs wavelength-independent interfaces: this sample has coatings, whose coefficients change with wavelength"
-                .into(),
-        ));
-    }
-    // Every wavelength the run evaluates must be inside every medium's range.
-    let lambdas: Vec<f64> = match &cfg.wavelengths {
-        Wavelengths::Bins(e) => e.clone(),
-        Wavelengths::Monochromatic(v) => v.clone(),
-    };
-    for m in &sample.media {
-        for &l in &lambdas {
-            m.model
-                .eval(l)
-                .map_err(|e| SimError::Config(format!("medium '{}': {e}", m.name)))?;
-        }
-    }
-    // Every medium's complex index at `l`, into `out` (reused: no allocation per tree).
-    let indices_into = |l: f64, out: &mut Vec<C64>| {
-        out.clear();
-        out.extend(sample.media.iter().map(|m| {
-            let (n, k) = m.model.eval(l).expect("range checked above");
-            C64::new(n, k)
-        }));
-    };
-    let index_at = |l: f64| -> Vec<C64> {
-        let mut v = Vec::new();
-        indices_into(l, &mut v);
-        v
-    };
-    let nl = cfg.wavelengths.count();
-    let lambda_max = cfg.wavelengths.max();
-    let n_up = index_at(lambda_max)[scene.ambient].re;
-    let n_down = index_at(lambda_max)[scene.substrate].re;
-    let est = Estimator {
-        mode: cfg.coherence,
-        rho_nm: cfg.rho_nm,
-        buckets: cfg.buckets,
-        n_up,
-        n_down,
-        precision: cfg.precision,
-    };
-    if let Some(&l) = lambdas
-        .iter()
-        .find(|&&l| index_at(l)[scene.ambient].im != 0.0)
-    {
-        return Err(SimError::Config(format!(
-            "the medium above the sample ('{}') absorbs at {l} nm: reflectance is defined in a lossless ambient medium",
-            sample.media[scene.ambient].name
-        )));
-    }
-    if dispersive && (index_at(lambdas[0])[scene.ambient] != index_at(lambda_max)[scene.ambient]) {
-        return Err(SimError::Config(
-            "the medium above the sample is dispersive; use a constant index for the ambient medium".into(),
-        ));
-    }
-    let global = cfg.coherence == Coherence::Global;
-    let settings = Settings {
-        sample_name: sample.name.clone(),
-        sample_hash: sample_hash(sample),
-        theta_i_deg: cfg.theta_i_deg.clone(),
-        phi_i_deg: cfg.phi_i_deg,
-        wavelength_mode: match cfg.wavelengths {
-            Wavelengths::Bins(_) => WavelengthMode::Bins,
-            Wavelengths::Monochromatic(_) => WavelengthMode::Monochromatic,
-        },
-        wavelengths_nm: lambdas.clone(),
-        coherence: cfg.coherence,
-        coherence_radius_nm: cfg.rho_nm,
-        cutoff: cfg.limits.cutoff,
-        max_depth: cfg.limits.max_depth,
-        theta_o_bins: cfg.buckets.theta_bins,
-        phi_o_bins: cfg.buckets.phi_bins,
-        phase_precision: cfg.precision,
-        max_wraps: cfg.limits.max_wraps,
-        max_segments: cfg.limits.max_segments,
-        entry_points: if cfg.random_entry {
-            EntryPoints::Uniform
-        } else {
-            EntryPoints::R2
-        },
-        path_sharing: sharing,
-        tolerance: cfg.tolerance,
-        max_rays: cfg.tolerance.map(|_| cfg.max_rays),
-    };
-    let mut cells: Vec<Cell> = (0..cfg.theta_i_deg.len() * nl)
-        .map(|_| Cell::new(&cfg.buckets, global))
+    let run = Run::prepare(sample, cfg)?;
+    let mut cells: Vec<Cell> = (0..cfg.theta_i_deg.len() * run.nl)
+        .map(|_| Cell::new(&cfg.buckets, run.global))
         .collect();
     let mut limit_dropped = vec![0.0; cells.len()];
-    let done = AtomicU64::new(0);
-    let segments = AtomicU64::new(0);
-    let leaks = AtomicU64::new(0);
-    let traces = AtomicU64::new(0);
-    let energy_faults = AtomicU64::new(0);
-    let fixed_indices = index_at(lambda_max);
-    let mut directions = Vec::new();
+    let directions = cfg
+        .theta_i_deg
+        .iter()
+        .enumerate()
+        .map(|(di, &theta_deg)| {
+            run.direction(di, theta_deg, &mut cells, &mut limit_dropped, progress)
+        })
+        .collect();
+    run.finish(cells, limit_dropped, directions, start_time)
+}
 
-    for (di, &theta_deg) in cfg.theta_i_deg.iter().enumerate() {
+/// Counters every worker adds to.
+#[derive(Default)]
+struct Counters {
+    done: AtomicU64,
+    segments: AtomicU64,
+    leaks: AtomicU64,
+    traces: AtomicU64,
+    energy_faults: AtomicU64,
+}
+
+/// One worker's reusable state: the ray stack, the tree, the estimator's scratch and
+/// deposits, the dense block sums, and the media indices at the current wavelength.
+struct Worker {
+    stack: Vec<RayState>,
+    tree: Tree,
+    scratch: Scratch,
+    deps: Vec<(u32, f64)>,
+    glob: Vec<(u32, [crate::optics::fresnel::Field; 2])>,
+    dense: Dense,
+    indices: Vec<C64>,
+}
+
+/// Everything a run shares between its directions and workers.
+struct Run<'a> {
+    sample: &'a Sample,
+    cfg: &'a SimConfig,
+    scene: Scene<'a>,
+    est: Estimator,
+    settings: Settings,
+    /// Geometry traced once for all wavelengths.
+    sharing: bool,
+    global: bool,
+    nl: usize,
+    lambda_max: f64,
+    /// Media indices at the longest wavelength (the shared geometry's).
+    fixed_indices: Vec<C64>,
+    counters: Counters,
+}
+
+impl<'a> Run<'a> {
+    /// Stage 1: the scene, whether paths are shared, the media at every wavelength the
+    /// run evaluates, the estimator and the header's settings.
+    fn prepare(sample: &'a Sample, cfg: &'a SimConfig) -> Result<Run<'a>, SimError> {
+        let scene = Scene::new(sample, cfg.backend)?;
+        let dispersive = sample.media.iter().any(|m| m.model.is_dispersive());
+        // A coating's coefficients depend on the wavelength even with constant indices.
+        let coated = sample.interfaces.iter().any(|i| !i.coating.is_empty());
+        let sharing = cfg.path_sharing.unwrap_or(!dispersive && !coated);
+        if sharing && dispersive {
+            return Err(SimError::Config(
+                "path sharing needs non-dispersive media: this sample's indices change with wavelength"
+                    .into(),
+            ));
+        }
+        if sharing && coated {
+            return Err(SimError::Config(
+                "path sharing needs wavelength-independent interfaces: this sample has coatings, whose coefficients change with wavelength"
+                    .into(),
+            ));
+        }
+        // Every wavelength the run evaluates must be inside every medium's range.
+        let lambdas: Vec<f64> = match &cfg.wavelengths {
+            Wavelengths::Bins(e) => e.clone(),
+            Wavelengths::Monochromatic(v) => v.clone(),
+        };
+        for m in &sample.media {
+            for &l in &lambdas {
+                m.model
+                    .eval(l)
+                    .map_err(|e| SimError::Config(format!("medium '{}': {e}", m.name)))?;
+            }
+        }
+        let index_at = |l: f64| -> Vec<C64> {
+            let mut v = Vec::new();
+            indices_into(sample, l, &mut v);
+            v
+        };
+        let nl = cfg.wavelengths.count();
+        let lambda_max = cfg.wavelengths.max();
+        let est = Estimator {
+            mode: cfg.coherence,
+            rho_nm: cfg.rho_nm,
+            buckets: cfg.buckets,
+            n_up: index_at(lambda_max)[scene.ambient].re,
+            n_down: index_at(lambda_max)[scene.substrate].re,
+            precision: cfg.precision,
+        };
+        if let Some(&l) = lambdas
+            .iter()
+            .find(|&&l| index_at(l)[scene.ambient].im != 0.0)
+        {
+            return Err(SimError::Config(format!(
+                "the medium above the sample ('{}') absorbs at {l} nm: reflectance is defined in a lossless ambient medium",
+                sample.media[scene.ambient].name
+            )));
+        }
+        if dispersive
+            && (index_at(lambdas[0])[scene.ambient] != index_at(lambda_max)[scene.ambient])
+        {
+            return Err(SimError::Config(
+                "the medium above the sample is dispersive; use a constant index for the ambient medium".into(),
+            ));
+        }
+        let settings = Settings {
+            sample_name: sample.name.clone(),
+            sample_hash: sample_hash(sample),
+            theta_i_deg: cfg.theta_i_deg.clone(),
+            phi_i_deg: cfg.phi_i_deg,
+            wavelength_mode: match cfg.wavelengths {
+                Wavelengths::Bins(_) => WavelengthMode::Bins,
+                Wavelengths::Monochromatic(_) => WavelengthMode::Monochromatic,
+            },
+            wavelengths_nm: lambdas,
+            coherence: cfg.coherence,
+            coherence_radius_nm: cfg.rho_nm,
+            cutoff: cfg.limits.cutoff,
+            max_depth: cfg.limits.max_depth,
+            theta_o_bins: cfg.buckets.theta_bins,
+            phi_o_bins: cfg.buckets.phi_bins,
+            phase_precision: cfg.precision,
+            max_wraps: cfg.limits.max_wraps,
+            max_segments: cfg.limits.max_segments,
+            entry_points: if cfg.random_entry {
+                EntryPoints::Uniform
+            } else {
+                EntryPoints::R2
+            },
+            path_sharing: sharing,
+            tolerance: cfg.tolerance,
+            max_rays: cfg.tolerance.map(|_| cfg.max_rays),
+        };
+        Ok(Run {
+            sample,
+            cfg,
+            est,
+            settings,
+            sharing,
+            global: cfg.coherence == Coherence::Global,
+            nl,
+            lambda_max,
+            fixed_indices: index_at(lambda_max),
+            counters: Counters::default(),
+            scene,
+        })
+    }
+
+    fn worker(&self) -> Worker {
+        Worker {
+            stack: Vec::new(),
+            tree: Tree::default(),
+            scratch: Scratch::default(),
+            deps: Vec::new(),
+            glob: Vec::new(),
+            dense: Dense::new(self.nl, 2 * self.cfg.buckets.len(), self.global),
+            indices: Vec::new(),
+        }
+    }
+
+    /// Stage 2: every tree of incident direction `di`, in batches (one for a fixed budget;
+    /// until the tolerance is met for an adaptive one), each batch's blocks traced in
+    /// parallel a chunk at a time and added to the cells in block order.
+    fn direction(
+        &self,
+        di: usize,
+        theta_deg: f64,
+        cells: &mut [Cell],
+        limit_dropped: &mut [f64],
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> DirectionStats {
+        let (cfg, nl) = (self.cfg, self.nl);
         let wi = from_spherical(theta_deg.to_radians(), cfg.phi_i_deg.to_radians());
-        let d = scale(wi, -1.0);
-        let e0 = launch_fields(d);
         let mut shift_rng = Rng::new(cfg.seed, 0x5817_0000 + di as u64);
         let shift = [shift_rng.uniform(), shift_rng.uniform()];
         let adaptive = cfg.tolerance.is_some();
@@ -570,112 +535,13 @@ pub fn simulate(
                 let blocks: Vec<Vec<BlockCell>> = (chunk_lo..chunk_hi)
                     .into_par_iter()
                     .map_init(
-                        || {
-                            (
-                                Vec::<RayState>::new(),
-                                Tree::default(),
-                                Scratch::default(),
-                                Vec::new(),
-                                Vec::new(),
-                                Dense::new(nl, 2 * cfg.buckets.len(), global),
-                                Vec::<C64>::new(),
-                            )
-                        },
-                        |(stack, tree, scratch, deps, glob, dense, indices), b| {
-                            let mut out: Vec<BlockCell> =
-                                (0..nl).map(|_| BlockCell::default()).collect();
+                        || self.worker(),
+                        |w, b| {
                             let lo = start + b * BLOCK;
                             let hi = (lo + BLOCK).min(end);
-                            for i in lo..hi {
-                                let mut rng = Rng::new(cfg.seed, (di as u64) << 40 | i);
-                                let xy = if cfg.random_entry {
-                                    [
-                                        rng.range(0.0, sample.tile_nm[0]),
-                                        rng.range(0.0, sample.tile_nm[1]),
-                                    ]
-                                } else {
-                                    entry_point(i, shift, sample.tile_nm)
-                                };
-                                let origin = [xy[0], xy[1], scene.z_top];
-                                // Stratified jitter: tree i takes stratum i of N in every bin.
-                                let lambda_of = |j: usize, u: f64| match &cfg.wavelengths {
-                                    Wavelengths::Bins(e) => {
-                                        // Adaptive runs do not know N: a golden-ratio sequence
-                                        // (low-discrepancy for every prefix) replaces the strata.
-                                        let frac = if adaptive {
-                                            (i as f64 * 0.618_033_988_749_894_9 + u).fract()
-                                        } else {
-                                            (i as f64 + u) / cfg.rays as f64
-                                        };
-                                        e[j] + (e[j + 1] - e[j]) * frac
-                                    }
-                                    Wavelengths::Monochromatic(v) => v[j],
-                                };
-                                let world_origin = add(origin, cfg.origin_nm);
-                                let traced = |tree: &mut Tree, scratch: &mut Scratch| {
-                                    for x in &mut tree.exits {
-                                        x.x = add(x.x, cfg.origin_nm);
-                                    }
-                                    est.prepare(tree, scratch);
-                                    segments.fetch_add(u64::from(tree.segments), Ordering::Relaxed);
-                                    leaks.fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
-                                    traces.fetch_add(1, Ordering::Relaxed);
-                                };
-                                if sharing {
-                                    scene.trace(
-                                        origin,
-                                        d,
-                                        e0,
-                                        &fixed_indices,
-                                        lambda_max,
-                                        &cfg.limits,
-                                        stack,
-                                        tree,
-                                    );
-                                    traced(tree, scratch);
-                                }
-                                for (j, cell) in out.iter_mut().enumerate() {
-                                    // The tree's jitter in bin j: the j-th draw of its stream
-                                    // (tracing draws nothing from it).
-                                    let lambda = lambda_of(j, rng.uniform());
-                                    if !sharing {
-                                        indices_into(lambda, indices);
-                                        scene.trace(
-                                            origin,
-                                            d,
-                                            e0,
-                                            indices,
-                                            lambda,
-                                            &cfg.limits,
-                                            stack,
-                                            tree,
-                                        );
-                                        traced(tree, scratch);
-                                    }
-                                    deps.clear();
-                                    glob.clear();
-                                    let k = 2.0 * std::f64::consts::PI / lambda;
-                                    let entry_phase = est.entry_phase(k, d, world_origin);
-                                    est.deposit(tree, lambda, entry_phase, scratch, deps, glob);
-                                    let (r, t) = dense.add_tree(j, deps, glob);
-                                    let (dropped, dropped_limit) = tree.dropped(lambda);
-                                    cell.trees += 1;
-                                    cell.r.0 += r;
-                                    cell.r.1 += r * r;
-                                    cell.t.0 += t;
-                                    cell.t.1 += t * t;
-                                    cell.absorbed +=
-                                        absorbed_power(tree, lambda, r, t, dropped, global);
-                                    cell.dropped += dropped;
-                                    cell.dropped_limit += dropped_limit;
-                                    energy_faults.fetch_add(
-                                        u64::from(tree.energy_faults),
-                                        Ordering::Relaxed,
-                                    );
-                                }
-                            }
-                            dense.drain(&mut out);
-                            let n = done.fetch_add(hi - lo, Ordering::Relaxed) + (hi - lo);
+                            let out = self.block(w, di, wi, shift, adaptive, lo..hi);
+                            let n = self.counters.done.fetch_add(hi - lo, Ordering::Relaxed)
+                                + (hi - lo);
                             progress(n);
                             out
                         },
@@ -691,56 +557,192 @@ pub fn simulate(
                 chunk_lo = chunk_hi;
             }
             start = end;
-            let achieved = achieved_error(&cells, di, nl, cfg.coherence);
+            let achieved = achieved_error(cells, di, nl, cfg.coherence);
             let converged = adaptive && achieved.is_some_and(|a| a <= cfg.tolerance.unwrap_or(0.0));
             if !adaptive || converged || start >= target {
-                directions.push(DirectionStats {
+                return DirectionStats {
                     theta_i_deg: theta_deg,
                     rays: start,
                     achieved,
                     converged,
-                });
-                break;
+                };
             }
         }
     }
 
-    let faults = energy_faults.load(Ordering::Relaxed);
-    if faults > 0 {
-        return Err(SimError::Unphysical(format!(
-            "sample '{}': {faults} interface events from a lossless medium did not conserve energy (|r|^2 + T != 1); this is a bug, please report it",
-            sample.name
-        )));
+    /// The trees `trees` of direction `di` (towards the light `wi`): one `BlockCell` per
+    /// wavelength. Tree `i` draws from its own random stream, so blocks are independent.
+    fn block(
+        &self,
+        w: &mut Worker,
+        di: usize,
+        wi: [f64; 3],
+        shift: [f64; 2],
+        adaptive: bool,
+        trees: std::ops::Range<u64>,
+    ) -> Vec<BlockCell> {
+        let (cfg, sample, est, c) = (self.cfg, self.sample, &self.est, &self.counters);
+        let d = scale(wi, -1.0);
+        let e0 = launch_fields(d);
+        let mut out: Vec<BlockCell> = (0..self.nl).map(|_| BlockCell::default()).collect();
+        for i in trees {
+            let mut rng = Rng::new(cfg.seed, (di as u64) << 40 | i);
+            let xy = if cfg.random_entry {
+                [
+                    rng.range(0.0, sample.tile_nm[0]),
+                    rng.range(0.0, sample.tile_nm[1]),
+                ]
+            } else {
+                entry_point(i, shift, sample.tile_nm)
+            };
+            let origin = [xy[0], xy[1], self.scene.z_top];
+            // Stratified jitter: tree i takes stratum i of N in every bin.
+            let lambda_of = |j: usize, u: f64| match &cfg.wavelengths {
+                Wavelengths::Bins(e) => {
+                    // Adaptive runs do not know N: a golden-ratio sequence
+                    // (low-discrepancy for every prefix) replaces the strata.
+                    let frac = if adaptive {
+                        (i as f64 * 0.618_033_988_749_894_9 + u).fract()
+                    } else {
+                        (i as f64 + u) / cfg.rays as f64
+                    };
+                    e[j] + (e[j + 1] - e[j]) * frac
+                }
+                Wavelengths::Monochromatic(v) => v[j],
+            };
+            let world_origin = add(origin, cfg.origin_nm);
+            let traced = |tree: &mut Tree, scratch: &mut Scratch| {
+                for x in &mut tree.exits {
+                    x.x = add(x.x, cfg.origin_nm);
+                }
+                est.prepare(tree, scratch);
+                c.segments
+                    .fetch_add(u64::from(tree.segments), Ordering::Relaxed);
+                c.leaks.fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
+                c.traces.fetch_add(1, Ordering::Relaxed);
+            };
+            if self.sharing {
+                self.scene.trace(
+                    origin,
+                    d,
+                    e0,
+                    &self.fixed_indices,
+                    self.lambda_max,
+                    &cfg.limits,
+                    &mut w.stack,
+                    &mut w.tree,
+                );
+                traced(&mut w.tree, &mut w.scratch);
+            }
+            for (j, cell) in out.iter_mut().enumerate() {
+                // The tree's jitter in bin j: the j-th draw of its stream (tracing draws
+                // nothing from it).
+                let lambda = lambda_of(j, rng.uniform());
+                if !self.sharing {
+                    indices_into(sample, lambda, &mut w.indices);
+                    self.scene.trace(
+                        origin,
+                        d,
+                        e0,
+                        &w.indices,
+                        lambda,
+                        &cfg.limits,
+                        &mut w.stack,
+                        &mut w.tree,
+                    );
+                    traced(&mut w.tree, &mut w.scratch);
+                }
+                w.deps.clear();
+                w.glob.clear();
+                let k = 2.0 * std::f64::consts::PI / lambda;
+                let entry_phase = est.entry_phase(k, d, world_origin);
+                est.deposit(
+                    &w.tree,
+                    lambda,
+                    entry_phase,
+                    &mut w.scratch,
+                    &mut w.deps,
+                    &mut w.glob,
+                );
+                let (r, t) = w.dense.add_tree(j, &w.deps, &w.glob);
+                let (dropped, dropped_limit) = w.tree.dropped(lambda);
+                cell.trees += 1;
+                cell.r.0 += r;
+                cell.r.1 += r * r;
+                cell.t.0 += t;
+                cell.t.1 += t * t;
+                cell.absorbed += absorbed_power(&w.tree, lambda, r, t, dropped, self.global);
+                cell.dropped += dropped;
+                cell.dropped_limit += dropped_limit;
+                c.energy_faults
+                    .fetch_add(u64::from(w.tree.energy_faults), Ordering::Relaxed);
+            }
+        }
+        w.dense.drain(&mut out);
+        out
     }
-    let stats = SimStats {
-        trees: done.load(Ordering::Relaxed),
-        traces: traces.load(Ordering::Relaxed),
-        segments: segments.load(Ordering::Relaxed),
-        leaks: leaks.load(Ordering::Relaxed),
-        seconds: start_time.elapsed().as_secs_f64(),
-        path_sharing: sharing,
-        directions,
-        limit_dropped,
-    };
-    let header = Header {
-        settings,
-        seeds: vec![cfg.seed],
-        // Adaptive runs: the most trees any direction used; each direction's own count too.
-        rays: stats
-            .directions
-            .iter()
-            .map(|d| d.rays)
-            .max()
-            .unwrap_or(cfg.rays),
-        rays_per_direction: stats.directions.iter().map(|d| d.rays).collect(),
-        backend: scene.backend().name().into(),
-        leaks: stats.leaks,
-    };
-    let acc = Accumulator { header, cells };
-    if !cfg.allow_unphysical {
-        check_physical(&acc, &sample.name, Some(&stats.limit_dropped))?;
+
+    /// Stage 3: the run's statistics and header; energy faults and impossible results are
+    /// errors, never output.
+    fn finish(
+        self,
+        cells: Vec<Cell>,
+        limit_dropped: Vec<f64>,
+        directions: Vec<DirectionStats>,
+        start_time: Instant,
+    ) -> Result<(Accumulator, SimStats), SimError> {
+        let (cfg, c) = (self.cfg, &self.counters);
+        let faults = c.energy_faults.load(Ordering::Relaxed);
+        if faults > 0 {
+            return Err(SimError::Unphysical(format!(
+                "sample '{}': {faults} interface events from a lossless medium did not conserve energy (|r|^2 + T != 1); this is a bug, please report it",
+                self.sample.name
+            )));
+        }
+        let stats = SimStats {
+            trees: c.done.load(Ordering::Relaxed),
+            traces: c.traces.load(Ordering::Relaxed),
+            segments: c.segments.load(Ordering::Relaxed),
+            leaks: c.leaks.load(Ordering::Relaxed),
+            seconds: start_time.elapsed().as_secs_f64(),
+            path_sharing: self.sharing,
+            directions,
+            limit_dropped,
+        };
+        let header = Header {
+            settings: self.settings,
+            seeds: vec![cfg.seed],
+            // Adaptive runs: the most trees any direction used; each direction's own
+            // count too.
+            rays: stats
+                .directions
+                .iter()
+                .map(|d| d.rays)
+                .max()
+                .unwrap_or(cfg.rays),
+            rays_per_direction: stats.directions.iter().map(|d| d.rays).collect(),
+            backend: self.scene.backend().name().into(),
+            leaks: stats.leaks,
+        };
+        let acc = Accumulator { header, cells };
+        if !cfg.allow_unphysical {
+            check_physical(&acc, &self.sample.name, Some(&stats.limit_dropped))?;
+        }
+        Ok((acc, stats))
     }
-    Ok((acc, stats))
+}
+
+/// Every medium's complex index at `lambda_nm`, into `out` (reused: no allocation per
+/// tree).
+fn indices_into(sample: &Sample, lambda_nm: f64, out: &mut Vec<C64>) {
+    out.clear();
+    out.extend(sample.media.iter().map(|m| {
+        let (n, k) = m
+            .model
+            .eval(lambda_nm)
+            .expect("range checked in Run::prepare");
+        C64::new(n, k)
+    }));
 }
 
 /// Absorbed power of one tree at one wavelength: what entered absorbing media and did not
@@ -977,21 +979,3 @@ const MAX_BUCKETS: u64 = 1 << 22;
 const MAX_ACCUMULATOR_BYTES: u64 = 8 << 30;
 /// Trees per incident direction.
 const MAX_RAYS: u64 = 1_000_000_000_000;
-
-fn add_block(cell: &mut Cell, b: &BlockCell) {
-    for &(k, sum, sq, n) in &b.entries {
-        cell.sum[k as usize] += sum;
-        cell.sumsq[k as usize] += sq;
-        cell.count[k as usize] += n;
-    }
-    for (k, a) in &b.global {
-        add_fields(&mut cell.global[*k as usize], a);
-    }
-    cell.trees += b.trees;
-    cell.r_sum += b.r.0;
-    cell.r_sumsq += b.r.1;
-    cell.t_sum += b.t.0;
-    cell.t_sumsq += b.t.1;
-    cell.absorbed += b.absorbed;
-    cell.dropped += b.dropped;
-}

@@ -19,6 +19,7 @@
 //! Trees add incoherently, each carrying 1/N of the flux through the tile; the two incident
 //! polarisations are averaged.
 
+pub(crate) mod block;
 pub mod buckets;
 pub mod file;
 

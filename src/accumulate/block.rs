@@ -1,0 +1,140 @@
+//! Per-thread accumulators of the simulation: dense per-key sums with touched lists (no
+//! allocation or hashing per tree), drained into sparse per-block cells that are added
+//! to the run's cells in block order, so sums do not depend on scheduling.
+
+use super::{Cell, add_fields};
+use crate::optics::C64;
+use crate::optics::fresnel::Field;
+
+/// Sums of one block of trees for one cell, sparse and sorted by key.
+#[derive(Default)]
+pub(crate) struct BlockCell {
+    pub(crate) trees: u64,
+    /// `(key, sum, sum of squares, count)`.
+    pub(crate) entries: Vec<(u32, f64, f64, u64)>,
+    pub(crate) global: Vec<(u32, [Field; 2])>,
+    pub(crate) r: (f64, f64),
+    pub(crate) t: (f64, f64),
+    pub(crate) absorbed: f64,
+    pub(crate) dropped: f64,
+    pub(crate) dropped_limit: f64,
+}
+
+/// Per-thread dense accumulators with touched lists: no allocation and no hashing per
+/// tree.
+pub(crate) struct Dense {
+    nkeys: usize,
+    /// One tree's deposits per key (combined before squaring), and whether touched.
+    tree: Vec<(f64, bool)>,
+    tree_touched: Vec<u32>,
+    /// The block's sums per (wavelength, key).
+    block: Vec<(f64, f64, u64)>,
+    block_touched: Vec<u32>,
+    glob: Vec<([Field; 2], bool)>,
+    glob_touched: Vec<u32>,
+}
+
+impl Dense {
+    pub(crate) fn new(nl: usize, nkeys: usize, global: bool) -> Dense {
+        Dense {
+            nkeys,
+            tree: vec![(0.0, false); nkeys],
+            tree_touched: Vec::new(),
+            block: vec![(0.0, 0.0, 0); nl * nkeys],
+            block_touched: Vec::new(),
+            glob: if global {
+                vec![([[C64::new(0.0, 0.0); 3]; 2], false); nl * nkeys]
+            } else {
+                Vec::new()
+            },
+            glob_touched: Vec::new(),
+        }
+    }
+
+    /// Adds one tree's deposits at wavelength `j`; returns its (R, T) totals.
+    pub(crate) fn add_tree(
+        &mut self,
+        j: usize,
+        deps: &[(u32, f64)],
+        glob: &[(u32, [Field; 2])],
+    ) -> (f64, f64) {
+        for &(k, v) in deps {
+            let e = &mut self.tree[k as usize];
+            if !e.1 {
+                e.1 = true;
+                self.tree_touched.push(k);
+            }
+            e.0 += v;
+        }
+        let (mut r, mut t) = (0.0, 0.0);
+        // Each touched key holds one tree's value; the order of keys does not matter.
+        for &k in &self.tree_touched {
+            let v = std::mem::take(&mut self.tree[k as usize]).0;
+            if k & 1 == 0 {
+                r += v;
+            } else {
+                t += v;
+            }
+            let idx = j * self.nkeys + k as usize;
+            let e = &mut self.block[idx];
+            if e.2 == 0 {
+                self.block_touched.push(idx as u32);
+            }
+            e.0 += v;
+            e.1 += v * v;
+            e.2 += 1;
+        }
+        self.tree_touched.clear();
+        for (k, a) in glob {
+            let idx = j * self.nkeys + *k as usize;
+            let e = &mut self.glob[idx];
+            if !e.1 {
+                e.1 = true;
+                self.glob_touched.push(idx as u32);
+            }
+            add_fields(&mut e.0, a);
+        }
+        (r, t)
+    }
+
+    /// Moves the block's sums into `out` (one `BlockCell` per wavelength), sorted by key,
+    /// and clears the dense arrays.
+    pub(crate) fn drain(&mut self, out: &mut [BlockCell]) {
+        self.block_touched.sort_unstable();
+        for &idx in &self.block_touched {
+            let (j, k) = (idx as usize / self.nkeys, idx as usize % self.nkeys);
+            let e = std::mem::take(&mut self.block[idx as usize]);
+            out[j].entries.push((k as u32, e.0, e.1, e.2));
+        }
+        self.block_touched.clear();
+        self.glob_touched.sort_unstable();
+        for &idx in &self.glob_touched {
+            let (j, k) = (idx as usize / self.nkeys, idx as usize % self.nkeys);
+            let (a, _) = std::mem::replace(
+                &mut self.glob[idx as usize],
+                ([[C64::new(0.0, 0.0); 3]; 2], false),
+            );
+            out[j].global.push((k as u32, a));
+        }
+        self.glob_touched.clear();
+    }
+}
+
+/// Adds one block's sums to a cell (blocks are added in block order).
+pub(crate) fn add_block(cell: &mut Cell, b: &BlockCell) {
+    for &(k, sum, sq, n) in &b.entries {
+        cell.sum[k as usize] += sum;
+        cell.sumsq[k as usize] += sq;
+        cell.count[k as usize] += n;
+    }
+    for (k, a) in &b.global {
+        add_fields(&mut cell.global[*k as usize], a);
+    }
+    cell.trees += b.trees;
+    cell.r_sum += b.r.0;
+    cell.r_sumsq += b.r.1;
+    cell.t_sum += b.t.0;
+    cell.t_sumsq += b.t.1;
+    cell.absorbed += b.absorbed;
+    cell.dropped += b.dropped;
+}
