@@ -193,6 +193,25 @@ pub struct DirectionStats {
     pub converged: bool,
 }
 
+impl std::fmt::Display for DirectionStats {
+    /// `theta_i 30 deg: 4096 trees, relative standard error 0.0123 (converged)`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "theta_i {} deg: {} trees, relative standard error {} ({})",
+            self.theta_i_deg,
+            self.rays,
+            self.achieved
+                .map_or("undefined".into(), |v| format!("{v:.4}")),
+            if self.converged {
+                "converged"
+            } else {
+                "budget exhausted"
+            }
+        )
+    }
+}
+
 /// The achieved relative error of incident direction `di` (see [`DirectionStats`]).
 pub fn achieved_error(cells: &[Cell], di: usize, nl: usize, mode: Coherence) -> Option<f64> {
     if mode == Coherence::Global {

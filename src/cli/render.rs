@@ -280,17 +280,7 @@ pub(super) fn scene_driven(
     let worst = stats.directions.iter().map(|d| d.rays).max().unwrap_or(0);
     let converged = stats.directions.iter().filter(|d| d.converged).count();
     for d in &stats.directions {
-        eprintln!(
-            "  theta_i {:>4.1} deg: {:>6} trees, achieved {} ({})",
-            d.theta_i_deg,
-            d.rays,
-            d.achieved.map_or("n/a".to_string(), |e| format!("{e:.4}")),
-            if d.converged {
-                "converged"
-            } else {
-                "budget exhausted"
-            }
-        );
+        eprintln!("  {d}");
     }
     // A full-hemisphere run with one fixed budget must give every grid angle at least what
     // the hardest needed angle took: a lower bound on its cost.

@@ -152,17 +152,7 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     );
     if a.tolerance.is_some() {
         for d in &stats.directions {
-            eprintln!(
-                "theta_i {} deg: {} rays, relative standard error {} ({})",
-                d.theta_i_deg,
-                d.rays,
-                d.achieved.map_or("undefined".into(), |v| format!("{v:.4}")),
-                if d.converged {
-                    "converged"
-                } else {
-                    "budget exhausted"
-                }
-            );
+            eprintln!("{d}");
         }
     }
     let cut = stats.worst_limit_dropped(&acc);

@@ -4,6 +4,7 @@ use std::io::Write;
 use std::path::Path;
 
 use crate::accel::TriangleSoup;
+use crate::optics::vec3;
 
 /// An indexed triangle mesh. Positions in nanometres in the sample frame (z up); the
 /// front of a triangle is the side `(v1 - v0) x (v2 - v0)` points to.
@@ -112,13 +113,6 @@ fn degenerate([a, b, c]: [[f64; 3]; 3]) -> bool {
         (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)
     };
     let max_edge2 = d2(a, b).max(d2(b, c)).max(d2(c, a));
-    let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    let n = [
-        e1[1] * e2[2] - e1[2] * e2[1],
-        e1[2] * e2[0] - e1[0] * e2[2],
-        e1[0] * e2[1] - e1[1] * e2[0],
-    ];
-    let cross = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    let cross = vec3::norm(vec3::cross(vec3::sub(b, a), vec3::sub(c, a)));
     max_edge2 == 0.0 || cross <= 1e-12 * max_edge2
 }

@@ -15,6 +15,7 @@ use std::path::Path;
 
 use super::mesh::Mesh;
 use super::{SampleError, SampleErrorKind};
+use crate::optics::vec3;
 
 /// Options for loading a mesh.
 #[derive(Clone, Copy, Debug, Default)]
@@ -261,15 +262,9 @@ fn concave_corner(p: &[[f64; 3]]) -> Option<usize> {
         .max(f64::MIN_POSITIVE);
     (0..k).find(|&i| {
         let (a, b, c) = (p[(i + k - 1) % k], p[i], p[(i + 1) % k]);
-        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let e2 = [c[0] - b[0], c[1] - b[1], c[2] - b[2]];
-        let x = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
+        let turn = vec3::cross(vec3::sub(b, a), vec3::sub(c, b));
         // Relative tolerance: rounding of coordinates of size `scale`.
-        x[0] * n[0] + x[1] * n[1] + x[2] * n[2] < -1e-12 * scale.powi(4)
+        vec3::dot(turn, n) < -1e-12 * scale.powi(4)
     })
 }
 
