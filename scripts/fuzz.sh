@@ -31,7 +31,8 @@ fi
 target_dir=${CARGO_TARGET_DIR:-$PWD/fuzz/target}/afl
 (cd fuzz && cargo afl build --release --target-dir "$target_dir")
 bin=$target_dir/release/goniospec-fuzz
-export AFL_SKIP_CPUFREQ=1 AFL_I_DONT_CARE_ABOUT_MISSING_CRASHES=1 AFL_NO_UI=1
+# No CPU pinning: CI containers and busy machines may have no free core to bind.
+export AFL_SKIP_CPUFREQ=1 AFL_I_DONT_CARE_ABOUT_MISSING_CRASHES=1 AFL_NO_UI=1 AFL_NO_AFFINITY=1
 mkdir -p "$out"
 summary=$out/SUMMARY.txt
 : > "$summary"
