@@ -123,6 +123,20 @@ fn bad_study_files_are_refused_with_clear_errors() {
             "s.toml",
             "A < B",
         ),
+        // Found by fuzzing (fuzz/regressions/study): a bin count near 2^64 overflowed an
+        // allocation; a tiling of 10^16 per side would copy the sample that often.
+        (
+            base.replace("400:700:100", "400:777777777777777700:50") + "[sweep]\nrays = [10]\n",
+            "s.toml",
+            "more than 10000 wavelengths",
+        ),
+        (
+            format!(
+                "{base}[sweep]\nrays = [10]\n[area]\ntiles = [1, [5555555555555555, 2]]\nrays = 100\n"
+            ),
+            "s.toml",
+            "from 1 to 64 per side",
+        ),
     ];
     for (text, loc, msg) in cases {
         std::fs::write(d.join("s.toml"), &text).unwrap();

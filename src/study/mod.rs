@@ -255,6 +255,10 @@ pub struct Point {
     pub unphysical: Option<String>,
 }
 
+/// Most repetitions of the sample per side in an area sweep (each tiling copies the
+/// sample's meshes k_x k_y times).
+const MAX_TILES_PER_SIDE: usize = 64;
+
 /// Reads and validates a study file; errors name the file and line.
 pub fn load(path: &Path) -> Result<Study, String> {
     let text = crate::io::read_text(path)
@@ -388,18 +392,22 @@ pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
             "unknown representation '{r}' (kdtree, subdivided or table)"
         ));
     }
+    // The same A:B:STEP rules and limits as `--wavelengths` (finite, at most
+    // MAX_WAVELENGTHS bins).
     let w = &raw.study.wavelengths;
-    let parts: Vec<f64> = w
-        .split(':')
-        .map(|x| x.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("{}: wavelengths '{w}' must be A:B:STEP", path.display()))?;
-    if parts.len() != 3 || parts[2] <= 0.0 || parts[1] <= parts[0] {
-        return bad(format!(
-            "wavelengths '{w}' must be A:B:STEP with A < B and STEP > 0"
-        ));
+    if !w.contains(':') {
+        return bad(format!("wavelengths '{w}' must be A:B:STEP"));
     }
-    let n = ((parts[1] - parts[0]) / parts[2]).round() as usize;
+    let edges = match Wavelengths::parse(w, false) {
+        Ok(Wavelengths::Bins(e)) => e,
+        Ok(Wavelengths::Monochromatic(_)) => unreachable!("bins requested"),
+        Err(e) => {
+            return bad(format!(
+                "[study] {}",
+                e.replace("--wavelengths", "wavelengths")
+            ));
+        }
+    };
     let random_entry = match raw.study.sampling.as_str() {
         "r2" => false,
         "random" => true,
@@ -445,7 +453,7 @@ pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
             .unwrap_or(Path::new(""))
             .join(&raw.study.sample),
         theta_i: raw.study.theta_i,
-        edges: (0..=n).map(|i| parts[0] + i as f64 * parts[2]).collect(),
+        edges,
         reference_rays: raw.study.reference_rays,
         seed: raw.study.seed,
         random_entry,
@@ -457,8 +465,15 @@ pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
         variants,
         representation: sw.representation.clone(),
         area: match raw.area {
-            Some(a) if a.tiles.is_empty() || a.tiles.iter().any(|t| t.counts().contains(&0)) => {
-                return bad("[area] tiles must be a non-empty list of positive counts".into());
+            Some(a)
+                if a.tiles.is_empty()
+                    || a.tiles
+                        .iter()
+                        .any(|t| t.counts().iter().any(|&k| k == 0 || k > MAX_TILES_PER_SIDE)) =>
+            {
+                return bad(format!(
+                    "[area] tiles must be a non-empty list of counts from 1 to {MAX_TILES_PER_SIDE} per side"
+                ));
             }
             Some(a) if a.coherence.iter().any(|c| Coherence::parse(c).is_none()) => {
                 return bad("[area] coherence must name beamlet, bucket or global".into());
