@@ -22,12 +22,16 @@ if ! command -v cargo-afl >/dev/null 2>&1; then
   cargo install cargo-afl --locked --version 0.18.2
 fi
 # AFL++ itself, built once per Rust version into ~/.local/share/afl.rs.
-if ! cargo afl config --build > "${TMPDIR:-/tmp}/cargo-afl-config.log" 2>&1; then
-  grep -q "already built" "${TMPDIR:-/tmp}/cargo-afl-config.log" || {
-    cat "${TMPDIR:-/tmp}/cargo-afl-config.log"
+config_log=$(mktemp)
+if ! cargo afl config --build > "$config_log" 2>&1; then
+  grep -q "already built" "$config_log" || {
+    echo "cargo afl config --build failed:"
+    cat "$config_log"
+    rm -f "$config_log"
     exit 1
   }
 fi
+rm -f "$config_log"
 target_dir=${CARGO_TARGET_DIR:-$PWD/fuzz/target}/afl
 (cd fuzz && cargo afl build --release --target-dir "$target_dir")
 bin=$target_dir/release/goniospec-fuzz
