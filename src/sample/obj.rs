@@ -142,6 +142,15 @@ pub fn parse_obj(
                         )),
                     ));
                 }
+                if let Some(c) = p.iter().find(|c| c.abs() > super::MAX_LENGTH_NM) {
+                    return Err(err(
+                        line,
+                        format!(
+                            "coordinate {c:e} nm is beyond the {:e} nm (10 cm) limit of f32 geometry and f64 phase",
+                            super::MAX_LENGTH_NM
+                        ),
+                    ));
+                }
                 positions.push(p);
                 renumber.push(u32::MAX);
             }
