@@ -372,22 +372,26 @@ fn check_model(model: &IndexModel) -> Result<(), MediumDefError> {
 
 /// Loads a `data/*.toml` model file (one medium definition without a name).
 pub fn load_model_file(path: &Path) -> Result<IndexModel, MediumDefError> {
-    let at = |line: Option<usize>, message: String| MediumDefError {
+    parse_model_file(path, &read_medium_file(path)?)
+}
+
+/// The text of a medium file, or an error naming it.
+fn read_medium_file(path: &Path) -> Result<String, MediumDefError> {
+    crate::io::read_text(path).map_err(|e| in_file(path, None, format!("cannot read file: {e}")))
+}
+
+/// An error located in `path` (at `line`, where known).
+fn in_file(path: &Path, line: Option<usize>, message: String) -> MediumDefError {
+    MediumDefError {
         message,
         file: Some((path.to_path_buf(), line)),
-    };
-    let text =
-        crate::io::read_text(path).map_err(|e| at(None, format!("cannot read file: {e}")))?;
-    parse_model_file(path, &text)
+    }
 }
 
 /// Parses the text of a `data/*.toml` model file read from `path` (named in errors; files
 /// it refers to are resolved beside it).
 pub fn parse_model_file(path: &Path, text: &str) -> Result<IndexModel, MediumDefError> {
-    let at = |line: Option<usize>, message: String| MediumDefError {
-        message,
-        file: Some((path.to_path_buf(), line)),
-    };
+    let at = |line: Option<usize>, message: String| in_file(path, line, message);
     let raw: RawMedium = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| super::line_of(text, s.start));
         at(line, e.message().trim().to_string())
@@ -403,21 +407,12 @@ pub fn parse_model_file(path: &Path, text: &str) -> Result<IndexModel, MediumDef
 /// line is the header. Rows must be strictly increasing in wavelength with `n > 0` and
 /// `k >= 0`; at least two rows.
 pub fn load_table(path: &Path) -> Result<IndexModel, MediumDefError> {
-    let err = |line: Option<usize>, message: String| MediumDefError {
-        message,
-        file: Some((path.to_path_buf(), line)),
-    };
-    let text =
-        crate::io::read_text(path).map_err(|e| err(None, format!("cannot read file: {e}")))?;
-    parse_table(path, &text)
+    parse_table(path, &read_medium_file(path)?)
 }
 
 /// Parses the text of a `lambda_nm,n,k` table read from `path` (named in errors).
 pub fn parse_table(path: &Path, text: &str) -> Result<IndexModel, MediumDefError> {
-    let err = |line: Option<usize>, message: String| MediumDefError {
-        message,
-        file: Some((path.to_path_buf(), line)),
-    };
+    let err = |line: Option<usize>, message: String| in_file(path, line, message);
     let mut header: Option<[usize; 3]> = None;
     let (mut l, mut n, mut k) = (Vec::new(), Vec::new(), Vec::new());
     for (line, raw) in super::obj::numbered_lines(text) {
