@@ -666,6 +666,18 @@ fn bad_numbers_outputs_and_stdout_are_refused_cleanly() {
     let (code, _, err) = goniospec(&["build", &p(&out), "-o", &p(&out)]);
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("is the input"), "{err}");
+    // A kd-tree the reader would refuse (k above 1024) and a negative split tolerance
+    // are usage errors, and nothing is written.
+    let k_out = d.join("k.gsb");
+    for args in [["--k", "5000"], ["--tolerance=-1", "--repr=subdivided"]] {
+        let (code, _, err) = goniospec(&["build", &p(&out), args[0], args[1], "-o", &p(&k_out)]);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(
+            err.contains(args[0].split('=').next().unwrap()),
+            "{args:?}: {err}"
+        );
+        assert!(!k_out.exists(), "{args:?}: an output appeared");
+    }
     let (code, _, err) = goniospec(&[
         "eval",
         &p(&out),

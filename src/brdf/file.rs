@@ -11,7 +11,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::kdtree::KdTreeBrdf;
+use super::kdtree::{KdTreeBrdf, MAX_K};
 use super::subdivided::{Cell, SubdividedBrdf};
 use super::table::TableBrdf;
 use super::{Meta, Representation};
@@ -254,9 +254,9 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
                 return Err("values do not match the points".into());
             }
             let k = pr.k.ok_or("missing k")?;
-            if !(1..=1024).contains(&k) || points.is_empty() {
+            if !(1..=MAX_K as u64).contains(&k) || points.is_empty() {
                 return Err(format!(
-                    "k = {k} neighbours (1 to 1024) over {} points",
+                    "k = {k} neighbours (1 to {MAX_K}) over {} points",
                     points.len()
                 ));
             }

@@ -306,6 +306,9 @@ impl KdTree {
     }
 }
 
+/// Most neighbours a kd-tree BRDF blends per query (`build --k`; checked on reading).
+pub const MAX_K: usize = 1024;
+
 /// The kd-tree BRDF: the tree plus a spectrum per point.
 pub struct KdTreeBrdf {
     pub tree: KdTree,

@@ -24,11 +24,11 @@ pub(super) struct BuildArgs {
     /// Overwrite an existing output that is not a goniospec BRDF.
     #[arg(long)]
     force: bool,
-    /// kd-tree: neighbours blended per query.
-    #[arg(long, default_value_t = 4)]
-    k: usize,
-    /// Subdivided: relative RMS deviation above which a cell splits.
-    #[arg(long, value_parser = finite, default_value_t = 0.05)]
+    /// kd-tree: neighbours blended per query (1 to 1024).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u16).range(1..=goniospec::brdf::kdtree::MAX_K as i64))]
+    k: u16,
+    /// Subdivided: relative RMS deviation above which a cell splits (positive).
+    #[arg(long, value_parser = positive, default_value_t = 0.05)]
     tolerance: f64,
     /// kd-tree: keep absolute azimuths instead of reducing to phi_o - phi_i.
     #[arg(long)]
@@ -45,17 +45,12 @@ pub(super) fn build(a: BuildArgs) -> Result<ExitCode> {
     let data = BucketData::from_accumulator(&acc);
     let t0 = std::time::Instant::now();
     let r = match a.repr.as_str() {
-        "kdtree" => {
-            if a.k == 0 {
-                bail!("--k must be at least 1");
-            }
-            Representation::KdTree(brdf::kdtree::KdTreeBrdf::build(
-                &data,
-                a.k,
-                !a.anisotropic,
-                a.reciprocal,
-            ))
-        }
+        "kdtree" => Representation::KdTree(brdf::kdtree::KdTreeBrdf::build(
+            &data,
+            usize::from(a.k),
+            !a.anisotropic,
+            a.reciprocal,
+        )),
         "subdivided" => {
             if !(a.tolerance > 0.0 && a.tolerance.is_finite()) {
                 bail!("--tolerance must be positive");

@@ -167,6 +167,16 @@ fn finite(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A finite, strictly positive number (for tolerances and scales).
+fn positive(s: &str) -> Result<f64, String> {
+    let v = finite(s)?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("{v} must be positive"))
+    }
+}
+
 fn parse_backend(s: &str) -> Result<Backend, String> {
     s.parse::<Backend>().map_err(|e| e.to_string())
 }
