@@ -5,6 +5,8 @@
 
 use std::time::Instant;
 
+use glam::DVec3;
+
 use crate::accel::workload::{Agreement, CHUNK, agreement, coherent_order, random_rays, trace_all};
 use crate::accel::{Accel, AccelError, Backend, Hit, Ray, TriangleSoup};
 use crate::rng::Rng;
@@ -266,8 +268,8 @@ pub fn simulate_bench(
 /// A smooth analytic BRDF for `bench eval` (1/sr): a Lambertian base plus a broad
 /// Blinn-Phong lobe (Blinn 1977, normalised as in Akenine-Moeller et al., Real-Time
 /// Rendering, 4th ed., eq. 9.47 without Fresnel), with a mild wavelength tilt.
-pub fn analytic_brdf(wi: [f64; 3], wo: [f64; 3], lambda_nm: f64) -> f64 {
-    let h = crate::optics::vec3::normalize([wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]]);
+pub fn analytic_brdf(wi: DVec3, wo: DVec3, lambda_nm: f64) -> f64 {
+    let h = (wi + wo).normalize();
     let n = 20.0;
     let spec = (n + 8.0) / (8.0 * std::f64::consts::PI) * h[2].max(0.0).powf(n);
     let tilt = 1.0 + 0.3 * (lambda_nm - 550.0) / 200.0;
@@ -331,7 +333,7 @@ pub fn analytic_buckets(ni: usize, tb: u32, pb: u32, lambdas: &[f64]) -> crate::
 }
 
 /// Median and 99th percentile of query times (ns) of `eval` over `queries`.
-fn query_times(b: &dyn crate::brdf::Brdf, queries: &[([f64; 3], [f64; 3])]) -> (f64, f64) {
+fn query_times(b: &dyn crate::brdf::Brdf, queries: &[(DVec3, DVec3)]) -> (f64, f64) {
     let mut out = vec![0.0; b.meta().wavelengths_nm.len()];
     let mut t: Vec<f64> = queries
         .iter()
@@ -357,7 +359,7 @@ pub fn eval_bench(
     use crate::brdf::{Brdf, dir};
     let lambdas = [450.0, 550.0, 650.0];
     let mut rng = Rng::new(3, 3);
-    let queries: Vec<([f64; 3], [f64; 3])> = (0..20_000)
+    let queries: Vec<(DVec3, DVec3)> = (0..20_000)
         .map(|_| {
             (
                 dir(
@@ -416,7 +418,7 @@ pub fn eval_bench(
         // Brute-force nearest search over the same points, for the kd-tree's speed-up.
         let kd = KdTreeBrdf::build(&data, 4, true, false);
         // Queries in the tree's isotropic frame (phi_i = 0), as eval makes them.
-        let rotated: Vec<([f64; 3], [f64; 3])> = queries
+        let rotated: Vec<(DVec3, DVec3)> = queries
             .iter()
             .map(|&(wi, wo)| {
                 let (ti, pi) = crate::brdf::angles(wi);

@@ -32,10 +32,11 @@
 use std::path::Path;
 
 use crate::accumulate::file::Accumulator;
+use crate::brdf::dir as from_spherical;
 use crate::optics::C64;
 use crate::optics::tmm::{self, StackIndices};
-use crate::optics::vec3::{dot, from_spherical};
 use crate::render::colour;
+use glam::DVec3;
 
 /// The simulated data a fit uses.
 pub struct Data {
@@ -131,7 +132,7 @@ fn ggx_lambda(alpha: f64, cos: f64) -> f64 {
 fn lobe_model(data: &Data, alpha: f64, theta_i: f64) -> Vec<f64> {
     const K: usize = 128;
     let wi = from_spherical(theta_i, data.phi_i_rad);
-    let ci = wi[2];
+    let ci = wi.z;
     let mut out = vec![0.0; data.buckets.len()];
     for a in 0..K {
         let u1 = (a as f64 + 0.5) / K as f64;
@@ -140,20 +141,16 @@ fn lobe_model(data: &Data, alpha: f64, theta_i: f64) -> Vec<f64> {
         let sh = (1.0 - ch * ch).max(0.0).sqrt();
         for c in 0..K {
             let phi = std::f64::consts::TAU * (c as f64 + 0.5) / K as f64;
-            let h = [sh * phi.cos(), sh * phi.sin(), ch];
-            let ih = dot(wi, h);
+            let h = DVec3::new(sh * phi.cos(), sh * phi.sin(), ch);
+            let ih = wi.dot(h);
             if ih <= 0.0 {
                 continue;
             }
-            let wo = [
-                2.0 * ih * h[0] - wi[0],
-                2.0 * ih * h[1] - wi[1],
-                2.0 * ih * h[2] - wi[2],
-            ];
-            if wo[2] <= 0.0 {
+            let wo = h * (2.0 * ih) - wi;
+            if wo.z <= 0.0 {
                 continue;
             }
-            let g2 = 1.0 / (1.0 + ggx_lambda(alpha, ci) + ggx_lambda(alpha, wo[2]));
+            let g2 = 1.0 / (1.0 + ggx_lambda(alpha, ci) + ggx_lambda(alpha, wo.z));
             out[data.buckets.index(wo)] += g2 * ih / (ci * ch) / (K * K) as f64;
         }
     }

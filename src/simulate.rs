@@ -15,11 +15,12 @@ use crate::accel::Backend;
 use crate::accumulate::block::{BlockCell, Dense, add_block};
 use crate::accumulate::file::{Accumulator, EntryPoints, Header, Settings, WavelengthMode, fnv1a};
 use crate::accumulate::{Buckets, Cell, Coherence, Estimator, PhasePrecision, Scratch};
+use crate::brdf::dir as from_spherical;
 use crate::optics::C64;
-use crate::optics::vec3::{add, from_spherical, scale};
 use crate::rng::Rng;
 use crate::sample::Sample;
 use crate::trace::{RayState, Scene, SceneError, TraceLimits, Tree, launch_fields};
+use glam::DVec3;
 
 /// Trees per block: the unit of parallel work and of deterministic summation.
 const BLOCK: u64 = 64;
@@ -133,7 +134,7 @@ pub struct SimConfig {
     pub path_sharing: Option<bool>,
     /// Where the sample's frame sits in the world, nm: exit points and launch points are
     /// reported in world coordinates. The estimator must not depend on it (DESIGN.md §3).
-    pub origin_nm: [f64; 3],
+    pub origin_nm: DVec3,
     /// Adaptive budget: launch batches of `rays` trees per incident direction until the
     /// relative standard error of the reflectance (total, and every populated bucket) is
     /// at most this, or `max_rays` is spent. `None`: exactly `rays` trees.
@@ -170,7 +171,7 @@ impl SimConfig {
                 phi_bins: 36,
             },
             path_sharing: None,
-            origin_nm: [0.0; 3],
+            origin_nm: DVec3::ZERO,
             tolerance: None,
             max_rays: 0,
             random_entry: false,
@@ -302,7 +303,7 @@ pub fn sample_hash(sample: &Sample) -> String {
             bytes.extend_from_slice(&d.to_le_bytes());
         }
         for p in &i.mesh.positions_nm {
-            for c in p {
+            for c in p.to_array() {
                 bytes.extend_from_slice(&c.to_le_bytes());
             }
         }
@@ -595,13 +596,13 @@ impl<'a> Run<'a> {
         &self,
         w: &mut Worker,
         di: usize,
-        wi: [f64; 3],
+        wi: DVec3,
         shift: [f64; 2],
         adaptive: bool,
         trees: std::ops::Range<u64>,
     ) -> Vec<BlockCell> {
         let (cfg, sample, est, c) = (self.cfg, self.sample, &self.est, &self.counters);
-        let d = scale(wi, -1.0);
+        let d = -wi;
         let e0 = launch_fields(d);
         let mut out: Vec<BlockCell> = (0..self.nl).map(|_| BlockCell::default()).collect();
         for i in trees {
@@ -614,7 +615,7 @@ impl<'a> Run<'a> {
             } else {
                 entry_point(i, shift, sample.tile_nm)
             };
-            let origin = [xy[0], xy[1], self.scene.z_top];
+            let origin = DVec3::new(xy[0], xy[1], self.scene.z_top);
             // Stratified jitter: tree i takes stratum i of N in every bin.
             let lambda_of = |j: usize, u: f64| match &cfg.wavelengths {
                 Wavelengths::Bins(e) => {
@@ -629,10 +630,10 @@ impl<'a> Run<'a> {
                 }
                 Wavelengths::Monochromatic(v) => v[j],
             };
-            let world_origin = add(origin, cfg.origin_nm);
+            let world_origin = origin + cfg.origin_nm;
             let traced = |tree: &mut Tree, scratch: &mut Scratch| {
                 for x in &mut tree.exits {
-                    x.x = add(x.x, cfg.origin_nm);
+                    x.x += cfg.origin_nm;
                 }
                 est.prepare(tree, scratch);
                 c.segments

@@ -72,36 +72,30 @@ fn edge_rays(soup: &TriangleSoup, n: usize, seed: u64) -> Vec<Ray> {
 /// Barycentric distance of the ray's crossing with `prim`'s plane from the triangle
 /// (0 inside, > 0 outside), and the crossing's t, in f64.
 fn crossing(soup: &TriangleSoup, ray: &Ray, prim: u32) -> (f64, f64) {
-    let c = soup.corners(prim as usize).map(|v| v.map(f64::from));
-    let o = ray.origin.map(f64::from);
-    let d = ray.dir.map(f64::from);
-    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let cross = |a: [f64; 3], b: [f64; 3]| {
-        [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ]
-    };
-    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-    let e1 = sub(c[1], c[0]);
-    let e2 = sub(c[2], c[0]);
-    let p = cross(d, e2);
-    let det = dot(e1, p);
-    let s = sub(o, c[0]);
-    let u = dot(s, p) / det;
-    let q = cross(s, e1);
-    let v = dot(d, q) / det;
-    let t = dot(e2, q) / det;
+    let c = soup
+        .corners(prim as usize)
+        .map(|v| glam::DVec3::from(v.map(f64::from)));
+    let o = glam::DVec3::from(ray.origin.map(f64::from));
+    let d = glam::DVec3::from(ray.dir.map(f64::from));
+    let (e1, e2) = (c[1] - c[0], c[2] - c[0]);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    let s = o - c[0];
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    let t = e2.dot(q) / det;
     let outside = (-u).max(-v).max(u + v - 1.0).max(0.0);
     (outside, t)
 }
 
 /// The smallest barycentric coordinate of the ray's crossing with `prim`'s plane.
 fn min_barycentric(soup: &TriangleSoup, ray: &Ray, prim: u32) -> f64 {
-    let c = soup.corners(prim as usize).map(|v| v.map(f64::from));
-    let o = ray.origin.map(f64::from);
-    let d = ray.dir.map(f64::from);
+    let c = soup
+        .corners(prim as usize)
+        .map(|v| glam::DVec3::from(v.map(f64::from)));
+    let o = glam::DVec3::from(ray.origin.map(f64::from));
+    let d = glam::DVec3::from(ray.dir.map(f64::from));
     match brute::intersect_triangle_f64(o, d, c) {
         Some((_, u, v)) => u.min(v).min(1.0 - u - v),
         None => f64::NEG_INFINITY,

@@ -52,7 +52,7 @@ fn kdtree_nearest_neighbours_equal_brute_force() {
     }
     let tree = KdTree::build(&pts);
     tree.validate().unwrap();
-    let queries: Vec<([f64; 3], [f64; 3])> = (0..10_000)
+    let queries: Vec<(glam::DVec3, glam::DVec3)> = (0..10_000)
         .map(|_| {
             let (a, b) = special_angles(&mut r);
             let (c, d) = special_angles(&mut r);
@@ -129,7 +129,7 @@ fn subdivided_hemisphere_conserves_flux() {
 }
 
 /// `integral f_r cos(theta_o) dw_o` over the outgoing hemisphere, midpoint rule.
-fn hemispherical(b: &dyn Brdf, wi: [f64; 3], nl: usize) -> Vec<f64> {
+fn hemispherical(b: &dyn Brdf, wi: glam::DVec3, nl: usize) -> Vec<f64> {
     let (nt, np) = (180, 144);
     let mut acc = vec![0.0; nl];
     let mut v = vec![0.0; nl];

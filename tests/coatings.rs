@@ -288,10 +288,10 @@ fn each_polarisation_of_a_coated_interface_matches_the_tmm() {
     for theta in [0.0f64, 30.0, 60.0, 75.0] {
         for lambda in [450.0, 600.0] {
             let t = theta.to_radians();
-            let d = [-t.sin(), 0.0, -t.cos()];
+            let d = glam::DVec3::new(-t.sin(), 0.0, -t.cos());
             let mut tree = Tree::default();
             scene.trace(
-                [5000.0, 5000.0, scene.z_top],
+                glam::DVec3::new(5000.0, 5000.0, scene.z_top),
                 d,
                 launch_fields(d),
                 &indices,

@@ -115,7 +115,7 @@ fn translation_and_bucket_grid_leave_total_r_unchanged_but_not_for_bucket_mode()
     let r_of = |mode: Coherence, origin: [f64; 3], theta_bins: u32| {
         let mut cfg = config(&[30.0], mono550(), 2000);
         cfg.coherence = mode;
-        cfg.origin_nm = origin;
+        cfg.origin_nm = origin.into();
         cfg.buckets = Buckets {
             theta_bins,
             phi_bins: 36,
@@ -274,8 +274,7 @@ fn brdf_of_a_rough_dielectric_is_reciprocal() {
     let b = cfg.buckets;
     // f_r(wi = 25 deg, wo = 35 deg at phi 180..210) against f_r(wi = 35, wo = 25 deg, same).
     let bucket = |theta_deg: f64| {
-        let w =
-            goniospec::optics::vec3::from_spherical(theta_deg.to_radians(), 195f64.to_radians());
+        let w = goniospec::brdf::dir(theta_deg.to_radians(), 195f64.to_radians());
         b.index(w)
     };
     let f = |i: usize, theta_o: f64| {

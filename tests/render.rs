@@ -22,7 +22,7 @@ struct Lambert {
 }
 
 impl Brdf for Lambert {
-    fn eval(&self, wi: [f64; 3], wo: [f64; 3], out: &mut [f64]) {
+    fn eval(&self, wi: glam::DVec3, wo: glam::DVec3, out: &mut [f64]) {
         let v = if wi[2] > 0.0 && wo[2] > 0.0 {
             self.albedo / std::f64::consts::PI
         } else {
@@ -60,7 +60,7 @@ fn cfg(env: Env) -> RenderConfig {
         light_strength: 1.0,
         env,
         env_strength: 1.0,
-        camera: [0.0, -4.2, 1.6],
+        camera: glam::DVec3::new(0.0, -4.2, 1.6),
         fov_deg: 30.0,
         seed: 1,
     }
@@ -192,7 +192,7 @@ fn ciede2000_matches_published_test_data() {
 fn images_do_not_depend_on_the_thread_count() {
     let b = lambert(0.7);
     let mut c = cfg(Env::Sky);
-    c.light = Light::Directional([0.3, -0.5, 0.81]);
+    c.light = Light::Directional(glam::DVec3::new(0.3, -0.5, 0.81));
     let img = |t: usize| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(t)

@@ -589,7 +589,10 @@ fn a_stack_generates_its_planar_interfaces() {
     assert_eq!((name(bottom.front), name(bottom.back)), ("mgf2", "glass"));
     assert!(bottom.mesh.positions_nm.iter().all(|p| p[2] == 0.0));
     assert_eq!(top.mesh.triangles.len(), 2);
-    assert_eq!(top.mesh.bounds().unwrap().1, [20_000.0, 20_000.0, 99.6]);
+    assert_eq!(
+        top.mesh.bounds().unwrap().1,
+        glam::DVec3::new(20_000.0, 20_000.0, 99.6)
+    );
 }
 
 #[test]
@@ -708,10 +711,10 @@ fn check_finds_defects() {
     let tile = [1000.0, 1000.0];
     let top = generate::flat(tile, 500.0);
     let bottom = generate::flat(tile, 0.0);
-    let sphere = |c: [f64; 3], r: f64| {
+    let sphere = |c: glam::DVec3, r: f64| {
         let mut m = generate::icosphere(2);
         for p in &mut m.positions_nm {
-            *p = [c[0] + r * p[0], c[1] + r * p[1], c[2] + r * p[2]];
+            *p = c + *p * r;
         }
         m
     };
@@ -719,8 +722,8 @@ fn check_finds_defects() {
 
     // Overlapping bodies.
     let d = scratch("overlap");
-    let mut two = sphere([400.0, 500.0, 330.0], 100.0);
-    two.append(&sphere([520.0, 500.0, 250.0], 100.0));
+    let mut two = sphere(glam::DVec3::new(400.0, 500.0, 330.0), 100.0);
+    two.append(&sphere(glam::DVec3::new(520.0, 500.0, 250.0), 100.0));
     let s = write_sample(
         &d,
         &format!("{sheets}[[body]]\nmesh = \"two.obj\"\ninside = \"tio2\"\noutside = \"glass\"\n"),
@@ -747,8 +750,14 @@ fn check_finds_defects() {
         &[
             ("top.obj", &top),
             ("bottom.obj", &bottom),
-            ("a.obj", &sphere([400.0, 500.0, 250.0], 100.0)),
-            ("b.obj", &sphere([520.0, 500.0, 250.0], 100.0)),
+            (
+                "a.obj",
+                &sphere(glam::DVec3::new(400.0, 500.0, 250.0), 100.0),
+            ),
+            (
+                "b.obj",
+                &sphere(glam::DVec3::new(520.0, 500.0, 250.0), 100.0),
+            ),
         ],
     );
     let r = check(&s, &opts).unwrap();
@@ -768,7 +777,10 @@ fn check_finds_defects() {
         &[
             ("top.obj", &top),
             ("bottom.obj", &bottom),
-            ("p.obj", &sphere([500.0, 500.0, 480.0], 100.0)),
+            (
+                "p.obj",
+                &sphere(glam::DVec3::new(500.0, 500.0, 480.0), 100.0),
+            ),
         ],
     );
     let r = check(&s, &opts).unwrap();
@@ -805,7 +817,7 @@ fn check_finds_defects() {
 
     // An open body.
     let d = scratch("open");
-    let mut open = sphere([500.0, 500.0, 250.0], 100.0);
+    let mut open = sphere(glam::DVec3::new(500.0, 500.0, 250.0), 100.0);
     open.triangles.pop();
     let s = write_sample(
         &d,

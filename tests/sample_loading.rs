@@ -86,8 +86,8 @@ fn a_valid_sample_loads_in_nanometres() {
     );
     assert_eq!(itf.mesh.triangles.len(), 2);
     let (lo, hi) = itf.mesh.bounds().unwrap();
-    assert_eq!(lo, [0.0, 0.0, 0.0]);
-    assert_eq!(hi, [10_000.0, 10_000.0, 0.0]); // 10 um
+    assert_eq!(lo, glam::DVec3::ZERO);
+    assert_eq!(hi, glam::DVec3::new(10_000.0, 10_000.0, 0.0)); // 10 um
     // Normals of the square point up (+z), towards "front".
     assert!(itf.mesh.area_vector(0)[2] > 0.0);
     let (soup, first) = s.triangle_soup();

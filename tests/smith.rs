@@ -15,6 +15,8 @@ mod common;
 
 use std::f64::consts::PI;
 
+use glam::DVec3;
+
 use common::*;
 use goniospec::accumulate::Buckets;
 use goniospec::rng::Rng;
@@ -46,15 +48,15 @@ fn erf(x: f64) -> f64 {
 
 /// Smith's Lambda for Beckmann (Walter et al. 2007 eq. 27 in Heitz 2014's form), valid for
 /// both signs of `w.z` (`Lambda(-w) = -1 - Lambda(w)`).
-fn lambda(w: [f64; 3], alpha: f64) -> f64 {
-    if w[2] > 0.9999 {
+fn lambda(w: DVec3, alpha: f64) -> f64 {
+    if w.z > 0.9999 {
         return 0.0;
     }
-    if w[2] < -0.9999 {
+    if w.z < -0.9999 {
         return -1.0;
     }
-    let sin = (1.0 - w[2] * w[2]).sqrt();
-    let a = w[2] / (alpha * sin);
+    let sin = (1.0 - w.z * w.z).sqrt();
+    let a = w.z / (alpha * sin);
     0.5 * (erf(a) - 1.0) + (-a * a).exp() / (2.0 * a * PI.sqrt())
 }
 
@@ -68,18 +70,18 @@ fn inv_c1(u: f64) -> f64 {
 
 /// The next height along `w` from height `h`, or `None` when the ray leaves the surface
 /// (Heitz et al. 2016, supplemental `sampleHeight`).
-fn sample_height(w: [f64; 3], h: f64, u: f64, alpha: f64) -> Option<f64> {
-    if w[2] > 0.9999 {
+fn sample_height(w: DVec3, h: f64, u: f64, alpha: f64) -> Option<f64> {
+    if w.z > 0.9999 {
         return None;
     }
-    if w[2] < -0.9999 {
+    if w.z < -0.9999 {
         return Some(inv_c1(u * c1(h)));
     }
-    if w[2].abs() < 1e-4 {
+    if w.z.abs() < 1e-4 {
         return Some(h);
     }
     let lam = lambda(w, alpha);
-    let g1 = if w[2] > 0.0 { c1(h).powf(lam) } else { 0.0 };
+    let g1 = if w.z > 0.0 { c1(h).powf(lam) } else { 0.0 };
     if u > 1.0 - g1 {
         return None;
     }
@@ -91,14 +93,14 @@ fn sample_height(w: [f64; 3], h: f64, u: f64, alpha: f64) -> Option<f64> {
 /// - x) P22(x, y)` (Heitz & d'Eon 2014 §3); for Beckmann `y ~ N(0, alpha^2 / 2)` and `x`
 /// by inverting its CDF `F(x) = mu a sqrt(pi) / 2 (1 + erf(x / a)) + a^2 / 2 exp(-x^2 / a^2)`
 /// (`mu = cot theta`, `a = alpha`) by bisection.
-fn sample_visible_normal(w: [f64; 3], alpha: f64, rng: &mut Rng) -> [f64; 3] {
-    let sin = (1.0 - w[2] * w[2]).max(0.0).sqrt();
+fn sample_visible_normal(w: DVec3, alpha: f64, rng: &mut Rng) -> DVec3 {
+    let sin = (1.0 - w.z * w.z).max(0.0).sqrt();
     let (cphi, sphi) = if sin > 1e-9 {
-        (w[0] / sin, w[1] / sin)
+        (w.x / sin, w.y / sin)
     } else {
         (1.0, 0.0)
     };
-    let mu = if sin > 1e-9 { w[2] / sin } else { 1e9 };
+    let mu = if sin > 1e-9 { w.z / sin } else { 1e9 };
     let cdf = |x: f64| {
         mu * alpha * PI.sqrt() / 2.0 * (1.0 + erf(x / alpha))
             + alpha * alpha / 2.0 * (-x * x / (alpha * alpha)).exp()
@@ -122,7 +124,7 @@ fn sample_visible_normal(w: [f64; 3], alpha: f64, rng: &mut Rng) -> [f64; 3] {
     // Rotate the slopes back to the azimuth of w; the normal is (-sx, -sy, 1) normalised.
     let (sx, sy) = (cphi * x - sphi * y, sphi * x + cphi * y);
     let n = (1.0 + sx * sx + sy * sy).sqrt();
-    [-sx / n, -sy / n, 1.0 / n]
+    DVec3::new(-sx / n, -sy / n, 1.0 / n)
 }
 
 /// Unpolarised Fresnel reflectance of a conductor of index `n` at `cos_i` (Born & Wolf §14.2).
@@ -148,16 +150,16 @@ fn smith_walk(
     reflectance: impl Fn(f64) -> f64,
 ) -> (Vec<f64>, f64, f64) {
     let phi = PHI_I_DEG.to_radians();
-    let wi = [
+    let wi = DVec3::new(
         theta_i.sin() * phi.cos(),
         theta_i.sin() * phi.sin(),
         theta_i.cos(),
-    ];
+    );
     let mut out = vec![0.0; BUCKETS.len()];
     let (mut sum, mut sumsq) = (0.0, 0.0);
     for k in 0..walks {
         let mut rng = Rng::new(77, k);
-        let mut wr = [-wi[0], -wi[1], -wi[2]];
+        let mut wr = -wi;
         let mut h = 1.0 + inv_c1(0.999);
         let mut energy = 1.0;
         let mut exited = false;
@@ -169,17 +171,13 @@ fn smith_walk(
                 }
                 Some(hn) => h = hn,
             }
-            let wo = [-wr[0], -wr[1], -wr[2]];
+            let wo = -wr;
             let m = sample_visible_normal(wo, alpha, &mut rng);
-            let c = (wo[0] * m[0] + wo[1] * m[1] + wo[2] * m[2]).max(0.0);
+            let c = wo.dot(m).max(0.0);
             energy *= reflectance(c);
-            wr = [
-                2.0 * c * m[0] - wo[0],
-                2.0 * c * m[1] - wo[1],
-                2.0 * c * m[2] - wo[2],
-            ];
+            wr = m * (2.0 * c) - wo;
         }
-        if exited && wr[2] > 0.0 {
+        if exited && wr.z > 0.0 {
             out[BUCKETS.index(wr)] += energy;
             sum += energy;
             sumsq += energy * energy;

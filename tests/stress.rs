@@ -27,7 +27,7 @@ fn f32_phases_fail_far_from_the_origin_and_f64_phases_do_not() {
         cfg.rho_nm = f64::INFINITY;
         cfg.coherence = coherence;
         cfg.precision = precision;
-        cfg.origin_nm = [origin, origin, 0.0];
+        cfg.origin_nm = glam::DVec3::new(origin, origin, 0.0);
         // f32 phases far from the origin are the failure this test shows: keep the result.
         cfg.allow_unphysical = true;
         let acc = run(&s, &cfg);
@@ -238,7 +238,7 @@ fn render_cfg(light: Light, env: Env) -> RenderConfig {
         light_strength: 1.0,
         env,
         env_strength: 1.0,
-        camera: [0.0, -5.0, 3.0],
+        camera: glam::DVec3::new(0.0, -5.0, 3.0),
         fov_deg: 40.0,
         seed: 1,
     }

@@ -2,6 +2,7 @@
 //! ray sets, coherent (Morton) ray order, batch tracing, and agreement between two
 //! backends' hits. Shared by `goniospec bench` and the accelerator tests.
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::accel::{Accel, Hit, Intersector, Ray};
@@ -24,12 +25,9 @@ pub fn default_surface(triangles: usize, seed: u64) -> Mesh {
 /// `count` rays aimed down at the mesh: origins uniform over its xy bounds, a little above
 /// its top, directions uniform in solid angle within 75° of -z. Deterministic in `seed`.
 pub fn random_rays(mesh: &Mesh, count: usize, seed: u64) -> Vec<Ray> {
-    let (lo, hi) = mesh.bounds().unwrap_or(([0.0; 3], [1.0; 3]));
-    let extent = (hi[0] - lo[0])
-        .max(hi[1] - lo[1])
-        .max(hi[2] - lo[2])
-        .max(1e-9);
-    let z0 = hi[2] + 0.01 * extent;
+    let (lo, hi) = mesh.bounds().unwrap_or((DVec3::ZERO, DVec3::ONE));
+    let extent = (hi - lo).max_element().max(1e-9);
+    let z0 = hi.z + 0.01 * extent;
     let cos_max = 75f64.to_radians().cos();
     (0..count)
         .into_par_iter()

@@ -1,7 +1,7 @@
 //! Outgoing-direction buckets: a regular (theta, phi) partition of each hemisphere with
 //! exactly known projected solid angles.
 
-use crate::optics::vec3::V3;
+use glam::DVec3;
 
 /// `theta_bins` equal polar bands over [0, 90°] times `phi_bins` equal azimuth sectors,
 /// for each hemisphere (up: reflection, down: transmission; theta measured from +z or -z).
@@ -23,7 +23,7 @@ impl Buckets {
 
     /// The bucket of unit direction `w` within its hemisphere.
     #[inline]
-    pub fn index(&self, w: V3) -> usize {
+    pub fn index(&self, w: DVec3) -> usize {
         let cos = w[2].abs().min(1.0);
         let theta = cos.acos();
         let ti = ((theta / std::f64::consts::FRAC_PI_2) * f64::from(self.theta_bins)) as u32;

@@ -29,8 +29,8 @@ pub use buckets::Buckets;
 
 use crate::optics::C64;
 use crate::optics::fresnel::{Field, field_power, hermitian};
-use crate::optics::vec3::{dot, normalize, sub};
 use crate::trace::Tree;
+use glam::DVec3;
 
 /// How contributions interfere (written by name in files: "beamlet", "bucket", "global";
 /// an unknown name is refused).
@@ -118,8 +118,8 @@ impl PhasePrecision {
 }
 
 /// `a . b` in single precision, from single-precision copies of the operands.
-fn dot32(a: [f64; 3], b: [f64; 3]) -> f32 {
-    a[0] as f32 * b[0] as f32 + a[1] as f32 * b[1] as f32 + a[2] as f32 * b[2] as f32
+fn dot32(a: DVec3, b: DVec3) -> f32 {
+    a.as_vec3().dot(b.as_vec3())
 }
 
 /// Reusable per-thread buffers.
@@ -167,9 +167,9 @@ impl Estimator {
     /// The incident wave's phase at a tree's launch point `x` (nm, world frame) for a
     /// wave travelling along `d` at wave number `k` (1/nm): `k n_up (d . x)`, in the
     /// estimator's precision.
-    pub fn entry_phase(&self, k: f64, d: [f64; 3], x: [f64; 3]) -> f64 {
+    pub fn entry_phase(&self, k: f64, d: DVec3, x: DVec3) -> f64 {
         match self.precision {
-            PhasePrecision::F64 => k * self.n_up * dot(d, x),
+            PhasePrecision::F64 => k * self.n_up * d.dot(x),
             PhasePrecision::F32 => f64::from(k as f32 * self.n_up as f32 * dot32(d, x)),
         }
     }
@@ -206,22 +206,14 @@ impl Estimator {
                 if ex[j].up != ex[l].up {
                     continue;
                 }
-                let dw = sub(ex[j].dir, ex[l].dir);
-                let dw2 = dot(dw, dw);
-                let dx = sub(ex[j].x, ex[l].x);
-                let wbar = normalize([
-                    ex[j].dir[0] + ex[l].dir[0],
-                    ex[j].dir[1] + ex[l].dir[1],
-                    ex[j].dir[2] + ex[l].dir[2],
-                ]);
+                let dw = ex[j].dir - ex[l].dir;
+                let dw2 = dw.dot(dw);
+                let dx = ex[j].x - ex[l].x;
+                let wbar = (ex[j].dir + ex[l].dir).normalize();
                 let k_pos = {
-                    let along = dot(dx, wbar);
-                    let perp = [
-                        dx[0] - along * wbar[0],
-                        dx[1] - along * wbar[1],
-                        dx[2] - along * wbar[2],
-                    ];
-                    (-dot(perp, perp) / (2.0 * self.rho_nm * self.rho_nm)).exp()
+                    let along = dx.dot(wbar);
+                    let perp = dx - wbar * along;
+                    (-perp.dot(perp) / (2.0 * self.rho_nm * self.rho_nm)).exp()
                 };
                 let h = 0.5
                     * (hermitian(&ex[j].e[0], &ex[l].e[0]) + hermitian(&ex[j].e[1], &ex[l].e[1]));
@@ -249,13 +241,13 @@ impl Estimator {
         &self,
         a: &crate::trace::Exit,
         b: &crate::trace::Exit,
-        w: [f64; 3],
+        w: DVec3,
         n0: f64,
     ) -> f64 {
         match self.precision {
-            PhasePrecision::F64 => (a.opl.re - b.opl.re) - n0 * dot(w, sub(a.x, b.x)),
+            PhasePrecision::F64 => (a.opl.re - b.opl.re) - n0 * w.dot(a.x - b.x),
             PhasePrecision::F32 => {
-                let dx32 = [0, 1, 2].map(|c| (a.x[c] as f32 - b.x[c] as f32) as f64);
+                let dx32 = (a.x.as_vec3() - b.x.as_vec3()).as_dvec3();
                 f64::from((a.opl.re as f32 - b.opl.re as f32) - n0 as f32 * dot32(w, dx32))
             }
         }
@@ -283,9 +275,7 @@ impl Estimator {
             let mut end = start + 1;
             while end < p.members.len() {
                 let e = &ex[p.members[end] as usize];
-                if e.up != first.up
-                    || dot(sub(e.dir, first.dir), sub(e.dir, first.dir)).sqrt() > 1e-9
-                {
+                if e.up != first.up || (e.dir - first.dir).dot(e.dir - first.dir).sqrt() > 1e-9 {
                     break;
                 }
                 end += 1;
@@ -385,7 +375,7 @@ impl Estimator {
         for x in &tree.exits {
             let n0 = if x.up { self.n_up } else { self.n_down };
             let phase = match self.precision {
-                PhasePrecision::F64 => k * (x.opl.re - n0 * dot(x.dir, x.x)),
+                PhasePrecision::F64 => k * (x.opl.re - n0 * x.dir.dot(x.x)),
                 PhasePrecision::F32 => {
                     f64::from(k as f32 * (x.opl.re as f32 - n0 as f32 * dot32(x.dir, x.x)))
                 }

@@ -17,7 +17,7 @@
 use std::f64::consts::{PI, TAU};
 
 use super::{BucketData, Meta, angles, arc, dir};
-use crate::optics::vec3::V3;
+use glam::DVec3;
 
 /// Points per leaf.
 const LEAF: usize = 8;
@@ -42,8 +42,8 @@ struct Query {
     cs: [f64; 4],
     sin_i: f64,
     sin_o: f64,
-    wi: V3,
-    wo: V3,
+    wi: DVec3,
+    wo: DVec3,
 }
 
 /// A kd-tree over points `(theta_i, phi_i, theta_o, phi_o)` (radians).
@@ -52,8 +52,8 @@ pub struct KdTree {
     nodes: Vec<Node>,
     /// Points in tree order, as coordinates and unit vectors.
     coords: Vec<[f64; 4]>,
-    wi: Vec<V3>,
-    wo: Vec<V3>,
+    wi: Vec<DVec3>,
+    wo: Vec<DVec3>,
     /// Tree order -> original index.
     index: Vec<u32>,
 }
@@ -184,7 +184,7 @@ impl KdTree {
 
     /// The `k` nearest points to `(wi, wo)`: `(distance, original index)`, sorted by
     /// distance then index, into `out` (cleared first).
-    pub fn nearest(&self, wi: V3, wo: V3, k: usize, out: &mut Vec<(f64, u32)>) {
+    pub fn nearest(&self, wi: DVec3, wo: DVec3, k: usize, out: &mut Vec<(f64, u32)>) {
         out.clear();
         if self.nodes.is_empty() || k == 0 {
             return;
@@ -216,9 +216,7 @@ impl KdTree {
                 out[out.len() - 1].0.min(PI).cos() - 1e-12
             };
             for p in n.a as usize..n.b as usize {
-                if crate::optics::vec3::dot(wi, self.wi[p]) < cos_worst
-                    || crate::optics::vec3::dot(wo, self.wo[p]) < cos_worst
-                {
+                if wi.dot(self.wi[p]) < cos_worst || wo.dot(self.wo[p]) < cos_worst {
                     continue;
                 }
                 let d = arc(wi, self.wi[p]) + arc(wo, self.wo[p]);
@@ -258,7 +256,7 @@ impl KdTree {
     }
 
     /// Brute-force k nearest, same ordering: the reference for tests and benchmarks.
-    pub fn nearest_brute(&self, wi: V3, wo: V3, k: usize) -> Vec<(f64, u32)> {
+    pub fn nearest_brute(&self, wi: DVec3, wo: DVec3, k: usize) -> Vec<(f64, u32)> {
         let mut all: Vec<(f64, u32)> = (0..self.len())
             .map(|p| (arc(wi, self.wi[p]) + arc(wo, self.wo[p]), self.index[p]))
             .collect();
@@ -368,7 +366,7 @@ impl KdTreeBrdf {
         }
     }
 
-    fn query_dirs(&self, wi: V3, wo: V3) -> (V3, V3) {
+    fn query_dirs(&self, wi: DVec3, wo: DVec3) -> (DVec3, DVec3) {
         if !self.meta.isotropic {
             return (wi, wo);
         }
@@ -381,7 +379,7 @@ impl KdTreeBrdf {
 impl super::Brdf for KdTreeBrdf {
     /// With the reciprocal option the result is the mean of the blends at `(wi, wo)` and
     /// `(wo, wi)` over the symmetric point set, so it is reciprocal exactly.
-    fn eval(&self, wi: V3, wo: V3, out: &mut [f64]) {
+    fn eval(&self, wi: DVec3, wo: DVec3, out: &mut [f64]) {
         if self.meta.reciprocal {
             let mut other = vec![0.0; out.len()];
             self.blend(wi, wo, out);
@@ -400,7 +398,7 @@ impl super::Brdf for KdTreeBrdf {
 }
 
 impl KdTreeBrdf {
-    fn blend(&self, wi: V3, wo: V3, out: &mut [f64]) {
+    fn blend(&self, wi: DVec3, wo: DVec3, out: &mut [f64]) {
         thread_local! {
             static NEAR: std::cell::RefCell<Vec<(f64, u32)>> = const { std::cell::RefCell::new(Vec::new()) };
         }

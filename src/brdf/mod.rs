@@ -12,7 +12,7 @@ pub mod table;
 
 use crate::accumulate::file::Accumulator;
 use crate::accumulate::{Buckets, Coherence};
-use crate::optics::vec3::{V3, cross, dot, from_spherical, norm};
+use glam::DVec3;
 
 /// What every representation knows about itself.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -39,10 +39,10 @@ pub struct Meta {
 pub trait Brdf {
     /// BRDF (1/sr) of the pair `(wi, wo)` in every wavelength bin, into `out`
     /// (`out.len()` = number of bins).
-    fn eval(&self, wi: V3, wo: V3, out: &mut [f64]);
+    fn eval(&self, wi: DVec3, wo: DVec3, out: &mut [f64]);
 
     /// Many pairs at once: `out` holds `pairs.len() * bins` values, pair-major.
-    fn eval_batch(&self, pairs: &[(V3, V3)], out: &mut [f64]) {
+    fn eval_batch(&self, pairs: &[(DVec3, DVec3)], out: &mut [f64]) {
         let n = self.meta().wavelengths_nm.len();
         for (i, &(wi, wo)) in pairs.iter().enumerate() {
             self.eval(wi, wo, &mut out[i * n..(i + 1) * n]);
@@ -152,7 +152,7 @@ impl BucketData {
 /// outgoing polar and azimuth angles.
 pub fn hemispherical_reflectance(
     b: &(impl Brdf + ?Sized),
-    wi: V3,
+    wi: DVec3,
     nt: usize,
     np: usize,
 ) -> Vec<f64> {
@@ -178,22 +178,23 @@ pub fn hemispherical_reflectance(
 
 /// Great-circle distance between unit vectors (radians), robust near 0 and pi.
 #[inline]
-pub fn arc(a: V3, b: V3) -> f64 {
-    norm(cross(a, b)).atan2(dot(a, b))
+pub fn arc(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b))
 }
 
 /// `(theta, phi)` of a unit vector, phi in [0, 2 pi).
 #[inline]
-pub fn angles(w: V3) -> (f64, f64) {
+pub fn angles(w: DVec3) -> (f64, f64) {
     (
         w[2].clamp(-1.0, 1.0).acos(),
         w[1].atan2(w[0]).rem_euclid(std::f64::consts::TAU),
     )
 }
 
-/// Unit vector of `(theta, phi)`.
-pub fn dir(theta: f64, phi: f64) -> V3 {
-    from_spherical(theta, phi)
+/// The unit vector of spherical angles (`theta` from +z, `phi` from +x), radians.
+pub fn dir(theta: f64, phi: f64) -> DVec3 {
+    let s = theta.sin();
+    DVec3::new(s * phi.cos(), s * phi.sin(), theta.cos())
 }
 
 /// Any representation, dispatched by `match`.
@@ -204,7 +205,7 @@ pub enum Representation {
 }
 
 impl Brdf for Representation {
-    fn eval(&self, wi: V3, wo: V3, out: &mut [f64]) {
+    fn eval(&self, wi: DVec3, wo: DVec3, out: &mut [f64]) {
         match self {
             Representation::KdTree(r) => r.eval(wi, wo, out),
             Representation::Subdivided(r) => r.eval(wi, wo, out),

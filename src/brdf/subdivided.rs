@@ -12,7 +12,7 @@ use std::f64::consts::TAU;
 
 use super::{BucketData, Meta, angles};
 use crate::accumulate::Buckets;
-use crate::optics::vec3::V3;
+use glam::DVec3;
 
 /// A quad-tree cell over bucket index ranges `[t0, t1) x [p0, p1)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -211,7 +211,7 @@ impl SubdividedBrdf {
 }
 
 impl super::Brdf for SubdividedBrdf {
-    fn eval(&self, wi: V3, wo: V3, out: &mut [f64]) {
+    fn eval(&self, wi: DVec3, wo: DVec3, out: &mut [f64]) {
         out.fill(0.0);
         if wi[2] <= 0.0 || wo[2] <= 0.0 {
             return;

@@ -5,7 +5,7 @@
 use std::f64::consts::TAU;
 
 use super::{BucketData, Meta, angles};
-use crate::optics::vec3::V3;
+use glam::DVec3;
 
 #[derive(Clone, Debug)]
 pub struct TableBrdf {
@@ -65,7 +65,7 @@ impl TableBrdf {
 }
 
 impl super::Brdf for TableBrdf {
-    fn eval(&self, wi: V3, wo: V3, out: &mut [f64]) {
+    fn eval(&self, wi: DVec3, wo: DVec3, out: &mut [f64]) {
         let nl = out.len();
         out.fill(0.0);
         if wi[2] <= 0.0 || wo[2] <= 0.0 {

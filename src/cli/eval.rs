@@ -27,7 +27,7 @@ pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, Brdf};
     let r = brdf::file::read(&a.file)?;
     let lambdas = r.meta().wavelengths_nm.clone();
-    let d = |t: f64, p: f64| -> Result<[f64; 3]> {
+    let d = |t: f64, p: f64| -> Result<glam::DVec3> {
         if !(0.0..=90.0).contains(&t) {
             bail!("polar angles must be in [0, 90] degrees, got {t}");
         }

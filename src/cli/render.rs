@@ -135,7 +135,7 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
         light_strength: a.light_strength,
         env,
         env_strength: a.env_strength,
-        camera,
+        camera: camera.into(),
         fov_deg: a.fov,
         seed: a.seed,
     };

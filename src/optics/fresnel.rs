@@ -45,7 +45,7 @@
 //! run (`simulate::check_physical`).
 
 use super::C64;
-use super::vec3::{V3, add, cross, dot, norm, normalize, scale, sub};
+use glam::DVec3;
 
 /// Fresnel amplitude coefficients of one interface for one tangential index.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -150,8 +150,8 @@ pub fn balance_excess(c: &Coefficients) -> [f64; 2] {
 pub type Field = [C64; 3];
 
 #[inline]
-pub fn field_dot_real(e: &Field, v: V3) -> C64 {
-    e[0] * v[0] + e[1] * v[1] + e[2] * v[2]
+pub fn field_dot_real(e: &Field, v: DVec3) -> C64 {
+    e[0] * v.x + e[1] * v.y + e[2] * v.z
 }
 
 /// Hermitian product `a . conj(b)`.
@@ -169,18 +169,18 @@ pub fn field_power(e: &Field) -> f64 {
 #[derive(Clone, Copy, Debug)]
 pub struct Split {
     /// Reflected direction (unit).
-    pub dir_r: V3,
+    pub dir_r: DVec3,
     /// Transmitted direction (unit), or `None` when no wave propagates into the second
     /// medium (total internal reflection into a lossless medium).
-    pub dir_t: Option<V3>,
+    pub dir_t: Option<DVec3>,
     /// Complex index vectors (real and imaginary parts) of the reflected and transmitted
     /// waves.
-    pub n_r: (V3, V3),
-    pub n_t: (V3, V3),
-    pub s: V3,
-    pub p_i: V3,
-    pub p_r: V3,
-    pub p_t: V3,
+    pub n_r: (DVec3, DVec3),
+    pub n_t: (DVec3, DVec3),
+    pub s: DVec3,
+    pub p_i: DVec3,
+    pub p_r: DVec3,
+    pub p_t: DVec3,
     /// The coefficients of this event.
     pub c: Coefficients,
     /// The real tangential index `kappa` the coefficients were computed for.
@@ -189,8 +189,8 @@ pub struct Split {
 
 /// The index vector `kappa + sign q m` (real and imaginary parts) of a wave with real
 /// tangential index vector `kappa` and normal index `q` along `sign m`.
-fn inhomogeneous(kt: V3, m: V3, q: C64, sign: f64) -> (V3, V3) {
-    (add(kt, scale(m, sign * q.re)), scale(m, sign * q.im))
+fn inhomogeneous(kt: DVec3, m: DVec3, q: C64, sign: f64) -> (DVec3, DVec3) {
+    (kt + m * (sign * q.re), m * (sign * q.im))
 }
 
 /// Splits a wave of complex index vector `(n_re, n_im)` (real direction `d = n_re / |n_re|`)
@@ -199,55 +199,50 @@ fn inhomogeneous(kt: V3, m: V3, q: C64, sign: f64) -> (V3, V3) {
 /// `n_re`), the normal indices and coefficients, the reflected and transmitted waves
 /// `kappa - q1 m` and `kappa + q2 m` (`m = -nf`), and the s/p basis (`s = normalize(d x
 /// nf)`, `p = s x k` for each wave).
-pub fn split_wave(d: V3, n_re: V3, n_im: V3, nf: V3, n1: C64, n2: C64) -> Split {
-    debug_assert!(dot(d, nf) <= 1e-9, "normal must face the incoming ray");
-    let m = scale(nf, -1.0);
-    let homogeneous = n1.im == 0.0 && n_im == [0.0; 3];
+pub fn split_wave(d: DVec3, n_re: DVec3, n_im: DVec3, nf: DVec3, n1: C64, n2: C64) -> Split {
+    debug_assert!(d.dot(nf) <= 1e-9, "normal must face the incoming ray");
+    let m = -nf;
+    let homogeneous = n1.im == 0.0 && n_im == DVec3::ZERO;
     let (c, dir_r, n_r, dir_t, n_t, kappa);
     if homogeneous {
         // A homogeneous wave in a lossless medium: the mirror direction and, into a
         // lossless medium, Snell's law in closed form (bit-for-bit the geometry of
         // earlier versions, so lossless samples keep their results).
-        let cos_i = (-dot(d, nf)).clamp(0.0, 1.0);
+        let cos_i = (-d.dot(nf)).clamp(0.0, 1.0);
         let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
         kappa = n1.re * sin_i;
         c = coefficients_kappa(n1, n2, kappa);
-        dir_r = normalize(add(d, scale(nf, 2.0 * cos_i)));
-        n_r = (scale(dir_r, n1.re), [0.0; 3]);
+        dir_r = (d + nf * (2.0 * cos_i)).normalize();
+        n_r = (dir_r * n1.re, DVec3::ZERO);
         if n2.im == 0.0 {
             let eta = n1.re / n2.re;
             let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
-            dir_t =
-                (k > 0.0).then(|| normalize(add(scale(d, eta), scale(nf, eta * cos_i - k.sqrt()))));
-            n_t = (scale(dir_t.unwrap_or([0.0; 3]), n2.re), [0.0; 3]);
+            dir_t = (k > 0.0).then(|| (d * eta + nf * (eta * cos_i - k.sqrt())).normalize());
+            n_t = (dir_t.unwrap_or(DVec3::ZERO) * n2.re, DVec3::ZERO);
         } else {
-            let kt = sub(d, scale(m, dot(d, m)));
-            let w = inhomogeneous(scale(kt, n1.re), m, c.q2, 1.0);
-            dir_t = Some(normalize(w.0));
+            let kt = d - m * d.dot(m);
+            let w = inhomogeneous(kt * n1.re, m, c.q2, 1.0);
+            dir_t = Some(w.0.normalize());
             n_t = w;
         }
     } else {
-        let kt = sub(n_re, scale(m, dot(n_re, m)));
-        kappa = norm(kt);
+        let kt = n_re - m * n_re.dot(m);
+        kappa = kt.length();
         c = coefficients_kappa(n1, n2, kappa);
         n_r = inhomogeneous(kt, m, c.q1, -1.0);
-        dir_r = normalize(n_r.0);
+        dir_r = n_r.0.normalize();
         n_t = inhomogeneous(kt, m, c.q2, 1.0);
-        dir_t = (c.q2.re > 0.0).then(|| normalize(n_t.0));
+        dir_t = (c.q2.re > 0.0).then(|| n_t.0.normalize());
     }
     // s: perpendicular to the plane of incidence; any perpendicular at normal incidence.
-    let cr = cross(d, nf);
-    let s = if dot(cr, cr) > 1e-24 {
-        normalize(cr)
+    let cr = d.cross(nf);
+    let s = if cr.dot(cr) > 1e-24 {
+        cr.normalize()
     } else {
-        let a = if d[0].abs() < 0.9 {
-            [1.0, 0.0, 0.0]
-        } else {
-            [0.0, 1.0, 0.0]
-        };
-        normalize(cross(d, a))
+        let a = if d.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+        d.cross(a).normalize()
     };
-    let p_of = |k: V3| cross(s, k);
+    let p_of = |k: DVec3| s.cross(k);
     Split {
         dir_r,
         dir_t,
@@ -256,7 +251,7 @@ pub fn split_wave(d: V3, n_re: V3, n_im: V3, nf: V3, n1: C64, n2: C64) -> Split 
         s,
         p_i: p_of(d),
         p_r: p_of(dir_r),
-        p_t: dir_t.map(p_of).unwrap_or([0.0; 3]),
+        p_t: dir_t.map(p_of).unwrap_or(DVec3::ZERO),
         c,
         kappa,
     }
@@ -389,12 +384,12 @@ mod tests {
     /// an absorbing medium beyond sin(theta) = Re(n) still propagates (no false TIR).
     #[test]
     fn split_wave_geometry() {
-        let d = normalize([0.8, 0.0, -0.6]);
-        let nf = [0.0, 0.0, 1.0];
+        let d = DVec3::new(0.8, 0.0, -0.6).normalize();
+        let nf = DVec3::Z;
         let g = split_wave(
             d,
             d,
-            [0.0; 3],
+            DVec3::ZERO,
             nf,
             C64::new(1.0, 0.0),
             C64::new(0.43, 2.455),
@@ -407,12 +402,12 @@ mod tests {
         // The transmitted wave decays along -z and keeps the tangential index 0.8.
         assert!((g.n_t.0[0] - 0.8).abs() < 1e-12 && g.n_t.1[2] < 0.0);
         // Into glass beyond the critical angle from inside: no transmitted wave.
-        let d = normalize([0.9, 0.0, 0.436]);
+        let d = DVec3::new(0.9, 0.0, 0.436).normalize();
         let g = split_wave(
             d,
-            scale(d, 1.5),
-            [0.0; 3],
-            [0.0, 0.0, -1.0],
+            d * 1.5,
+            DVec3::ZERO,
+            DVec3::NEG_Z,
             C64::new(1.5, 0.0),
             C64::new(1.0, 0.0),
         );

@@ -15,8 +15,8 @@
 
 use super::C64;
 use super::tmm::{self, StackIndices};
-use super::vec3::{cross, dot, sub};
 use crate::sample::Sample;
+use glam::DVec3;
 
 /// Reflectance of each wavelength bin (`edges`, nm) at incidence `theta_i_deg` (azimuth
 /// 0) from `entries x entries` entry points. Errors when the sample is not a film of two
@@ -29,7 +29,7 @@ pub fn reflectance(
 ) -> Result<Vec<f64>, String> {
     let film = Film::of(sample)?;
     let theta = theta_i_deg.to_radians();
-    let d = [theta.sin(), 0.0, -theta.cos()];
+    let d = DVec3::new(theta.sin(), 0.0, -theta.cos());
     let [lx, ly] = sample.tile_nm;
     let index = |m: usize, l: f64| -> Result<C64, String> {
         let (n, k) = sample.media[m]
@@ -50,19 +50,19 @@ pub fn reflectance(
             let y = (j as f64 + 0.5) / entries as f64 * ly;
             // Entry points uniform on a plane above the film: uniform over the periodic
             // tile wherever the ray lands.
-            let o = [x, y, film.z_max + 1.0];
+            let o = DVec3::new(x, y, film.z_max + 1.0);
             let (t, n) = nearest(&film.top, sample.tile_nm, o, d).ok_or_else(|| {
                 format!("local-film reference: the ray entering at ({x:.0}, {y:.0}) nm misses the top surface")
             })?;
-            let p = [o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]];
-            let inward = [-n[0], -n[1], -n[2]];
+            let p = o + d * t;
+            let inward = -n;
             let (thick, _) = nearest(&film.bottom, sample.tile_nm, p, inward).ok_or_else(|| {
                 format!(
                     "local-film reference: no bottom surface below ({:.0}, {:.0}, {:.0}) nm",
-                    p[0], p[1], p[2]
+                    p.x, p.y, p.z
                 )
             })?;
-            let cos_local = -(d[0] * n[0] + d[1] * n[1] + d[2] * n[2]);
+            let cos_local = -d.dot(n);
             if cos_local <= 0.0 {
                 // The top facet faces away from the beam: shadowed in this approximation;
                 // it reflects nothing here (never for the gentle films this is meant for).
@@ -88,8 +88,8 @@ pub fn reflectance(
 
 /// The two sheets of a film, as triangles (nm) with up-facing normals.
 struct Film {
-    top: Vec<[[f64; 3]; 3]>,
-    bottom: Vec<[[f64; 3]; 3]>,
+    top: Vec<[DVec3; 3]>,
+    bottom: Vec<[DVec3; 3]>,
     ambient: usize,
     film: usize,
     substrate: usize,
@@ -109,7 +109,7 @@ impl Film {
         }
         let mean_z = |k: usize| {
             let m = &sample.interfaces[k].mesh;
-            m.positions_nm.iter().map(|p| p[2]).sum::<f64>() / m.positions_nm.len().max(1) as f64
+            m.positions_nm.iter().map(|p| p.z).sum::<f64>() / m.positions_nm.len().max(1) as f64
         };
         let (t, b) = if mean_z(0) >= mean_z(1) {
             (0, 1)
@@ -121,7 +121,7 @@ impl Film {
         if top.back != bottom.front {
             return Err(err());
         }
-        let tris = |m: &crate::sample::mesh::Mesh| -> Vec<[[f64; 3]; 3]> {
+        let tris = |m: &crate::sample::mesh::Mesh| -> Vec<[DVec3; 3]> {
             m.triangles
                 .iter()
                 .map(|t| t.map(|k| m.positions_nm[k as usize]))
@@ -130,7 +130,7 @@ impl Film {
         let z_max = sample
             .interfaces
             .iter()
-            .flat_map(|i| i.mesh.positions_nm.iter().map(|p| p[2]))
+            .flat_map(|i| i.mesh.positions_nm.iter().map(|p| p.z))
             .fold(f64::MIN, f64::max);
         Ok(Film {
             top: tris(&top.mesh),
@@ -146,17 +146,12 @@ impl Film {
 /// Nearest hit of the ray `o + t d` (t > 1e-9 nm) with the triangles repeated over the
 /// 3 x 3 neighbouring tiles: `(t, unit normal of the hit triangle, oriented up)`
 /// (Möller–Trumbore, [`crate::accel::brute::intersect_triangle_f64_widened`]).
-fn nearest(
-    tris: &[[[f64; 3]; 3]],
-    tile: [f64; 2],
-    o: [f64; 3],
-    d: [f64; 3],
-) -> Option<(f64, [f64; 3])> {
-    let mut best: Option<(f64, [f64; 3])> = None;
+fn nearest(tris: &[[DVec3; 3]], tile: [f64; 2], o: DVec3, d: DVec3) -> Option<(f64, DVec3)> {
+    let mut best: Option<(f64, DVec3)> = None;
     for ix in -1..=1 {
         for iy in -1..=1 {
-            let shift = [f64::from(ix) * tile[0], f64::from(iy) * tile[1], 0.0];
-            let o = sub(o, shift);
+            let shift = DVec3::new(f64::from(ix) * tile[0], f64::from(iy) * tile[1], 0.0);
+            let o = o - shift;
             for tri in tris {
                 let Some((t, _, _)) =
                     crate::accel::brute::intersect_triangle_f64_widened(o, d, *tri, 1e-12)
@@ -164,10 +159,9 @@ fn nearest(
                     continue;
                 };
                 if t > 1e-9 && best.is_none_or(|b| t < b.0) {
-                    let n = cross(sub(tri[1], tri[0]), sub(tri[2], tri[0]));
-                    let len = dot(n, n).sqrt();
-                    let s = if n[2] < 0.0 { -1.0 } else { 1.0 };
-                    best = Some((t, [s * n[0] / len, s * n[1] / len, s * n[2] / len]));
+                    let n = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
+                    let s = if n.z < 0.0 { -1.0 } else { 1.0 };
+                    best = Some((t, n * s / n.length()));
                 }
             }
         }

@@ -9,6 +9,5 @@
 pub mod fresnel;
 pub mod local_film;
 pub mod tmm;
-pub mod vec3;
 
 pub use num_complex::Complex64 as C64;

@@ -4,7 +4,6 @@
 
 use super::{Env, Image, RenderConfig, Shape, colour};
 use crate::optics::tmm::solve_band;
-use crate::optics::vec3::{add, dot, scale};
 use crate::sample::Sample;
 
 /// Renders the stack's exact specular reflection with the same camera and environment.
@@ -68,11 +67,11 @@ pub fn stack_image(
             let d = cam.ray(cfg, x as f64 + 0.5, y as f64 + 0.5);
             let mut spec = vec![0.0; nl];
             if let Some((_, n)) = shape.hit(cfg.camera, d) {
-                let cos_o = -dot(d, n);
+                let cos_o = -d.dot(n);
                 if cos_o > 0.0 {
                     let k = ((cos_o.min(1.0).acos() / std::f64::consts::FRAC_PI_2) * n_t as f64)
                         as usize;
-                    let r = add(d, scale(n, 2.0 * cos_o));
+                    let r = d + (n * (2.0 * cos_o));
                     let l = match cfg.env {
                         Env::None => 0.0,
                         Env::Constant => 1.0,

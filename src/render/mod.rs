@@ -22,18 +22,18 @@ use rayon::prelude::*;
 
 use crate::accel::{Accel, Backend, Intersector, Ray};
 use crate::brdf::Brdf;
-use crate::optics::vec3::{V3, add, cross, dot, norm, normalize, scale, sub};
 use crate::rng::Rng;
 use crate::sample::Mesh;
+use glam::DVec3;
 
 /// The light.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     None,
     /// Direction towards the light (unit), world frame.
-    Directional(V3),
+    Directional(DVec3),
     /// Position; its strength is 1 at the distance of the origin.
-    Point(V3),
+    Point(DVec3),
 }
 
 impl Light {
@@ -62,7 +62,7 @@ impl Light {
             )))
         } else if let Some(v) = s.strip_prefix("point:") {
             let p = numbers(v, 3, "--light point:X,Y,Z needs three numbers")?;
-            Ok(Light::Point([p[0], p[1], p[2]]))
+            Ok(Light::Point(DVec3::new(p[0], p[1], p[2])))
         } else {
             Err(format!(
                 "--light must be dir:THETA,PHI, point:X,Y,Z or none (got '{s}')"
@@ -104,7 +104,7 @@ pub enum Shape {
     /// A triangle mesh with smooth vertex normals.
     Mesh {
         mesh: Mesh,
-        normals: Vec<V3>,
+        normals: Vec<DVec3>,
         accel: Box<Accel>,
     },
 }
@@ -112,17 +112,17 @@ pub enum Shape {
 impl Shape {
     /// A mesh shape with area-weighted vertex normals.
     pub fn mesh(mesh: Mesh, backend: Backend) -> Result<Shape, crate::accel::AccelError> {
-        let mut normals = vec![[0.0; 3]; mesh.positions_nm.len()];
+        let mut normals = vec![DVec3::ZERO; mesh.positions_nm.len()];
         for (k, t) in mesh.triangles.iter().enumerate() {
             let a = mesh.area_vector(k);
             for &v in t {
-                normals[v as usize] = add(normals[v as usize], a);
+                normals[v as usize] += a;
             }
         }
         for n in &mut normals {
-            let l = norm(*n);
+            let l = (*n).length();
             if l > 0.0 {
-                *n = scale(*n, 1.0 / l);
+                *n *= 1.0 / l;
             }
         }
         let accel = Box::new(Accel::build(backend, &mesh.to_soup())?);
@@ -134,44 +134,40 @@ impl Shape {
     }
 
     /// Bounding sphere (centre, radius).
-    pub fn bounds(&self) -> (V3, f64) {
+    pub fn bounds(&self) -> (DVec3, f64) {
         match self {
-            Shape::Sphere => ([0.0; 3], 1.0),
-            Shape::Plane => ([0.0; 3], std::f64::consts::SQRT_2),
+            Shape::Sphere => (DVec3::ZERO, 1.0),
+            Shape::Plane => (DVec3::ZERO, std::f64::consts::SQRT_2),
             Shape::Mesh { mesh, .. } => {
-                let (lo, hi) = mesh.bounds().unwrap_or(([0.0; 3], [1.0; 3]));
-                let c = scale(add(lo, hi), 0.5);
-                (c, 0.5 * norm(sub(hi, lo)))
+                let (lo, hi) = mesh.bounds().unwrap_or((DVec3::ZERO, DVec3::ONE));
+                let c = (lo + hi) * 0.5;
+                (c, 0.5 * (hi - lo).length())
             }
         }
     }
 
     /// Closest hit: distance and shading normal.
-    fn hit(&self, o: V3, d: V3) -> Option<(f64, V3)> {
+    fn hit(&self, o: DVec3, d: DVec3) -> Option<(f64, DVec3)> {
         match self {
             Shape::Sphere => {
-                let b = dot(o, d);
-                let c = dot(o, o) - 1.0;
+                let b = o.dot(d);
+                let c = o.dot(o) - 1.0;
                 let disc = b * b - c;
                 if disc < 0.0 {
                     return None;
                 }
                 let t = -b - disc.sqrt();
                 let t = if t > 1e-9 { t } else { -b + disc.sqrt() };
-                (t > 1e-9).then(|| (t, normalize(add(o, scale(d, t)))))
+                (t > 1e-9).then(|| (t, (o + (d * t)).normalize()))
             }
             Shape::Plane => {
                 if d[2] == 0.0 {
                     return None;
                 }
                 let t = -o[2] / d[2];
-                let p = add(o, scale(d, t));
+                let p = o + (d * t);
                 // Seen from below, the visible side faces down.
-                let n = if o[2] >= 0.0 {
-                    [0.0, 0.0, 1.0]
-                } else {
-                    [0.0, 0.0, -1.0]
-                };
+                let n = if o.z >= 0.0 { DVec3::Z } else { DVec3::NEG_Z };
                 (t > 1e-9 && p[0].abs() <= 1.0 && p[1].abs() <= 1.0).then_some((t, n))
             }
             Shape::Mesh {
@@ -180,9 +176,9 @@ impl Shape {
                 accel,
             } => {
                 let h = accel.closest_hit(&Ray {
-                    origin: o.map(|c| c as f32),
+                    origin: o.as_vec3().to_array(),
                     tmin: 1e-4,
-                    dir: d.map(|c| c as f32),
+                    dir: d.as_vec3().to_array(),
                     tmax: f32::INFINITY,
                 });
                 if !h.is_hit() {
@@ -190,23 +186,18 @@ impl Shape {
                 }
                 let [a, b, c] = mesh.triangles[h.prim as usize];
                 let (u, v) = (f64::from(h.u), f64::from(h.v));
-                let n = add(
-                    add(
-                        scale(normals[a as usize], 1.0 - u - v),
-                        scale(normals[b as usize], u),
-                    ),
-                    scale(normals[c as usize], v),
-                );
-                let mut n = normalize(n);
-                if dot(n, d) > 0.0 {
-                    n = scale(n, -1.0); // seen from behind: shade the visible side
+                let n = ((normals[a as usize] * (1.0 - u - v)) + (normals[b as usize] * u))
+                    + (normals[c as usize] * v);
+                let mut n = n.normalize();
+                if n.dot(d) > 0.0 {
+                    n = -n; // seen from behind: shade the visible side
                 }
                 Some((f64::from(h.t), n))
             }
         }
     }
 
-    fn occluded(&self, o: V3, d: V3) -> bool {
+    fn occluded(&self, o: DVec3, d: DVec3) -> bool {
         match self {
             Shape::Sphere | Shape::Plane => false, // convex
             Shape::Mesh { .. } => self.hit(o, d).is_some(),
@@ -225,7 +216,7 @@ pub struct RenderConfig {
     pub env: Env,
     pub env_strength: f64,
     /// Camera position; it looks at the shape's centre.
-    pub camera: V3,
+    pub camera: DVec3,
     /// Vertical field of view, degrees.
     pub fov_deg: f64,
     pub seed: u64,
@@ -244,9 +235,9 @@ pub struct Image {
 
 /// The pinhole camera: it looks from `cfg.camera` at the shape's centre, z up.
 pub(crate) struct CameraFrame {
-    fwd: V3,
-    right: V3,
-    up: V3,
+    fwd: DVec3,
+    right: DVec3,
+    up: DVec3,
     /// `tan(fov / 2)`.
     half_h: f64,
     aspect: f64,
@@ -254,17 +245,17 @@ pub(crate) struct CameraFrame {
 
 pub(crate) fn camera_frame(shape: &Shape, cfg: &RenderConfig) -> CameraFrame {
     let (centre, _) = shape.bounds();
-    let fwd = normalize(sub(centre, cfg.camera));
-    let up0 = if fwd[2].abs() > 0.99 {
-        [0.0, 1.0, 0.0]
+    let fwd = (centre - cfg.camera).normalize();
+    let up0 = if fwd.z.abs() > 0.99 {
+        DVec3::Y
     } else {
-        [0.0, 0.0, 1.0]
+        DVec3::Z
     };
-    let right = normalize(cross(fwd, up0));
+    let right = fwd.cross(up0).normalize();
     CameraFrame {
         fwd,
         right,
-        up: cross(right, fwd),
+        up: right.cross(fwd),
         half_h: (cfg.fov_deg.to_radians() / 2.0).tan(),
         aspect: cfg.width as f64 / cfg.height as f64,
     }
@@ -272,13 +263,10 @@ pub(crate) fn camera_frame(shape: &Shape, cfg: &RenderConfig) -> CameraFrame {
 
 impl CameraFrame {
     /// Unit direction through the image point `(px, py)` in pixels from the top left.
-    pub(crate) fn ray(&self, cfg: &RenderConfig, px: f64, py: f64) -> V3 {
+    pub(crate) fn ray(&self, cfg: &RenderConfig, px: f64, py: f64) -> DVec3 {
         let sx = (2.0 * px / cfg.width as f64 - 1.0) * self.half_h * self.aspect;
         let sy = (1.0 - 2.0 * py / cfg.height as f64) * self.half_h;
-        normalize(add(
-            self.fwd,
-            add(scale(self.right, sx), scale(self.up, sy)),
-        ))
+        (self.fwd + ((self.right * sx) + (self.up * sy))).normalize()
     }
 }
 
@@ -328,28 +316,23 @@ pub fn render(
                         let Some((t, n)) = shape.hit(cfg.camera, d) else {
                             continue;
                         };
-                        let p = add(cfg.camera, scale(d, t));
+                        let p = cfg.camera + (d * t);
                         // Local frame around the shading normal (isotropic BRDF: any tangent).
-                        let a = if n[0].abs() < 0.9 {
-                            [1.0, 0.0, 0.0]
-                        } else {
-                            [0.0, 1.0, 0.0]
-                        };
-                        let tx = normalize(cross(a, n));
-                        let ty = cross(n, tx);
-                        let local = |w: V3| [dot(w, tx), dot(w, ty), dot(w, n)];
-                        let wo = local(scale(d, -1.0));
+                        let a = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+                        let tx = a.cross(n).normalize();
+                        let ty = n.cross(tx);
+                        let local = |w: DVec3| DVec3::new(w.dot(tx), w.dot(ty), w.dot(n));
+                        let wo = local(-d);
                         if wo[2] <= 0.0 {
                             continue;
                         }
-                        let lit = |wi_world: V3,
+                        let lit = |wi_world: DVec3,
                                    strength: f64,
                                    spec: &mut Vec<f64>,
                                    f: &mut Vec<f64>| {
                             let wi = local(wi_world);
                             if wi[2] <= 0.0
-                                || shape
-                                    .occluded(add(p, scale(n, 1e-6 * radius.max(1.0))), wi_world)
+                                || shape.occluded(p + n * (1e-6 * radius.max(1.0)), wi_world)
                             {
                                 return;
                             }
@@ -362,11 +345,11 @@ pub fn render(
                             Light::None => {}
                             Light::Directional(l) => lit(l, cfg.light_strength, &mut spec, &mut f),
                             Light::Point(q) => {
-                                let v = sub(q, p);
-                                let r2 = dot(v, v);
+                                let v = q - p;
+                                let r2 = v.dot(v);
                                 lit(
-                                    normalize(v),
-                                    cfg.light_strength * dot(q, q) / r2,
+                                    v.normalize(),
+                                    cfg.light_strength * q.dot(q) / r2,
                                     &mut spec,
                                     &mut f,
                                 )
@@ -391,11 +374,13 @@ pub fn render(
                                 let (u1, u2) = (rng.uniform(), rng.uniform());
                                 let r = u1.sqrt();
                                 let phi = std::f64::consts::TAU * u2;
-                                let wi = [r * phi.cos(), r * phi.sin(), (1.0 - u1).max(0.0).sqrt()];
-                                let world =
-                                    add(add(scale(tx, wi[0]), scale(ty, wi[1])), scale(n, wi[2]));
-                                if !shape.occluded(add(p, scale(n, 1e-6 * radius.max(1.0))), world)
-                                {
+                                let wi = DVec3::new(
+                                    r * phi.cos(),
+                                    r * phi.sin(),
+                                    (1.0 - u1).max(0.0).sqrt(),
+                                );
+                                let world = ((tx * wi[0]) + (ty * wi[1])) + (n * wi[2]);
+                                if !shape.occluded(p + (n * (1e-6 * radius.max(1.0))), world) {
                                     let sky = 0.25 + 0.75 * world[2].max(0.0);
                                     brdf.eval(wi, wo, &mut f);
                                     for (s, v) in spec.iter_mut().zip(f.iter()) {

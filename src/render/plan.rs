@@ -10,7 +10,7 @@
 //! direction: it needs the whole grid.
 
 use super::{Env, Light, RenderConfig, Shape, camera_frame};
-use crate::optics::vec3::{add, dot, normalize, scale, sub};
+use glam::DVec3;
 
 /// What an image needs of the incident-angle grid.
 #[derive(Clone, Debug, PartialEq)]
@@ -65,22 +65,22 @@ pub fn plan(shape: &Shape, cfg: &RenderConfig, grid_deg: &[f64]) -> Plan {
             let Some((t, n)) = shape.hit(cfg.camera, d) else {
                 continue;
             };
-            let wo_z = -dot(d, n);
+            let wo_z = -d.dot(n);
             if wo_z <= 0.0 {
                 continue;
             }
             object_pixels += 1;
-            let p = add(cfg.camera, scale(d, t));
-            let lit = |wi: [f64; 3], q: &mut [u64]| {
-                let c = dot(wi, n);
-                if c > 0.0 && !shape.occluded(add(p, scale(n, 1e-6 * radius.max(1.0))), wi) {
+            let p = cfg.camera + (d * t);
+            let lit = |wi: DVec3, q: &mut [u64]| {
+                let c = wi.dot(n);
+                if c > 0.0 && !shape.occluded(p + n * (1e-6 * radius.max(1.0)), wi) {
                     bracket(grid_deg, c.min(1.0).acos().to_degrees(), margin, q);
                 }
             };
             match cfg.light {
                 Light::None => {}
                 Light::Directional(l) => lit(l, &mut queries),
-                Light::Point(q) => lit(normalize(sub(q, p)), &mut queries),
+                Light::Point(q) => lit((q - p).normalize(), &mut queries),
             }
             match cfg.env {
                 Env::None => {}

@@ -7,6 +7,7 @@
 //! the tile's sides) while tracking the current medium, and every crossing whose source
 //! medium does not match is counted (DESIGN.md §2).
 
+use glam::DVec3;
 use std::collections::HashMap;
 
 use super::{Sample, generate::enclosed_volume};
@@ -79,14 +80,14 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
             if itf.closed { "closed body, outside / inside:" } else { "sheet, front / back:" },
             sample.media[itf.front].name,
             sample.media[itf.back].name,
-            lo[0],
-            lo[1],
-            lo[2],
-            hi[0],
-            hi[1],
-            hi[2]
+            lo.x,
+            lo.y,
+            lo.z,
+            hi.x,
+            hi.y,
+            hi.z
         ));
-        if lo[0] < -tol || lo[1] < -tol || hi[0] > lx + tol || hi[1] > ly + tol {
+        if lo.x < -tol || lo.y < -tol || hi.x > lx + tol || hi.y > ly + tol {
             r.defects.push(format!(
                 "{name} reaches outside the tile [0, {lx}] x [0, {ly}] nm; geometry must lie within one tile"
             ));
@@ -108,10 +109,7 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
         } else {
             let (up, total) = (0..itf.mesh.triangles.len()).fold((0.0, 0.0), |(u, t), k| {
                 let a = itf.mesh.area_vector(k);
-                (
-                    u + a[2],
-                    t + (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt(),
-                )
+                (u + a.z, t + a.length())
             });
             r.facts.push(format!(
                 "{name}: mean normal z = {:.3} (front medium '{}' {})",
@@ -157,11 +155,11 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
                     itf.mesh.positions_nm[a as usize],
                     itf.mesh.positions_nm[b as usize],
                 );
-                let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                let d = q - p;
                 let ray = Ray {
-                    origin: p.map(|c| c as f32),
+                    origin: p.as_vec3().to_array(),
                     tmin: 1e-4,
-                    dir: d.map(|c| c as f32),
+                    dir: d.as_vec3().to_array(),
                     tmax: 1.0 - 1e-4,
                 };
                 let h = accel.closest_hit(&ray);
@@ -229,7 +227,7 @@ pub struct Watertightness {
 /// once in each direction. Vertices are identified by position, so duplicated vertices
 /// do not count as cracks.
 pub fn watertightness(mesh: &super::Mesh) -> Watertightness {
-    let key = |i: u32| mesh.positions_nm[i as usize].map(f64::to_bits);
+    let key = |i: u32| mesh.positions_nm[i as usize].to_array().map(f64::to_bits);
     let mut edges: HashMap<([u64; 3], [u64; 3]), (u32, u32)> = HashMap::new();
     for t in &mesh.triangles {
         for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
@@ -282,8 +280,8 @@ pub fn periodicity(mesh: &super::Mesh, tile_nm: [f64; 2], tol: f64) -> Periodici
     for t in &mesh.triangles {
         for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
             let (kp, kr) = (
-                mesh.positions_nm[a as usize].map(q),
-                mesh.positions_nm[b as usize].map(q),
+                mesh.positions_nm[a as usize].to_array().map(q),
+                mesh.positions_nm[b as usize].to_array().map(q),
             );
             let k = if kp <= kr { (kp, kr) } else { (kr, kp) };
             *by_pos.entry(k).or_default() += 1;
@@ -330,19 +328,14 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
         .iter()
         .filter_map(|i| i.mesh.bounds())
         .fold(
-            ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
-            |(lo, hi), (a, b)| {
-                (
-                    [lo[0].min(a[0]), lo[1].min(a[1]), lo[2].min(a[2])],
-                    [hi[0].max(b[0]), hi[1].max(b[1]), hi[2].max(b[2])],
-                )
-            },
+            (DVec3::INFINITY, DVec3::NEG_INFINITY),
+            |(lo, hi), (a, b)| (lo.min(a), hi.max(b)),
         );
     let [lx, ly] = sample.tile_nm;
-    let extent = lx.max(ly).max(soup_hi[2] - soup_lo[2]);
+    let extent = lx.max(ly).max(soup_hi.z - soup_lo.z);
     let eps = (1e-6 * extent).max(1e-3);
-    let z_top = soup_hi[2] + 0.01 * extent + 1.0;
-    let z_bottom = soup_lo[2] - 0.01 * extent - 1.0;
+    let z_top = soup_hi.z + 0.01 * extent + 1.0;
+    let z_bottom = soup_lo.z - 0.01 * extent - 1.0;
     // The medium above everything, seen from vertical rays down the tile (a few tries, in
     // case one runs exactly along a vertical wall).
     let mut probe = Rng::new(opts.seed, u64::MAX);
@@ -370,11 +363,11 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
     let mut stats = LeakStats::default();
     for w in 0..opts.leak_rays {
         let mut rng = Rng::new(opts.seed, w as u64);
-        let mut pos = [rng.range(0.0, lx), rng.range(0.0, ly), z_top];
+        let mut pos = DVec3::new(rng.range(0.0, lx), rng.range(0.0, ly), z_top);
         let cos_t = rng.range(0.2, 1.0);
         let phi = rng.range(0.0, std::f64::consts::TAU);
         let s = (1.0 - cos_t * cos_t).sqrt();
-        let mut dir = [s * phi.cos(), s * phi.sin(), -cos_t];
+        let mut dir = DVec3::new(s * phi.cos(), s * phi.sin(), -cos_t);
         let mut medium = ambient;
         stats.walks += 1;
         let mut events = 0;
@@ -411,9 +404,9 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
                 1e30
             };
             let ray = Ray {
-                origin: pos.map(|c| c as f32),
+                origin: pos.as_vec3().to_array(),
                 tmin: 0.0,
-                dir: dir.map(|c| c as f32),
+                dir: dir.as_vec3().to_array(),
                 tmax: t_limit as f32,
             };
             let hit: Hit = accel.closest_hit(&ray);
@@ -421,12 +414,10 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
                 if t_side.is_finite() {
                     // Wrap around the tile side and go on.
                     wraps += 1;
-                    for k in 0..3 {
-                        pos[k] += t_side * dir[k];
-                    }
+                    pos += dir * t_side;
                     let l = [lx, ly][side_axis];
                     pos[side_axis] = if dir[side_axis] > 0.0 { -eps } else { l + eps };
-                    if pos[2] > z_top || pos[2] < z_bottom {
+                    if pos.z > z_top || pos.z < z_bottom {
                         break;
                     }
                     continue;
@@ -436,8 +427,8 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
             events += 1;
             stats.crossings += 1;
             let itf = &sample.interfaces[owner(hit.prim)];
-            let n = hit.ng.map(f64::from);
-            let cos = dir[0] * n[0] + dir[1] * n[1] + dir[2] * n[2];
+            let n = DVec3::from(hit.ng.map(f64::from));
+            let cos = dir.dot(n);
             let (from, to) = if cos < 0.0 {
                 (itf.front, itf.back)
             } else {
@@ -447,27 +438,19 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
                 stats.leaks += 1;
             }
             let t = f64::from(hit.t);
-            let p = [
-                pos[0] + t * dir[0],
-                pos[1] + t * dir[1],
-                pos[2] + t * dir[2],
-            ];
+            let p = pos + dir * t;
             // Pass through or reflect, at random; then step off the surface to the side the
             // new direction points to.
             if rng.uniform() < 0.5 {
                 medium = to;
             } else {
                 medium = from;
-                for k in 0..3 {
-                    dir[k] -= 2.0 * cos * n[k];
-                }
+                dir -= n * (2.0 * cos);
             }
-            let off = (dir[0] * n[0] + dir[1] * n[1] + dir[2] * n[2]).signum();
-            for k in 0..3 {
-                pos[k] = p[k] + off * eps * n[k];
-            }
-            pos[0] = pos[0].rem_euclid(lx);
-            pos[1] = pos[1].rem_euclid(ly);
+            let off = dir.dot(n).signum();
+            pos = p + n * (off * eps);
+            pos.x = pos.x.rem_euclid(lx);
+            pos.y = pos.y.rem_euclid(ly);
         }
     }
     stats

@@ -4,27 +4,21 @@ use std::io::Write;
 use std::path::Path;
 
 use crate::accel::TriangleSoup;
-use crate::optics::vec3;
+use glam::DVec3;
 
 /// An indexed triangle mesh. Positions in nanometres in the sample frame (z up); the
 /// front of a triangle is the side `(v1 - v0) x (v2 - v0)` points to.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
-    pub positions_nm: Vec<[f64; 3]>,
+    pub positions_nm: Vec<DVec3>,
     pub triangles: Vec<[u32; 3]>,
 }
 
 impl Mesh {
     /// Twice the area of triangle `i` as a vector: `(v1 - v0) x (v2 - v0)`, in nm².
-    pub fn area_vector(&self, i: usize) -> [f64; 3] {
+    pub fn area_vector(&self, i: usize) -> DVec3 {
         let [a, b, c] = self.triangles[i].map(|k| self.positions_nm[k as usize]);
-        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ]
+        (b - a).cross(c - a)
     }
 
     /// Whether triangle `i` has (numerically) no area: repeated corners, or corners on one
@@ -44,22 +38,17 @@ impl Mesh {
     /// Indices of the triangles that are degenerate once their corners are rounded to f32,
     /// as the accelerators store them.
     pub fn degenerate_triangles_f32(&self) -> Vec<usize> {
-        let f32_corner = |k: u32| self.positions_nm[k as usize].map(|c| f64::from(c as f32));
+        let f32_corner = |k: u32| self.positions_nm[k as usize].as_vec3().as_dvec3();
         (0..self.triangles.len())
             .filter(|&i| degenerate(self.triangles[i].map(f32_corner)))
             .collect()
     }
 
     /// Axis-aligned bounds `(min, max)` in nm, or `None` for an empty mesh.
-    pub fn bounds(&self) -> Option<([f64; 3], [f64; 3])> {
+    pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
         let mut it = self.positions_nm.iter();
         let first = *it.next()?;
-        Some(it.fold((first, first), |(lo, hi), p| {
-            (
-                [lo[0].min(p[0]), lo[1].min(p[1]), lo[2].min(p[2])],
-                [hi[0].max(p[0]), hi[1].max(p[1]), hi[2].max(p[2])],
-            )
-        }))
+        Some(it.fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p))))
     }
 
     /// Appends `other`, offsetting its indices.
@@ -76,7 +65,7 @@ impl Mesh {
             vertices: self
                 .positions_nm
                 .iter()
-                .map(|p| p.map(|c| c as f32))
+                .map(|p| p.as_vec3().to_array())
                 .collect(),
             triangles: self.triangles.clone(),
         }
@@ -108,11 +97,9 @@ impl Mesh {
 }
 
 /// Whether the triangle `[a, b, c]` has (numerically) no area (see [`Mesh::is_degenerate`]).
-fn degenerate([a, b, c]: [[f64; 3]; 3]) -> bool {
-    let d2 = |p: [f64; 3], q: [f64; 3]| {
-        (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)
-    };
+fn degenerate([a, b, c]: [DVec3; 3]) -> bool {
+    let d2 = |p: DVec3, q: DVec3| (p - q).length_squared();
     let max_edge2 = d2(a, b).max(d2(b, c)).max(d2(c, a));
-    let cross = vec3::norm(vec3::cross(vec3::sub(b, a), vec3::sub(c, a)));
+    let cross = (b - a).cross(c - a).length();
     max_edge2 == 0.0 || cross <= 1e-12 * max_edge2
 }

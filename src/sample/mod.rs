@@ -192,8 +192,8 @@ impl Sample {
                 for j in 0..k[1] {
                     let mut c = base.clone();
                     for p in &mut c.positions_nm {
-                        p[0] += i as f64 * lx;
-                        p[1] += j as f64 * ly;
+                        p.x += i as f64 * lx;
+                        p.y += j as f64 * ly;
                     }
                     m.append(&c);
                 }
@@ -314,7 +314,7 @@ fn check_geometry(interfaces: &[Interface], tile_nm: [f64; 2]) -> Result<(), Str
     let mut extent = tile_nm[0].max(tile_nm[1]);
     for itf in interfaces {
         for p in &itf.mesh.positions_nm {
-            for &c in p {
+            for c in p.to_array() {
                 if !(c.is_finite() && c.abs() <= MAX_LENGTH_NM) {
                     return Err(format!(
                         "{}: coordinate {c:e} nm is beyond the {MAX_LENGTH_NM:e} nm (10 cm) limit of f32 geometry and f64 phase",

@@ -15,7 +15,7 @@ use std::path::Path;
 
 use super::mesh::Mesh;
 use super::{SampleError, SampleErrorKind};
-use crate::optics::vec3;
+use glam::DVec3;
 
 /// Options for loading a mesh.
 #[derive(Clone, Copy, Debug, Default)]
@@ -81,7 +81,7 @@ pub fn parse_obj(
     let err =
         |line: usize, msg: String| SampleError::at(path, line, SampleErrorKind::MalformedObj(msg));
     // Vertices as written (nm), and their new index once a face uses them.
-    let mut positions: Vec<[f64; 3]> = Vec::new();
+    let mut positions: Vec<DVec3> = Vec::new();
     let mut renumber: Vec<u32> = Vec::new();
     let mut mesh = Mesh::default();
     let mut triangle_lines: Vec<usize> = Vec::new();
@@ -151,7 +151,7 @@ pub fn parse_obj(
                         ),
                     ));
                 }
-                positions.push(p);
+                positions.push(DVec3::from(p));
                 renumber.push(u32::MAX);
             }
             Some("f") => {
@@ -184,7 +184,7 @@ pub fn parse_obj(
                     ));
                 }
                 if corners.len() > 3 {
-                    let poly: Vec<[f64; 3]> = corners.iter().map(|&i| positions[i]).collect();
+                    let poly: Vec<DVec3> = corners.iter().map(|&i| positions[i]).collect();
                     if let Some(k) = concave_corner(&poly) {
                         return Err(err(
                             line,
@@ -255,25 +255,24 @@ pub fn parse_obj(
 /// The first corner at which polygon `p` turns against its overall orientation (Newell's
 /// normal, Sutherland, Sproull & Schumacker 1974), or `None` for a convex polygon.
 /// Corners on a straight edge are allowed.
-fn concave_corner(p: &[[f64; 3]]) -> Option<usize> {
+fn concave_corner(p: &[DVec3]) -> Option<usize> {
     let k = p.len();
-    let mut n = [0.0; 3];
+    let mut n = DVec3::ZERO;
     for i in 0..k {
         let (a, b) = (p[i], p[(i + 1) % k]);
-        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
-        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
-        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+        n.x += (a.y - b.y) * (a.z + b.z);
+        n.y += (a.z - b.z) * (a.x + b.x);
+        n.z += (a.x - b.x) * (a.y + b.y);
     }
     let scale = p
         .iter()
-        .flat_map(|v| v.iter())
-        .fold(0.0f64, |m, c| m.max(c.abs()))
+        .fold(0.0f64, |m, v| m.max(v.abs().max_element()))
         .max(f64::MIN_POSITIVE);
     (0..k).find(|&i| {
         let (a, b, c) = (p[(i + k - 1) % k], p[i], p[(i + 1) % k]);
-        let turn = vec3::cross(vec3::sub(b, a), vec3::sub(c, b));
+        let turn = (b - a).cross(c - b);
         // Relative tolerance: rounding of coordinates of size `scale`.
-        vec3::dot(turn, n) < -1e-12 * scale.powi(4)
+        turn.dot(n) < -1e-12 * scale.powi(4)
     })
 }
 
@@ -331,7 +330,7 @@ mod tests {
             parse("v 9 9 9\nv 0 0 0\nv 2 0 0\nv 2 2 0\nv 1 2 0\nv 0 2 0\nf 2 3 4 5 6\n").unwrap();
         assert_eq!(m.triangles, vec![[0, 1, 2], [0, 2, 3], [0, 3, 4]]);
         assert_eq!(m.positions_nm.len(), 5);
-        assert!(!m.positions_nm.contains(&[9.0, 9.0, 9.0]));
+        assert!(!m.positions_nm.contains(&glam::DVec3::splat(9.0)));
         // Scaling overflow is caught with the line.
         let e = parse_obj(
             Path::new("t.obj"),

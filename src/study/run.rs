@@ -77,7 +77,7 @@ pub(super) fn config(st: &Study, rays: u64, v: &Variant, seed: u64) -> SimConfig
             theta_bins: v.theta_o_bins,
             phi_bins: 36,
         },
-        origin_nm: [v.origin_nm, v.origin_nm, 0.0],
+        origin_nm: glam::DVec3::new(v.origin_nm, v.origin_nm, 0.0),
         random_entry: st.random_entry,
         precision: v.precision,
         // The study compares methods, some of them known to fail (bucket, global, f32):

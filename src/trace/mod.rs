@@ -21,8 +21,8 @@ use crate::accel::{Accel, AccelError, Backend, Intersector, Ray};
 use crate::optics::C64;
 use crate::optics::fresnel::{self, Field, field_power};
 use crate::optics::tmm;
-use crate::optics::vec3::{V3, add, cross, dot, norm, normalize, scale, sub};
 use crate::sample::Sample;
+use glam::DVec3;
 
 /// A ray leaving the sample through the launch plane (up) or the bottom plane (down).
 #[derive(Clone, Copy, Debug)]
@@ -32,9 +32,9 @@ pub struct Exit {
     /// Complex optical path length from the launch plane, nm.
     pub opl: C64,
     /// Unit direction of travel.
-    pub dir: V3,
+    pub dir: DVec3,
     /// Exit point on the exit plane, unwrapped (nm).
-    pub x: V3,
+    pub x: DVec3,
     pub up: bool,
 }
 
@@ -137,7 +137,7 @@ pub struct Scene<'a> {
     /// Per triangle: owning interface.
     owner: Vec<u32>,
     /// Per triangle: a vertex and the unit normal, f64.
-    plane: Vec<(V3, V3)>,
+    plane: Vec<(DVec3, DVec3)>,
     /// Launch / top exit plane and bottom exit plane, nm.
     pub z_top: f64,
     pub z_bottom: f64,
@@ -163,19 +163,17 @@ impl<'a> Scene<'a> {
         let accel = Accel::build(backend, &soup)?;
         let mut owner = Vec::with_capacity(soup.triangles.len());
         let mut plane = Vec::with_capacity(soup.triangles.len());
-        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for (i, itf) in sample.interfaces.iter().enumerate() {
             let m = &itf.mesh;
             for k in 0..m.triangles.len() {
                 let v0 = m.positions_nm[m.triangles[k][0] as usize];
                 owner.push(i as u32);
-                plane.push((v0, normalize(m.area_vector(k))));
+                plane.push((v0, m.area_vector(k).normalize()));
             }
             if let Some((a, b)) = m.bounds() {
-                for c in 0..3 {
-                    lo[c] = lo[c].min(a[c]);
-                    hi[c] = hi[c].max(b[c]);
-                }
+                lo = lo.min(a);
+                hi = hi.max(b);
             }
         }
         debug_assert_eq!(
@@ -261,8 +259,8 @@ impl<'a> Scene<'a> {
     #[allow(clippy::too_many_arguments)]
     pub fn trace(
         &self,
-        origin: V3,
-        dir: V3,
+        origin: DVec3,
+        dir: DVec3,
         e0: [Field; 2],
         indices: &[C64],
         lambda_nm: f64,
@@ -279,8 +277,8 @@ impl<'a> Scene<'a> {
         stack.push(RayState {
             pos: origin,
             dir,
-            n_re: scale(dir, indices[self.ambient].re),
-            n_im: [0.0; 3],
+            n_re: (dir * (indices[self.ambient].re)),
+            n_im: DVec3::ZERO,
             off: [0.0; 2],
             medium: self.ambient,
             e: e0,
@@ -330,9 +328,9 @@ impl<'a> Scene<'a> {
                 let t_side_ext = t_side + self.eps / r.dir[axis].abs().max(1e-12);
                 let t_lim = t_side_ext.min(t_plane);
                 let ray = Ray {
-                    origin: r.pos.map(|c| c as f32),
+                    origin: r.pos.as_vec3().to_array(),
                     tmin: 0.0,
-                    dir: r.dir.map(|c| c as f32),
+                    dir: r.dir.as_vec3().to_array(),
                     tmax: t_lim.min(f64::from(f32::MAX)) as f32,
                 };
                 let hit = self.accel.closest_hit(&ray);
@@ -340,9 +338,9 @@ impl<'a> Scene<'a> {
                 if hit.is_hit() && f64::from(hit.t) <= t_lim * (1.0 + 1e-6) {
                     // Refine in f64 against the hit triangle's plane.
                     let (v0, n) = self.plane[hit.prim as usize];
-                    let denom = dot(n, r.dir);
+                    let denom = n.dot(r.dir);
                     let mut t = if denom != 0.0 {
-                        dot(n, sub(v0, r.pos)) / denom
+                        n.dot(v0 - r.pos) / denom
                     } else {
                         f64::from(hit.t)
                     };
@@ -369,7 +367,7 @@ impl<'a> Scene<'a> {
                         e: r.e,
                         opl: r.opl,
                         dir: r.dir,
-                        x: [r.pos[0] + r.off[0], r.pos[1] + r.off[1], r.pos[2]],
+                        x: DVec3::new(r.pos.x + r.off[0], r.pos.y + r.off[1], r.pos.z),
                         up,
                     });
                     break;
@@ -416,18 +414,18 @@ impl<'a> Scene<'a> {
     /// attenuation of its plane wave, DESIGN.md §3).
     #[inline]
     fn advance(&self, r: &mut RayState, t: f64, n: C64, out: &mut Tree) {
-        let step = scale(r.dir, t);
+        let step = r.dir * t;
         if n.im == 0.0 {
             // A lossless medium carries homogeneous waves: `N . dr = n t`.
             r.opl += n * t;
         } else {
-            let im = dot(r.n_im, step);
-            r.opl += C64::new(dot(r.n_re, step), im);
+            let im = r.n_im.dot(step);
+            r.opl += C64::new(r.n_re.dot(step), im);
             if im > 0.0 {
                 out.absorbing = true;
             }
         }
-        r.pos = add(r.pos, step);
+        r.pos += step;
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -435,7 +433,7 @@ impl<'a> Scene<'a> {
         &self,
         r: RayState,
         prim: u32,
-        n: V3,
+        n: DVec3,
         indices: &[C64],
         lambda_nm: f64,
         limits: &TraceLimits,
@@ -444,11 +442,11 @@ impl<'a> Scene<'a> {
         out: &mut Tree,
     ) {
         let itf = &self.sample.interfaces[self.owner[prim as usize] as usize];
-        let cos = dot(r.dir, n);
+        let cos = r.dir.dot(n);
         let (from, to, nf) = if cos < 0.0 {
             (itf.front, itf.back, n)
         } else {
-            (itf.back, itf.front, scale(n, -1.0))
+            (itf.back, itf.front, -n)
         };
         let drop = |out: &mut Tree, e: &[Field; 2], opl: C64, limit: bool| {
             out.dropped.push(Dropped {
@@ -486,7 +484,7 @@ impl<'a> Scene<'a> {
                 out.absorbing = true;
             }
         }
-        if n1.im > 0.0 && norm(cross(r.n_im, nf)) > 1e-6 * norm(r.n_im) {
+        if n1.im > 0.0 && r.n_im.cross(nf).length() > 1e-6 * r.n_im.length() {
             // Inside an absorbing medium, at a facet not parallel to the one the wave
             // entered through: the reflections of this region leave in other directions,
             // so the series no longer recombines into the exact field and each event must
@@ -514,33 +512,37 @@ impl<'a> Scene<'a> {
         let (er0, et0) = fresnel::split_field(&r.e[0], &g);
         let (er1, et1) = fresnel::split_field(&r.e[1], &g);
         let depth = r.depth + 1;
-        let mut child =
-            |e: [Field; 2], dir: V3, wave: (V3, V3), medium: usize, side: f64, out: &mut Tree| {
-                if power_of(&e, r.opl) < limits.cutoff {
-                    drop(out, &e, r.opl, false);
-                    return;
-                }
-                if depth > limits.max_depth {
-                    drop(out, &e, r.opl, true);
-                    return;
-                }
-                // The child starts a little off the surface; its plane wave's phase there is
-                // `N . offset` past the hit point, so the path stays exact however thin the
-                // layer (a 5 nm film would otherwise lose 2 eps of thickness per round trip).
-                let offset = scale(nf, side * self.eps);
-                let shift = C64::new(dot(wave.0, offset), dot(wave.1, offset));
-                stack.push(RayState {
-                    pos: add(r.pos, offset),
-                    dir,
-                    n_re: wave.0,
-                    n_im: wave.1,
-                    off: r.off,
-                    medium,
-                    e,
-                    opl: r.opl + shift,
-                    depth,
-                });
-            };
+        let mut child = |e: [Field; 2],
+                         dir: DVec3,
+                         wave: (DVec3, DVec3),
+                         medium: usize,
+                         side: f64,
+                         out: &mut Tree| {
+            if power_of(&e, r.opl) < limits.cutoff {
+                drop(out, &e, r.opl, false);
+                return;
+            }
+            if depth > limits.max_depth {
+                drop(out, &e, r.opl, true);
+                return;
+            }
+            // The child starts a little off the surface; its plane wave's phase there is
+            // `N . offset` past the hit point, so the path stays exact however thin the
+            // layer (a 5 nm film would otherwise lose 2 eps of thickness per round trip).
+            let offset = nf * (side * self.eps);
+            let shift = C64::new(wave.0.dot(offset), wave.1.dot(offset));
+            stack.push(RayState {
+                pos: (r.pos + offset),
+                dir,
+                n_re: wave.0,
+                n_im: wave.1,
+                off: r.off,
+                medium,
+                e,
+                opl: r.opl + shift,
+                depth,
+            });
+        };
         // Transmitted child first so the reflected one is traced first (stack order does
         // not change results; it keeps the stack shallow for films). Under total internal
         // reflection into a lossless medium no wave propagates and T = 0.
@@ -554,13 +556,13 @@ impl<'a> Scene<'a> {
 /// A ray in flight.
 #[derive(Clone, Copy, Debug)]
 pub struct RayState {
-    pub pos: V3,
+    pub pos: DVec3,
     /// Unit direction of travel: the real part of the index vector, normalised.
-    pub dir: V3,
+    pub dir: DVec3,
     /// Complex index vector of the ray's plane wave (`optics::fresnel`): real part and
     /// imaginary part (the latter normal to the interface the wave entered through).
-    pub n_re: V3,
-    pub n_im: V3,
+    pub n_re: DVec3,
+    pub n_im: DVec3,
     /// Unwrapped offset of the current tile copy, nm.
     pub off: [f64; 2],
     pub medium: usize,
@@ -571,15 +573,14 @@ pub struct RayState {
 
 /// The two launched fields for a wave travelling along `d` (unit): s (perpendicular to the
 /// plane of incidence) and p, each of unit power.
-pub fn launch_fields(d: V3) -> [Field; 2] {
-    let z = [0.0, 0.0, 1.0];
-    let c = cross(d, z);
-    let s = if norm(c) > 1e-12 {
-        normalize(c)
+pub fn launch_fields(d: DVec3) -> [Field; 2] {
+    let c = d.cross(DVec3::Z);
+    let s = if c.length() > 1e-12 {
+        c.normalize()
     } else {
-        [1.0, 0.0, 0.0]
+        DVec3::X
     };
-    let p = cross(s, d);
-    let f = |v: V3| v.map(|x| C64::new(x, 0.0));
+    let p = s.cross(d);
+    let f = |v: DVec3| v.to_array().map(|x| C64::new(x, 0.0));
     [f(s), f(p)]
 }

@@ -8,22 +8,12 @@ use std::f64::consts::{PI, TAU};
 use super::super::mesh::Mesh;
 use super::{MAX_BODIES, MAX_GENERATED_TRIANGLES};
 use crate::rng::Rng;
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
+use glam::DVec3;
 
 /// A unit icosphere (Loop-free midpoint subdivision of an icosahedron), outward normals.
 pub fn icosphere(subdivisions: u32) -> Mesh {
     let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut p: Vec<[f64; 3]> = [
+    let mut p: Vec<DVec3> = [
         [-1.0, t, 0.0],
         [1.0, t, 0.0],
         [-1.0, -t, 0.0],
@@ -37,11 +27,9 @@ pub fn icosphere(subdivisions: u32) -> Mesh {
         [-t, 0.0, -1.0],
         [-t, 0.0, 1.0],
     ]
+    .map(DVec3::from)
     .to_vec();
-    let norm = |v: [f64; 3]| {
-        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        [v[0] / l, v[1] / l, v[2] / l]
-    };
+    let norm = |v: DVec3| v / v.length();
     for v in &mut p {
         *v = norm(*v);
     }
@@ -70,15 +58,11 @@ pub fn icosphere(subdivisions: u32) -> Mesh {
     for _ in 0..subdivisions {
         let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
         let mut next = Vec::with_capacity(tris.len() * 4);
-        let mut midpoint = |a: u32, b: u32, p: &mut Vec<[f64; 3]>| {
+        let mut midpoint = |a: u32, b: u32, p: &mut Vec<DVec3>| {
             let key = (a.min(b), a.max(b));
             *mid.entry(key).or_insert_with(|| {
                 let (x, y) = (p[a as usize], p[b as usize]);
-                p.push(norm([
-                    (x[0] + y[0]) / 2.0,
-                    (x[1] + y[1]) / 2.0,
-                    (x[2] + y[2]) / 2.0,
-                ]));
+                p.push(norm((x + y) / 2.0));
                 (p.len() - 1) as u32
             })
         };
@@ -103,8 +87,7 @@ pub fn enclosed_volume(mesh: &Mesh) -> f64 {
         .iter()
         .map(|t| {
             let [a, b, c] = t.map(|i| mesh.positions_nm[i as usize]);
-            let bc = cross(b, c);
-            (a[0] * bc[0] + a[1] * bc[1] + a[2] * bc[2]) / 6.0
+            a.dot(b.cross(c)) / 6.0
         })
         .sum()
 }
@@ -157,7 +140,7 @@ pub fn pigment_spheres(
         unit.triangles.len(),
     )?;
     let mut rng = Rng::new(seed, 0x5F4E);
-    let mut centres: Vec<[f64; 3]> = Vec::with_capacity(count);
+    let mut centres: Vec<DVec3> = Vec::with_capacity(count);
     let min_d2 = (2.0 * rc * 1.001).powi(2);
     // Only spheres in neighbouring cells can overlap a candidate: O(1) per attempt.
     let mut grid = NeighbourGrid::new(1.01 * min_d2.sqrt());
@@ -170,15 +153,15 @@ pub fn pigment_spheres(
                 centres.len()
             ));
         }
-        let c = [
+        let c = DVec3::new(
             rng.range(rc, tile_nm[0] - rc),
             rng.range(rc, tile_nm[1] - rc),
             rng.range(layer_nm[0] + rc, layer_nm[1] - rc),
-        ];
-        if grid.near(c).all(|k| {
-            let o = centres[k];
-            (o[0] - c[0]).powi(2) + (o[1] - c[1]).powi(2) + (o[2] - c[2]).powi(2) >= min_d2
-        }) {
+        );
+        if grid
+            .near(c)
+            .all(|k| (centres[k] - c).length_squared() >= min_d2)
+        {
             grid.insert(c, centres.len());
             centres.push(c);
         }
@@ -186,11 +169,7 @@ pub fn pigment_spheres(
     Ok(centres
         .iter()
         .map(|c| Mesh {
-            positions_nm: unit
-                .positions_nm
-                .iter()
-                .map(|v| [c[0] + rc * v[0], c[1] + rc * v[1], c[2] + rc * v[2]])
-                .collect(),
+            positions_nm: unit.positions_nm.iter().map(|&v| c + v * rc).collect(),
             triangles: unit.triangles.clone(),
         })
         .collect())
@@ -199,26 +178,25 @@ pub fn pigment_spheres(
 /// An oriented box: centre, three orthonormal axes and half extents.
 #[derive(Clone, Copy, Debug)]
 struct Obb {
-    c: [f64; 3],
-    axes: [[f64; 3]; 3],
+    c: DVec3,
+    axes: [DVec3; 3],
+    /// Half extents along the axes, nm.
     half: [f64; 3],
 }
 
 impl Obb {
-    fn corners(&self) -> [[f64; 3]; 8] {
-        let mut out = [[0.0; 3]; 8];
+    fn corners(&self) -> [DVec3; 8] {
+        let mut out = [DVec3::ZERO; 8];
         for (i, o) in out.iter_mut().enumerate() {
             let s = [
                 if i & 1 == 0 { -1.0 } else { 1.0 },
                 if i & 2 == 0 { -1.0 } else { 1.0 },
                 if i & 4 == 0 { -1.0 } else { 1.0 },
             ];
-            *o = std::array::from_fn(|k| {
-                self.c[k]
-                    + s[0] * self.half[0] * self.axes[0][k]
-                    + s[1] * self.half[1] * self.axes[1][k]
-                    + s[2] * self.half[2] * self.axes[2][k]
-            });
+            *o = self.c
+                + self.axes[0] * (s[0] * self.half[0])
+                + self.axes[1] * (s[1] * self.half[1])
+                + self.axes[2] * (s[2] * self.half[2]);
         }
         out
     }
@@ -256,25 +234,24 @@ impl Obb {
     /// Separating-axis test for two oriented boxes (Gottschalk, Lin & Manocha, "OBBTree",
     /// SIGGRAPH 1996): 15 candidate axes.
     fn overlaps(&self, o: &Obb) -> bool {
-        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-        let d = sub(o.c, self.c);
-        let mut axes: Vec<[f64; 3]> = Vec::with_capacity(15);
+        let d = o.c - self.c;
+        let mut axes: Vec<DVec3> = Vec::with_capacity(15);
         axes.extend(self.axes);
         axes.extend(o.axes);
         for a in self.axes {
             for b in o.axes {
-                let c = cross(a, b);
-                if dot(c, c) > 1e-18 {
+                let c = a.cross(b);
+                if c.dot(c) > 1e-18 {
                     axes.push(c);
                 }
             }
         }
         for ax in axes {
             let ra: f64 = (0..3)
-                .map(|i| self.half[i] * dot(self.axes[i], ax).abs())
+                .map(|i| self.half[i] * self.axes[i].dot(ax).abs())
                 .sum();
-            let rb: f64 = (0..3).map(|i| o.half[i] * dot(o.axes[i], ax).abs()).sum();
-            if dot(d, ax).abs() > ra + rb {
+            let rb: f64 = (0..3).map(|i| o.half[i] * o.axes[i].dot(ax).abs()).sum();
+            if d.dot(ax).abs() > ra + rb {
                 return false;
             }
         }
@@ -344,9 +321,9 @@ pub fn flakes(
         let spin = rng.range(0.0, TAU);
         let tilt = (tilt_sd_deg * rng.normal()).to_radians();
         let (cs, ss, ct, st) = (spin.cos(), spin.sin(), tilt.cos(), tilt.sin());
-        let ax = [cs, ss, 0.0];
-        let ay = [-ss * ct, cs * ct, st];
-        let az = [ss * st, -cs * st, ct];
+        let ax = DVec3::new(cs, ss, 0.0);
+        let ay = DVec3::new(-ss * ct, cs * ct, st);
+        let az = DVec3::new(ss * st, -cs * st, ct);
         let axes = [ax, ay, az];
         // Extent of the outer box along each world axis, to keep it inside tile and layer.
         let ext = |k: usize| {
@@ -358,11 +335,11 @@ pub fn flakes(
         if 2.0 * ex >= tile_nm[0] || 2.0 * ey >= tile_nm[1] || 2.0 * ez >= thickness {
             continue;
         }
-        let c = [
+        let c = DVec3::new(
             rng.range(ex, tile_nm[0] - ex),
             rng.range(ey, tile_nm[1] - ey),
             rng.range(layer_nm[0] + ez, layer_nm[1] - ez),
-        ];
+        );
         // A 0.1 % margin keeps coatings of neighbours from touching.
         let cand = Obb {
             c,
@@ -452,14 +429,14 @@ impl NeighbourGrid {
             cells: HashMap::new(),
         }
     }
-    fn key(&self, p: [f64; 3]) -> [i64; 3] {
-        p.map(|c| (c / self.cell).floor() as i64)
+    fn key(&self, p: DVec3) -> [i64; 3] {
+        p.to_array().map(|c| (c / self.cell).floor() as i64)
     }
-    fn insert(&mut self, p: [f64; 3], id: usize) {
+    fn insert(&mut self, p: DVec3, id: usize) {
         self.cells.entry(self.key(p)).or_default().push(id);
     }
     /// Ids of the points in the 27 cells around `p`.
-    fn near(&self, p: [f64; 3]) -> impl Iterator<Item = usize> + '_ {
+    fn near(&self, p: DVec3) -> impl Iterator<Item = usize> + '_ {
         let k = self.key(p);
         (0..27).flat_map(move |n| {
             let d = [n % 3 - 1, n / 3 % 3 - 1, n / 9 - 1];

@@ -7,6 +7,7 @@ use std::f64::consts::{PI, TAU};
 use super::super::mesh::Mesh;
 use super::MAX_GENERATED_TRIANGLES;
 use crate::rng::Rng;
+use glam::DVec3;
 
 /// A regular height field over the periodic tile: `cells[0] x cells[1]` grid cells, two
 /// triangles each, normals pointing up (+z). The last row and column repeat the first
@@ -30,14 +31,14 @@ pub fn height_field(
             );
             let x = i as f64 * tile_nm[0] / nx as f64;
             let y = j as f64 * tile_nm[1] / ny as f64;
-            positions_nm.push([x, y, height(xs, ys)]);
+            positions_nm.push(DVec3::new(x, y, height(xs, ys)));
         }
     }
     height_field_from_grid(cells, positions_nm)
 }
 
 /// Triangulates a `(nx+1) x (ny+1)` grid of points (row-major, x fastest).
-fn height_field_from_grid(cells: [usize; 2], positions_nm: Vec<[f64; 3]>) -> Mesh {
+fn height_field_from_grid(cells: [usize; 2], positions_nm: Vec<DVec3>) -> Mesh {
     let [nx, ny] = cells;
     let idx = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
     let mut triangles = Vec::with_capacity(2 * nx * ny);
@@ -201,11 +202,11 @@ pub fn grid_mesh(tile_nm: [f64; 2], n: usize, heights: &[f64], z0: f64) -> Mesh 
     let mut p = Vec::with_capacity((n + 1) * (n + 1));
     for j in 0..=n {
         for i in 0..=n {
-            p.push([
+            p.push(DVec3::new(
                 i as f64 * tile_nm[0] / n as f64,
                 j as f64 * tile_nm[1] / n as f64,
                 z0 + heights[j * (n + 1) + i],
-            ]);
+            ));
         }
     }
     height_field_from_grid([n, n], p)
@@ -241,7 +242,7 @@ pub fn v_grooves(tile_nm: [f64; 2], count: usize, angle_deg: f64, z0: f64) -> Re
     for j in 0..=1 {
         for i in 0..=nx {
             let z = if i % 2 == 0 { z0 } else { z0 - depth };
-            p.push([i as f64 * 0.5 * w, j as f64 * tile_nm[1], z]);
+            p.push(DVec3::new(i as f64 * 0.5 * w, j as f64 * tile_nm[1], z));
         }
     }
     Ok(height_field_from_grid([nx, 1], p))

@@ -3,6 +3,8 @@
 
 use std::f64::consts::{PI, TAU};
 
+use glam::DVec3;
+
 use serde::Deserialize;
 
 use super::super::mesh::Mesh;
@@ -36,7 +38,7 @@ impl Distribution {
 
     /// Samples a microfacet normal with density `D(m) cos(theta_m)` per solid angle
     /// (Walter et al. 2007, eqs. 28–29 and 35–36).
-    pub fn sample(self, alpha: f64, u1: f64, u2: f64) -> [f64; 3] {
+    pub fn sample(self, alpha: f64, u1: f64, u2: f64) -> DVec3 {
         let tan2 = match self {
             Distribution::Beckmann => -alpha * alpha * (1.0 - u1).ln(),
             Distribution::Ggx => alpha * alpha * u1 / (1.0 - u1),
@@ -44,7 +46,7 @@ impl Distribution {
         let cos_t = 1.0 / (1.0 + tan2).sqrt();
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
         let phi = TAU * u2;
-        [sin_t * phi.cos(), sin_t * phi.sin(), cos_t]
+        DVec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
     }
 }
 

@@ -209,7 +209,7 @@ impl GeneratorSpec {
             if let Some(c) = m
                 .positions_nm
                 .iter()
-                .flatten()
+                .flat_map(|p| p.to_array())
                 .find(|c| !(c.is_finite() && c.abs() <= lim))
             {
                 return Err(format!(
