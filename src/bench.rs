@@ -320,7 +320,7 @@ pub fn analytic_buckets(ni: usize, tb: u32, pb: u32, lambdas: &[f64]) -> crate::
         wavelengths_nm: lambdas.to_vec(),
         samples,
         meta: Meta {
-            repr: String::new(),
+            repr: crate::brdf::Kind::Analytic,
             wavelengths_nm: lambdas.to_vec(),
             sample_name: "analytic Lambert + Blinn-Phong".into(),
             sample_hash: "analytic".into(),

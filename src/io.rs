@@ -111,6 +111,18 @@ fn parent(path: &Path) -> &Path {
     }
 }
 
+/// FNV-1a 64-bit hash (Fowler, Noll & Vo; offset basis 0xcbf29ce484222325, prime
+/// 0x100000001b3): short stable names and the sample identity hash, never a checksum of
+/// file content (that is [`crate::container::checksum`]).
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
 /// `.gs-<16 hex digits of FNV-1a of the file name>-` : the start of every temporary name
 /// of `path`.
 fn temp_prefix(path: &Path) -> String {
@@ -118,7 +130,7 @@ fn temp_prefix(path: &Path) -> String {
         .file_name()
         .map(|n| n.as_encoded_bytes())
         .unwrap_or(b"out");
-    format!(".gs-{:016x}-", crate::accumulate::file::fnv1a(name))
+    format!(".gs-{:016x}-", fnv1a(name))
 }
 
 /// `dir/.gs-<hash>-<pid>.tmp[.ext]` beside `path`: same file system, so the rename is

@@ -8,6 +8,7 @@ pub mod accel;
 pub mod accumulate;
 pub mod bench;
 pub mod brdf;
+pub mod container;
 pub mod fit;
 pub mod io;
 pub mod optics;

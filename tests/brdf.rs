@@ -388,11 +388,10 @@ fn gsb_files_with_a_valid_checksum_but_senseless_content_are_refused() {
     }
     // A declared array length near 2^64, with the checksum made valid again.
     let mut bytes = file::to_bytes(&Representation::Table(table.clone()));
+    // The payload starts after the 24-byte preamble and the header (container layout).
     let hlen = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-    bytes[16 + hlen..16 + hlen + 8].copy_from_slice(&(u64::MAX - 3).to_le_bytes());
-    let n = bytes.len();
-    let sum = goniospec::accumulate::file::fnv1a(&bytes[..n - 8]);
-    bytes[n - 8..].copy_from_slice(&sum.to_le_bytes());
+    bytes[24 + hlen..24 + hlen + 8].copy_from_slice(&(u64::MAX - 3).to_le_bytes());
+    goniospec::container::reseal(&mut bytes);
     let e = file::from_bytes(&bytes, "x.gsb").err().unwrap().to_string();
     assert!(e.contains("truncated"), "{e}");
     // The undamaged files still read.
@@ -402,4 +401,39 @@ fn gsb_files_with_a_valid_checksum_but_senseless_content_are_refused() {
     ] {
         assert!(file::from_bytes(&file::to_bytes(&r), "x.gsb").is_ok());
     }
+}
+
+/// Issue 11: files written before the shared container (`.gsa` version 2, `.gsb` version 1,
+/// FNV-1a trailers) still read, with the same content as their re-encoding in the current
+/// version (the fuzz seeds hold both; the current ones were re-framed by an independent
+/// Python script with zlib's CRC-32).
+#[test]
+fn previous_container_versions_still_read() {
+    let dir = root().join("fuzz/corpus");
+    for name in ["small", "global"] {
+        let old =
+            goniospec::accumulate::file::Accumulator::read(&dir.join(format!("gsa/{name}-v2.gsa")))
+                .unwrap();
+        let new =
+            goniospec::accumulate::file::Accumulator::read(&dir.join(format!("gsa/{name}.gsa")))
+                .unwrap();
+        assert_eq!(old, new);
+        assert_eq!(
+            old.to_bytes(),
+            std::fs::read(dir.join(format!("gsa/{name}.gsa"))).unwrap()
+        );
+    }
+    for name in ["table", "kdtree", "subdivided"] {
+        let old = file::read(&dir.join(format!("gsb/{name}-v1.gsb"))).unwrap();
+        let new = std::fs::read(dir.join(format!("gsb/{name}.gsb"))).unwrap();
+        assert_eq!(file::to_bytes(&old), new);
+    }
+    // Any other version is refused by number.
+    let mut bytes = std::fs::read(dir.join("gsb/table.gsb")).unwrap();
+    bytes[8] = 9;
+    let e = file::from_bytes(&bytes, "x.gsb").err().unwrap().to_string();
+    assert!(
+        e.contains("version 9") && e.contains("versions 1 and 2"),
+        "{e}"
+    );
 }

@@ -464,8 +464,9 @@ fn accumulators_with_a_valid_checksum_but_senseless_content_are_refused() {
     // hold these values, so its writer could not lay out such a file): a grid whose size
     // wraps, and an unknown estimator (read as beamlet before; now refused by name).
     let bytes = good.to_bytes();
-    let hlen = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
-    let header = std::str::from_utf8(&bytes[16..16 + hlen]).unwrap();
+    let fmt = goniospec::accumulate::file::FORMAT;
+    let frame = goniospec::container::decode(&fmt, &bytes, "x.gsa").unwrap();
+    let header = frame.header;
     for (from, to, want) in [
         ("theta_o_bins = 45", "theta_o_bins = 65536", "bucket grid"),
         ("coherence = \"beamlet\"", "coherence = \"bogus\"", "bogus"),
@@ -474,12 +475,7 @@ fn accumulators_with_a_valid_checksum_but_senseless_content_are_refused() {
             .replace(from, to)
             .replace("phi_o_bins = 36", "phi_o_bins = 65536");
         assert!(text.contains(to), "{from}");
-        let mut crafted = bytes[..12].to_vec();
-        crafted.extend_from_slice(&(text.len() as u32).to_le_bytes());
-        crafted.extend_from_slice(text.as_bytes());
-        crafted.extend_from_slice(&bytes[16 + hlen..bytes.len() - 8]);
-        let sum = goniospec::accumulate::file::fnv1a(&crafted);
-        crafted.extend_from_slice(&sum.to_le_bytes());
+        let crafted = goniospec::container::encode(&fmt, &text, frame.payload);
         let e = Accumulator::from_bytes(&crafted, "x.gsa")
             .unwrap_err()
             .to_string();

@@ -39,7 +39,7 @@ fn lambert(albedo: f64) -> Lambert {
     Lambert {
         albedo,
         meta: Meta {
-            repr: "lambert".into(),
+            repr: goniospec::brdf::Kind::Analytic,
             wavelengths_nm: centres(),
             sample_name: "white".into(),
             sample_hash: String::new(),

@@ -77,7 +77,7 @@ fn monte_carlo_error_falls_as_one_over_root_n_on_a_rough_sample() {
     assert!(reference.contains("high-budget"));
     let table: Vec<_> = points
         .iter()
-        .filter(|p| p.representation == "table")
+        .filter(|p| p.representation == goniospec::brdf::Kind::Table)
         .cloned()
         .collect();
     let slope = goniospec::study::convergence_slope(&table).unwrap();

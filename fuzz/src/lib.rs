@@ -70,19 +70,18 @@ pub fn media_model(data: &[u8]) {
     }
 }
 
-/// Replaces the trailing FNV-1a checksum with the right one.
-fn with_checksum(data: &[u8]) -> Vec<u8> {
+/// Replaces the trailing checksum of a current-version file with the right one, so the
+/// fuzzer reaches the parsers behind it (legacy-version seeds keep their own checksum).
+fn with_checksum(data: &[u8], format: &goniospec::container::Format) -> Vec<u8> {
     let mut b = data.to_vec();
-    if b.len() >= 8 {
-        let n = b.len();
-        let sum = goniospec::accumulate::file::fnv1a(&b[..n - 8]);
-        b[n - 8..].copy_from_slice(&sum.to_le_bytes());
+    if b.get(8..12) == Some(&format.version.to_le_bytes()[..]) {
+        goniospec::container::reseal(&mut b);
     }
     b
 }
 
 pub fn gsa(data: &[u8]) {
-    let b = with_checksum(data);
+    let b = with_checksum(data, &goniospec::accumulate::file::FORMAT);
     if let Ok(acc) = goniospec::accumulate::file::Accumulator::from_bytes(&b, "fuzz.gsa") {
         // What readers do next: merge with itself (refused: same seed), build a BRDF.
         let mut m = acc.clone();
@@ -93,7 +92,7 @@ pub fn gsa(data: &[u8]) {
 
 pub fn gsb(data: &[u8]) {
     use goniospec::brdf::{Brdf, dir};
-    let b = with_checksum(data);
+    let b = with_checksum(data, &goniospec::brdf::file::FORMAT);
     if let Ok(r) = goniospec::brdf::file::from_bytes(&b, "fuzz.gsb") {
         let mut out = vec![0.0; r.meta().wavelengths_nm.len()];
         for (ti, to, p) in [(0.0, 0.3, 1.0), (0.7, 0.7, 3.1), (1.5, 0.1, 6.0)] {

@@ -1,11 +1,11 @@
 //! The `.gsa` accumulator file: versioned, checksummed, written atomically.
 //!
-//! Layout (little endian): magic `GSPECACC`, format version (u32), header length (u32),
-//! header (UTF-8 TOML of [`Header`]), then for each (incident direction, wavelength) cell:
-//! `trees` (u64), `sum` and `sumsq` (f64) and `count` (u64) per bucket key, `r_sum, r_sumsq, t_sum, t_sumsq,
-//! absorbed, dropped` (f64), and in global mode the complex amplitude sums (12 f64 per
-//! key); finally an FNV-1a 64 checksum of everything before it. A truncated or corrupted
-//! file is refused.
+//! In the shared container ([`crate::container`], magic `GSPECACC`, version 3; version 2
+//! files still read): the header is the TOML of [`Header`]; the payload holds, for each
+//! (incident direction, wavelength) cell, direction-major, little endian: `trees` (u64),
+//! `sum` and `sumsq` (f64) and `count` (u64) per bucket key, `r_sum, r_sumsq, t_sum,
+//! t_sumsq, absorbed, dropped` (f64), and in global mode the complex amplitude sums (12
+//! f64 per key). A truncated, corrupted or senseless file is refused.
 
 use std::io::Write;
 use std::path::Path;
@@ -16,7 +16,7 @@ use super::{Buckets, Cell, Coherence, PhasePrecision};
 use crate::optics::C64;
 
 pub const MAGIC: &[u8; 8] = b"GSPECACC";
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 
 /// Everything that defines what was simulated; two files merge only when these agree.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -259,39 +259,15 @@ pub struct Accumulator {
     pub cells: Vec<Cell>,
 }
 
-/// Why a `.gsa` file was refused.
-#[derive(Debug, thiserror::Error)]
-pub enum FileError {
-    #[error("{path}: cannot read: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
-    #[error("{path}: not a goniospec accumulator (.gsa) file (wrong magic bytes)")]
-    Magic { path: String },
-    #[error(
-        "{path}: .gsa format version {found} is not supported (this build reads version {VERSION})"
-    )]
-    Version { path: String, found: u32 },
-    #[error("{path}: the file is truncated ({0} bytes, expected {1})", .sizes.0, .sizes.1)]
-    Truncated { path: String, sizes: (usize, usize) },
-    #[error("{path}: checksum mismatch: the file is corrupted")]
-    Checksum { path: String },
-    #[error("{path}: bad header: {message}")]
-    Header { path: String, message: String },
-    #[error("cannot merge: {0}")]
-    Merge(String),
-}
+pub use crate::container::FileError;
 
-/// FNV-1a 64-bit hash (Fowler, Noll & Vo).
-pub fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in bytes {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
-}
+/// The `.gsa` format in the shared container.
+pub const FORMAT: crate::container::Format = crate::container::Format {
+    magic: MAGIC,
+    what: "accumulator (.gsa)",
+    version: VERSION,
+    legacy_version: Some(2),
+};
 
 impl Accumulator {
     fn cell_f64s(&self) -> usize {
@@ -307,13 +283,7 @@ impl Accumulator {
     /// Serialises to bytes (deterministic).
     pub fn to_bytes(&self) -> Vec<u8> {
         let header = toml::to_string(&self.header).expect("the header serialises");
-        let mut out = Vec::with_capacity(
-            16 + header.len() + self.cells.len() * (8 + 8 * self.cell_f64s()) + 8,
-        );
-        out.extend_from_slice(MAGIC);
-        out.extend_from_slice(&VERSION.to_le_bytes());
-        out.extend_from_slice(&(header.len() as u32).to_le_bytes());
-        out.extend_from_slice(header.as_bytes());
+        let mut out = Vec::with_capacity(self.cells.len() * (8 + 8 * self.cell_f64s()));
         for c in &self.cells {
             out.extend_from_slice(&c.trees.to_le_bytes());
             let mut put = |v: f64| out.extend_from_slice(&v.to_le_bytes());
@@ -334,9 +304,7 @@ impl Accumulator {
                 }
             }
         }
-        let sum = fnv1a(&out);
-        out.extend_from_slice(&sum.to_le_bytes());
-        out
+        crate::container::encode(&FORMAT, &header, &out)
     }
 
     /// Writes the file atomically.
@@ -347,92 +315,39 @@ impl Accumulator {
 
     /// Reads and validates a file.
     pub fn read(path: &Path) -> Result<Accumulator, FileError> {
-        let p = path.display().to_string();
-        let bytes = crate::io::read_input(path, u64::MAX).map_err(|source| FileError::Io {
-            path: p.clone(),
-            source,
-        })?;
-        Self::from_bytes(&bytes, &p)
+        let bytes = crate::container::read(path)?;
+        Self::from_bytes(&bytes, &path.display().to_string())
     }
 
     /// Parses bytes read from `path` (named in errors).
     pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Accumulator, FileError> {
-        let p = path.to_string();
-        if bytes.len() < 8 || &bytes[..8] != MAGIC {
-            return Err(FileError::Magic { path: p });
-        }
-        if bytes.len() < 16 {
-            return Err(FileError::Truncated {
-                path: p,
-                sizes: (bytes.len(), 16),
-            });
-        }
-        let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-        if version != VERSION {
-            return Err(FileError::Version {
-                path: p,
-                found: version,
-            });
-        }
-        let hlen = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
-        if bytes.len() < 16 + hlen + 8 {
-            return Err(FileError::Truncated {
-                path: p,
-                sizes: (bytes.len(), 16 + hlen + 8),
-            });
-        }
-        let header_text = std::str::from_utf8(&bytes[16..16 + hlen])
-            .map_err(|_| FileError::Checksum { path: p.clone() })?;
-        let header: Header = match toml::from_str(header_text) {
-            Ok(h) => h,
-            Err(e) => {
-                // A damaged header is a corrupted file when the checksum fails too.
-                let n = bytes.len();
-                let stored = u64::from_le_bytes(bytes[n - 8..].try_into().expect("8 bytes"));
-                if fnv1a(&bytes[..n - 8]) != stored {
-                    return Err(FileError::Checksum { path: p });
-                }
-                return Err(FileError::Header {
-                    path: p,
-                    message: e.message().trim().to_string(),
-                });
-            }
-        };
+        let frame = crate::container::decode(&FORMAT, bytes, path)?;
+        let header: Header = toml::from_str(frame.header)
+            .map_err(|e| FileError::content(path, e.message().trim()))?;
         // A file is data from outside: its checksum proves it was not damaged, not that a
         // writer made sense. Every value the reader relies on is validated.
-        if let Err(message) = header.validate() {
-            return Err(FileError::Header { path: p, message });
-        }
+        header.validate().map_err(|m| FileError::content(path, m))?;
         let mut acc = Accumulator {
             header,
             cells: Vec::new(),
         };
         let ncells = acc.header.settings.theta_i_deg.len() * acc.header.settings.wavelength_count();
         let per = 8 + 8 * acc.cell_f64s();
-        let Some(expected) = ncells
-            .checked_mul(per)
-            .and_then(|b| b.checked_add(16 + hlen + 8))
-        else {
-            return Err(FileError::Header {
-                path: p,
-                message: "the declared grid is too large".into(),
-            });
-        };
-        if bytes.len() != expected {
-            return Err(FileError::Truncated {
-                path: p,
-                sizes: (bytes.len(), expected),
-            });
-        }
-        let stored = u64::from_le_bytes(bytes[expected - 8..].try_into().expect("8 bytes"));
-        if fnv1a(&bytes[..expected - 8]) != stored {
-            return Err(FileError::Checksum { path: p });
+        let payload = frame.payload;
+        if ncells.checked_mul(per) != Some(payload.len()) {
+            return Err(FileError::content(
+                path,
+                format!(
+                    "the header declares {ncells} cells of {per} bytes; the payload holds {} bytes",
+                    payload.len()
+                ),
+            ));
         }
         let buckets = acc.header.settings.buckets();
         let global = acc.header.settings.coherence_mode() == Coherence::Global;
-        let mut pos = 16 + hlen;
+        let mut pos = 0;
         let mut f = || {
-            let v = f64::from_le_bytes(bytes[pos..pos + 8].try_into().expect("8 bytes"));
+            let v = f64::from_le_bytes(payload[pos..pos + 8].try_into().expect("8 bytes"));
             pos += 8;
             v
         };
@@ -470,10 +385,7 @@ impl Accumulator {
                 .iter()
                 .all(|v| v.is_finite());
             if !finite {
-                return Err(FileError::Header {
-                    path: p,
-                    message: "a cell holds non-finite sums".into(),
-                });
+                return Err(FileError::content(path, "a cell holds non-finite sums"));
             }
             acc.cells.push(c);
         }

@@ -1,10 +1,9 @@
 //! The `.gsb` built-BRDF file: versioned, checksummed, written atomically.
 //!
-//! Layout (little endian): magic `GSPECBRD`, format version (u32), header length (u32),
-//! header (UTF-8 TOML: [`Meta`] and the representation's parameters), then the arrays the
-//! representation needs, each as a length (u64) and that many f64; finally an FNV-1a 64
-//! checksum of everything before it. A truncated or corrupted file, or one with the wrong
-//! magic, is refused.
+//! In the shared container ([`crate::container`], magic `GSPECBRD`, version 2; version 1
+//! files still read): the header is TOML of [`Meta`] and the representation's parameters;
+//! the payload holds the arrays the representation needs, each as a length (u64) and that
+//! many f64, little endian. A truncated, corrupted or senseless file is refused.
 
 use std::io::Write;
 use std::path::Path;
@@ -14,12 +13,20 @@ use serde::{Deserialize, Serialize};
 use super::kdtree::{KdTreeBrdf, MAX_K};
 use super::subdivided::{Cell, SubdividedBrdf};
 use super::table::TableBrdf;
-use super::{Meta, Representation};
+use super::{Kind, Meta, Representation};
 use crate::accumulate::Buckets;
-use crate::accumulate::file::fnv1a;
+pub use crate::container::FileError;
 
 pub const MAGIC: &[u8; 8] = b"GSPECBRD";
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
+
+/// The `.gsb` format in the shared container.
+pub const FORMAT: crate::container::Format = crate::container::Format {
+    magic: MAGIC,
+    what: "BRDF (.gsb)",
+    version: VERSION,
+    legacy_version: Some(1),
+};
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -37,28 +44,6 @@ struct Params {
 struct Header {
     meta: Meta,
     params: Params,
-}
-
-/// Why a `.gsb` file was refused.
-#[derive(Debug, thiserror::Error)]
-pub enum GsbError {
-    #[error("{path}: cannot read: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
-    #[error("{path}: not a goniospec BRDF (.gsb) file (wrong magic bytes)")]
-    Magic { path: String },
-    #[error(
-        "{path}: .gsb format version {found} is not supported (this build reads version {VERSION})"
-    )]
-    Version { path: String, found: u32 },
-    #[error("{path}: the file is truncated")]
-    Truncated { path: String },
-    #[error("{path}: checksum mismatch: the file is corrupted")]
-    Checksum { path: String },
-    #[error("{path}: bad content: {message}")]
-    Content { path: String, message: String },
 }
 
 fn put(out: &mut Vec<u8>, a: &[f64]) {
@@ -135,16 +120,10 @@ pub fn to_bytes(r: &Representation) -> Vec<u8> {
     })
     .expect("the header serialises");
     let mut out = Vec::new();
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&(header.len() as u32).to_le_bytes());
-    out.extend_from_slice(header.as_bytes());
     for a in &arrays {
         put(&mut out, a);
     }
-    let sum = fnv1a(&out);
-    out.extend_from_slice(&sum.to_le_bytes());
-    out
+    crate::container::encode(&FORMAT, &header, &out)
 }
 
 /// Writes a representation atomically.
@@ -154,76 +133,43 @@ pub fn write(r: &Representation, path: &Path) -> std::io::Result<()> {
 }
 
 /// Reads and validates a `.gsb` file.
-pub fn read(path: &Path) -> Result<Representation, GsbError> {
-    let p = path.display().to_string();
-    let bytes = crate::io::read_input(path, u64::MAX).map_err(|source| GsbError::Io {
-        path: p.clone(),
-        source,
-    })?;
-    from_bytes(&bytes, &p)
+pub fn read(path: &Path) -> Result<Representation, FileError> {
+    let bytes = crate::container::read(path)?;
+    from_bytes(&bytes, &path.display().to_string())
 }
 
 /// Parses bytes read from `path` (named in errors).
-pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Representation, GsbError> {
-    let p = || path.to_string();
-    if bytes.len() < 8 || &bytes[..8] != MAGIC {
-        return Err(GsbError::Magic { path: p() });
-    }
-    if bytes.len() < 24 {
-        return Err(GsbError::Truncated { path: p() });
-    }
-    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-    if version != VERSION {
-        return Err(GsbError::Version {
-            path: p(),
-            found: version,
-        });
-    }
-    // The checksum covers everything: check it before trusting any length.
-    let n = bytes.len();
-    let stored = u64::from_le_bytes(bytes[n - 8..].try_into().expect("8 bytes"));
-    let hlen = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
-    if 16 + hlen + 8 > n {
-        return Err(GsbError::Truncated { path: p() });
-    }
-    if fnv1a(&bytes[..n - 8]) != stored {
-        // A cut file fails the checksum too; say which it is when the lengths tell.
-        return Err(if declared_len(bytes, hlen).is_some_and(|want| want > n) {
-            GsbError::Truncated { path: p() }
-        } else {
-            GsbError::Checksum { path: p() }
-        });
-    }
-    let content = |m: &str| GsbError::Content {
-        path: p(),
-        message: m.to_string(),
-    };
-    let header: Header = toml::from_str(
-        std::str::from_utf8(&bytes[16..16 + hlen]).map_err(|_| content("header is not UTF-8"))?,
-    )
-    .map_err(|e| content(e.message().trim()))?;
-    let mut pos = 16 + hlen;
+pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Representation, FileError> {
+    let frame = crate::container::decode(&FORMAT, bytes, path)?;
+    let content = |m: &str| FileError::content(path, m);
+    let header: Header = toml::from_str(frame.header).map_err(|e| content(e.message().trim()))?;
+    let payload = frame.payload;
+    let mut pos = 0;
     let mut arrays = Vec::new();
-    while pos < n - 8 {
-        if pos + 8 > n - 8 {
-            return Err(GsbError::Truncated { path: p() });
+    while pos < payload.len() {
+        let rest = payload.len() - pos;
+        if rest < 8 {
+            return Err(content("the payload ends inside an array length"));
         }
-        let len = u64::from_le_bytes(bytes[pos..pos + 8].try_into().expect("8 bytes")) as usize;
+        let len = u64::from_le_bytes(payload[pos..pos + 8].try_into().expect("8 bytes"));
         pos += 8;
-        if len > (n - 8 - pos) / 8 {
-            return Err(GsbError::Truncated { path: p() });
+        if len > (rest as u64 - 8) / 8 {
+            return Err(content(&format!(
+                "an array declares {len} values but the payload is truncated after {} bytes",
+                rest - 8
+            )));
         }
+        let len = len as usize;
         arrays.push(
-            bytes[pos..pos + 8 * len]
+            payload[pos..pos + 8 * len]
                 .chunks_exact(8)
                 .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
                 .collect::<Vec<f64>>(),
         );
         pos += 8 * len;
     }
-    let content_err = content;
-    let r = decode(header, arrays).map_err(|m| content_err(&m))?;
-    validate(&r).map_err(|m| content_err(&m))?;
+    let r = decode(header, arrays).map_err(|m| content(&m))?;
+    validate(&r).map_err(|m| content(&m))?;
     Ok(r)
 }
 
@@ -240,8 +186,8 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
         }
     };
     let times = |a: usize, b: usize| a.checked_mul(b).ok_or("array sizes overflow");
-    match header.meta.repr.as_str() {
-        "kdtree" => {
+    match header.meta.repr {
+        Kind::Kdtree => {
             need(2)?;
             if arrays[0].len() % 4 != 0 {
                 return Err("kd-tree points are not 4-vectors".into());
@@ -270,7 +216,7 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
                 header.meta,
             )))
         }
-        "table" => {
+        Kind::Table => {
             need(2)?;
             let (tb, pb) = (
                 pr.theta_bins.ok_or("missing theta_bins")? as usize,
@@ -293,7 +239,7 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
                 meta: header.meta,
             }))
         }
-        "subdivided" => {
+        Kind::Subdivided => {
             let ni = pr.incident_angles.ok_or("missing incident_angles")?;
             if ni == 0 || ni != arrays.len().saturating_sub(1) as u64 / 2 {
                 return Err(format!(
@@ -349,7 +295,7 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
                 meta: header.meta,
             }))
         }
-        other => Err(format!("unknown representation '{other}'")),
+        Kind::Analytic => Err("an analytic BRDF cannot be stored in a file".into()),
     }
 }
 
@@ -467,14 +413,4 @@ fn check_cells(cells: &[Cell], tb: u32, pb: u32) -> Result<(), String> {
         }
     }
     Ok(())
-}
-
-/// The file length the array headers promise, when they can be read.
-fn declared_len(bytes: &[u8], hlen: usize) -> Option<usize> {
-    let mut pos = 16 + hlen;
-    while pos + 8 <= bytes.len().saturating_sub(8) {
-        let len = u64::from_le_bytes(bytes[pos..pos + 8].try_into().ok()?) as usize;
-        pos = pos.checked_add(8)?.checked_add(len.checked_mul(8)?)?;
-    }
-    Some(pos + 8)
 }

@@ -349,7 +349,7 @@ impl KdTreeBrdf {
         }
         debug_assert_eq!(values.len(), pts.len() * nl);
         let mut meta = data.meta.clone();
-        meta.repr = "kdtree".into();
+        meta.repr = super::Kind::Kdtree;
         meta.isotropic = isotropic;
         meta.reciprocal = reciprocal;
         KdTreeBrdf::from_parts(pts, values, k, meta)

@@ -14,12 +14,80 @@ use crate::accumulate::file::Accumulator;
 use crate::accumulate::{Buckets, Coherence};
 use glam::DVec3;
 
+/// The kind of a representation, serialised by name; an unknown name is refused.
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum Kind {
+    /// Scattered buckets blended by their k nearest neighbours ([`kdtree`]).
+    Kdtree,
+    /// An adaptively subdivided hemisphere ([`subdivided`]).
+    Subdivided,
+    /// The bucket grid as a table ([`table`]).
+    Table,
+    /// A closed-form model (tests, benchmarks); never stored in a `.gsb`.
+    Analytic,
+}
+
+impl Kind {
+    /// The kinds `goniospec build` makes and `.gsb` files store.
+    pub const STORED: [Kind; 3] = [Kind::Kdtree, Kind::Subdivided, Kind::Table];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Kdtree => "kdtree",
+            Kind::Subdivided => "subdivided",
+            Kind::Table => "table",
+            Kind::Analytic => "analytic",
+        }
+    }
+
+    /// A stored kind by name, or an error listing them.
+    pub fn parse(s: &str) -> Result<Kind, String> {
+        Kind::STORED
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| format!("unknown representation '{s}' (kdtree, subdivided or table)"))
+    }
+}
+
+impl std::fmt::Display for Kind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// How to build a representation from buckets ([`Representation::build`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildOptions {
+    /// kd-tree: neighbours blended per query, 1..=[`kdtree::MAX_K`].
+    pub k: usize,
+    /// Subdivided: relative RMS deviation above which a cell splits (positive).
+    pub tolerance: f64,
+    /// kd-tree: reduce to `phi_o - phi_i` (isotropic samples).
+    pub isotropic: bool,
+    /// kd-tree: also enter each bucket as its reciprocal pair `(wo, wi)`.
+    pub reciprocal: bool,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions {
+            k: 4,
+            tolerance: 0.05,
+            isotropic: true,
+            reciprocal: false,
+        }
+    }
+}
+
 /// What every representation knows about itself.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Meta {
-    /// "kdtree", "subdivided" or "table".
-    pub repr: String,
+    /// Which representation this is.
+    pub repr: Kind,
     /// Representative wavelength of each bin, nm.
     pub wavelengths_nm: Vec<f64>,
     pub sample_name: String,
@@ -134,7 +202,7 @@ impl BucketData {
             wavelengths_nm: (0..nl).map(|j| s.wavelength(j)).collect(),
             samples,
             meta: Meta {
-                repr: String::new(),
+                repr: Kind::Table,
                 wavelengths_nm: (0..nl).map(|j| s.wavelength(j)).collect(),
                 sample_name: s.sample_name.clone(),
                 sample_hash: s.sample_hash.clone(),
@@ -222,6 +290,35 @@ impl Brdf for Representation {
 }
 
 impl Representation {
+    /// Builds a representation of `kind` from buckets. Refuses options out of range and
+    /// the analytic kind (it is not built from data).
+    pub fn build(kind: Kind, data: &BucketData, o: &BuildOptions) -> Result<Self, String> {
+        Ok(match kind {
+            Kind::Kdtree => {
+                if !(1..=kdtree::MAX_K).contains(&o.k) {
+                    return Err(format!("k = {} is outside 1..={}", o.k, kdtree::MAX_K));
+                }
+                Representation::KdTree(kdtree::KdTreeBrdf::build(
+                    data,
+                    o.k,
+                    o.isotropic,
+                    o.reciprocal,
+                ))
+            }
+            Kind::Subdivided => {
+                if !(o.tolerance > 0.0 && o.tolerance.is_finite()) {
+                    return Err(format!(
+                        "the subdivision tolerance must be positive, got {}",
+                        o.tolerance
+                    ));
+                }
+                Representation::Subdivided(subdivided::SubdividedBrdf::build(data, o.tolerance))
+            }
+            Kind::Table => Representation::Table(table::TableBrdf::build(data)),
+            Kind::Analytic => return Err("an analytic BRDF is not built from buckets".into()),
+        })
+    }
+
     /// What `goniospec info` prints about a BRDF, one fact per line.
     pub fn describe(&self) -> String {
         let m = self.meta();

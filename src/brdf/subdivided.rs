@@ -159,7 +159,7 @@ impl SubdividedBrdf {
             all_flux.push(flux);
         }
         let mut meta = data.meta.clone();
-        meta.repr = "subdivided".into();
+        meta.repr = super::Kind::Subdivided;
         meta.isotropic = true;
         SubdividedBrdf {
             theta_i: order.iter().map(|&i| data.theta_i[i]).collect(),

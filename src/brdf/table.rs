@@ -51,7 +51,7 @@ impl TableBrdf {
             }
         }
         let mut meta = data.meta.clone();
-        meta.repr = "table".into();
+        meta.repr = super::Kind::Table;
         meta.isotropic = true;
         TableBrdf {
             theta_i: order.iter().map(|&i| data.theta_i[i]).collect(),

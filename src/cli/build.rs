@@ -2,13 +2,8 @@
 
 use super::*;
 
-pub(super) fn parse_repr(s: &str) -> Result<String, String> {
-    match s {
-        "kdtree" | "subdivided" | "table" => Ok(s.to_string()),
-        _ => Err(format!(
-            "unknown representation '{s}' (kdtree, subdivided or table)"
-        )),
-    }
+pub(super) fn parse_repr(s: &str) -> Result<goniospec::brdf::Kind, String> {
+    goniospec::brdf::Kind::parse(s)
 }
 
 #[derive(Args)]
@@ -17,7 +12,7 @@ pub(super) struct BuildArgs {
     input: PathBuf,
     /// Representation: kdtree, subdivided or table.
     #[arg(long, default_value = "kdtree", value_parser = parse_repr)]
-    repr: String,
+    repr: goniospec::brdf::Kind,
     /// Output BRDF (.gsb), written atomically.
     #[arg(short, long)]
     output: PathBuf,
@@ -44,21 +39,13 @@ pub(super) fn build(a: BuildArgs) -> Result<ExitCode> {
     let acc = Accumulator::read(&a.input)?;
     let data = BucketData::from_accumulator(&acc);
     let t0 = std::time::Instant::now();
-    let r = match a.repr.as_str() {
-        "kdtree" => Representation::KdTree(brdf::kdtree::KdTreeBrdf::build(
-            &data,
-            usize::from(a.k),
-            !a.anisotropic,
-            a.reciprocal,
-        )),
-        "subdivided" => {
-            if !(a.tolerance > 0.0 && a.tolerance.is_finite()) {
-                bail!("--tolerance must be positive");
-            }
-            Representation::Subdivided(brdf::subdivided::SubdividedBrdf::build(&data, a.tolerance))
-        }
-        _ => Representation::Table(brdf::table::TableBrdf::build(&data)),
+    let opts = brdf::BuildOptions {
+        k: usize::from(a.k),
+        tolerance: a.tolerance,
+        isotropic: !a.anisotropic,
+        reciprocal: a.reciprocal,
     };
+    let r = Representation::build(a.repr, &data, &opts).map_err(|m| anyhow::anyhow!(m))?;
     let built = t0.elapsed().as_secs_f64();
     brdf::file::write(&r, &a.output).with_context(|| format!("writing {}", a.output.display()))?;
     outln!(

@@ -146,7 +146,7 @@ pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, String> {
     };
     let by_time = series(&|p| p.wall_s.max(1e-4));
     // Representations: query time against the error of their hemispherical integral.
-    let mut reprs: Vec<&str> = points.iter().map(|p| p.representation.as_str()).collect();
+    let mut reprs: Vec<crate::brdf::Kind> = points.iter().map(|p| p.representation).collect();
     reprs.sort();
     reprs.dedup();
     let by_repr: Vec<(String, Vec<(f64, f64)>)> = reprs

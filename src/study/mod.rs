@@ -199,7 +199,7 @@ pub struct Study {
     pub rays: Vec<u64>,
     /// Every combination of the swept settings other than rays and representation.
     pub variants: Vec<Variant>,
-    pub representation: Vec<String>,
+    pub representation: Vec<crate::brdf::Kind>,
     pub area: Option<AreaSweep>,
 }
 
@@ -235,7 +235,7 @@ pub struct Variant {
 pub struct Point {
     pub variant: Variant,
     pub rays: u64,
-    pub representation: String,
+    pub representation: crate::brdf::Kind,
     pub wall_s: f64,
     pub traced_rays: u64,
     pub peak_mem_mb: f64,
@@ -383,15 +383,15 @@ pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
     if let Some(b) = backend.iter().find(|b| !b.is_available()) {
         return bad(format!("backend {b} is not available in this build"));
     }
-    if let Some(r) = sw
+    let representation = sw
         .representation
         .iter()
-        .find(|r| !["kdtree", "subdivided", "table"].contains(&r.as_str()))
-    {
-        return bad(format!(
-            "unknown representation '{r}' (kdtree, subdivided or table)"
-        ));
-    }
+        .map(|r| crate::brdf::Kind::parse(r))
+        .collect::<Result<Vec<_>, _>>();
+    let representation = match representation {
+        Ok(r) => r,
+        Err(m) => return bad(m),
+    };
     // The same A:B:STEP rules and limits as `--wavelengths` (finite, at most
     // MAX_WAVELENGTHS bins).
     let w = &raw.study.wavelengths;
@@ -463,7 +463,7 @@ pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
         notes: raw.study.notes,
         rays: sw.rays.clone(),
         variants,
-        representation: sw.representation.clone(),
+        representation,
         area: match raw.area {
             Some(a)
                 if a.tiles.is_empty()

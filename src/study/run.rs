@@ -224,16 +224,9 @@ pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String)
             }
             let (acc, stats) = last.expect("at least one repetition");
             let data = BucketData::from_accumulator(&acc);
-            for repr in &st.representation {
-                let rep = match repr.as_str() {
-                    "kdtree" => Representation::KdTree(crate::brdf::kdtree::KdTreeBrdf::build(
-                        &data, 4, true, false,
-                    )),
-                    "subdivided" => Representation::Subdivided(
-                        crate::brdf::subdivided::SubdividedBrdf::build(&data, 0.05),
-                    ),
-                    _ => Representation::Table(crate::brdf::table::TableBrdf::build(&data)),
-                };
+            for &repr in &st.representation {
+                let rep = Representation::build(repr, &data, &crate::brdf::BuildOptions::default())
+                    .expect("the study's kinds are stored kinds with default options");
                 let mut out = vec![0.0; data.wavelengths_nm.len()];
                 let q0 = Instant::now();
                 let m = 2000;
@@ -259,7 +252,7 @@ pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String)
                 let p = Point {
                     variant: *v,
                     rays,
-                    representation: repr.clone(),
+                    representation: repr,
                     wall_s: wall,
                     traced_rays: stats.traces,
                     peak_mem_mb: peak_mem_mb(),
