@@ -270,3 +270,61 @@ fn render_plan_asks_for_the_angles_the_image_queries() {
     let sky = plan(&Shape::Sphere, &render_cfg(Light::None, Env::Sky), &grid);
     assert_eq!(sky.needed(), grid);
 }
+
+/// The library's scene-driven simulation: it simulates exactly the planned angles, the
+/// saving it reports is the arithmetic of its budgets (a one-batch budget of one 64-tree
+/// block: every needed direction spends 64 trees, so the bound is `64 x grid`), and bad
+/// budgets or an
+/// unlit image are refused before anything runs.
+#[test]
+fn scene_driven_simulation_runs_only_the_planned_angles() {
+    use goniospec::render::plan::{SceneBudget, SceneError, simulate_scene};
+    let light = Light::Directional(goniospec::brdf::dir(30f64.to_radians(), 0.4));
+    let cfg = render_cfg(light, Env::None);
+    let budget = SceneBudget {
+        theta_step_deg: 5.0,
+        rays: 64,
+        max_rays: 64,
+        tolerance: 0.05,
+        seed: 3,
+        wavelengths: Wavelengths::Monochromatic(vec![550.0]),
+    };
+    let plan = budget.plan(&Shape::Plane, &cfg).unwrap();
+    assert_eq!(plan.needed(), vec![25.0, 30.0, 35.0]);
+    let s = shipped("flat-soap-film.toml");
+    let run = simulate_scene(&s, plan, &budget, &|_| {}).unwrap();
+    assert_eq!(run.acc.header.settings.theta_i_deg, vec![25.0, 30.0, 35.0]);
+    assert_eq!(run.spent(), 3 * 64);
+    assert_eq!(run.full_hemisphere_bound(), 64 * 18);
+    let (saved, skipped) = run.saving_percent();
+    assert!((saved - 100.0 * 15.0 / 18.0).abs() < 1e-9, "{saved}");
+    assert!((skipped - 100.0 * 15.0 / 18.0).abs() < 1e-9, "{skipped}");
+    for bad in [
+        SceneBudget {
+            theta_step_deg: 90.0,
+            ..budget.clone()
+        },
+        SceneBudget {
+            rays: 0,
+            ..budget.clone()
+        },
+        SceneBudget {
+            max_rays: 32,
+            ..budget.clone()
+        },
+        SceneBudget {
+            tolerance: f64::NAN,
+            ..budget.clone()
+        },
+    ] {
+        assert!(matches!(
+            bad.plan(&Shape::Plane, &cfg),
+            Err(SceneError::Budget(_))
+        ));
+    }
+    let dark = render_cfg(Light::None, Env::None);
+    assert!(matches!(
+        budget.plan(&Shape::Plane, &dark),
+        Err(SceneError::NothingNeeded)
+    ));
+}

@@ -35,22 +35,8 @@ pub(super) fn generate(a: GenerateArgs) -> Result<ExitCode> {
     if !tile_nm.iter().all(|t| t.is_finite() && *t > 0.0) {
         bail!("--tile must be two positive sizes, got {:?}", a.tile);
     }
-    let mut text = format!("kind = {:?}\n", a.kind);
-    for p in &a.params {
-        let (k, v) = p
-            .split_once('=')
-            .with_context(|| format!("--param '{p}' is not KEY=VALUE"))?;
-        let (k, v) = (k.trim(), v.trim());
-        // A bare word that is not a TOML value (ggx, top) is taken as a string.
-        let value = if toml::from_str::<toml::Table>(&format!("x = {v}")).is_ok() {
-            v.to_string()
-        } else {
-            format!("{v:?}")
-        };
-        text.push_str(&format!("{k} = {value}\n"));
-    }
-    let spec: GeneratorSpec = toml::from_str(&text)
-        .map_err(|e| anyhow::anyhow!("generator '{}': {}", a.kind, e.message().trim()))?;
+    let spec =
+        GeneratorSpec::from_key_values(&a.kind, &a.params).map_err(|m| anyhow::anyhow!(m))?;
     let comment = format!(
         "goniospec generate {} {} --tile {},{} --unit {}\nCoordinates in {}.",
         a.kind,
@@ -67,51 +53,44 @@ pub(super) fn generate(a: GenerateArgs) -> Result<ExitCode> {
     let out = spec
         .generate(tile_nm, u)
         .map_err(|e| anyhow::anyhow!("generator '{}': {e}", a.kind))?;
-    match out {
-        Generated::Sheet(mesh) => {
-            mesh.write_obj(&a.output, u, &comment)
-                .with_context(|| format!("writing {}", a.output.display()))?;
-            outln!(
-                "wrote {} ({} triangles)",
-                a.output.display(),
-                mesh.triangles.len()
-            );
-        }
-        Generated::Bodies(bodies) => {
-            let mut cores = sample::Mesh::default();
-            let mut shells = sample::Mesh::default();
-            for (c, s) in &bodies {
-                cores.append(c);
-                if let Some(s) = s {
-                    shells.append(s);
-                }
-            }
-            cores
-                .write_obj(&a.output, u, &format!("{comment}\n{} bodies", bodies.len()))
-                .with_context(|| format!("writing {}", a.output.display()))?;
-            outln!(
-                "wrote {} ({} bodies, {} triangles)",
-                a.output.display(),
-                bodies.len(),
-                cores.triangles.len()
-            );
-            if !shells.triangles.is_empty() {
-                let stem = a.output.file_stem().unwrap_or_default().to_string_lossy();
-                let p = a.output.with_file_name(format!("{stem}-coating.obj"));
-                shells
-                    .write_obj(
-                        &p,
-                        u,
-                        &format!("{comment}\ncoating shells of {} bodies", bodies.len()),
-                    )
-                    .with_context(|| format!("writing {}", p.display()))?;
-                outln!(
-                    "wrote {} ({} triangles)",
-                    p.display(),
-                    shells.triangles.len()
-                );
-            }
-        }
+    let (cores, shells) = out.merged();
+    let note = match &out {
+        Generated::Sheet(_) => comment.clone(),
+        Generated::Bodies(b) => format!("{comment}\n{} bodies", b.len()),
+    };
+    cores
+        .write_obj(&a.output, u, &note)
+        .with_context(|| format!("writing {}", a.output.display()))?;
+    match &out {
+        Generated::Sheet(_) => outln!(
+            "wrote {} ({} triangles)",
+            a.output.display(),
+            cores.triangles.len()
+        ),
+        Generated::Bodies(b) => outln!(
+            "wrote {} ({} bodies, {} triangles)",
+            a.output.display(),
+            b.len(),
+            cores.triangles.len()
+        ),
+    }
+    if let Generated::Bodies(bodies) = &out
+        && !shells.triangles.is_empty()
+    {
+        let stem = a.output.file_stem().unwrap_or_default().to_string_lossy();
+        let p = a.output.with_file_name(format!("{stem}-coating.obj"));
+        shells
+            .write_obj(
+                &p,
+                u,
+                &format!("{comment}\ncoating shells of {} bodies", bodies.len()),
+            )
+            .with_context(|| format!("writing {}", p.display()))?;
+        outln!(
+            "wrote {} ({} triangles)",
+            p.display(),
+            shells.triangles.len()
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -216,89 +216,69 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// `render --simulate`: simulates the incident angles the image needs (see
-/// `goniospec::render::plan`), writes the .gsa and .gsb beside the image, reports the
-/// saving against a full-hemisphere simulation, and returns the BRDF table.
+/// `render --simulate`: simulates the incident angles the image needs
+/// (`goniospec::render::plan::simulate_scene`), writes the .gsa and .gsb beside the image,
+/// reports the saving against a full-hemisphere simulation, and returns the BRDF table.
 pub(super) fn scene_driven(
     a: &RenderArgs,
     sample_path: &std::path::Path,
     shape: &goniospec::render::Shape,
     cfg: &goniospec::render::RenderConfig,
 ) -> Result<goniospec::brdf::Representation> {
-    use goniospec::brdf::{BucketData, Representation, table::TableBrdf};
-    if !(a.tolerance > 0.0 && a.tolerance.is_finite()) {
-        bail!("--tolerance must be a positive number, got {}", a.tolerance);
-    }
-    if a.rays == 0 || a.max_rays < a.rays {
-        bail!(
-            "--rays must be positive and at most --max-rays (got {} and {})",
-            a.rays,
-            a.max_rays
-        );
-    }
-    if !(a.theta_step > 0.0 && a.theta_step < 90.0) {
-        bail!(
-            "--theta-step must lie between 0 and 90 degrees, got {}",
-            a.theta_step
-        );
-    }
+    use goniospec::render::plan::{SceneBudget, simulate_scene};
+    let budget = SceneBudget {
+        theta_step_deg: a.theta_step,
+        rays: a.rays,
+        max_rays: a.max_rays,
+        tolerance: a.tolerance,
+        seed: a.seed,
+        wavelengths: a.wavelengths.parse()?,
+    };
+    let plan = budget.plan(shape, cfg)?;
     let s = sample::load(sample_path, MeshOptions::default())?;
-    let steps = (90.0 / a.theta_step - 1e-9).ceil() as usize;
-    let grid: Vec<f64> = (0..steps).map(|k| k as f64 * a.theta_step).collect();
-    let plan = goniospec::render::plan::plan(shape, cfg, &grid);
     let needed = plan.needed();
-    if needed.is_empty() {
-        bail!(
-            "the image needs no incident direction: the object is not visible or not lit (check --camera, --light and --env)"
-        );
-    }
     eprintln!(
         "scene-driven simulation: the image ({} object pixels) needs {} of the {} incident angles of the {}-degree grid: {:?}",
         plan.object_pixels,
         needed.len(),
-        grid.len(),
+        plan.grid_deg.len(),
         a.theta_step,
         needed
     );
-    let sim = SimConfig {
-        seed: a.seed,
-        tolerance: Some(a.tolerance),
-        max_rays: a.max_rays,
-        ..SimConfig::new(needed.clone(), a.wavelengths.parse()?, a.rays)
-    };
     let bar = progress_bar(a.max_rays * needed.len() as u64, "trees (at most)");
-    let (acc, stats) = goniospec::simulate::simulate(&s, &sim, &|n| bar.set_position(n))?;
+    let run = simulate_scene(&s, plan, &budget, &|n| bar.set_position(n))?;
     bar.finish_and_clear();
     let gsa = a.output.with_extension("gsa");
-    acc.write(&gsa)
+    run.acc
+        .write(&gsa)
         .with_context(|| format!("writing {}", gsa.display()))?;
-    let rep = Representation::Table(TableBrdf::build(&BucketData::from_accumulator(&acc)));
     let gsb = a.output.with_extension("gsb");
-    goniospec::brdf::file::write(&rep, &gsb)
+    goniospec::brdf::file::write(&run.brdf, &gsb)
         .with_context(|| format!("writing {}", gsb.display()))?;
-    let spent: u64 = stats.directions.iter().map(|d| d.rays).sum();
-    let worst = stats.directions.iter().map(|d| d.rays).max().unwrap_or(0);
-    let converged = stats.directions.iter().filter(|d| d.converged).count();
-    for d in &stats.directions {
+    let converged = run.stats.directions.iter().filter(|d| d.converged).count();
+    for d in &run.stats.directions {
         eprintln!("  {d}");
     }
-    // A full-hemisphere run with one fixed budget must give every grid angle at least what
-    // the hardest needed angle took: a lower bound on its cost.
-    let full = worst * grid.len() as u64;
+    let (saved, skipped) = run.saving_percent();
+    let worst = run
+        .stats
+        .directions
+        .iter()
+        .map(|d| d.rays)
+        .max()
+        .unwrap_or(0);
     eprintln!(
-        "simulated {} trees in {:.2} s ({} of {} directions converged to {}); a full-hemisphere simulation giving each of its directions the largest budget used here needs at least {} x {} = {} trees: {:.0} % saved ({:.0} % by skipping directions, the rest by adaptive budgets). Wrote {} and {}",
-        spent,
-        stats.seconds,
+        "simulated {} trees in {:.2} s ({} of {} directions converged to {}); a full-hemisphere simulation giving each of its directions the largest budget used here needs at least {} x {} = {} trees: {saved:.0} % saved ({skipped:.0} % by skipping directions, the rest by adaptive budgets). Wrote {} and {}",
+        run.spent(),
+        run.stats.seconds,
         converged,
-        needed.len(),
+        run.needed_deg.len(),
         a.tolerance,
-        grid.len(),
+        run.plan.grid_deg.len(),
         worst,
-        full,
-        100.0 * (1.0 - spent as f64 / full.max(1) as f64),
-        100.0 * (1.0 - needed.len() as f64 / grid.len() as f64),
+        run.full_hemisphere_bound(),
         gsa.display(),
         gsb.display()
     );
-    Ok(rep)
+    Ok(run.brdf)
 }

@@ -100,3 +100,152 @@ pub fn plan(shape: &Shape, cfg: &RenderConfig, grid_deg: &[f64]) -> Plan {
         object_pixels,
     }
 }
+
+/// The budget of a scene-driven simulation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneBudget {
+    /// Spacing of the full-hemisphere incident-angle grid, degrees, in (0, 90).
+    pub theta_step_deg: f64,
+    /// Trees per batch and per direction (the adaptive run's step), at least 1.
+    pub rays: u64,
+    /// At most this many trees per direction, at least `rays`.
+    pub max_rays: u64,
+    /// Target relative standard error of the reflectance per direction (positive).
+    pub tolerance: f64,
+    pub seed: u64,
+    pub wavelengths: crate::simulate::Wavelengths,
+}
+
+/// What a scene-driven simulation did: the plan, the accumulator of the needed angles, its
+/// run statistics and the BRDF table built from it.
+pub struct SceneRun {
+    pub plan: Plan,
+    pub needed_deg: Vec<f64>,
+    pub acc: crate::accumulate::file::Accumulator,
+    pub stats: crate::simulate::SimStats,
+    pub brdf: crate::brdf::Representation,
+}
+
+/// Why a scene-driven simulation could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("{0}")]
+    Budget(String),
+    #[error(
+        "the image needs no incident direction: the object is not visible or not lit (check --camera, --light and --env)"
+    )]
+    NothingNeeded,
+    #[error(transparent)]
+    Simulate(#[from] crate::simulate::SimError),
+}
+
+impl SceneBudget {
+    /// Every field in range, or what is not.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
+            return Err(format!(
+                "--tolerance must be a positive number, got {}",
+                self.tolerance
+            ));
+        }
+        if self.rays == 0 || self.max_rays < self.rays {
+            return Err(format!(
+                "--rays must be positive and at most --max-rays (got {} and {})",
+                self.rays, self.max_rays
+            ));
+        }
+        if !(self.theta_step_deg > 0.0 && self.theta_step_deg < 90.0) {
+            return Err(format!(
+                "--theta-step must lie between 0 and 90 degrees, got {}",
+                self.theta_step_deg
+            ));
+        }
+        Ok(())
+    }
+
+    /// The full-hemisphere grid: `0, step, 2 step, ...` below 90 degrees.
+    pub fn grid_deg(&self) -> Vec<f64> {
+        let steps = (90.0 / self.theta_step_deg - 1e-9).ceil() as usize;
+        (0..steps).map(|k| k as f64 * self.theta_step_deg).collect()
+    }
+}
+
+impl SceneBudget {
+    /// Validates the budget and plans the image on its grid; refuses an image that needs
+    /// no incident direction.
+    pub fn plan(&self, shape: &Shape, cfg: &RenderConfig) -> Result<Plan, SceneError> {
+        self.validate().map_err(SceneError::Budget)?;
+        let p = plan(shape, cfg, &self.grid_deg());
+        if p.needed().is_empty() {
+            return Err(SceneError::NothingNeeded);
+        }
+        Ok(p)
+    }
+}
+
+/// Simulates only the incident angles `plan` needs (adaptively, to the budget's tolerance)
+/// and builds the BRDF table the render reads. `progress` receives the trees traced so far
+/// (at most `max_rays` per needed angle).
+pub fn simulate_scene(
+    sample: &crate::sample::Sample,
+    plan: Plan,
+    budget: &SceneBudget,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<SceneRun, SceneError> {
+    use crate::brdf::{BucketData, Representation, table::TableBrdf};
+    budget.validate().map_err(SceneError::Budget)?;
+    let needed_deg = plan.needed();
+    if needed_deg.is_empty() {
+        return Err(SceneError::NothingNeeded);
+    }
+    let sim = crate::simulate::SimConfig {
+        seed: budget.seed,
+        tolerance: Some(budget.tolerance),
+        max_rays: budget.max_rays,
+        ..crate::simulate::SimConfig::new(
+            needed_deg.clone(),
+            budget.wavelengths.clone(),
+            budget.rays,
+        )
+    };
+    let (acc, stats) = crate::simulate::simulate(sample, &sim, progress)?;
+    let brdf = Representation::Table(TableBrdf::build(&BucketData::from_accumulator(&acc)));
+    Ok(SceneRun {
+        plan,
+        needed_deg,
+        acc,
+        stats,
+        brdf,
+    })
+}
+
+impl SceneRun {
+    /// Trees traced over all directions.
+    pub fn spent(&self) -> u64 {
+        self.stats.directions.iter().map(|d| d.rays).sum()
+    }
+
+    /// A lower bound on the trees of a full-hemisphere simulation of the same quality: one
+    /// fixed budget must give every grid angle what the hardest needed angle took.
+    pub fn full_hemisphere_bound(&self) -> u64 {
+        let worst = self
+            .stats
+            .directions
+            .iter()
+            .map(|d| d.rays)
+            .max()
+            .unwrap_or(0);
+        worst * self.plan.grid_deg.len() as u64
+    }
+
+    /// The saving against [`SceneRun::full_hemisphere_bound`], and the part of it that
+    /// skipping directions alone gives, both in percent.
+    pub fn saving_percent(&self) -> (f64, f64) {
+        let full = self.full_hemisphere_bound().max(1) as f64;
+        let grid = self.plan.grid_deg.len() as f64;
+        (
+            100.0 * (1.0 - self.spent() as f64 / full),
+            100.0 * (1.0 - self.needed_deg.len() as f64 / grid),
+        )
+    }
+}

@@ -168,7 +168,51 @@ pub enum Generated {
     Bodies(Vec<(Mesh, Option<Mesh>)>),
 }
 
+impl Generated {
+    /// The bodies' cores as one mesh and their coating shells as another (empty when the
+    /// bodies are bare); a sheet is its own core.
+    pub fn merged(&self) -> (Mesh, Mesh) {
+        match self {
+            Generated::Sheet(m) => (m.clone(), Mesh::default()),
+            Generated::Bodies(bodies) => {
+                let (mut cores, mut shells) = (Mesh::default(), Mesh::default());
+                for (c, s) in bodies {
+                    cores.append(c);
+                    if let Some(s) = s {
+                        shells.append(s);
+                    }
+                }
+                (cores, shells)
+            }
+        }
+    }
+}
+
 impl GeneratorSpec {
+    /// A generator from its kind and `KEY=VALUE` parameters as the command line gives
+    /// them: each value is a TOML value (number, "string", [array]), and a bare word that
+    /// is not one (`ggx`, `top`) is taken as a string. Unknown kinds and keys, and values
+    /// of the wrong type, are refused with the generator's name.
+    pub fn from_key_values(kind: &str, params: &[String]) -> Result<GeneratorSpec, String> {
+        let mut text = format!("kind = {kind:?}\n");
+        for p in params {
+            let (k, v) = p
+                .split_once('=')
+                .ok_or_else(|| format!("--param '{p}' is not KEY=VALUE"))?;
+            let (k, v) = (k.trim(), v.trim());
+            if k.is_empty() || !k.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                return Err(format!("--param '{p}': '{k}' is not a parameter name"));
+            }
+            let value = if toml::from_str::<toml::Table>(&format!("x = {v}")).is_ok() {
+                v.to_string()
+            } else {
+                format!("{v:?}")
+            };
+            text.push_str(&format!("{k} = {value}\n"));
+        }
+        toml::from_str(&text).map_err(|e| format!("generator '{kind}': {}", e.message().trim()))
+    }
+
     /// The kind's name as written in TOML.
     pub fn kind(&self) -> &'static str {
         match self {
@@ -398,3 +442,79 @@ fn check_resolution(r: usize) -> Result<(), String> {
 
 /// Bytes per height-field triangle while generating (mesh, heights, FFT buffers).
 const GENERATE_BYTES_PER_TRIANGLE: f64 = 100.0;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn kv(kind: &str, p: &[&str]) -> Result<GeneratorSpec, String> {
+        GeneratorSpec::from_key_values(kind, &p.iter().map(|s| s.to_string()).collect::<Vec<_>>())
+    }
+
+    #[test]
+    fn key_values_become_a_typed_spec() {
+        let g = kv(
+            "gaussian",
+            &[
+                "rms=0.1",
+                " correlation_length = 2",
+                "resolution=64",
+                "seed=7",
+            ],
+        )
+        .unwrap();
+        assert_eq!(
+            g,
+            GeneratorSpec::Gaussian {
+                rms: 0.1,
+                correlation_length: 2.0,
+                resolution: 64,
+                seed: 7,
+                z: 0.0
+            }
+        );
+        // A bare word is a string: the distribution's name.
+        let m = kv(
+            "microfacet",
+            &["distribution=ggx", "alpha=0.2", "resolution=32"],
+        )
+        .unwrap();
+        assert!(matches!(
+            m,
+            GeneratorSpec::Microfacet {
+                distribution: Distribution::Ggx,
+                ..
+            }
+        ));
+    }
+
+    #[test]
+    fn bad_key_values_are_refused_by_name() {
+        let e = kv("gaussian", &["rms"]).unwrap_err();
+        assert!(e.contains("'rms' is not KEY=VALUE"), "{e}");
+        let e = kv("gaussian", &["=1"]).unwrap_err();
+        assert!(e.contains("not a parameter name"), "{e}");
+        let e = kv(
+            "gaussian",
+            &[
+                "rms=0.1",
+                "colour=1",
+                "correlation_length=1",
+                "resolution=8",
+            ],
+        )
+        .unwrap_err();
+        assert!(
+            e.contains("generator 'gaussian'") && e.contains("colour"),
+            "{e}"
+        );
+        let e = kv(
+            "gaussian",
+            &["rms=wide", "correlation_length=1", "resolution=8"],
+        )
+        .unwrap_err();
+        assert!(e.contains("generator 'gaussian'"), "{e}");
+        let e = kv("teapot", &[]).unwrap_err();
+        assert!(e.contains("teapot"), "{e}");
+    }
+}
