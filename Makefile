@@ -3,7 +3,7 @@
 
 CARGO ?= cargo
 
-.PHONY: demo test deps bench lint study stress fuzz fuzz-smoke
+.PHONY: demo test deps bench lint study stress fuzz fuzz-smoke interop
 
 OUT ?= out/demo
 
@@ -61,3 +61,9 @@ fuzz: deps
 fuzz-smoke: deps
 	cd fuzz && $(CARGO) test --release
 	./scripts/fuzz.sh 6
+
+## Interop: export RGL .bsdf files (rough gold, the seed's wavy film) and check them with an
+## independent reader and with Mitsuba 3 (installed into .venv-interop from PyPI).
+interop: deps
+	$(CARGO) build --release
+	./scripts/interop.sh $(BIN)

@@ -9,6 +9,7 @@ pub mod accumulate;
 pub mod bench;
 pub mod brdf;
 pub mod container;
+pub mod export;
 pub mod fit;
 pub mod io;
 pub mod optics;

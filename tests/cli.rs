@@ -388,7 +388,7 @@ fn build_eval_and_info() {
     // Errors.
     let (code, _, err) = goniospec(&["info", "meshes/rough-gold.toml"]);
     assert_eq!(code, 1);
-    assert!(err.contains("neither a .gsa nor a .gsb"), "{err}");
+    assert!(err.contains("not a .gsa, .gsb or .bsdf file"), "{err}");
     let (code, _, err) = goniospec(&[
         "eval",
         gsa.to_str().unwrap(),
@@ -931,7 +931,11 @@ fn sizes_lengths_and_shapes_are_refused_before_work() {
     #[cfg(target_os = "linux")]
     for (args, code_want, says) in [
         (&["check", "/dev/urandom"][..], 1, "is a device"),
-        (&["info", "/dev/zero"][..], 1, "neither a .gsa nor a .gsb"),
+        (
+            &["info", "/dev/zero"][..],
+            1,
+            "not a .gsa, .gsb or .bsdf file",
+        ),
         (
             &[
                 "simulate",

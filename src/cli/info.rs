@@ -4,7 +4,7 @@ use super::*;
 
 #[derive(Args)]
 pub(super) struct InfoArgs {
-    /// A .gsa or .gsb file.
+    /// A .gsa, .gsb or .bsdf file.
     file: PathBuf,
 }
 
@@ -43,15 +43,25 @@ pub(super) fn info(a: InfoArgs) -> Result<ExitCode> {
         use std::io::Read;
         let mut f = std::fs::File::open(&a.file)
             .with_context(|| format!("opening {}", a.file.display()))?;
-        let mut b = [0u8; 8];
+        let mut b = [0u8; 12];
         f.read_exact(&mut b).ok();
         b
     };
-    if &head == goniospec::accumulate::file::MAGIC {
+    if goniospec::export::tensor::is_tensor_file(&head) {
+        let bytes = goniospec::io::read_input(&a.file, u64::MAX)
+            .with_context(|| format!("reading {}", a.file.display()))?;
+        let fields = goniospec::export::tensor::from_bytes(&bytes)
+            .map_err(|m| anyhow::anyhow!("{}: {m}", a.file.display()))?;
+        outln!("{}: RGL tensor file (.bsdf)", a.file.display());
+        outln!(
+            "{}",
+            goniospec::export::tensor::describe(&fields).trim_end()
+        );
+    } else if head[..8] == goniospec::accumulate::file::MAGIC[..] {
         let acc = Accumulator::read(&a.file)?;
         outln!("{}: goniospec accumulator (.gsa)", a.file.display());
         outln!("{}", acc.header.describe().trim_end());
-    } else if &head == brdf::file::MAGIC {
+    } else if head[..8] == brdf::file::MAGIC[..] {
         let r = brdf::file::read(&a.file)?;
         outln!(
             "{}: goniospec BRDF (.gsb), representation {}",
@@ -61,7 +71,7 @@ pub(super) fn info(a: InfoArgs) -> Result<ExitCode> {
         outln!("{}", r.describe().trim_end());
     } else {
         bail!(
-            "{}: neither a .gsa nor a .gsb file (unknown magic bytes)",
+            "{}: not a .gsa, .gsb or .bsdf file (unknown magic bytes)",
             a.file.display()
         );
     }

@@ -68,8 +68,17 @@ enum Command {
     /// pair,lambda_nm,brdf for the pairs of --pairs FILE.csv (columns theta_i,phi_i,
     /// theta_o,phi_o in degrees).
     Eval(EvalArgs),
-    /// Describe a .gsa or .gsb file.
+    /// Describe a .gsa, .gsb or .bsdf (RGL tensor) file.
     Info(InfoArgs),
+    /// Export a built BRDF for another renderer: an RGL tensor file (.bsdf) that Mitsuba
+    /// 3's and pbrt-v4's `measured` material load. The RGL parameterisation warps the
+    /// tabulation by the sample's microfacet distribution, taken from --sample.
+    ///
+    /// Example: goniospec export film.gsb --sample meshes/thin-film-600nm.toml -o film.bsdf
+    ///   then, in Python: import mitsuba as mi; mi.set_variant('scalar_spectral')
+    ///                    bsdf = mi.load_dict({'type': 'measured', 'filename': 'film.bsdf'})
+    #[command(verbatim_doc_comment)]
+    Export(ExportArgs),
     /// Render an object made of a built BRDF: a spectral image written as a linear-sRGB
     /// EXR and an sRGB PNG preview beside it (same name, .png).
     ///
@@ -196,6 +205,7 @@ mod bench;
 mod build;
 mod check;
 mod eval;
+mod export;
 mod fit;
 mod generate;
 mod info;
@@ -210,6 +220,7 @@ use bench::*;
 use build::*;
 use check::*;
 use eval::*;
+use export::*;
 use fit::*;
 use generate::*;
 use info::*;
@@ -251,6 +262,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Build(a) => build(a),
         Command::Eval(a) => eval(a),
         Command::Info(a) => info(a),
+        Command::Export(a) => export(a),
         Command::Render(a) => render(a),
         Command::Study(a) => study(a),
         Command::Generate(a) => generate(a),
@@ -267,6 +279,8 @@ enum OutputKind {
     Gsa,
     Gsb,
     Obj,
+    /// RGL tensor files (.bsdf).
+    Tensor,
     /// Images and JSON: only the same-file and directory checks.
     Any,
 }
@@ -323,6 +337,10 @@ fn guard_output(
         OutputKind::Obj => (
             head.starts_with(b"# goniospec generate"),
             "an OBJ written by goniospec generate",
+        ),
+        OutputKind::Tensor => (
+            goniospec::export::tensor::is_tensor_file(&head),
+            "an RGL tensor file (.bsdf)",
         ),
         OutputKind::Any => (true, ""),
     };

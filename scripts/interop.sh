@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Interop with the renderers people use: exports RGL .bsdf files and checks them with an
+# independent reader and with Mitsuba 3 (tests/interop/rgl_mitsuba.py).
+#
+#   scripts/interop.sh [GONIOSPEC_BINARY]
+#
+# Makes a project-local virtual environment (.venv-interop) with numpy and Mitsuba 3 from
+# PyPI when it is missing; set INTEROP_VENV to use another one.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bin=$(realpath "${1:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
+venv=${INTEROP_VENV:-.venv-interop}
+if ! "$venv/bin/python" -c "import mitsuba, numpy" 2>/dev/null; then
+  echo "== making $venv (numpy, mitsuba)"
+  python3 -m venv "$venv"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4"
+fi
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+"$venv/bin/python" tests/interop/rgl_mitsuba.py "$bin" "$work"

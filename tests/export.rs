@@ -1,0 +1,205 @@
+//! `goniospec export --format rgl`: what a user sees, and what the file holds (read back
+//! with the tensor reader; Mitsuba's own reading is `make interop`).
+
+mod common;
+
+use std::process::Command;
+
+use common::*;
+use goniospec::export::tensor;
+
+fn goniospec(args: &[&str]) -> (i32, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_goniospec"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run goniospec");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn built(d: &std::path::Path, toml: &str, name: &str) -> String {
+    let gsa = d.join(format!("{name}.gsa"));
+    let gsb = d.join(format!("{name}.gsb"));
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        toml,
+        "--theta-i",
+        "0,30,60",
+        "--rays",
+        "256",
+        "--wavelengths",
+        "400:700:50",
+        "-o",
+        gsa.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = goniospec(&[
+        "build",
+        gsa.to_str().unwrap(),
+        "--repr",
+        "table",
+        "-o",
+        gsb.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    gsb.to_str().unwrap().to_string()
+}
+
+/// The fields Mitsuba's measured.cpp requires, with its dtypes and shape relations; the
+/// file is the same whatever the thread count; `info` describes it.
+#[test]
+fn rgl_export_writes_the_fields_the_readers_require() {
+    let d = scratch("export-rgl");
+    let gsb = built(&d, "meshes/rough-gold.toml", "gold");
+    let out = |threads: &str| {
+        let p = d.join(format!("gold-{threads}.bsdf"));
+        let (code, text, err) = goniospec(&[
+            "export",
+            &gsb,
+            "--sample",
+            "meshes/rough-gold.toml",
+            "--resolution",
+            "17",
+            "--threads",
+            threads,
+            "-o",
+            p.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        assert!(text.contains("17 x 17 warped grid"), "{text}");
+        std::fs::read(p).unwrap()
+    };
+    let bytes = out("1");
+    assert_eq!(bytes, out("2"), "thread count changed the file");
+    let fields = tensor::from_bytes(&bytes).unwrap();
+    let get = |n: &str| {
+        fields
+            .iter()
+            .find(|f| f.name == n)
+            .unwrap_or_else(|| panic!("{n}"))
+    };
+    use tensor::Dtype::{Float32, UInt8};
+    for (name, dtype, shape) in [
+        ("description", UInt8, None),
+        ("theta_i", Float32, Some(vec![3])),
+        ("phi_i", Float32, Some(vec![1])),
+        ("wavelengths", Float32, Some(vec![6])),
+        ("ndf", Float32, Some(vec![17, 17])),
+        ("sigma", Float32, Some(vec![17, 17])),
+        ("vndf", Float32, Some(vec![1, 3, 17, 17])),
+        ("luminance", Float32, Some(vec![1, 3, 17, 17])),
+        ("spectra", Float32, Some(vec![1, 3, 6, 17, 17])),
+        ("jacobian", UInt8, Some(vec![1])),
+    ] {
+        let f = get(name);
+        assert_eq!(f.dtype, dtype, "{name}");
+        if let Some(s) = shape {
+            assert_eq!(f.shape, s, "{name}");
+        }
+    }
+    assert_eq!(get("jacobian").data, vec![1]);
+    let theta: Vec<f64> = get("theta_i").values_f64();
+    for (t, want) in theta.iter().zip([0.0f64, 30.0, 60.0]) {
+        assert!((t - want.to_radians()).abs() < 1e-6);
+    }
+    // D(m) is normalised over projected area: int D cos dm = 1 (trapezoid over u, with
+    // dm = 2 pi^2 u sin(theta) du), to the quadrature error of a 17^2 grid.
+    let ndf = get("ndf").values_f64();
+    let n = 17;
+    let mut integral = 0.0;
+    for p in 0..n {
+        for t in 0..n {
+            let u = t as f64 / (n - 1) as f64;
+            let theta = u * u * std::f64::consts::FRAC_PI_2;
+            let w = |k: usize| if k == 0 || k == n - 1 { 0.5 } else { 1.0 };
+            integral += w(p)
+                * w(t)
+                * ndf[p * n + t]
+                * theta.cos()
+                * 2.0
+                * std::f64::consts::PI.powi(2)
+                * u
+                * theta.sin();
+        }
+    }
+    integral /= ((n - 1) * (n - 1)) as f64;
+    assert!((integral - 1.0).abs() < 0.05, "int D cos = {integral}");
+    for name in ["ndf", "sigma", "vndf", "luminance", "spectra"] {
+        assert!(
+            get(name)
+                .values_f64()
+                .iter()
+                .all(|v| v.is_finite() && *v >= 0.0),
+            "{name}"
+        );
+    }
+    std::fs::write(d.join("gold.bsdf"), &bytes).unwrap();
+    let (code, text, err) = goniospec(&["info", d.join("gold.bsdf").to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        text.contains("RGL tensor file")
+            && text.contains("field spectra      float32  [1, 3, 6, 17, 17]"),
+        "{text}"
+    );
+}
+
+/// Refusals: a flat film (a mirror lobe), another sample than the BRDF's, an even
+/// resolution, and an output that is another kind of file.
+#[test]
+fn rgl_export_refuses_what_it_cannot_write() {
+    let d = scratch("export-refusals");
+    let flat = built(&d, "meshes/flat-soap-film.toml", "flat");
+    let p = d.join("x.bsdf");
+    let (code, _, err) = goniospec(&[
+        "export",
+        &flat,
+        "--sample",
+        "meshes/flat-soap-film.toml",
+        "-o",
+        p.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("mirror (delta) lobe") && err.contains("roughness"),
+        "{err}"
+    );
+    assert!(!p.exists());
+    let (code, _, err) = goniospec(&[
+        "export",
+        &flat,
+        "--sample",
+        "meshes/rough-gold.toml",
+        "-o",
+        p.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("was simulated from"), "{err}");
+    let (code, _, err) = goniospec(&[
+        "export",
+        &flat,
+        "--sample",
+        "meshes/flat-soap-film.toml",
+        "--resolution",
+        "16",
+        "-o",
+        p.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("must be odd"), "{err}");
+    std::fs::write(&p, "precious").unwrap();
+    let (code, _, err) = goniospec(&[
+        "export",
+        &flat,
+        "--sample",
+        "meshes/flat-soap-film.toml",
+        "-o",
+        p.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("not an RGL tensor file"), "{err}");
+    assert_eq!(std::fs::read_to_string(&p).unwrap(), "precious");
+}
