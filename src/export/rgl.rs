@@ -12,7 +12,9 @@
 //! eval   = spectra(s; phi_i, theta_i, lambda) * ndf(u_m) / (4 sigma(u_wi))   (jacobian = 1)
 //! ```
 //!
-//! and `eval` is the BRDF times `cos(theta_o)` (Mitsuba's convention). So, at each node `s`
+//! and `eval` is the BRDF times `cos(theta_o)` (Mitsuba's convention; pbrt-v4's
+//! `MeasuredBxDF::f` (`src/pbrt/bxdfs.cpp`) divides the same product by `|cos theta|` of
+//! the other direction and so reads the same stored quantity). So, at each node `s`
 //! of the sample grid, this writer finds `u_m` by inverting the same warp, reflects `wi`
 //! about `m`, and stores `spectra = f(wi, wo) cos(theta_o) 4 sigma(wi) / ndf(u_m)` with
 //! `ndf` and `sigma` interpolated exactly as the reader interpolates them: at the nodes
