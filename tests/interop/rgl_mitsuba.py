@@ -16,10 +16,13 @@ For each material (rough gold, and the seed's wavy 600 nm soap film) it:
 4. at every node of the warped grid (positions from Mitsuba's own Marginal2D warp),
    compares Mitsuba's `eval` / cos(theta_o) with `goniospec eval` (single-precision
    tolerance: the reader computes angles in float32);
-5. at 1,200 pairs sampled from Mitsuba's `measured` BSDF over each lobe, checks that
+5. at 1,280 pairs sampled from Mitsuba's `measured` BSDF over each lobe, checks that
    Mitsuba's value lies within the bound bilinear interpolation guarantees: the distance
    of goniospec's value from the stored quantity's interpolant is at most its largest
    distance from the cell's four corner values (plus the float32 slack of step 4).
+
+6. renders a sphere of the material under a directional light with goniospec and with
+   Mitsuba 3 and compares the images' mean colours (CIEDE2000).
 
 It prints the figures and exits 1 on the first failure.
 """
@@ -196,6 +199,95 @@ def mitsuba_eval(bsdf, wi, wo, lam):
     return float(v[0])
 
 
+def lab(rgb):
+    """CIELAB (D65 white = linear sRGB (1, 1, 1)) of a linear sRGB colour (IEC 61966-2-1
+    matrix; CIE 15:2004 L*a*b*)."""
+    m = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]])
+    xyz, white = m @ np.asarray(rgb, float), m @ np.ones(3)
+    f = lambda t: np.where(t > (6 / 29) ** 3, np.cbrt(t), t / (3 * (6 / 29) ** 2) + 4 / 29)
+    fx, fy, fz = f(xyz / white)
+    return np.array([116 * fy - 16, 500 * (fx - fy), 200 * (fy - fz)])
+
+
+def de2000(l1, l2):
+    """CIEDE2000 (Sharma, Wu & Dalal, Color Res. Appl. 30 (2005), eqs. 1-17)."""
+    L1, a1, b1 = l1
+    L2, a2, b2 = l2
+    C1, C2 = math.hypot(a1, b1), math.hypot(a2, b2)
+    Cb = (C1 + C2) / 2
+    G = 0.5 * (1 - math.sqrt(Cb**7 / (Cb**7 + 25**7)))
+    a1p, a2p = (1 + G) * a1, (1 + G) * a2
+    C1p, C2p = math.hypot(a1p, b1), math.hypot(a2p, b2)
+    h = lambda b, a: math.degrees(math.atan2(b, a)) % 360 if (a or b) else 0.0
+    h1p, h2p = h(b1, a1p), h(b2, a2p)
+    dL, dC = L2 - L1, C2p - C1p
+    dh = 0.0 if C1p * C2p == 0 else (h2p - h1p if abs(h2p - h1p) <= 180 else h2p - h1p - 360 * math.copysign(1, h2p - h1p))
+    dH = 2 * math.sqrt(C1p * C2p) * math.sin(math.radians(dh / 2))
+    Lb, Cbp = (L1 + L2) / 2, (C1p + C2p) / 2
+    if C1p * C2p == 0:
+        hb = h1p + h2p
+    elif abs(h1p - h2p) <= 180:
+        hb = (h1p + h2p) / 2
+    else:
+        hb = (h1p + h2p + 360) / 2 if h1p + h2p < 360 else (h1p + h2p - 360) / 2
+    T = (1 - 0.17 * math.cos(math.radians(hb - 30)) + 0.24 * math.cos(math.radians(2 * hb))
+         + 0.32 * math.cos(math.radians(3 * hb + 6)) - 0.20 * math.cos(math.radians(4 * hb - 63)))
+    SL = 1 + 0.015 * (Lb - 50) ** 2 / math.sqrt(20 + (Lb - 50) ** 2)
+    SC, SH = 1 + 0.045 * Cbp, 1 + 0.015 * Cbp * T
+    RT = -2 * math.sqrt(Cbp**7 / (Cbp**7 + 25**7)) * math.sin(math.radians(60 * math.exp(-(((hb - 275) / 25) ** 2))))
+    return math.sqrt((dL / SL) ** 2 + (dC / SC) ** 2 + (dH / SH) ** 2 + RT * (dC / SC) * (dH / SH))
+
+
+# Sharma et al.'s published test pair 1 (Table 1): DE2000 = 2.0425.
+assert abs(de2000((50, 2.6772, -79.7751), (50, 0, -82.7485)) - 2.0425) < 1e-4
+
+# Step 6's tolerance. The two renders sample the same BRDF differently: goniospec reads its
+# table (16 samples per pixel), Mitsuba the .bsdf, interpolated in the warped space and
+# linearly between the 9 tabulated incident angles (64 samples per pixel), so their mean
+# colours differ by the interpolation error of a dim, angle-dependent film lobe (measured
+# 0.2 for rough gold, 1.0 for the wavy film). 2.0 is two just-noticeable differences.
+RENDER_DE = 2.0
+
+
+def compare_renders(name, gsb, bsdf_path):
+    """6. A sphere under a directional light, rendered by goniospec and by Mitsuba 3 from
+    the .bsdf (irradiance pi x D65, which Mitsuba renders as white (1, 1, 1) on a white
+    Lambertian panel facing the light, goniospec's radiance-factor convention)."""
+    light = (45.0, -60.0)
+    exr = os.path.join(WORK, f"{name}-sphere.exr")
+    run("render", gsb, "-o", exr, "--shape", "sphere", "--light", f"dir:{light[0]},{light[1]}",
+        "--light-strength", "1", "--env", "none", "--width", "96", "--height", "96",
+        "--spp", "16", "--camera", "0,-5,2", "--fov", "30")
+    ours = np.array(mi.Bitmap(exr), dtype=np.float64).reshape(-1, 3)
+    t, p = (math.radians(v) for v in light)
+    towards = [math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)]
+    T = mi.ScalarTransform4f
+    scene = mi.load_dict({
+        "type": "scene",
+        "integrator": {"type": "direct"},
+        "sensor": {
+            "type": "perspective", "fov": 30, "fov_axis": "y",
+            "to_world": T().look_at(origin=[0, -5, 2], target=[0, 0, 0], up=[0, 0, 1]),
+            "film": {"type": "hdrfilm", "width": 96, "height": 96, "pixel_format": "rgb",
+                     "rfilter": {"type": "box"}},
+            "sampler": {"type": "independent", "sample_count": 64},
+        },
+        "emitter": {"type": "directional", "direction": [-x for x in towards],
+                    "irradiance": {"type": "d65", "scale": math.pi}},
+        "shape": {"type": "sphere", "bsdf": {"type": "measured", "filename": bsdf_path}},
+    })
+    theirs = np.array(mi.render(scene), dtype=np.float64).reshape(-1, 3)
+    if not np.all(np.isfinite(theirs)):
+        fail(f"{name}: Mitsuba's render holds NaN or infinity")
+    if theirs.mean() <= 1e-4:
+        fail(f"{name}: Mitsuba's render is black")
+    d = de2000(lab(ours.mean(axis=0)), lab(theirs.mean(axis=0)))
+    print(f"render: mean colour of the image, goniospec {np.round(ours.mean(axis=0), 4)}, Mitsuba {np.round(theirs.mean(axis=0), 4)}: CIEDE2000 {d:.2f} (tolerance {RENDER_DE})")
+    if d > RENDER_DE:
+        fail(f"{name}: the renders differ by DE2000 {d:.2f}")
+    return d
+
+
 def material(name, toml):
     print(f"== {name} ({toml})")
     gsa, gsb, out = (os.path.join(WORK, f"{name}.{e}") for e in ("gsa", "gsb", "bsdf"))
@@ -318,6 +410,7 @@ def material(name, toml):
             rels.append(abs(M - g) / g)
         count += 1
     print(f"lobe: {count} pairs sampled by Mitsuba, all within the bilinear-interpolation bound; relative difference where the BRDF exceeds 1 % of its peak: median {np.median(rels):.3f}, 90th percentile {np.percentile(rels, 90):.3f} (the table's buckets are piecewise constant, the .bsdf interpolates)")
+    compare_renders(name, gsb, out)
     return count
 
 
