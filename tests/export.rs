@@ -203,3 +203,70 @@ fn rgl_export_refuses_what_it_cannot_write() {
     assert!(err.contains("not an RGL tensor file"), "{err}");
     assert_eq!(std::fs::read_to_string(&p).unwrap(), "precious");
 }
+
+/// `--format npz`: the same bytes whatever the thread count; the archive's `brdf` array
+/// (read back with npyz from the zip) equals the library's eval on the documented grid.
+#[test]
+fn npz_export_holds_the_brdf_on_its_grid() {
+    use goniospec::brdf::{Brdf, dir, file};
+    use std::io::Read;
+    let d = scratch("export-npz");
+    let gsb = built(&d, "meshes/rough-gold.toml", "gold");
+    let write = |threads: &str| {
+        let p = d.join(format!("g{threads}.npz"));
+        let (code, text, err) = goniospec(&[
+            "export",
+            &gsb,
+            "--format",
+            "npz",
+            "--theta-o-bins",
+            "6",
+            "--phi-o-bins",
+            "4",
+            "--threads",
+            threads,
+            "-o",
+            p.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        assert!(text.contains("brdf[3, 1, 6, 4, 6]"), "{text}");
+        std::fs::read(p).unwrap()
+    };
+    let bytes = write("1");
+    assert_eq!(bytes, write("2"));
+    let mut zip = zip::ZipArchive::new(std::io::Cursor::new(bytes)).unwrap();
+    let mut npy = Vec::new();
+    zip.by_name("brdf.npy")
+        .unwrap()
+        .read_to_end(&mut npy)
+        .unwrap();
+    let arr = npyz::NpyFile::new(&npy[..]).unwrap();
+    assert_eq!(arr.shape(), &[3, 1, 6, 4, 6]);
+    let values: Vec<f64> = arr.into_vec().unwrap();
+    let r = file::read(std::path::Path::new(&gsb)).unwrap();
+    let mut out = vec![0.0; 6];
+    for (i, ti) in [0.0f64, 30.0, 60.0].iter().enumerate() {
+        for o in 0..6 {
+            for q in 0..4 {
+                let wi = dir(ti.to_radians(), 0.0);
+                let wo = dir(
+                    ((o as f64 + 0.5) * 15.0).to_radians(),
+                    ((q as f64 + 0.5) * 90.0).to_radians(),
+                );
+                r.eval(wi, wo, &mut out);
+                let at = ((i * 6 + o) * 4 + q) * 6;
+                assert_eq!(&values[at..at + 6], &out[..], "{i} {o} {q}");
+            }
+        }
+    }
+    for name in [
+        "theta_i_deg",
+        "phi_i_deg",
+        "theta_o_deg",
+        "phi_o_deg",
+        "lambda_nm",
+        "settings_json",
+    ] {
+        assert!(zip.by_name(&format!("{name}.npy")).is_ok(), "{name}");
+    }
+}

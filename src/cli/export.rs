@@ -1,11 +1,16 @@
 //! `goniospec export`: a built BRDF in another tool's format.
 
+use std::io::Write;
+
 use super::*;
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub(super) enum ExportFormat {
     /// RGL tensor file (.bsdf) for Mitsuba 3's and pbrt-v4's `measured` material.
     Rgl,
+    /// NumPy archive (.npz): brdf[theta_i, phi_i, theta_o, phi_o, lambda] on a regular
+    /// grid, the axes in degrees, lambda_nm, and the settings as JSON.
+    Npz,
 }
 
 #[derive(Args)]
@@ -15,11 +20,18 @@ pub(super) struct ExportArgs {
     /// Output format.
     #[arg(long, value_enum, default_value_t = ExportFormat::Rgl)]
     format: ExportFormat,
-    /// The sample the BRDF was simulated from: its facets give the microfacet
+    /// rgl: the sample the BRDF was simulated from: its facets give the microfacet
     /// distribution D(m) the RGL parameterisation warps by (the .gsb does not carry it).
     #[arg(long, value_name = "SAMPLE.toml")]
-    sample: PathBuf,
-    /// Nodes per side of the warped grids, odd, 3 to 255: finer follows narrower lobes
+    sample: Option<PathBuf>,
+    /// npz: outgoing polar bins over [0, 90) degrees, sampled at their centres (default:
+    /// the simulation's bucket grid).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    theta_o_bins: Option<u32>,
+    /// npz: outgoing azimuth bins over [0, 360) degrees (default: the bucket grid's).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    phi_o_bins: Option<u32>,
+    /// rgl: nodes per side of the warped grids, odd, 3 to 255: finer follows narrower lobes
     /// and costs resolution^2 x angles x wavelengths x 4 bytes.
     #[arg(long, default_value_t = 65, value_parser = clap::value_parser!(u16).range(3..=goniospec::export::rgl::MAX_RESOLUTION as i64))]
     resolution: u16,
@@ -30,7 +42,7 @@ pub(super) struct ExportArgs {
     /// Output file, written atomically.
     #[arg(short, long)]
     output: PathBuf,
-    /// Overwrite an existing output that is not an RGL tensor file.
+    /// Overwrite an existing output that is not a file of the chosen format.
     #[arg(long)]
     force: bool,
     /// Worker threads (0: all cores). The file does not depend on it.
@@ -39,11 +51,72 @@ pub(super) struct ExportArgs {
 }
 
 pub(super) fn export(a: ExportArgs) -> Result<ExitCode> {
+    match a.format {
+        ExportFormat::Rgl => export_rgl(a),
+        ExportFormat::Npz => export_npz(a),
+    }
+}
+
+fn export_npz(a: ExportArgs) -> Result<ExitCode> {
+    use goniospec::brdf::{self, Brdf};
+    use goniospec::export::npz;
+    guard_output(&a.output, &[a.input.as_path()], OutputKind::Npz, a.force)?;
+    let r = brdf::file::read(&a.input)?;
+    let settings: toml::Table = toml::from_str(&r.meta().simulation).unwrap_or_default();
+    let bins = |key: &str, flag: Option<u32>| -> Result<usize> {
+        match flag {
+            Some(n) => Ok(n as usize),
+            None => settings
+                .get(key)
+                .and_then(|v| v.as_integer())
+                .map(|n| n as usize)
+                .with_context(|| {
+                    format!(
+                        "the BRDF's settings hold no {key}: give --{}",
+                        key.replace('_', "-")
+                    )
+                }),
+        }
+    };
+    let mut grid = npz::Grid::of(
+        &r,
+        bins("theta_o_bins", a.theta_o_bins)?,
+        bins("phi_o_bins", a.phi_o_bins)?,
+    )
+    .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?;
+    if !a.theta_i.is_empty() {
+        grid.theta_i_deg = a.theta_i.clone();
+    }
+    let pool = thread_pool(a.threads)?;
+    let bytes = pool
+        .install(|| npz::npz_bytes(&r, &grid))
+        .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?;
+    goniospec::io::write_atomic(&a.output, |w| w.write_all(&bytes))
+        .with_context(|| format!("writing {}", a.output.display()))?;
+    outln!(
+        "wrote {} (NumPy archive, brdf[{}, {}, {}, {}, {}], {:.1} MB)",
+        a.output.display(),
+        grid.theta_i_deg.len(),
+        grid.phi_i_deg.len(),
+        grid.theta_o_deg.len(),
+        grid.phi_o_deg.len(),
+        r.meta().wavelengths_nm.len(),
+        bytes.len() as f64 / 1e6
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn export_rgl(a: ExportArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, Brdf};
     use goniospec::export::{self, rgl, tensor};
+    let Some(sample_path) = a.sample.clone() else {
+        bail!(
+            "--format rgl needs --sample SAMPLE.toml: the sample's facets give the microfacet distribution the format warps by"
+        );
+    };
     guard_output(
         &a.output,
-        &[a.input.as_path(), a.sample.as_path()],
+        &[a.input.as_path(), sample_path.as_path()],
         OutputKind::Tensor,
         a.force,
     )?;
@@ -53,11 +126,11 @@ pub(super) fn export(a: ExportArgs) -> Result<ExitCode> {
     } else {
         a.theta_i.iter().map(|t| t.to_radians()).collect()
     };
-    let s = sample::load(&a.sample, MeshOptions::default())?;
+    let s = sample::load(&sample_path, MeshOptions::default())?;
     if s.name != r.meta().sample_name {
         bail!(
             "{} is the sample '{}', but {} was simulated from '{}'",
-            a.sample.display(),
+            sample_path.display(),
             s.name,
             a.input.display(),
             r.meta().sample_name
@@ -69,7 +142,7 @@ pub(super) fn export(a: ExportArgs) -> Result<ExitCode> {
     let (fields, report) = pool.install(|| -> Result<_> {
         let scene = goniospec::trace::Scene::new(&s, resolve_backend(None)?)?;
         let d = rgl::FacetDistribution::from_sample(&s, scene.ambient, n, r.meta().isotropic)
-            .map_err(|m| anyhow::anyhow!("{}: {m}", a.sample.display()))?;
+            .map_err(|m| anyhow::anyhow!("{}: {m}", sample_path.display()))?;
         let opts = rgl::RglOptions {
             resolution: n,
             theta_i,

@@ -70,11 +70,12 @@ enum Command {
     Eval(EvalArgs),
     /// Describe a .gsa, .gsb or .bsdf (RGL tensor) file.
     Info(InfoArgs),
-    /// Export a built BRDF for another renderer: an RGL tensor file (.bsdf) that Mitsuba
-    /// 3's and pbrt-v4's `measured` material load. The RGL parameterisation warps the
-    /// tabulation by the sample's microfacet distribution, taken from --sample.
+    /// Export a built BRDF for other tools: an RGL tensor file (.bsdf) that Mitsuba 3's and
+    /// pbrt-v4's `measured` material load (the RGL parameterisation warps the tabulation
+    /// by the sample's microfacet distribution, taken from --sample), or a NumPy archive.
     ///
     /// Example: goniospec export film.gsb --sample meshes/thin-film-600nm.toml -o film.bsdf
+    ///          goniospec export film.gsb --format npz -o film.npz
     ///   then, in Python: import mitsuba as mi; mi.set_variant('scalar_spectral')
     ///                    bsdf = mi.load_dict({'type': 'measured', 'filename': 'film.bsdf'})
     #[command(verbatim_doc_comment)]
@@ -281,6 +282,8 @@ enum OutputKind {
     Obj,
     /// RGL tensor files (.bsdf).
     Tensor,
+    /// NumPy archives (.npz).
+    Npz,
     /// Images and JSON: only the same-file and directory checks.
     Any,
 }
@@ -338,6 +341,7 @@ fn guard_output(
             head.starts_with(b"# goniospec generate"),
             "an OBJ written by goniospec generate",
         ),
+        OutputKind::Npz => (head.starts_with(b"PK\x03\x04"), "a NumPy archive (.npz)"),
         OutputKind::Tensor => (
             goniospec::export::tensor::is_tensor_file(&head),
             "an RGL tensor file (.bsdf)",

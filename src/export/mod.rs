@@ -1,6 +1,7 @@
 //! Taking a simulated material into other tools: the RGL tensor format (`.bsdf`) read by
-//! Mitsuba 3 and pbrt-v4 ([`rgl`], [`tensor`]).
+//! Mitsuba 3 and pbrt-v4 ([`rgl`], [`tensor`]), and NumPy arrays ([`npz`]).
 
+pub mod npz;
 pub mod rgl;
 pub mod tensor;
 

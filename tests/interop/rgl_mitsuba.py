@@ -22,7 +22,8 @@ For each material (rough gold, and the seed's wavy 600 nm soap film) it:
    distance from the cell's four corner values (plus the float32 slack of step 4).
 
 6. renders a sphere of the material under a directional light with goniospec and with
-   Mitsuba 3 and compares the images' mean colours (CIEDE2000).
+   Mitsuba 3 and compares the images' mean colours (CIEDE2000);
+7. exports the NumPy archive and checks it against `goniospec eval`.
 
 It prints the figures and exits 1 on the first failure.
 """
@@ -288,6 +289,39 @@ def compare_renders(name, gsb, bsdf_path):
     return d
 
 
+def check_npz(name, gsb):
+    """7. The NumPy export: numpy loads it, the shapes and axes are the documented ones,
+    and 200 grid values equal `goniospec eval` to its printed precision (9 digits)."""
+    path = os.path.join(WORK, f"{name}.npz")
+    run("export", gsb, "--format", "npz", "--theta-o-bins", "30", "--phi-o-bins", "24", "-o", path)
+    z = np.load(path)
+    b = z["brdf"]
+    nl = len(z["lambda_nm"])
+    if b.shape != (len(THETA_I), 1, 30, 24, nl) or b.dtype != np.float64:
+        fail(f"npz brdf shape {b.shape} {b.dtype}")
+    if not np.allclose(z["theta_i_deg"], THETA_I) or not np.allclose(z["theta_o_deg"], (np.arange(30) + 0.5) * 3):
+        fail("npz axes")
+    if not np.allclose(z["phi_o_deg"], (np.arange(24) + 0.5) * 15) or list(z["phi_i_deg"]) != [0.0]:
+        fail("npz azimuth axes")
+    import json
+    settings = json.loads(bytes(z["settings_json"]).decode())
+    if settings["representation"] != "table" or "theta_i_deg" not in settings["simulation_toml"]:
+        fail(f"npz settings {settings}")
+    rng = np.random.default_rng(3)
+    idx = [(rng.integers(len(THETA_I)), rng.integers(30), rng.integers(24)) for _ in range(200)]
+    p = os.path.join(WORK, f"{name}-npz-pairs.csv")
+    with open(p, "w") as fh:
+        fh.write("theta_i,phi_i,theta_o,phi_o\n")
+        for i, o, q in idx:
+            fh.write(f"{THETA_I[i]},0,{float(z['theta_o_deg'][o])!r},{float(z['phi_o_deg'][q])!r}\n")
+    rows = list(csv.reader(io.StringIO(run("eval", gsb, "--pairs", p))))[1:]
+    got = np.array([float(r[2]) for r in rows]).reshape(len(idx), nl)
+    want = np.array([b[i, 0, o, q] for i, o, q in idx])
+    if not np.allclose(got, want, rtol=1e-8, atol=1e-300):
+        fail(f"npz values differ from goniospec eval: {np.max(np.abs(got - want))}")
+    print(f"npz: brdf{b.shape}, axes and settings as documented, 200 grid points equal goniospec eval to 9 digits")
+
+
 def material(name, toml):
     print(f"== {name} ({toml})")
     gsa, gsb, out = (os.path.join(WORK, f"{name}.{e}") for e in ("gsa", "gsb", "bsdf"))
@@ -411,6 +445,7 @@ def material(name, toml):
         count += 1
     print(f"lobe: {count} pairs sampled by Mitsuba, all within the bilinear-interpolation bound; relative difference where the BRDF exceeds 1 % of its peak: median {np.median(rels):.3f}, 90th percentile {np.percentile(rels, 90):.3f} (the table's buckets are piecewise constant, the .bsdf interpolates)")
     compare_renders(name, gsb, out)
+    check_npz(name, gsb)
     return count
 
 
