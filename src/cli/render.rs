@@ -33,8 +33,8 @@ pub(super) struct RenderArgs {
     output: PathBuf,
     /// sphere, plane (a flat square panel facing up), or an OBJ file (smooth normals are
     /// computed from its triangles).
-    #[arg(long, default_value = "sphere")]
-    shape: String,
+    #[arg(long, default_value = "sphere", value_parser = parse_shape)]
+    shape: ShapeArg,
     /// Image width, pixels (1 to 16384).
     #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
     width: u32,
@@ -45,13 +45,13 @@ pub(super) struct RenderArgs {
     #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=65536))]
     spp: u32,
     /// dir:THETA,PHI (degrees, towards the light), point:X,Y,Z, or none.
-    #[arg(long, default_value = "dir:50,-120")]
-    light: String,
+    #[arg(long, default_value = "dir:50,-120", value_parser = goniospec::render::Light::parse)]
+    light: goniospec::render::Light,
     #[arg(long, value_parser = finite, default_value_t = 0.8)]
     light_strength: f64,
     /// constant, sky or none.
-    #[arg(long, default_value = "constant")]
-    env: String,
+    #[arg(long, default_value = "constant", value_parser = goniospec::render::Env::parse)]
+    env: goniospec::render::Env,
     #[arg(long, value_parser = finite, default_value_t = 0.6)]
     env_strength: f64,
     /// Camera position X,Y,Z; it looks at the shape's centre (default: in front of it,
@@ -72,28 +72,43 @@ pub(super) struct RenderArgs {
     analytic: Option<PathBuf>,
 }
 
+/// `--shape`: a built-in shape or an OBJ file.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum ShapeArg {
+    Sphere,
+    Plane,
+    Obj(PathBuf),
+}
+
+pub(super) fn parse_shape(s: &str) -> Result<ShapeArg, String> {
+    match s {
+        "sphere" => Ok(ShapeArg::Sphere),
+        "plane" => Ok(ShapeArg::Plane),
+        "" => Err("--shape needs sphere, plane or an OBJ file".into()),
+        path => Ok(ShapeArg::Obj(PathBuf::from(path))),
+    }
+}
+
 pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, Brdf};
     use goniospec::render::{self, Env, Light, RenderConfig, Shape};
     if a.width == 0 || a.height == 0 || a.spp == 0 {
         bail!("--width, --height and --spp must be positive");
     }
-    let light = Light::parse(&a.light).map_err(anyhow::Error::msg)?;
-    let env = Env::parse(&a.env).map_err(anyhow::Error::msg)?;
-    let shape = if a.shape == "sphere" {
-        Shape::Sphere
-    } else if a.shape == "plane" {
-        Shape::Plane
-    } else {
-        let p = PathBuf::from(&a.shape);
-        let mesh = sample::load_obj(
-            &p,
-            1.0,
-            MeshOptions {
-                drop_degenerate: true,
-            },
-        )?;
-        Shape::mesh(mesh, Backend::default_available())?
+    let (light, env) = (a.light, a.env);
+    let shape = match &a.shape {
+        ShapeArg::Sphere => Shape::Sphere,
+        ShapeArg::Plane => Shape::Plane,
+        ShapeArg::Obj(p) => {
+            let mesh = sample::load_obj(
+                p,
+                1.0,
+                MeshOptions {
+                    drop_degenerate: true,
+                },
+            )?;
+            Shape::mesh(mesh, Backend::default_available())?
+        }
     };
     let (centre, radius) = shape.bounds();
     let camera = match a.camera.len() {
