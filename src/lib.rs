@@ -13,6 +13,7 @@ pub mod export;
 pub mod fit;
 pub mod io;
 pub mod optics;
+pub mod plot;
 pub mod render;
 pub mod rng;
 pub mod sample;

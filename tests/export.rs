@@ -270,3 +270,64 @@ fn npz_export_holds_the_brdf_on_its_grid() {
         assert!(zip.by_name(&format!("{name}.npy")).is_ok(), "{name}");
     }
 }
+
+/// `goniospec plot`: PNG and SVG files that are real images, and the flat film's lobe
+/// peaks at the mirror angle (within the table's 2-degree buckets) at every wavelength.
+#[test]
+fn plot_draws_the_lobe_and_a_flat_film_peaks_at_the_mirror_angle() {
+    let d = scratch("plot");
+    let gsb = built(&d, "meshes/flat-soap-film.toml", "flat");
+    let r = goniospec::brdf::file::read(std::path::Path::new(&gsb)).unwrap();
+    let lobe = goniospec::plot::lobe(&r, 30.0, 0.0, 4);
+    assert_eq!(lobe.curves.len(), 4);
+    for (l, v) in &lobe.curves {
+        let peak = v
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .map(|(k, _)| lobe.theta_o_deg[k])
+            .unwrap();
+        assert!((peak - 30.0).abs() <= 2.0, "{l} nm peaks at {peak} deg");
+    }
+    for ext in ["png", "svg"] {
+        let p = d.join(format!("lobe.{ext}"));
+        let (code, _, err) = goniospec(&[
+            "plot",
+            &gsb,
+            "--theta-i",
+            "30",
+            "--map-resolution",
+            "32",
+            "-o",
+            p.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        let bytes = std::fs::read(&p).unwrap();
+        assert!(bytes.len() > 10_000, "{ext}: {} bytes", bytes.len());
+        if ext == "png" {
+            assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"));
+        } else {
+            assert!(String::from_utf8_lossy(&bytes).contains("<svg"));
+        }
+    }
+    let (code, _, err) = goniospec(&[
+        "plot",
+        &gsb,
+        "--theta-i",
+        "95",
+        "-o",
+        d.join("x.png").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("[0, 90)"), "{err}");
+    let (code, _, err) = goniospec(&[
+        "plot",
+        &gsb,
+        "--theta-i",
+        "30",
+        "-o",
+        d.join("x.jpg").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains(".png or .svg"), "{err}");
+}

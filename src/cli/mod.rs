@@ -80,6 +80,13 @@ enum Command {
     ///                    bsdf = mi.load_dict({'type': 'measured', 'filename': 'film.bsdf'})
     #[command(verbatim_doc_comment)]
     Export(ExportArgs),
+    /// Draw a built BRDF for one incident direction: its lobe in the plane of incidence
+    /// (f cos theta_o, polar, one curve per few wavelengths) and the reflected colour
+    /// under D65 over the projected hemisphere, as PNG or SVG.
+    ///
+    /// Example: goniospec plot film.gsb --theta-i 30 -o lobe.png
+    #[command(verbatim_doc_comment)]
+    Plot(PlotArgs),
     /// Render an object made of a built BRDF: a spectral image written as a linear-sRGB
     /// EXR and an sRGB PNG preview beside it (same name, .png).
     ///
@@ -211,6 +218,7 @@ mod fit;
 mod generate;
 mod info;
 mod merge;
+mod plot;
 mod reflectance;
 mod render;
 mod simulate;
@@ -226,6 +234,7 @@ use fit::*;
 use generate::*;
 use info::*;
 use merge::*;
+use plot::*;
 use reflectance::*;
 use render::*;
 use simulate::*;
@@ -264,6 +273,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Eval(a) => eval(a),
         Command::Info(a) => info(a),
         Command::Export(a) => export(a),
+        Command::Plot(a) => plot(a),
         Command::Render(a) => render(a),
         Command::Study(a) => study(a),
         Command::Generate(a) => generate(a),

@@ -2,26 +2,7 @@
 
 use super::*;
 
-/// Draws a chart into `path` atomically (`draw` renders to the temporary path it is given).
-pub(super) fn chart_file(
-    path: &Path,
-    draw: impl FnOnce(&Path) -> Result<(), String>,
-) -> Result<(), String> {
-    crate::io::write_atomic_path(path, |tmp| draw(tmp).map_err(std::io::Error::other))
-        .map_err(|e| format!("{}: {e}", path.display()))
-}
-
-/// Registers the embedded DejaVu Sans (the `dejavu` crate) once: no system font library.
-pub(super) fn register_font() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            plotters::style::FontStyle::Normal,
-            dejavu::sans::regular(),
-        );
-    });
-}
+pub(super) use crate::plot::{chart_file, register_font};
 
 /// One log-log chart of `y` against `x` with a line per method, drawn on any backend.
 pub(super) fn draw_loglog<DB: plotters::prelude::DrawingBackend>(

@@ -1,0 +1,48 @@
+//! `goniospec plot`: pictures of a built BRDF.
+
+use super::*;
+
+#[derive(Args)]
+pub(super) struct PlotArgs {
+    /// The built BRDF (.gsb).
+    input: PathBuf,
+    /// Incident polar angle, degrees in [0, 90).
+    #[arg(long, value_parser = finite)]
+    theta_i: f64,
+    /// Incident azimuth, degrees.
+    #[arg(long, value_parser = finite, default_value_t = 0.0)]
+    phi_i: f64,
+    /// Output image: .png or .svg, written atomically.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Points per side of the hemisphere colour map (8 to 1024).
+    #[arg(long, default_value_t = 160, value_parser = clap::value_parser!(u16).range(8..=1024))]
+    map_resolution: u16,
+    /// Worker threads (0: all cores). The image does not depend on it.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+}
+
+pub(super) fn plot(a: PlotArgs) -> Result<ExitCode> {
+    use goniospec::brdf;
+    guard_output(&a.output, &[a.input.as_path()], OutputKind::Any, false)?;
+    if !matches!(
+        a.output.extension().and_then(|e| e.to_str()),
+        Some("png" | "svg")
+    ) {
+        bail!(
+            "{}: the plot is written as .png or .svg",
+            a.output.display()
+        );
+    }
+    let r = brdf::file::read(&a.input)?;
+    let pool = thread_pool(a.threads)?;
+    let plot = pool
+        .install(|| {
+            goniospec::plot::LobePlot::new(&r, a.theta_i, a.phi_i, usize::from(a.map_resolution))
+        })
+        .map_err(anyhow::Error::msg)?;
+    plot.write(&a.output).map_err(anyhow::Error::msg)?;
+    outln!("wrote {}", a.output.display());
+    Ok(ExitCode::SUCCESS)
+}
