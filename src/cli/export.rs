@@ -11,6 +11,9 @@ pub(super) enum ExportFormat {
     /// NumPy archive (.npz): brdf[theta_i, phi_i, theta_o, phi_o, lambda] on a regular
     /// grid, the axes in degrees, lambda_nm, and the settings as JSON.
     Npz,
+    /// MERL binary (90 x 90 x 180 half/difference cells, isotropic, linear sRGB with the
+    /// reader's scale factors) for fitting tools. It loses the spectrum.
+    Merl,
 }
 
 #[derive(Args)]
@@ -54,7 +57,25 @@ pub(super) fn export(a: ExportArgs) -> Result<ExitCode> {
     match a.format {
         ExportFormat::Rgl => export_rgl(a),
         ExportFormat::Npz => export_npz(a),
+        ExportFormat::Merl => export_merl(a),
     }
+}
+
+fn export_merl(a: ExportArgs) -> Result<ExitCode> {
+    use goniospec::brdf;
+    guard_output(&a.output, &[a.input.as_path()], OutputKind::Merl, a.force)?;
+    let r = brdf::file::read(&a.input)?;
+    let pool = thread_pool(a.threads)?;
+    let bytes = pool
+        .install(|| goniospec::export::merl::merl_bytes(&r))
+        .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?;
+    goniospec::io::write_atomic(&a.output, |w| w.write_all(&bytes))
+        .with_context(|| format!("writing {}", a.output.display()))?;
+    outln!(
+        "wrote {} (MERL binary, 90 x 90 x 180 cells, linear sRGB: the spectrum is not kept)",
+        a.output.display()
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 fn export_npz(a: ExportArgs) -> Result<ExitCode> {

@@ -294,6 +294,8 @@ enum OutputKind {
     Tensor,
     /// NumPy archives (.npz).
     Npz,
+    /// MERL binaries (.binary).
+    Merl,
     /// Images and JSON: only the same-file and directory checks.
     Any,
 }
@@ -350,6 +352,10 @@ fn guard_output(
         OutputKind::Obj => (
             head.starts_with(b"# goniospec generate"),
             "an OBJ written by goniospec generate",
+        ),
+        OutputKind::Merl => (
+            head.starts_with(&[90, 0, 0, 0, 90, 0, 0, 0, 180, 0, 0, 0]),
+            "a MERL BRDF (.binary)",
         ),
         OutputKind::Npz => (head.starts_with(b"PK\x03\x04"), "a NumPy archive (.npz)"),
         OutputKind::Tensor => (

@@ -1,6 +1,8 @@
 //! Taking a simulated material into other tools: the RGL tensor format (`.bsdf`) read by
-//! Mitsuba 3 and pbrt-v4 ([`rgl`], [`tensor`]), and NumPy arrays ([`npz`]).
+//! Mitsuba 3 and pbrt-v4 ([`rgl`], [`tensor`]), NumPy arrays ([`npz`]), and the MERL format
+//! of fitting tools ([`merl`], sRGB only).
 
+pub mod merl;
 pub mod npz;
 pub mod rgl;
 pub mod tensor;
