@@ -1,19 +1,10 @@
 //! The `goniospec` binary as a user runs it: output formats, errors and exit codes.
 
+mod common;
+
 use std::process::Command;
 
-fn goniospec(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_goniospec"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run goniospec");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use common::goniospec;
 
 #[test]
 fn backends_lists_versions() {

@@ -3,23 +3,8 @@
 
 mod common;
 
-use std::process::Command;
-
 use common::*;
 use goniospec::export::tensor;
-
-fn goniospec(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_goniospec"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("run goniospec");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn built(d: &std::path::Path, toml: &str, name: &str) -> String {
     let gsa = d.join(format!("{name}.gsa"));

@@ -275,13 +275,7 @@ pub(super) fn scene_driven(
         eprintln!("  {d}");
     }
     let (saved, skipped) = run.saving_percent();
-    let worst = run
-        .stats
-        .directions
-        .iter()
-        .map(|d| d.rays)
-        .max()
-        .unwrap_or(0);
+    let worst = run.largest_budget();
     eprintln!(
         "simulated {} trees in {:.2} s ({} of {} directions converged to {}); a full-hemisphere simulation giving each of its directions the largest budget used here needs at least {} x {} = {} trees: {saved:.0} % saved ({skipped:.0} % by skipping directions, the rest by adaptive budgets). Wrote {} and {}",
         run.spent(),

@@ -228,14 +228,17 @@ impl SceneRun {
     /// A lower bound on the trees of a full-hemisphere simulation of the same quality: one
     /// fixed budget must give every grid angle what the hardest needed angle took.
     pub fn full_hemisphere_bound(&self) -> u64 {
-        let worst = self
-            .stats
+        self.largest_budget() * self.plan.grid_deg.len() as u64
+    }
+
+    /// The most trees one direction took.
+    pub fn largest_budget(&self) -> u64 {
+        self.stats
             .directions
             .iter()
             .map(|d| d.rays)
             .max()
-            .unwrap_or(0);
-        worst * self.plan.grid_deg.len() as u64
+            .unwrap_or(0)
     }
 
     /// The saving against [`SceneRun::full_hemisphere_bound`], and the part of it that

@@ -196,3 +196,17 @@ pub fn tmm_band(n: impl Fn(f64) -> Vec<C>, d: &[f64], lo: f64, hi: f64, theta0: 
 pub fn c(n: f64, k: f64) -> C {
     C::new(n, k)
 }
+
+/// Runs the `goniospec` binary from the crate's root: `(exit status, stdout, stderr)`.
+pub fn goniospec(args: &[&str]) -> (i32, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_goniospec"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run goniospec");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
