@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Installs what goniospec needs from Debian's packages when it is missing:
-# Embree (libembree-dev), libclang for bindgen, and pkg-config. Uses apt-get as root and
+# Embree (libembree-dev), libclang for bindgen, pkg-config, and GNU parallel (batch tests). Uses apt-get as root and
 # sudo apt-get otherwise. Safe to run repeatedly; does nothing when all is present.
 set -euo pipefail
 
-pkgs=(libembree-dev libclang-dev pkg-config)
+pkgs=(libembree-dev libclang-dev pkg-config parallel)
 missing=()
 for p in "${pkgs[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then

@@ -6,6 +6,7 @@
 
 pub mod accel;
 pub mod accumulate;
+pub mod batch;
 pub mod bench;
 pub mod brdf;
 pub mod container;

@@ -148,6 +148,11 @@ pub struct SimConfig {
     pub precision: PhasePrecision,
     /// Return results that fail [`check_physical`] instead of an error (debugging only).
     pub allow_unphysical: bool,
+    /// The index of the first incident direction in a larger run this one is part of (a
+    /// batch unit): direction `d` draws the random streams of direction
+    /// `first_direction + d`, so the parts of a split run hold exactly the whole run's
+    /// cells. 0 for a whole run.
+    pub first_direction: u64,
 }
 
 impl SimConfig {
@@ -178,6 +183,7 @@ impl SimConfig {
             random_entry: false,
             precision: PhasePrecision::F64,
             allow_unphysical: false,
+            first_direction: 0,
         }
     }
 }
@@ -485,6 +491,7 @@ impl<'a> Run<'a> {
             path_sharing: sharing,
             tolerance: cfg.tolerance,
             max_rays: cfg.tolerance.map(|_| cfg.max_rays),
+            first_direction: cfg.first_direction,
         };
         Ok(Run {
             sample,
@@ -526,7 +533,7 @@ impl<'a> Run<'a> {
     ) -> DirectionStats {
         let (cfg, nl) = (self.cfg, self.nl);
         let wi = from_spherical(theta_deg.to_radians(), cfg.phi_i_deg.to_radians());
-        let mut shift_rng = Rng::new(cfg.seed, 0x5817_0000 + di as u64);
+        let mut shift_rng = Rng::new(cfg.seed, 0x5817_0000 + cfg.first_direction + di as u64);
         let shift = [shift_rng.uniform(), shift_rng.uniform()];
         let adaptive = cfg.tolerance.is_some();
         // Batches are whole blocks, so where a run stops never changes the sums of the
@@ -607,7 +614,7 @@ impl<'a> Run<'a> {
         let e0 = launch_fields(d);
         let mut out: Vec<BlockCell> = (0..self.nl).map(|_| BlockCell::default()).collect();
         for i in trees {
-            let mut rng = Rng::new(cfg.seed, (di as u64) << 40 | i);
+            let mut rng = Rng::new(cfg.seed, (cfg.first_direction + di as u64) << 40 | i);
             let xy = if cfg.random_entry {
                 [
                     rng.range(0.0, sample.tile_nm[0]),
@@ -998,5 +1005,5 @@ const MAX_BUCKETS: u64 = 1 << 22;
 /// The accumulator's cells must fit comfortably in memory (the machines this runs on have
 /// tens of GiB).
 const MAX_ACCUMULATOR_BYTES: u64 = 8 << 30;
-/// Trees per incident direction.
-const MAX_RAYS: u64 = 1_000_000_000_000;
+/// The most trees per incident direction any run may ask for.
+pub const MAX_RAYS: u64 = 1_000_000_000_000;

@@ -54,6 +54,14 @@ pub struct Settings {
     pub tolerance: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_rays: Option<u64>,
+    /// A batch unit's offset in its run's directions (`SimConfig::first_direction`);
+    /// omitted when 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub first_direction: u64,
+}
+
+fn is_zero(v: &u64) -> bool {
+    *v == 0
 }
 
 fn is_f64(p: &PhasePrecision) -> bool {

@@ -128,6 +128,13 @@ enum Command {
     /// and Standard Surface. Example: goniospec fit film.gsa -o film  (writes film.json and
     /// film.gltf; prints the parameters, their residual and Delta E2000 per angle).
     Fit(FitArgs),
+    /// Batch BRDF generation: plan many materials, run the units in shards (Slurm job
+    /// arrays or GNU parallel), resume, and merge bit for bit.
+    ///
+    /// Example: goniospec batch plan plan.toml -o lib && goniospec batch slurm lib
+    ///          bash lib/submit.sh        (or: goniospec batch run lib; goniospec batch merge lib)
+    #[command(subcommand, verbatim_doc_comment)]
+    Batch(BatchCommand),
     /// Benchmarks; each prints its figures.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -209,6 +216,7 @@ macro_rules! outln {
 }
 
 mod analytic;
+mod batch;
 mod bench;
 mod build;
 mod check;
@@ -225,6 +233,7 @@ mod simulate;
 mod study;
 
 use analytic::*;
+use batch::*;
 use bench::*;
 use build::*;
 use check::*;
@@ -274,6 +283,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Info(a) => info(a),
         Command::Export(a) => export(a),
         Command::Plot(a) => plot(a),
+        Command::Batch(c) => batch(c),
         Command::Render(a) => render(a),
         Command::Study(a) => study(a),
         Command::Generate(a) => generate(a),

@@ -1,0 +1,433 @@
+//! Batch BRDF generation: a plan of many materials split into deterministic work units
+//! (one material at one incident direction), run in shards by Slurm job arrays or GNU
+//! parallel, resumable, and merged bit for bit.
+//!
+//! A unit simulates one incident direction with the random streams that direction has in
+//! the material's whole run (`SimConfig::first_direction`), so the merged accumulator —
+//! the units' cells side by side, the header rebuilt from the plan — is byte-identical to
+//! `goniospec simulate` of the whole direction list, whatever the shard count and the
+//! order the shards finished in.
+//!
+//! Layout of a batch folder:
+//!
+//! ```text
+//! DIR/manifest.toml              the resolved plan, its hash and the units
+//! DIR/units/MATERIAL/NNN.gsa     one accumulator per unit, written atomically
+//! DIR/out/MATERIAL.gsa           merged accumulators
+//! DIR/out/MATERIAL-REPR.gsb      the representations the plan asks for
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::accumulate::file::Accumulator;
+use crate::sample::{self, MeshOptions};
+use crate::simulate::{SimConfig, Wavelengths, sample_hash};
+
+/// A plan as written: defaults and a list of materials.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPlan {
+    #[serde(default)]
+    defaults: RawSettings,
+    #[serde(rename = "material")]
+    materials: Vec<RawMaterial>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSettings {
+    theta_i: Option<Vec<f64>>,
+    wavelengths: Option<String>,
+    monochromatic: Option<bool>,
+    rays: Option<u64>,
+    seed: Option<u64>,
+    representations: Option<Vec<String>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    sample: PathBuf,
+    name: Option<String>,
+    #[serde(flatten)]
+    settings: RawSettings,
+}
+
+/// One material of a resolved plan.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    pub name: String,
+    /// Absolute path of the sample TOML.
+    pub sample: PathBuf,
+    pub sample_hash: String,
+    pub theta_i_deg: Vec<f64>,
+    pub wavelengths: String,
+    pub monochromatic: bool,
+    pub rays: u64,
+    pub seed: u64,
+    pub representations: Vec<crate::brdf::Kind>,
+}
+
+/// One work unit: a material at one incident direction.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Unit {
+    pub id: usize,
+    pub material: String,
+    /// The direction's index in the material's list.
+    pub direction: usize,
+    pub theta_i_deg: f64,
+    /// Output, relative to the batch folder.
+    pub output: PathBuf,
+}
+
+/// The manifest `plan` writes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// FNV-1a of the resolved materials: units of another plan are refused at merge.
+    pub plan_hash: String,
+    #[serde(rename = "material")]
+    pub materials: Vec<Material>,
+    #[serde(rename = "unit")]
+    pub units: Vec<Unit>,
+}
+
+/// The most units a plan may hold.
+pub const MAX_UNITS: usize = 1_000_000;
+
+/// The material's own setting, else the default.
+fn pick<T: Clone>(own: &Option<T>, default: &Option<T>) -> Option<T> {
+    own.clone().or_else(|| default.clone())
+}
+
+impl Manifest {
+    /// Reads and resolves a plan: every sample is loaded now (a bad sample fails here, not
+    /// hours later on a node), every setting checked as `simulate` checks it.
+    pub fn plan(plan_path: &Path) -> Result<Manifest, String> {
+        let text =
+            crate::io::read_text(plan_path).map_err(|e| format!("{}: {e}", plan_path.display()))?;
+        let raw: RawPlan = toml::from_str(&text)
+            .map_err(|e| format!("{}: {}", plan_path.display(), e.message().trim()))?;
+        if raw.materials.is_empty() {
+            return Err(format!(
+                "{}: the plan lists no [[material]]",
+                plan_path.display()
+            ));
+        }
+        let base = plan_path.parent().unwrap_or(Path::new("."));
+        let mut materials = Vec::new();
+        for (i, m) in raw.materials.iter().enumerate() {
+            let at = |msg: String| {
+                format!(
+                    "{}: material {} ({}): {msg}",
+                    plan_path.display(),
+                    i + 1,
+                    m.sample.display()
+                )
+            };
+            let s = &m.settings;
+            let d = &raw.defaults;
+            let theta: Vec<f64> = pick(&s.theta_i, &d.theta_i)
+                .ok_or_else(|| at("no theta_i (give it in [defaults] or the material)".into()))?;
+            if theta.is_empty()
+                || theta
+                    .iter()
+                    .any(|t| !(t.is_finite() && (0.0..90.0).contains(t)))
+            {
+                return Err(at(format!(
+                    "theta_i must be angles in [0, 90) degrees, got {theta:?}"
+                )));
+            }
+            let wavelengths: String =
+                pick(&s.wavelengths, &d.wavelengths).unwrap_or_else(|| "380:780:10".into());
+            let monochromatic = pick(&s.monochromatic, &d.monochromatic).unwrap_or(false);
+            Wavelengths::parse(&wavelengths, monochromatic).map_err(at)?;
+            let rays = pick(&s.rays, &d.rays).unwrap_or(1024);
+            if rays == 0 || rays > crate::simulate::MAX_RAYS {
+                return Err(at(format!(
+                    "rays must be 1..={}, got {rays}",
+                    crate::simulate::MAX_RAYS
+                )));
+            }
+            let seed = pick(&s.seed, &d.seed).unwrap_or(1);
+            let representations = pick(&s.representations, &d.representations)
+                .unwrap_or_else(|| vec!["table".into()])
+                .iter()
+                .map(|r| crate::brdf::Kind::parse(r))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(at)?;
+            let path = base.join(&m.sample);
+            let path = std::fs::canonicalize(&path).map_err(|e| at(format!("{e}")))?;
+            let sample =
+                sample::load(&path, MeshOptions::default()).map_err(|e| at(e.to_string()))?;
+            let name = match &m.name {
+                Some(n) => n.clone(),
+                None => path
+                    .file_stem()
+                    .unwrap_or_default()
+                    .to_string_lossy()
+                    .into_owned(),
+            };
+            if name.is_empty()
+                || !name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+                || name.starts_with('.')
+            {
+                return Err(at(format!(
+                    "name '{name}' must be letters, digits, '-', '_' or '.' (it names files)"
+                )));
+            }
+            if materials.iter().any(|x: &Material| x.name == name) {
+                return Err(at(format!(
+                    "two materials are named '{name}'; give them distinct names"
+                )));
+            }
+            materials.push(Material {
+                name,
+                sample: path,
+                sample_hash: sample_hash(&sample),
+                theta_i_deg: theta,
+                wavelengths,
+                monochromatic,
+                rays,
+                seed,
+                representations,
+            });
+        }
+        let mut units = Vec::new();
+        for m in &materials {
+            for (k, &t) in m.theta_i_deg.iter().enumerate() {
+                units.push(Unit {
+                    id: units.len(),
+                    material: m.name.clone(),
+                    direction: k,
+                    theta_i_deg: t,
+                    output: PathBuf::from("units")
+                        .join(&m.name)
+                        .join(format!("{k:04}.gsa")),
+                });
+                if units.len() > MAX_UNITS {
+                    return Err(format!("the plan expands to more than {MAX_UNITS} units"));
+                }
+            }
+        }
+        let canonical = serde_json::to_string(&materials).map_err(|e| e.to_string())?;
+        Ok(Manifest {
+            plan_hash: format!("{:016x}", crate::io::fnv1a(canonical.as_bytes())),
+            materials,
+            units,
+        })
+    }
+
+    /// Reads `DIR/manifest.toml`.
+    pub fn read(dir: &Path) -> Result<Manifest, String> {
+        let p = dir.join("manifest.toml");
+        let text = crate::io::read_text(&p)
+            .map_err(|e| format!("{}: {e} (run `goniospec batch plan` first)", p.display()))?;
+        toml::from_str(&text).map_err(|e| format!("{}: {}", p.display(), e.message().trim()))
+    }
+
+    /// Writes `DIR/manifest.toml` atomically (making DIR).
+    pub fn write(&self, dir: &Path) -> Result<(), String> {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        let text = toml::to_string(self).map_err(|e| e.to_string())?;
+        crate::io::write_atomic(&dir.join("manifest.toml"), |w| w.write_all(text.as_bytes()))
+            .map_err(|e| format!("{}: {e}", dir.display()))
+    }
+
+    pub fn material(&self, name: &str) -> &Material {
+        self.materials
+            .iter()
+            .find(|m| m.name == name)
+            .expect("units name materials of the manifest")
+    }
+
+    /// The units of shard `i` of `n` (1-based): every `n`-th unit from the `i`-th.
+    pub fn shard(&self, i: usize, n: usize) -> Result<Vec<&Unit>, String> {
+        if n == 0 || i == 0 || i > n {
+            return Err(format!("shard {i}/{n}: need 1 <= I <= N"));
+        }
+        Ok(self.units.iter().filter(|u| u.id % n == i - 1).collect())
+    }
+
+    /// The simulation of a unit.
+    pub fn unit_config(&self, u: &Unit) -> Result<SimConfig, String> {
+        let m = self.material(&u.material);
+        Ok(SimConfig {
+            seed: m.seed,
+            first_direction: u.direction as u64,
+            ..SimConfig::new(
+                vec![u.theta_i_deg],
+                Wavelengths::parse(&m.wavelengths, m.monochromatic)?,
+                m.rays,
+            )
+        })
+    }
+
+    /// Why a unit's output is not a finished unit of this plan, or `None` when it is.
+    pub fn verify(&self, dir: &Path, u: &Unit) -> Option<String> {
+        let p = dir.join(&u.output);
+        if !p.exists() {
+            return Some("missing".into());
+        }
+        let acc = match Accumulator::read(&p) {
+            Ok(a) => a,
+            Err(e) => return Some(format!("unreadable: {e}")),
+        };
+        let m = self.material(&u.material);
+        let s = &acc.header.settings;
+        let want_rays = vec![m.rays];
+        if s.sample_hash != m.sample_hash
+            || s.theta_i_deg != [u.theta_i_deg]
+            || s.first_direction != u.direction as u64
+            || acc.header.seeds != [m.seed]
+            || acc.header.rays_per_direction != want_rays
+        {
+            return Some("from another plan or sample (its header does not match the unit)".into());
+        }
+        None
+    }
+
+    /// Runs one unit and writes its output atomically.
+    pub fn run_unit(
+        &self,
+        dir: &Path,
+        u: &Unit,
+        sample: &crate::sample::Sample,
+    ) -> Result<(), String> {
+        let cfg = self.unit_config(u)?;
+        let (acc, _) = crate::simulate::simulate(sample, &cfg, &|_| {}).map_err(|e| {
+            format!(
+                "unit {} ({} at {} deg): {e}",
+                u.id, u.material, u.theta_i_deg
+            )
+        })?;
+        let p = dir.join(&u.output);
+        if let Some(parent) = p.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
+        }
+        acc.write(&p).map_err(|e| format!("{}: {e}", p.display()))
+    }
+
+    /// Assembles one material's units into its whole-run accumulator; refuses, naming
+    /// them, units that are missing, corrupt or from another plan.
+    pub fn merge_material(&self, dir: &Path, name: &str) -> Result<Accumulator, String> {
+        let units: Vec<&Unit> = self.units.iter().filter(|u| u.material == name).collect();
+        let problems: Vec<String> = units
+            .iter()
+            .filter_map(|u| {
+                self.verify(dir, u)
+                    .map(|why| format!("unit {} ({}): {why}", u.id, u.output.display()))
+            })
+            .collect();
+        if !problems.is_empty() {
+            return Err(format!(
+                "material '{name}': {} of {} units are not done:\n  {}",
+                problems.len(),
+                units.len(),
+                problems.join("\n  ")
+            ));
+        }
+        let mut parts = Vec::with_capacity(units.len());
+        for u in &units {
+            parts.push(Accumulator::read(&dir.join(&u.output)).map_err(|e| e.to_string())?);
+        }
+        let m = self.material(name);
+        let first = &parts[0].header;
+        if parts.iter().any(|p| p.header.backend != first.backend) {
+            return Err(format!(
+                "material '{name}': its units were traced with different backends"
+            ));
+        }
+        let mut header = first.clone();
+        header.settings.theta_i_deg = m.theta_i_deg.clone();
+        header.settings.first_direction = 0;
+        header.rays_per_direction = parts
+            .iter()
+            .flat_map(|p| p.header.rays_per_direction.clone())
+            .collect();
+        header.rays = header.rays_per_direction.iter().copied().max().unwrap_or(0);
+        header.leaks = parts.iter().map(|p| p.header.leaks).sum();
+        let cells = parts.into_iter().flat_map(|p| p.cells).collect();
+        Ok(Accumulator { header, cells })
+    }
+
+    /// `(done, missing, failed)` unit ids, the failed with their reason.
+    pub fn status(&self, dir: &Path) -> (Vec<usize>, Vec<usize>, Vec<(usize, String)>) {
+        let (mut done, mut missing, mut failed) = (Vec::new(), Vec::new(), Vec::new());
+        for u in &self.units {
+            match self.verify(dir, u) {
+                None => done.push(u.id),
+                Some(why) if why == "missing" => missing.push(u.id),
+                Some(why) => failed.push((u.id, why)),
+            }
+        }
+        (done, missing, failed)
+    }
+}
+
+use std::io::Write as _;
+
+/// The shard `(I, N)` from Slurm's array variables, when set (`SLURM_ARRAY_TASK_ID` of an
+/// array `1-N`, and `SLURM_ARRAY_TASK_COUNT`).
+pub fn shard_from_env() -> Option<Result<(usize, usize), String>> {
+    let id = std::env::var("SLURM_ARRAY_TASK_ID").ok()?;
+    let count = std::env::var("SLURM_ARRAY_TASK_COUNT").ok();
+    let parse = |v: &str, what: &str| {
+        v.trim()
+            .parse::<usize>()
+            .map_err(|_| format!("{what} is not a number: '{v}'"))
+    };
+    Some((|| {
+        let i = parse(&id, "SLURM_ARRAY_TASK_ID")?;
+        let n = parse(
+            count
+                .as_deref()
+                .ok_or("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not")?,
+            "SLURM_ARRAY_TASK_COUNT",
+        )?;
+        Ok((i, n))
+    })())
+}
+
+/// The Slurm scripts of a batch: an array with one task per shard (at most `limit`
+/// running), a merge job, and `submit.sh` chaining them with `--dependency=afterok`.
+pub fn slurm_scripts(
+    dir: &Path,
+    goniospec: &Path,
+    shards: usize,
+    limit: usize,
+) -> Vec<(PathBuf, String)> {
+    let d = dir.display();
+    let g = goniospec.display();
+    let array = format!(
+        "#!/bin/bash\n# goniospec batch: one array task per shard; each resumes where a previous run stopped.\n#SBATCH --job-name=goniospec-units\n#SBATCH --array=1-{shards}%{limit}\n#SBATCH --output={d}/logs/units-%A_%a.out\nset -euo pipefail\nexec \"{g}\" batch run \"{d}\"\n"
+    );
+    let merge = format!(
+        "#!/bin/bash\n# goniospec batch: merge the units and build the representations once every shard succeeded.\n#SBATCH --job-name=goniospec-merge\n#SBATCH --output={d}/logs/merge-%j.out\nset -euo pipefail\nexec \"{g}\" batch merge \"{d}\"\n"
+    );
+    let submit = String::from(
+        "#!/bin/bash\n# Submits the unit array, then the merge job to run after it succeeds.\nset -euo pipefail\ncd \"$(dirname \"$0\")\"\nmkdir -p logs\njid=$(sbatch --parsable units.sbatch)\nsbatch --parsable --dependency=afterok:${jid%%;*} merge.sbatch\n",
+    );
+    vec![
+        (dir.join("units.sbatch"), array),
+        (dir.join("merge.sbatch"), merge),
+        (dir.join("submit.sh"), submit),
+    ]
+}
+
+/// The GNU parallel command that runs every shard (`--joblog` and `--resume-failed`, so a
+/// rerun repeats only the shards that failed).
+pub fn parallel_command(dir: &Path, goniospec: &Path, shards: usize, jobs: usize) -> String {
+    format!(
+        "parallel --joblog \"{}/parallel.log\" --resume-failed -j {jobs} \"{}\" batch run \"{}\" --shard {{}}/{shards} ::: $(seq 1 {shards})",
+        dir.display(),
+        goniospec.display(),
+        dir.display()
+    )
+}

@@ -1,0 +1,257 @@
+//! `goniospec batch`: plan, run in shards, check and merge many materials.
+
+use std::io::Write;
+
+use goniospec::batch::{self, Manifest};
+
+use super::*;
+
+#[derive(Subcommand)]
+pub(super) enum BatchCommand {
+    /// Expand a plan (PLAN.toml: [defaults] and [[material]] entries, each with sample,
+    /// theta_i, wavelengths, monochromatic, rays, seed, representations) into work units,
+    /// one per material and incident direction; every sample is loaded now. Writes
+    /// DIR/manifest.toml and prints the unit count and an estimate of the work.
+    Plan(BatchPlanArgs),
+    /// Run the units of one shard. With neither --shard nor Slurm's array variables, runs
+    /// shard 1/1 (everything). Units whose output exists and verifies are skipped, so a
+    /// rerun resumes where a crash or a cancelled task stopped.
+    Run(BatchRunArgs),
+    /// Check every unit and assemble each material's accumulator (DIR/out/NAME.gsa),
+    /// byte-identical to simulating it in one run, then build its representations
+    /// (DIR/out/NAME-REPR.gsb). Refuses, naming them, units missing, corrupt or from
+    /// another plan.
+    Merge(BatchDirArgs),
+    /// List done, missing and failed units.
+    Status(BatchDirArgs),
+    /// Write Slurm scripts: units.sbatch (an array, one task per shard), merge.sbatch and
+    /// submit.sh, which chains the merge with --dependency=afterok.
+    Slurm(BatchSlurmArgs),
+    /// Print a GNU parallel command that runs every shard, with --joblog and
+    /// --resume-failed.
+    Parallel(BatchParallelArgs),
+}
+
+#[derive(Args)]
+pub(super) struct BatchPlanArgs {
+    /// The plan (TOML).
+    plan: PathBuf,
+    /// The batch folder (made if missing).
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+#[derive(Args)]
+pub(super) struct BatchDirArgs {
+    /// The batch folder.
+    dir: PathBuf,
+}
+
+#[derive(Args)]
+pub(super) struct BatchRunArgs {
+    /// The batch folder.
+    dir: PathBuf,
+    /// I/N: run shard I of N (1-based). Default: Slurm's SLURM_ARRAY_TASK_ID and
+    /// SLURM_ARRAY_TASK_COUNT, else 1/1.
+    #[arg(long, value_parser = parse_shard)]
+    shard: Option<(usize, usize)>,
+    /// Worker threads per unit (0: all cores). Results do not depend on it.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+}
+
+#[derive(Args)]
+pub(super) struct BatchSlurmArgs {
+    /// The batch folder.
+    dir: PathBuf,
+    /// Array tasks (shards).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    shards: u32,
+    /// At most this many tasks running at once.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    limit: u32,
+}
+
+#[derive(Args)]
+pub(super) struct BatchParallelArgs {
+    /// The batch folder.
+    dir: PathBuf,
+    /// Shards.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    shards: u32,
+    /// Shards running at once.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    jobs: u32,
+}
+
+fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let (i, n) = s.split_once('/').ok_or("--shard is I/N, e.g. 2/8")?;
+    let (i, n): (usize, usize) = (
+        i.trim()
+            .parse()
+            .map_err(|_| format!("--shard: '{i}' is not a number"))?,
+        n.trim()
+            .parse()
+            .map_err(|_| format!("--shard: '{n}' is not a number"))?,
+    );
+    if n == 0 || i == 0 || i > n {
+        return Err(format!("--shard {s}: need 1 <= I <= N"));
+    }
+    Ok((i, n))
+}
+
+pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
+    match c {
+        BatchCommand::Plan(a) => {
+            let m = Manifest::plan(&a.plan).map_err(anyhow::Error::msg)?;
+            m.write(&a.output).map_err(anyhow::Error::msg)?;
+            let trees: u64 = m
+                .materials
+                .iter()
+                .map(|x| x.rays * x.theta_i_deg.len() as u64)
+                .sum();
+            outln!(
+                "planned {} units ({} materials, {trees} trees) in {}",
+                m.units.len(),
+                m.materials.len(),
+                a.output.join("manifest.toml").display()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        BatchCommand::Run(a) => {
+            let m = Manifest::read(&a.dir).map_err(anyhow::Error::msg)?;
+            let (i, n) = match (a.shard, batch::shard_from_env()) {
+                (Some(s), _) => s,
+                (None, Some(env)) => env.map_err(anyhow::Error::msg)?,
+                (None, None) => (1, 1),
+            };
+            let units = m.shard(i, n).map_err(anyhow::Error::msg)?;
+            let pool = thread_pool(a.threads)?;
+            let bar = progress_bar(units.len() as u64, "units");
+            let (mut ran, mut skipped) = (0usize, 0usize);
+            let t0 = std::time::Instant::now();
+            let mut loaded: Option<(String, sample::Sample)> = None;
+            for u in units {
+                if m.verify(&a.dir, u).is_none() {
+                    skipped += 1;
+                } else {
+                    let mat = m.material(&u.material);
+                    if loaded.as_ref().is_none_or(|(name, _)| *name != mat.name) {
+                        let s = sample::load(&mat.sample, MeshOptions::default())?;
+                        if goniospec::simulate::sample_hash(&s) != mat.sample_hash {
+                            bail!(
+                                "{}: the sample changed since the plan was made; plan again",
+                                mat.sample.display()
+                            );
+                        }
+                        loaded = Some((mat.name.clone(), s));
+                    }
+                    let s = &loaded.as_ref().expect("loaded").1;
+                    pool.install(|| m.run_unit(&a.dir, u, s))
+                        .map_err(anyhow::Error::msg)?;
+                    ran += 1;
+                }
+                bar.inc(1);
+            }
+            bar.finish_and_clear();
+            outln!(
+                "shard {i}/{n}: ran {ran} units, skipped {skipped} already done, in {:.2} s",
+                t0.elapsed().as_secs_f64()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        BatchCommand::Merge(a) => {
+            let m = Manifest::read(&a.dir).map_err(anyhow::Error::msg)?;
+            let out = a.dir.join("out");
+            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+            let t0 = std::time::Instant::now();
+            let mut problems = Vec::new();
+            let mut merged = Vec::new();
+            for mat in &m.materials {
+                match m.merge_material(&a.dir, &mat.name) {
+                    Ok(acc) => merged.push((mat, acc)),
+                    Err(e) => problems.push(e),
+                }
+            }
+            if !problems.is_empty() {
+                bail!("cannot merge:\n{}", problems.join("\n"));
+            }
+            for (mat, acc) in &merged {
+                let p = out.join(format!("{}.gsa", mat.name));
+                acc.write(&p)
+                    .with_context(|| format!("writing {}", p.display()))?;
+                let data = goniospec::brdf::BucketData::from_accumulator(acc);
+                for &kind in &mat.representations {
+                    let r =
+                        goniospec::brdf::Representation::build(kind, &data, &Default::default())
+                            .map_err(anyhow::Error::msg)?;
+                    let g = out.join(format!("{}-{kind}.gsb", mat.name));
+                    goniospec::brdf::file::write(&r, &g)
+                        .with_context(|| format!("writing {}", g.display()))?;
+                }
+            }
+            outln!(
+                "merged {} units into {} materials in {}, {:.2} s",
+                m.units.len(),
+                merged.len(),
+                out.display(),
+                t0.elapsed().as_secs_f64()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        BatchCommand::Status(a) => {
+            let m = Manifest::read(&a.dir).map_err(anyhow::Error::msg)?;
+            let (done, missing, failed) = m.status(&a.dir);
+            outln!(
+                "{} units: {} done, {} missing, {} failed",
+                m.units.len(),
+                done.len(),
+                missing.len(),
+                failed.len()
+            );
+            for (id, why) in &failed {
+                outln!(
+                    "failed: unit {id} ({}): {why}",
+                    m.units[*id].output.display()
+                );
+            }
+            if !missing.is_empty() {
+                let shown: Vec<String> = missing.iter().take(20).map(|i| i.to_string()).collect();
+                outln!(
+                    "missing: units {}{}",
+                    shown.join(", "),
+                    if missing.len() > 20 { ", ..." } else { "" }
+                );
+            }
+            Ok(if failed.is_empty() && missing.is_empty() {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            })
+        }
+        BatchCommand::Slurm(a) => {
+            Manifest::read(&a.dir).map_err(anyhow::Error::msg)?;
+            let exe = std::env::current_exe().context("locating the goniospec binary")?;
+            let dir =
+                std::fs::canonicalize(&a.dir).with_context(|| format!("{}", a.dir.display()))?;
+            for (p, text) in batch::slurm_scripts(&dir, &exe, a.shards as usize, a.limit as usize) {
+                goniospec::io::write_atomic(&p, |w| w.write_all(text.as_bytes()))
+                    .with_context(|| format!("writing {}", p.display()))?;
+                outln!("wrote {}", p.display());
+            }
+            outln!("submit with: bash {}", dir.join("submit.sh").display());
+            Ok(ExitCode::SUCCESS)
+        }
+        BatchCommand::Parallel(a) => {
+            Manifest::read(&a.dir).map_err(anyhow::Error::msg)?;
+            let exe = std::env::current_exe().context("locating the goniospec binary")?;
+            let dir =
+                std::fs::canonicalize(&a.dir).with_context(|| format!("{}", a.dir.display()))?;
+            outln!(
+                "{}",
+                batch::parallel_command(&dir, &exe, a.shards as usize, a.jobs as usize)
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}

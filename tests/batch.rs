@@ -1,0 +1,367 @@
+//! `goniospec batch`: plans, shards, resumption and byte-identical merges.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::*;
+
+fn ok(args: &[&str]) -> String {
+    let (code, out, err) = goniospec(args);
+    assert_eq!(code, 0, "{args:?}: {err}");
+    out
+}
+
+/// A plan of two materials (4 + 2 directions, two representations) beside `dir`.
+fn plan(dir: &Path, rays: u64) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let root = root().display().to_string();
+    let p = dir.join("plan.toml");
+    std::fs::write(
+        &p,
+        format!(
+            "[defaults]\ntheta_i = [0, 20, 40, 60]\nwavelengths = \"400:700:50\"\nrays = {rays}\nrepresentations = [\"table\", \"kdtree\"]\n\n[[material]]\nsample = \"{root}/meshes/rough-gold.toml\"\nname = \"gold\"\n\n[[material]]\nsample = \"{root}/meshes/thin-film-600nm.toml\"\ntheta_i = [10, 30]\nseed = 7\n"
+        ),
+    )
+    .unwrap();
+    p
+}
+
+fn outputs(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    [
+        "gold.gsa",
+        "gold-table.gsb",
+        "gold-kdtree.gsb",
+        "thin-film-600nm.gsa",
+        "thin-film-600nm-table.gsb",
+    ]
+    .iter()
+    .map(|f| {
+        (
+            f.to_string(),
+            std::fs::read(dir.join("out").join(f)).unwrap(),
+        )
+    })
+    .collect()
+}
+
+/// Split 1, 2 and 5 ways, shards run in scrambled orders, the merged files are the same
+/// bytes; and they are the bytes of simulating each material in one run.
+#[test]
+fn shards_merge_to_the_bytes_of_one_run() {
+    let d = scratch("batch-shards");
+    let p = plan(&d, 128);
+    let mut results = Vec::new();
+    for (n, order) in [
+        (1usize, vec![1usize]),
+        (2, vec![2, 1]),
+        (5, vec![3, 5, 1, 4, 2]),
+    ] {
+        let b = d.join(format!("b{n}"));
+        let out = ok(&[
+            "batch",
+            "plan",
+            p.to_str().unwrap(),
+            "-o",
+            b.to_str().unwrap(),
+        ]);
+        assert!(out.contains("planned 6 units (2 materials"), "{out}");
+        for i in order {
+            ok(&[
+                "batch",
+                "run",
+                b.to_str().unwrap(),
+                "--shard",
+                &format!("{i}/{n}"),
+            ]);
+        }
+        ok(&["batch", "merge", b.to_str().unwrap()]);
+        results.push(outputs(&b));
+    }
+    assert_eq!(results[0], results[1]);
+    assert_eq!(results[0], results[2]);
+    let direct = d.join("direct.gsa");
+    ok(&[
+        "simulate",
+        "meshes/rough-gold.toml",
+        "--theta-i",
+        "0,20,40,60",
+        "--wavelengths",
+        "400:700:50",
+        "--rays",
+        "128",
+        "-o",
+        direct.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        std::fs::read(&direct).unwrap(),
+        results[0][0].1,
+        "merged gold against simulate"
+    );
+    let direct = d.join("film.gsa");
+    ok(&[
+        "simulate",
+        "meshes/thin-film-600nm.toml",
+        "--theta-i",
+        "10,30",
+        "--wavelengths",
+        "400:700:50",
+        "--rays",
+        "128",
+        "--seed",
+        "7",
+        "-o",
+        direct.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        std::fs::read(&direct).unwrap(),
+        results[0][3].1,
+        "merged film against simulate"
+    );
+}
+
+/// A corrupted unit is named by status and merge; rerunning its shard repairs it (and
+/// only it), giving the same bytes. Missing units are named too.
+#[test]
+fn corrupt_and_missing_units_are_named_and_repaired_by_a_rerun() {
+    let d = scratch("batch-repair");
+    let p = plan(&d, 64);
+    let b = d.join("b");
+    let bs = b.to_str().unwrap();
+    ok(&["batch", "plan", p.to_str().unwrap(), "-o", bs]);
+    ok(&["batch", "run", bs, "--shard", "1/2"]);
+    let (code, out, _) = goniospec(&["batch", "status", bs]);
+    assert_eq!(code, 1);
+    assert!(
+        out.contains("6 units: 3 done, 3 missing, 0 failed"),
+        "{out}"
+    );
+    let (code, _, err) = goniospec(&["batch", "merge", bs]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("missing") && err.contains("units/gold/0001.gsa"),
+        "{err}"
+    );
+    ok(&["batch", "run", bs, "--shard", "2/2"]);
+    ok(&["batch", "merge", bs]);
+    let good = outputs(&b);
+    // Flip a byte inside a unit's payload.
+    let unit = b.join("units/gold/0002.gsa");
+    let mut bytes = std::fs::read(&unit).unwrap();
+    let k = bytes.len() / 2;
+    bytes[k] ^= 0x20;
+    std::fs::write(&unit, bytes).unwrap();
+    let (code, out, _) = goniospec(&["batch", "status", bs]);
+    assert_eq!(code, 1);
+    assert!(
+        out.contains("failed: unit 2 (units/gold/0002.gsa)") && out.contains("checksum"),
+        "{out}"
+    );
+    let (code, _, err) = goniospec(&["batch", "merge", bs]);
+    assert_eq!(code, 1);
+    assert!(err.contains("unit 2 (units/gold/0002.gsa)"), "{err}");
+    let out = ok(&["batch", "run", bs, "--shard", "1/2"]);
+    assert!(out.contains("ran 1 units, skipped 2"), "{out}");
+    ok(&["batch", "merge", bs]);
+    assert_eq!(outputs(&b), good);
+    // A unit of another plan (another seed) in its place is refused.
+    let other = d.join("other");
+    let text = std::fs::read_to_string(&p)
+        .unwrap()
+        .replace("rays = 64", "rays = 64\nseed = 99");
+    let p2 = d.join("plan2.toml");
+    std::fs::write(&p2, text).unwrap();
+    ok(&[
+        "batch",
+        "plan",
+        p2.to_str().unwrap(),
+        "-o",
+        other.to_str().unwrap(),
+    ]);
+    ok(&["batch", "run", other.to_str().unwrap()]);
+    std::fs::copy(
+        other.join("units/gold/0000.gsa"),
+        b.join("units/gold/0000.gsa"),
+    )
+    .unwrap();
+    let (code, _, err) = goniospec(&["batch", "merge", bs]);
+    assert_eq!(code, 1);
+    assert!(
+        err.contains("unit 0") && err.contains("another plan"),
+        "{err}"
+    );
+}
+
+/// A shard killed with SIGKILL mid-run leaves only whole units (writes are atomic); the
+/// rerun completes the batch with the same bytes as an uninterrupted run.
+#[test]
+fn a_killed_shard_resumes_to_the_same_bytes() {
+    let d = scratch("batch-kill");
+    // About a second per unit on two cores: the kill lands inside a unit.
+    let p = plan(&d, 200_000);
+    let whole = d.join("whole");
+    ok(&[
+        "batch",
+        "plan",
+        p.to_str().unwrap(),
+        "-o",
+        whole.to_str().unwrap(),
+    ]);
+    ok(&["batch", "run", whole.to_str().unwrap()]);
+    ok(&["batch", "merge", whole.to_str().unwrap()]);
+    let b = d.join("b");
+    ok(&[
+        "batch",
+        "plan",
+        p.to_str().unwrap(),
+        "-o",
+        b.to_str().unwrap(),
+    ]);
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_goniospec"))
+        .args(["batch", "run", b.to_str().unwrap()])
+        .current_dir(root())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait until the first unit is written, then kill while later ones run.
+    let first = b.join("units/gold/0000.gsa");
+    let t0 = std::time::Instant::now();
+    while !first.exists() && t0.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(30));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let (_, out, _) = goniospec(&["batch", "status", b.to_str().unwrap()]);
+    assert!(
+        out.contains(" 0 failed"),
+        "a killed unit must not look finished or corrupt: {out}"
+    );
+    ok(&["batch", "run", b.to_str().unwrap()]);
+    ok(&["batch", "merge", b.to_str().unwrap()]);
+    assert_eq!(outputs(&b), outputs(&whole));
+}
+
+/// GNU parallel runs the printed command (3 shards, 2 at a time) to the same bytes; the
+/// Slurm scripts hold the array, its concurrency limit and the chained merge.
+#[test]
+fn gnu_parallel_and_slurm_launchers() {
+    let d = scratch("batch-launch");
+    let p = plan(&d, 64);
+    let one = d.join("one");
+    ok(&[
+        "batch",
+        "plan",
+        p.to_str().unwrap(),
+        "-o",
+        one.to_str().unwrap(),
+    ]);
+    ok(&["batch", "run", one.to_str().unwrap()]);
+    ok(&["batch", "merge", one.to_str().unwrap()]);
+    let b = d.join("par");
+    ok(&[
+        "batch",
+        "plan",
+        p.to_str().unwrap(),
+        "-o",
+        b.to_str().unwrap(),
+    ]);
+    let cmd = ok(&[
+        "batch",
+        "parallel",
+        b.to_str().unwrap(),
+        "--shards",
+        "3",
+        "--jobs",
+        "2",
+    ]);
+    assert!(
+        cmd.contains("--joblog") && cmd.contains("--resume-failed") && cmd.contains("--shard {}/3"),
+        "{cmd}"
+    );
+    let status = std::process::Command::new("bash")
+        .args(["-c", cmd.trim()])
+        .current_dir(root())
+        .status()
+        .expect("GNU parallel (scripts/install-deps.sh installs it)");
+    assert!(status.success());
+    ok(&["batch", "merge", b.to_str().unwrap()]);
+    assert_eq!(outputs(&b), outputs(&one));
+    let out = ok(&[
+        "batch",
+        "slurm",
+        b.to_str().unwrap(),
+        "--shards",
+        "6",
+        "--limit",
+        "3",
+    ]);
+    assert!(out.contains("submit.sh"), "{out}");
+    let units = std::fs::read_to_string(b.join("units.sbatch")).unwrap();
+    assert!(
+        units.contains("#SBATCH --array=1-6%3") && units.contains("batch run"),
+        "{units}"
+    );
+    let submit = std::fs::read_to_string(b.join("submit.sh")).unwrap();
+    assert!(
+        submit.contains("--dependency=afterok:") && submit.contains("merge.sbatch"),
+        "{submit}"
+    );
+}
+
+/// A plan with a bad sample fails at plan time, naming the material; so do bad settings.
+#[test]
+fn bad_plans_fail_at_plan_time() {
+    let d = scratch("batch-bad");
+    for (body, says) in [
+        (
+            "[defaults]\ntheta_i = [0]\n[[material]]\nsample = \"nowhere.toml\"\n",
+            "nowhere.toml",
+        ),
+        ("[[material]]\nsample = \"SAMPLE\"\n", "no theta_i"),
+        (
+            "[defaults]\ntheta_i = [95]\n[[material]]\nsample = \"SAMPLE\"\n",
+            "[0, 90)",
+        ),
+        (
+            "[defaults]\ntheta_i = [0]\nrays = 0\n[[material]]\nsample = \"SAMPLE\"\n",
+            "rays must be",
+        ),
+        (
+            "[defaults]\ntheta_i = [0]\nrepresentations = [\"cube\"]\n[[material]]\nsample = \"SAMPLE\"\n",
+            "unknown representation",
+        ),
+        (
+            "[defaults]\ntheta_i = [0]\n[[material]]\nsample = \"SAMPLE\"\n[[material]]\nsample = \"SAMPLE\"\n",
+            "two materials are named",
+        ),
+        (
+            "[defaults]\ntheta_i = [0]\nwavelengths = \"700:400:10\"\n[[material]]\nsample = \"SAMPLE\"\n",
+            "material 1",
+        ),
+        (
+            "[defaults]\ntheta_i = [0]\ncolour = 1\n[[material]]\nsample = \"SAMPLE\"\n",
+            "colour",
+        ),
+    ] {
+        let sample = format!("{}/meshes/rough-gold.toml", root().display());
+        let p = d.join("plan.toml");
+        std::fs::write(&p, body.replace("SAMPLE", &sample)).unwrap();
+        let (code, _, err) = goniospec(&[
+            "batch",
+            "plan",
+            p.to_str().unwrap(),
+            "-o",
+            d.join("b").to_str().unwrap(),
+        ]);
+        assert_eq!(code, 1, "{body}");
+        assert!(err.contains(says), "{body}: {err}");
+    }
+    let (code, _, err) = goniospec(&["batch", "run", d.join("nothing").to_str().unwrap()]);
+    assert_eq!(code, 1);
+    assert!(err.contains("batch plan"), "{err}");
+    let (code, _, err) = goniospec(&["batch", "run", d.to_str().unwrap(), "--shard", "3/2"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("1 <= I <= N"), "{err}");
+}
