@@ -22,9 +22,11 @@ bench: deps
 	$(CARGO) run --release -- bench simulate
 	$(CARGO) run --release -- bench eval
 
-## Run the whole test suite.
+## Run the whole test suite, then the batch test on a local Slurm cluster (as root; it
+## says so when it cannot run).
 test: deps
 	$(CARGO) test --all-targets
+	./scripts/slurm-test.sh $(or $(CARGO_TARGET_DIR),target)/debug/goniospec
 
 ## Formatting and lints, as CI applies them.
 lint: deps

@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Installs what goniospec needs from Debian's packages when it is missing:
-# Embree (libembree-dev), libclang for bindgen, pkg-config, and GNU parallel (batch tests). Uses apt-get as root and
-# sudo apt-get otherwise. Safe to run repeatedly; does nothing when all is present.
+# Embree (libembree-dev), libclang for bindgen, pkg-config, and for the batch tests GNU
+# parallel and a single-node Slurm (slurmctld, slurmd, slurm-client, munge). Uses apt-get
+# as root and sudo apt-get otherwise. Safe to run repeatedly; does nothing when all is present.
 set -euo pipefail
 
-pkgs=(libembree-dev libclang-dev pkg-config parallel)
+pkgs=(libembree-dev libclang-dev pkg-config parallel slurmctld slurmd slurm-client munge)
 missing=()
 for p in "${pkgs[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then

@@ -243,7 +243,7 @@ fn a_killed_shard_resumes_to_the_same_bytes() {
     assert_eq!(outputs(&b), outputs(&whole));
 }
 
-/// GNU parallel runs the printed command (3 shards, 2 at a time) to the same bytes; the
+/// GNU parallel runs the printed command (2 and 5 shards, 2 at a time) to the same bytes; the
 /// Slurm scripts hold the array, its concurrency limit and the chained merge.
 #[test]
 fn gnu_parallel_and_slurm_launchers() {
@@ -259,35 +259,44 @@ fn gnu_parallel_and_slurm_launchers() {
     ]);
     ok(&["batch", "run", one.to_str().unwrap()]);
     ok(&["batch", "merge", one.to_str().unwrap()]);
-    let b = d.join("par");
-    ok(&[
-        "batch",
-        "plan",
-        p.to_str().unwrap(),
-        "-o",
-        b.to_str().unwrap(),
-    ]);
-    let cmd = ok(&[
-        "batch",
-        "parallel",
-        b.to_str().unwrap(),
-        "--shards",
-        "3",
-        "--jobs",
-        "2",
-    ]);
-    assert!(
-        cmd.contains("--joblog") && cmd.contains("--resume-failed") && cmd.contains("--shard {}/3"),
-        "{cmd}"
-    );
-    let status = std::process::Command::new("bash")
-        .args(["-c", cmd.trim()])
-        .current_dir(root())
-        .status()
-        .expect("GNU parallel (scripts/install-deps.sh installs it)");
-    assert!(status.success());
-    ok(&["batch", "merge", b.to_str().unwrap()]);
-    assert_eq!(outputs(&b), outputs(&one));
+    for shards in ["2", "5"] {
+        let b = d.join(format!("par{shards}"));
+        ok(&[
+            "batch",
+            "plan",
+            p.to_str().unwrap(),
+            "-o",
+            b.to_str().unwrap(),
+        ]);
+        let cmd = ok(&[
+            "batch",
+            "parallel",
+            b.to_str().unwrap(),
+            "--shards",
+            shards,
+            "--jobs",
+            "2",
+        ]);
+        assert!(
+            cmd.contains("--joblog")
+                && cmd.contains("--resume-failed")
+                && cmd.contains(&format!("--shard {{}}/{shards}")),
+            "{cmd}"
+        );
+        let status = std::process::Command::new("bash")
+            .args(["-c", cmd.trim()])
+            .current_dir(root())
+            .status()
+            .expect("GNU parallel (scripts/install-deps.sh installs it)");
+        assert!(status.success());
+        ok(&["batch", "merge", b.to_str().unwrap()]);
+        assert_eq!(
+            outputs(&b),
+            outputs(&one),
+            "{shards} shards under GNU parallel"
+        );
+    }
+    let b = d.join("par2");
     let out = ok(&[
         "batch",
         "slurm",
