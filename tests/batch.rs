@@ -367,6 +367,23 @@ fn bad_plans_fail_at_plan_time() {
         assert_eq!(code, 1, "{body}");
         assert!(err.contains(says), "{body}: {err}");
     }
+    // A plan named like the manifest, in the batch folder, is not overwritten.
+    let sample = format!("{}/meshes/rough-gold.toml", root().display());
+    let inplace = d.join("inplace");
+    std::fs::create_dir_all(&inplace).unwrap();
+    let m = inplace.join("manifest.toml");
+    let body = format!("[defaults]\ntheta_i = [0]\n[[material]]\nsample = \"{sample}\"\n");
+    std::fs::write(&m, &body).unwrap();
+    let (code, _, err) = goniospec(&[
+        "batch",
+        "plan",
+        m.to_str().unwrap(),
+        "-o",
+        inplace.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("refusing to overwrite"), "{err}");
+    assert_eq!(std::fs::read_to_string(&m).unwrap(), body);
     let (code, _, err) = goniospec(&["batch", "run", d.join("nothing").to_str().unwrap()]);
     assert_eq!(code, 1);
     assert!(err.contains("batch plan"), "{err}");

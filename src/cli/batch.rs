@@ -103,6 +103,13 @@ fn parse_shard(s: &str) -> Result<(usize, usize), String> {
 pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
     match c {
         BatchCommand::Plan(a) => {
+            let manifest = a.output.join("manifest.toml");
+            if same_file(&manifest, &a.plan) {
+                bail!(
+                    "the plan {} is the manifest this would write: refusing to overwrite it",
+                    a.plan.display()
+                );
+            }
             let m = Manifest::plan(&a.plan).map_err(anyhow::Error::msg)?;
             m.write(&a.output).map_err(anyhow::Error::msg)?;
             let trees: u64 = m
