@@ -277,7 +277,81 @@ pub const FORMAT: crate::container::Format = crate::container::Format {
     legacy_version: Some(2),
 };
 
+/// One wavelength's directional reflectance (`goniospec reflectance`, one CSV row).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReflectanceRow {
+    /// Bin centre or exact wavelength, nm.
+    pub lambda_nm: f64,
+    pub r: f64,
+    pub t: f64,
+    /// Power absorbed per tree (`1 - R - T - dropped` where power entered an absorbing
+    /// medium).
+    pub absorbed: f64,
+    /// Power dropped per tree (cutoff and limits).
+    pub dropped: f64,
+    /// Standard error of `r`; `None` in global mode (no per-tree estimate).
+    pub r_stderr: Option<f64>,
+}
+
+/// The directional reflectance at one incident angle.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Reflectance {
+    pub rows: Vec<ReflectanceRow>,
+    /// Buckets holding a negative estimate (beamlet cross terms; kept, not clamped).
+    pub negative_buckets: usize,
+}
+
 impl Accumulator {
+    /// The directional reflectance at `theta_i_deg` (one of the simulated angles; and
+    /// `phi_i_deg`, when given, must be the simulated azimuth).
+    pub fn reflectance(
+        &self,
+        theta_i_deg: f64,
+        phi_i_deg: Option<f64>,
+    ) -> Result<Reflectance, String> {
+        let s = &self.header.settings;
+        if let Some(p) = phi_i_deg
+            && (p - s.phi_i_deg).abs() > 1e-9
+        {
+            return Err(format!("simulated at phi_i = {} deg, not {p}", s.phi_i_deg));
+        }
+        let i = s
+            .theta_i_deg
+            .iter()
+            .position(|t| (t - theta_i_deg).abs() < 1e-9)
+            .ok_or_else(|| {
+                format!(
+                    "no incident angle {theta_i_deg} deg (it has {:?})",
+                    s.theta_i_deg
+                )
+            })?;
+        let mode = s.coherence_mode();
+        let buckets = s.buckets();
+        let mut negative_buckets = 0;
+        let rows = (0..s.wavelength_count())
+            .map(|j| {
+                let c = self.cell(i, j);
+                let (r, t) = c.totals(mode, &buckets);
+                let n = c.trees.max(1) as f64;
+                negative_buckets += (0..2 * buckets.len())
+                    .filter(|&k| c.fraction(k, mode) < 0.0)
+                    .count();
+                ReflectanceRow {
+                    lambda_nm: s.wavelength(j),
+                    r,
+                    t,
+                    absorbed: c.absorbed / n,
+                    dropped: c.dropped / n,
+                    r_stderr: c.r_stderr(mode),
+                }
+            })
+            .collect();
+        Ok(Reflectance {
+            rows,
+            negative_buckets,
+        })
+    }
+
     fn cell_f64s(&self) -> usize {
         let keys = 2 * self.header.settings.buckets().len();
         let global = if self.header.settings.coherence_mode() == Coherence::Global {

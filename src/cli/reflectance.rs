@@ -16,58 +16,31 @@ pub(super) struct ReflectanceArgs {
 
 pub(super) fn reflectance(a: ReflectanceArgs) -> Result<ExitCode> {
     let acc = Accumulator::read(&a.file)?;
-    let s = &acc.header.settings;
-    if let Some(p) = a.phi_i
-        && (p - s.phi_i_deg).abs() > 1e-9
-    {
-        bail!(
-            "{} was simulated at phi_i = {} deg, not {p}",
-            a.file.display(),
-            s.phi_i_deg
-        );
-    }
-    let i = s
-        .theta_i_deg
-        .iter()
-        .position(|t| (t - a.theta_i).abs() < 1e-9)
-        .with_context(|| {
-            format!(
-                "{} has no incident angle {} deg (it has {:?})",
-                a.file.display(),
-                a.theta_i,
-                s.theta_i_deg
-            )
-        })?;
-    let mode = s.coherence_mode();
-    let buckets = s.buckets();
+    let refl = acc
+        .reflectance(a.theta_i, a.phi_i)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", a.file.display()))?;
     outln!("lambda_nm,R,T,absorbed,dropped,R_stderr");
-    let mut negative = 0usize;
-    for j in 0..s.wavelength_count() {
-        let c = acc.cell(i, j);
-        let (r, t) = c.totals(mode, &buckets);
-        let n = c.trees.max(1) as f64;
-        negative += (0..2 * buckets.len())
-            .filter(|&k| c.fraction(k, mode) < 0.0)
-            .count();
-        let se = c
-            .r_stderr(mode)
+    for row in &refl.rows {
+        let se = row
+            .r_stderr
             .map_or_else(|| "NA".to_string(), |v| format!("{v:.6e}"));
         outln!(
             "{},{:.8},{:.8},{:.8},{:.3e},{}",
-            s.wavelength(j),
-            r,
-            t,
-            c.absorbed / n,
-            c.dropped / n,
+            row.lambda_nm,
+            row.r,
+            row.t,
+            row.absorbed,
+            row.dropped,
             se
         );
     }
-    if negative > 0 {
+    if refl.negative_buckets > 0 {
         eprintln!(
-            "note: {negative} buckets hold a negative estimate (cross terms); they are kept, not clamped"
+            "note: {} buckets hold a negative estimate (cross terms); they are kept, not clamped",
+            refl.negative_buckets
         );
     }
-    if mode == Coherence::Global {
+    if acc.header.settings.coherence_mode() == Coherence::Global {
         eprintln!("note: --coherence global has no per-tree error estimate (R_stderr = NA)");
     }
     Ok(ExitCode::SUCCESS)
