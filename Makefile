@@ -3,7 +3,7 @@
 
 CARGO ?= cargo
 
-.PHONY: demo test deps bench lint study stress fuzz fuzz-smoke interop
+.PHONY: demo test deps bench lint study stress fuzz fuzz-smoke interop python
 
 OUT ?= out/demo
 
@@ -69,3 +69,9 @@ fuzz-smoke: deps
 interop: deps
 	$(CARGO) build --release
 	./scripts/interop.sh $(BIN)
+
+## The Python package (python/: pyo3 + maturin): build the wheel, install it into
+## .venv-python with numpy, pytest and tmm, and run its tests against the CLI.
+python: deps
+	$(CARGO) build --release
+	./scripts/python.sh $(BIN)

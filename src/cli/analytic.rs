@@ -14,26 +14,11 @@ pub(super) struct AnalyticArgs {
 }
 
 pub(super) fn analytic(a: AnalyticArgs) -> Result<ExitCode> {
-    if !(0.0..90.0).contains(&a.theta_i) {
-        bail!("--theta-i must be in [0, 90) degrees, got {}", a.theta_i);
-    }
-    use goniospec::optics::tmm;
     let s = sample::load(&a.sample, MeshOptions::default())?;
-    if s.stack.is_none() {
-        bail!(
-            "{} is not written as a [stack]: the analytic reference needs a flat layered sample",
-            a.sample.display()
-        );
-    }
-    if !(0.0..90.0).contains(&a.theta_i) {
-        bail!("--theta-i must be in [0, 90) degrees");
-    }
-    let stack_at = |l: f64| -> Result<tmm::StackIndices> {
-        tmm::stack_indices(&s, l).map_err(|e| anyhow::anyhow!(e))
-    };
-    let th = a.theta_i.to_radians();
+    let rows = goniospec::optics::tmm::analytic(&s, a.theta_i, &a.wavelengths.parse()?)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", a.sample.display()))?;
     outln!("lambda_nm,Rs,Rp,R,Ts,Tp,T");
-    let print = |l: f64, rt: tmm::Rt| -> Result<()> {
+    for (l, rt) in rows {
         outln!(
             "{l},{:.8},{:.8},{:.8},{:.8},{:.8},{:.8}",
             rt.r_s,
@@ -43,27 +28,6 @@ pub(super) fn analytic(a: AnalyticArgs) -> Result<ExitCode> {
             rt.t_p,
             rt.t()
         );
-        Ok(())
-    };
-    match a.wavelengths.parse()? {
-        Wavelengths::Monochromatic(v) => {
-            for l in v {
-                print(l, tmm::solve(&stack_at(l)?, l, th))?;
-            }
-        }
-        Wavelengths::Bins(e) => {
-            for w in e.windows(2) {
-                stack_at(w[0])?;
-                stack_at(w[1])?;
-                let rt = tmm::solve_band(
-                    |l| stack_at(l).expect("range checked at the edges"),
-                    w[0],
-                    w[1],
-                    th,
-                );
-                print(0.5 * (w[0] + w[1]), rt)?;
-            }
-        }
     }
     Ok(ExitCode::SUCCESS)
 }

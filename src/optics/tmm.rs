@@ -202,3 +202,43 @@ pub fn stack_indices(
         d_nm: st.layers.iter().map(|l| l.1).collect(),
     })
 }
+
+/// The analytic reflectance and transmittance of a `[stack]` sample at `theta_i_deg`
+/// (`goniospec analytic`): per wavelength for monochromatic sampling, bin-averaged
+/// ([`solve_band`]) and reported at the bin centre for bins.
+pub fn analytic(
+    sample: &crate::sample::Sample,
+    theta_i_deg: f64,
+    wavelengths: &crate::simulate::Wavelengths,
+) -> Result<Vec<(f64, Rt)>, String> {
+    if !(theta_i_deg.is_finite() && (0.0..90.0).contains(&theta_i_deg)) {
+        return Err(format!(
+            "theta_i must be in [0, 90) degrees, got {theta_i_deg}"
+        ));
+    }
+    if sample.stack.is_none() {
+        return Err("the sample is not written as a [stack]: the analytic reference needs a flat layered sample".into());
+    }
+    let th = theta_i_deg.to_radians();
+    let stack_at = |l: f64| stack_indices(sample, l);
+    match wavelengths {
+        crate::simulate::Wavelengths::Monochromatic(v) => v
+            .iter()
+            .map(|&l| Ok((l, solve(&stack_at(l)?, l, th))))
+            .collect(),
+        crate::simulate::Wavelengths::Bins(e) => e
+            .windows(2)
+            .map(|w| {
+                stack_at(w[0])?;
+                stack_at(w[1])?;
+                let rt = solve_band(
+                    |l| stack_at(l).expect("range checked at the edges"),
+                    w[0],
+                    w[1],
+                    th,
+                );
+                Ok((0.5 * (w[0] + w[1]), rt))
+            })
+            .collect(),
+    }
+}

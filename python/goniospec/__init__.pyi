@@ -1,0 +1,53 @@
+"""Type stubs of goniospec's Python API (units in every name or doc)."""
+
+from os import PathLike
+from typing import Literal, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+_Path = Union[str, PathLike[str]]
+_Angles = Union[float, Sequence[float], npt.NDArray[np.float64]]
+
+class Sample:
+    @staticmethod
+    def load(path: _Path) -> "Sample": ...
+    @property
+    def name(self) -> str: ...
+    def check(self) -> dict[str, list[str]]:
+        """`goniospec check`: {"facts": [...], "defects": [...]}."""
+
+class Brdf:
+    def eval(self, theta_i_deg: _Angles, phi_i_deg: _Angles, theta_o_deg: _Angles, phi_o_deg: _Angles) -> npt.NDArray[np.float64]:
+        """BRDF in 1/sr at angles in degrees (broadcast); shape [..., n_lambda]."""
+    @property
+    def wavelengths_nm(self) -> npt.NDArray[np.float64]: ...
+    def save(self, path: _Path) -> None: ...
+    def export(self, path: _Path, format: Literal["npz", "merl"] = "npz") -> None: ...
+
+class Accumulator:
+    def reflectance(self, theta_i_deg: float) -> dict[str, npt.NDArray[np.float64]]:
+        """Keys lambda_nm, R, T, absorbed, dropped, R_stderr (fractions of incident power)."""
+    def save(self, path: _Path) -> None: ...
+    def build(self, repr: Literal["table", "kdtree", "subdivided"] = "table") -> Brdf: ...
+    @property
+    def theta_i_deg(self) -> list[float]: ...
+
+def load(path: _Path) -> Accumulator: ...
+def load_brdf(path: _Path) -> Brdf: ...
+def simulate(
+    sample: Sample,
+    theta_i: Sequence[float],
+    wavelengths: str = "380:780:10",
+    rays: int = 1024,
+    seed: int = 1,
+    coherence: Literal["beamlet", "bucket", "global"] = "beamlet",
+    coherence_radius_nm: float = 5000.0,
+    cutoff: float | None = None,
+    monochromatic: bool = False,
+    phi_i_deg: float = 0.0,
+    threads: int = 0,
+) -> Accumulator:
+    """theta_i in degrees; wavelengths in nm as the CLI's --wavelengths."""
+def analytic(sample: Sample, theta_i: float, wavelengths: str = "380:780:10", monochromatic: bool = False) -> dict[str, npt.NDArray[np.float64]]:
+    """Transfer-matrix lambda_nm, Rs, Rp, R, Ts, Tp, T of a [stack] sample; theta_i in degrees."""

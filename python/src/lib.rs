@@ -1,0 +1,342 @@
+//! Python bindings of goniospec (pyo3): the library's API, not the CLI's. Errors become
+//! Python exceptions with the CLI's messages; long runs release the GIL.
+
+use std::path::PathBuf;
+
+use numpy::{IntoPyArray, PyArray1, PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyOSError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use goniospec::brdf::{Brdf as _, Kind, Representation};
+use goniospec::simulate::{SimConfig, Wavelengths};
+
+fn value_err(e: impl std::fmt::Display) -> PyErr {
+    PyValueError::new_err(e.to_string())
+}
+
+/// A sample: media, interfaces and the periodic tile (`Sample.load(path)`).
+#[pyclass(module = "goniospec", frozen)]
+struct Sample {
+    inner: goniospec::sample::Sample,
+}
+
+#[pymethods]
+impl Sample {
+    /// Loads a sample TOML (lengths in its unit, converted to nanometres).
+    #[staticmethod]
+    fn load(path: PathBuf) -> PyResult<Sample> {
+        goniospec::sample::load(&path, goniospec::sample::MeshOptions::default())
+            .map(|inner| Sample { inner })
+            .map_err(value_err)
+    }
+
+    /// The sample's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.inner.name.clone()
+    }
+
+    /// `goniospec check`: a dict with `facts` and `defects` (lists of str).
+    fn check<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let r = py
+            .allow_threads(|| {
+                goniospec::sample::check::check(
+                    &self.inner,
+                    &goniospec::sample::check::CheckOptions::default(),
+                )
+            })
+            .map_err(value_err)?;
+        let d = PyDict::new(py);
+        d.set_item("facts", r.facts)?;
+        d.set_item("defects", r.defects)?;
+        Ok(d)
+    }
+}
+
+/// Accumulated buckets of a simulation (a `.gsa`).
+#[pyclass(module = "goniospec", frozen)]
+struct Accumulator {
+    inner: goniospec::accumulate::file::Accumulator,
+}
+
+#[pymethods]
+impl Accumulator {
+    /// Directional reflectance at `theta_i_deg` (a simulated angle): a dict of numpy
+    /// arrays keyed like the CLI's CSV columns: `lambda_nm`, `R`, `T`, `absorbed`,
+    /// `dropped`, `R_stderr` (NaN in global mode).
+    fn reflectance<'py>(&self, py: Python<'py>, theta_i_deg: f64) -> PyResult<Bound<'py, PyDict>> {
+        let r = self
+            .inner
+            .reflectance(theta_i_deg, None)
+            .map_err(value_err)?;
+        let col = |f: &dyn Fn(&goniospec::accumulate::file::ReflectanceRow) -> f64| {
+            r.rows.iter().map(f).collect::<Vec<f64>>().into_pyarray(py)
+        };
+        let d = PyDict::new(py);
+        d.set_item("lambda_nm", col(&|x| x.lambda_nm))?;
+        d.set_item("R", col(&|x| x.r))?;
+        d.set_item("T", col(&|x| x.t))?;
+        d.set_item("absorbed", col(&|x| x.absorbed))?;
+        d.set_item("dropped", col(&|x| x.dropped))?;
+        d.set_item("R_stderr", col(&|x| x.r_stderr.unwrap_or(f64::NAN)))?;
+        Ok(d)
+    }
+
+    /// Writes the accumulator as a `.gsa` (atomically).
+    fn save(&self, path: PathBuf) -> PyResult<()> {
+        self.inner
+            .write(&path)
+            .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))
+    }
+
+    /// Builds a BRDF representation: "table", "kdtree" or "subdivided".
+    #[pyo3(signature = (repr = "table"))]
+    fn build(&self, py: Python<'_>, repr: &str) -> PyResult<Brdf> {
+        let kind = Kind::parse(repr).map_err(value_err)?;
+        let inner = py.allow_threads(|| {
+            let data = goniospec::brdf::BucketData::from_accumulator(&self.inner);
+            Representation::build(kind, &data, &Default::default())
+        });
+        inner.map(|inner| Brdf { inner }).map_err(value_err)
+    }
+
+    /// The simulated incident angles, degrees.
+    #[getter]
+    fn theta_i_deg(&self) -> Vec<f64> {
+        self.inner.header.settings.theta_i_deg.clone()
+    }
+}
+
+/// A built BRDF (a `.gsb`).
+#[pyclass(module = "goniospec", frozen)]
+struct Brdf {
+    inner: Representation,
+}
+
+#[pymethods]
+impl Brdf {
+    /// The BRDF (1/sr) at directions given by polar and azimuth angles in degrees, each
+    /// a number or a numpy array (broadcast together); returns `[..., n_lambda]`.
+    fn eval<'py>(
+        &self,
+        py: Python<'py>,
+        theta_i_deg: &Bound<'py, PyAny>,
+        phi_i_deg: &Bound<'py, PyAny>,
+        theta_o_deg: &Bound<'py, PyAny>,
+        phi_o_deg: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        // Numbers, lists and arrays alike, as numpy.asarray(x, float64) sees them.
+        let np = py.import("numpy")?;
+        let as_array = |x: &Bound<'py, PyAny>| -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
+            np.call_method1("asarray", (x, "float64"))?.extract()
+        };
+        let (a0, a1, a2, a3) = (
+            as_array(theta_i_deg)?,
+            as_array(phi_i_deg)?,
+            as_array(theta_o_deg)?,
+            as_array(phi_o_deg)?,
+        );
+        let arrays = [&a0, &a1, &a2, &a3];
+        let shape: Vec<usize> = arrays
+            .iter()
+            .map(|a| a.shape().to_vec())
+            .max_by_key(|s| s.iter().product::<usize>())
+            .unwrap_or_default();
+        let n: usize = shape.iter().product();
+        let mut cols: Vec<Vec<f64>> = Vec::new();
+        for a in arrays {
+            let v = a.as_array();
+            let flat: Vec<f64> = v.iter().copied().collect();
+            if flat.len() == n {
+                cols.push(flat);
+            } else if flat.len() == 1 {
+                cols.push(vec![flat[0]; n]);
+            } else {
+                return Err(value_err(format!(
+                    "angle arrays must share one shape or be scalars; got {:?} against {:?}",
+                    a.shape(),
+                    shape
+                )));
+            }
+        }
+        for (name, c) in ["theta_i_deg", "theta_o_deg"]
+            .iter()
+            .zip([&cols[0], &cols[2]])
+        {
+            if let Some(t) = c
+                .iter()
+                .find(|t| !(t.is_finite() && (0.0..=90.0).contains(*t)))
+            {
+                return Err(value_err(format!(
+                    "{name}: polar angles must be in [0, 90] degrees, got {t}"
+                )));
+            }
+        }
+        for (name, c) in ["phi_i_deg", "phi_o_deg"].iter().zip([&cols[1], &cols[3]]) {
+            if let Some(p) = c.iter().find(|p| !p.is_finite()) {
+                return Err(value_err(format!(
+                    "{name}: azimuths must be finite, got {p}"
+                )));
+            }
+        }
+        let nl = self.inner.meta().wavelengths_nm.len();
+        let dir = |t: f64, p: f64| goniospec::brdf::dir(t.to_radians(), p.to_radians());
+        let pairs: Vec<_> = (0..n)
+            .map(|k| (dir(cols[0][k], cols[1][k]), dir(cols[2][k], cols[3][k])))
+            .collect();
+        let mut out = vec![0.0; n * nl];
+        py.allow_threads(|| self.inner.eval_batch(&pairs, &mut out));
+        let mut full = shape.clone();
+        full.push(nl);
+        numpy::ndarray::ArrayD::from_shape_vec(full, out)
+            .map(|a| a.into_pyarray(py))
+            .map_err(value_err)
+    }
+
+    /// Centre wavelength of each bin, nm.
+    #[getter]
+    fn wavelengths_nm<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.inner.meta().wavelengths_nm.clone().into_pyarray(py)
+    }
+
+    /// Writes the BRDF as a `.gsb` (atomically).
+    fn save(&self, path: PathBuf) -> PyResult<()> {
+        goniospec::brdf::file::write(&self.inner, &path)
+            .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))
+    }
+
+    /// Exports the BRDF: format "npz" (NumPy arrays on the bucket grid) or "merl" (sRGB).
+    /// (The RGL `.bsdf` needs the sample's facets: use `goniospec export --format rgl`.)
+    #[pyo3(signature = (path, format = "npz"))]
+    fn export(&self, py: Python<'_>, path: PathBuf, format: &str) -> PyResult<()> {
+        let bytes = py
+            .allow_threads(|| match format {
+                "npz" => {
+                    let s: goniospec::accumulate::file::Settings =
+                        toml::from_str(&self.inner.meta().simulation).map_err(|e| e.to_string())?;
+                    let grid = goniospec::export::npz::Grid::of(
+                        &self.inner,
+                        s.theta_o_bins as usize,
+                        s.phi_o_bins as usize,
+                    )?;
+                    goniospec::export::npz::npz_bytes(&self.inner, &grid)
+                }
+                "merl" => goniospec::export::merl::merl_bytes(&self.inner),
+                other => Err(format!("unknown format '{other}' (npz or merl)")),
+            })
+            .map_err(value_err)?;
+        goniospec::io::write_atomic(&path, |w| std::io::Write::write_all(w, &bytes))
+            .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))
+    }
+}
+
+/// Loads a `.gsa` accumulator.
+#[pyfunction]
+fn load(path: PathBuf) -> PyResult<Accumulator> {
+    goniospec::accumulate::file::Accumulator::read(&path)
+        .map(|inner| Accumulator { inner })
+        .map_err(value_err)
+}
+
+/// Loads a `.gsb` BRDF.
+#[pyfunction]
+fn load_brdf(path: PathBuf) -> PyResult<Brdf> {
+    goniospec::brdf::file::read(&path)
+        .map(|inner| Brdf { inner })
+        .map_err(value_err)
+}
+
+fn parse_coherence(s: &str) -> PyResult<goniospec::accumulate::Coherence> {
+    goniospec::accumulate::Coherence::parse(s).ok_or_else(|| {
+        value_err(format!(
+            "unknown coherence '{s}' (beamlet, bucket or global)"
+        ))
+    })
+}
+
+/// Simulates the virtual goniospectrometer (`goniospec simulate`): `rays` coherent ray
+/// trees per incident direction `theta_i` (degrees), `wavelengths` as the CLI's
+/// `--wavelengths` (nm: "A:B:STEP" bins, or a comma list of edges; exact wavelengths with
+/// `monochromatic=True`), the beamlet estimator of `coherence_radius_nm` (float("inf"):
+/// the plane-wave limit), power `cutoff`. Releases the GIL; `threads=0` uses all cores
+/// and results do not depend on it.
+#[pyfunction]
+#[pyo3(signature = (sample, theta_i, wavelengths = "380:780:10", rays = 1024, seed = 1, coherence = "beamlet", coherence_radius_nm = 5000.0, cutoff = None, monochromatic = false, phi_i_deg = 0.0, threads = 0))]
+#[allow(clippy::too_many_arguments)]
+fn simulate(
+    py: Python<'_>,
+    sample: &Sample,
+    theta_i: Vec<f64>,
+    wavelengths: &str,
+    rays: u64,
+    seed: u64,
+    coherence: &str,
+    coherence_radius_nm: f64,
+    cutoff: Option<f64>,
+    monochromatic: bool,
+    phi_i_deg: f64,
+    threads: usize,
+) -> PyResult<Accumulator> {
+    let w = Wavelengths::parse(wavelengths, monochromatic).map_err(value_err)?;
+    let mut cfg = SimConfig {
+        seed,
+        coherence: parse_coherence(coherence)?,
+        rho_nm: coherence_radius_nm,
+        phi_i_deg,
+        ..SimConfig::new(theta_i, w, rays)
+    };
+    if let Some(c) = cutoff {
+        cfg.limits.cutoff = c;
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(value_err)?;
+    let (acc, _) = py
+        .allow_threads(|| {
+            pool.install(|| goniospec::simulate::simulate(&sample.inner, &cfg, &|_| {}))
+        })
+        .map_err(value_err)?;
+    Ok(Accumulator { inner: acc })
+}
+
+/// The transfer-matrix reflectance and transmittance of a `[stack]` sample at `theta_i`
+/// (degrees): a dict of numpy arrays `lambda_nm`, `Rs`, `Rp`, `R`, `Ts`, `Tp`, `T`
+/// (`goniospec analytic`).
+#[pyfunction]
+#[pyo3(signature = (sample, theta_i, wavelengths = "380:780:10", monochromatic = false))]
+fn analytic<'py>(
+    py: Python<'py>,
+    sample: &Sample,
+    theta_i: f64,
+    wavelengths: &str,
+    monochromatic: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let w = Wavelengths::parse(wavelengths, monochromatic).map_err(value_err)?;
+    let rows = goniospec::optics::tmm::analytic(&sample.inner, theta_i, &w).map_err(value_err)?;
+    let col = |f: &dyn Fn(&(f64, goniospec::optics::tmm::Rt)) -> f64| {
+        rows.iter().map(f).collect::<Vec<f64>>().into_pyarray(py)
+    };
+    let d = PyDict::new(py);
+    d.set_item("lambda_nm", col(&|x| x.0))?;
+    d.set_item("Rs", col(&|x| x.1.r_s))?;
+    d.set_item("Rp", col(&|x| x.1.r_p))?;
+    d.set_item("R", col(&|x| x.1.r()))?;
+    d.set_item("Ts", col(&|x| x.1.t_s))?;
+    d.set_item("Tp", col(&|x| x.1.t_p))?;
+    d.set_item("T", col(&|x| x.1.t()))?;
+    Ok(d)
+}
+
+#[pymodule]
+fn _goniospec(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Sample>()?;
+    m.add_class::<Accumulator>()?;
+    m.add_class::<Brdf>()?;
+    m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add_function(wrap_pyfunction!(load_brdf, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(analytic, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,102 @@
+"""goniospec's Python API against its CLI and an independent transfer-matrix model."""
+
+import csv
+import io
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+import goniospec as gs
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+CLI = os.environ["GONIOSPEC_BIN"]
+
+
+def cli(*args):
+    out = subprocess.run([CLI, *args], capture_output=True, text=True, cwd=ROOT, check=True)
+    return list(csv.DictReader(io.StringIO(out.stdout)))
+
+
+def mesh(name):
+    return os.path.join(ROOT, "meshes", name)
+
+
+def test_reflectance_is_the_clis(tmp_path):
+    s = gs.Sample.load(mesh("rough-gold.toml"))
+    acc = gs.simulate(s, theta_i=[0, 30], wavelengths="400:700:50", rays=256, seed=3)
+    gsa = tmp_path / "gold.gsa"
+    subprocess.run([CLI, "simulate", mesh("rough-gold.toml"), "--theta-i", "0,30", "--wavelengths",
+                    "400:700:50", "--rays", "256", "--seed", "3", "-o", str(gsa)], check=True, cwd=ROOT,
+                   capture_output=True)
+    acc.save(tmp_path / "py.gsa")
+    assert (tmp_path / "py.gsa").read_bytes() == gsa.read_bytes()
+    r = acc.reflectance(30)
+    rows = cli("reflectance", str(gsa), "--theta-i", "30")
+    assert list(r["lambda_nm"]) == [float(x["lambda_nm"]) for x in rows]
+    for key in ["R", "T", "absorbed"]:
+        # The CLI prints 8 decimals.
+        assert np.all(np.abs(r[key] - [float(x[key]) for x in rows]) <= 5e-9), key
+
+
+def test_eval_matches_cli_and_vectorises(tmp_path):
+    s = gs.Sample.load(mesh("rough-gold.toml"))
+    brdf = gs.simulate(s, theta_i=[0, 30, 60], wavelengths="400:700:50", rays=256).build("table")
+    brdf.save(tmp_path / "g.gsb")
+    ti = np.array([10.0, 30.0, 50.0])
+    to = np.array([20.0, 35.0, 60.0])
+    po = np.array([180.0, 170.0, 90.0])
+    v = brdf.eval(ti, 0.0, to, po)
+    assert v.shape == (3, len(brdf.wavelengths_nm))
+    for k in range(3):
+        assert np.array_equal(v[k], brdf.eval(ti[k], 0, to[k], po[k]))
+        rows = cli("eval", str(tmp_path / "g.gsb"), "--theta-i", str(ti[k]), "--theta-o", str(to[k]),
+                   "--phi-o", str(po[k]))
+        # The CLI prints 9 significant digits.
+        assert np.allclose(v[k], [float(x["brdf"]) for x in rows], rtol=1e-8, atol=0)
+    grid = brdf.eval(30, 0, np.linspace(0, 80, 12).reshape(3, 4), 180)
+    assert grid.shape == (3, 4, len(brdf.wavelengths_nm))
+
+
+def tmm_reference(n, d, lam, theta_deg):
+    """The flat film with the PyPI tmm package (Byrnes), unpolarised R."""
+    tmm = pytest.importorskip("tmm")
+    th = np.radians(theta_deg)
+    rs = tmm.coh_tmm("s", n, d, th, lam)["R"]
+    rp = tmm.coh_tmm("p", n, d, th, lam)["R"]
+    return 0.5 * (rs + rp)
+
+
+def test_flat_soap_film_matches_the_tmm_package():
+    s = gs.Sample.load(mesh("flat-soap-film.toml"))
+    a = gs.analytic(s, 30, wavelengths="450,550,650", monochromatic=True)
+    # meshes/flat-soap-film.toml: 600 nm of index 1.33 between air.
+    for lam, r in zip(a["lambda_nm"], a["R"]):
+        want = tmm_reference([1.0, 1.33, 1.0], [np.inf, 600.0, np.inf], lam, 30)
+        assert abs(r - want) < 1e-12, (lam, r, want)
+    acc = gs.simulate(s, theta_i=[30], wavelengths="450,550,650", monochromatic=True, rays=64,
+                      coherence_radius_nm=float("inf"))
+    sim = acc.reflectance(30)["R"]
+    # The plane-wave limit equals the TMM up to the power dropped below the cutoff (1e-10).
+    assert np.allclose(sim, a["R"], rtol=0, atol=1e-6)
+
+
+def test_errors_are_exceptions_with_the_clis_messages():
+    with pytest.raises(ValueError, match="nowhere.toml"):
+        gs.Sample.load("nowhere.toml")
+    s = gs.Sample.load(mesh("rough-gold.toml"))
+    with pytest.raises(ValueError, match="coherence"):
+        gs.simulate(s, theta_i=[0], coherence="laser")
+    with pytest.raises(ValueError, match="wavelength"):
+        gs.simulate(s, theta_i=[0], wavelengths="700:400:10")
+    acc = gs.simulate(s, theta_i=[0], wavelengths="400:700:100", rays=16)
+    with pytest.raises(ValueError, match="no incident angle 45"):
+        acc.reflectance(45)
+    with pytest.raises(ValueError, match="unknown representation"):
+        acc.build("cube")
+    brdf = acc.build()
+    with pytest.raises(ValueError, match="polar angles"):
+        brdf.eval(95, 0, 10, 0)
+    with pytest.raises(ValueError, match="share one shape"):
+        brdf.eval([1, 2], 0, [1, 2, 3], 0)
