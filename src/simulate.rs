@@ -153,6 +153,9 @@ pub struct SimConfig {
     /// `first_direction + d`, so the parts of a split run hold exactly the whole run's
     /// cells. 0 for a whole run.
     pub first_direction: u64,
+    /// Set from another thread to stop the run at the next chunk of blocks; the run then
+    /// returns [`SimError::Cancelled`] and nothing else (no partial result).
+    pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 impl SimConfig {
@@ -184,6 +187,7 @@ impl SimConfig {
             precision: PhasePrecision::F64,
             allow_unphysical: false,
             first_direction: 0,
+            cancel: None,
         }
     }
 }
@@ -286,6 +290,9 @@ pub enum SimError {
     /// An impossible result (R > 1, negative power, energy created): never written.
     #[error("{0}")]
     Unphysical(String),
+    /// Stopped through `SimConfig::cancel`.
+    #[error("the simulation was cancelled")]
+    Cancelled,
 }
 
 /// Hash of everything in a sample that changes results: FNV-1a 64 of a canonical encoding of the sample's physics inputs: tile, media (names
@@ -358,6 +365,13 @@ pub fn simulate(
             run.direction(di, theta_deg, &mut cells, &mut limit_dropped, progress)
         })
         .collect();
+    if cfg
+        .cancel
+        .as_ref()
+        .is_some_and(|c| c.load(Ordering::Relaxed))
+    {
+        return Err(SimError::Cancelled);
+    }
     run.finish(cells, limit_dropped, directions, start_time)
 }
 
@@ -557,6 +571,19 @@ impl<'a> Run<'a> {
             // blocks in order, whatever the chunk size or the thread count.
             let mut chunk_lo = 0;
             while chunk_lo < nblocks {
+                if cfg
+                    .cancel
+                    .as_ref()
+                    .is_some_and(|c| c.load(Ordering::Relaxed))
+                {
+                    // The caller gets SimError::Cancelled: these sums are never used.
+                    return DirectionStats {
+                        theta_i_deg: theta_deg,
+                        rays: start,
+                        achieved: None,
+                        converged: false,
+                    };
+                }
                 let chunk = (CHUNK_BLOCKS_PER_THREAD * rayon::current_num_threads() as u64)
                     .max(MIN_CHUNK_BLOCKS);
                 let chunk_hi = (chunk_lo + chunk).min(nblocks);

@@ -328,3 +328,24 @@ fn scene_driven_simulation_runs_only_the_planned_angles() {
         Err(SceneError::NothingNeeded)
     ));
 }
+
+/// `SimConfig::cancel`: a run whose flag is set stops and returns `Cancelled`, never a
+/// partial accumulator.
+#[test]
+fn a_cancelled_run_returns_no_result() {
+    use std::sync::Arc;
+    use std::sync::atomic::AtomicBool;
+    let s = shipped("rough-gold.toml");
+    let mut cfg = config(
+        &[0.0, 30.0],
+        Wavelengths::Monochromatic(vec![550.0]),
+        100_000,
+    );
+    cfg.cancel = Some(Arc::new(AtomicBool::new(true)));
+    let t0 = std::time::Instant::now();
+    assert!(matches!(
+        goniospec::simulate::simulate(&s, &cfg, &|_| {}),
+        Err(goniospec::simulate::SimError::Cancelled)
+    ));
+    assert!(t0.elapsed().as_secs() < 5);
+}

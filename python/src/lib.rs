@@ -259,8 +259,9 @@ fn parse_coherence(s: &str) -> PyResult<goniospec::accumulate::Coherence> {
 /// trees per incident direction `theta_i` (degrees), `wavelengths` as the CLI's
 /// `--wavelengths` (nm: "A:B:STEP" bins, or a comma list of edges; exact wavelengths with
 /// `monochromatic=True`), the beamlet estimator of `coherence_radius_nm` (float("inf"):
-/// the plane-wave limit), power `cutoff`. Releases the GIL; `threads=0` uses all cores
-/// and results do not depend on it.
+/// the plane-wave limit), power `cutoff`. Releases the GIL; Ctrl-C raises
+/// KeyboardInterrupt within 50 ms and returns nothing; `threads=0` uses all cores and
+/// results do not depend on it.
 #[pyfunction]
 #[pyo3(signature = (sample, theta_i, wavelengths = "380:780:10", rays = 1024, seed = 1, coherence = "beamlet", coherence_radius_nm = 5000.0, cutoff = None, monochromatic = false, phi_i_deg = 0.0, threads = 0))]
 #[allow(clippy::too_many_arguments)]
@@ -293,11 +294,35 @@ fn simulate(
         .num_threads(threads)
         .build()
         .map_err(value_err)?;
-    let (acc, _) = py
-        .allow_threads(|| {
-            pool.install(|| goniospec::simulate::simulate(&sample.inner, &cfg, &|_| {}))
+    // The run goes on a worker thread without the GIL; this thread wakes every 50 ms to
+    // let Python handle signals, and Ctrl-C (KeyboardInterrupt) cancels the run.
+    let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    cfg.cancel = Some(cancel.clone());
+    let (result, interrupt) = py.allow_threads(|| {
+        std::thread::scope(|scope| {
+            let run = scope.spawn(|| {
+                pool.install(|| goniospec::simulate::simulate(&sample.inner, &cfg, &|_| {}))
+            });
+            let mut interrupt = None;
+            while !run.is_finished() {
+                std::thread::sleep(std::time::Duration::from_millis(50));
+                if interrupt.is_none()
+                    && let Err(e) = Python::with_gil(|py| py.check_signals())
+                {
+                    cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+                    interrupt = Some(e);
+                }
+            }
+            (
+                run.join().expect("the simulation thread does not panic"),
+                interrupt,
+            )
         })
-        .map_err(value_err)?;
+    });
+    if let Some(e) = interrupt {
+        return Err(e);
+    }
+    let (acc, _) = result.map_err(value_err)?;
     Ok(Accumulator { inner: acc })
 }
 

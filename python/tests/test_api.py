@@ -100,3 +100,23 @@ def test_errors_are_exceptions_with_the_clis_messages():
         brdf.eval(95, 0, 10, 0)
     with pytest.raises(ValueError, match="share one shape"):
         brdf.eval([1, 2], 0, [1, 2, 3], 0)
+
+
+def test_ctrl_c_interrupts_a_long_run_and_returns_nothing(tmp_path):
+    import signal
+    import threading
+    import time
+
+    s = gs.Sample.load(mesh("rough-gold.toml"))
+    out = tmp_path / "never.gsa"
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
+    t0 = time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        # About a minute of work uninterrupted.
+        acc = gs.simulate(s, theta_i=[0, 30, 60], rays=3_000_000)
+        acc.save(out)
+    timer.cancel()
+    assert time.monotonic() - t0 < 10
+    assert not out.exists()
+    assert not any(tmp_path.iterdir())
