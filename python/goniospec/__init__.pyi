@@ -23,7 +23,8 @@ class Brdf:
     @property
     def wavelengths_nm(self) -> npt.NDArray[np.float64]: ...
     def save(self, path: _Path) -> None: ...
-    def export(self, path: _Path, format: Literal["npz", "merl"] = "npz") -> None: ...
+    def export(self, path: _Path, format: Literal["npz", "merl", "rgl"] = "npz", sample: Sample | None = None, resolution: int = 65) -> None:
+        """npz: NumPy arrays; merl: sRGB (loses the spectrum); rgl: Mitsuba 3 / pbrt-v4 .bsdf (needs sample; odd resolution)."""
 
 class Accumulator:
     def reflectance(self, theta_i_deg: float) -> dict[str, npt.NDArray[np.float64]]:

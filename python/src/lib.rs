@@ -206,10 +206,18 @@ impl Brdf {
             .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))
     }
 
-    /// Exports the BRDF: format "npz" (NumPy arrays on the bucket grid) or "merl" (sRGB).
-    /// (The RGL `.bsdf` needs the sample's facets: use `goniospec export --format rgl`.)
-    #[pyo3(signature = (path, format = "npz"))]
-    fn export(&self, py: Python<'_>, path: PathBuf, format: &str) -> PyResult<()> {
+    /// Exports the BRDF: format "npz" (NumPy arrays on the bucket grid), "merl" (sRGB),
+    /// or "rgl" (the RGL `.bsdf` of Mitsuba 3 and pbrt-v4; needs `sample`, whose facets
+    /// give the microfacet distribution, and an odd `resolution`).
+    #[pyo3(signature = (path, format = "npz", sample = None, resolution = 65))]
+    fn export(
+        &self,
+        py: Python<'_>,
+        path: PathBuf,
+        format: &str,
+        sample: Option<&Sample>,
+        resolution: usize,
+    ) -> PyResult<()> {
         let bytes = py
             .allow_threads(|| match format {
                 "npz" => {
@@ -223,7 +231,12 @@ impl Brdf {
                     goniospec::export::npz::npz_bytes(&self.inner, &grid)
                 }
                 "merl" => goniospec::export::merl::merl_bytes(&self.inner),
-                other => Err(format!("unknown format '{other}' (npz or merl)")),
+                "rgl" => {
+                    let s = sample.ok_or("format 'rgl' needs sample=Sample.load(...)")?;
+                    goniospec::export::rgl_for(&self.inner, &s.inner, resolution, None)
+                        .map(|(fields, _)| goniospec::export::tensor::to_bytes(&fields))
+                }
+                other => Err(format!("unknown format '{other}' (npz, merl or rgl)")),
             })
             .map_err(value_err)?;
         goniospec::io::write_atomic(&path, |w| std::io::Write::write_all(w, &bytes))

@@ -96,6 +96,8 @@ def test_errors_are_exceptions_with_the_clis_messages():
     with pytest.raises(ValueError, match="unknown representation"):
         acc.build("cube")
     brdf = acc.build()
+    with pytest.raises(ValueError, match="needs sample"):
+        brdf.export("x.bsdf", format="rgl")
     with pytest.raises(ValueError, match="polar angles"):
         brdf.eval(95, 0, 10, 0)
     with pytest.raises(ValueError, match="share one shape"):

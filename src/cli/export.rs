@@ -128,8 +128,8 @@ fn export_npz(a: ExportArgs) -> Result<ExitCode> {
 }
 
 fn export_rgl(a: ExportArgs) -> Result<ExitCode> {
-    use goniospec::brdf::{self, Brdf};
-    use goniospec::export::{self, rgl, tensor};
+    use goniospec::brdf;
+    use goniospec::export::{self, tensor};
     let Some(sample_path) = a.sample.clone() else {
         bail!(
             "--format rgl needs --sample SAMPLE.toml: the sample's facets give the microfacet distribution the format warps by"
@@ -142,41 +142,15 @@ fn export_rgl(a: ExportArgs) -> Result<ExitCode> {
         a.force,
     )?;
     let r = brdf::file::read(&a.input)?;
-    let theta_i = if a.theta_i.is_empty() {
-        export::simulated_incidence(&r).map_err(|m| anyhow::anyhow!(m))?
-    } else {
-        a.theta_i.iter().map(|t| t.to_radians()).collect()
-    };
+    let theta_i =
+        (!a.theta_i.is_empty()).then(|| a.theta_i.iter().map(|t| t.to_radians()).collect());
     let s = sample::load(&sample_path, MeshOptions::default())?;
-    if s.name != r.meta().sample_name {
-        bail!(
-            "{} is the sample '{}', but {} was simulated from '{}'",
-            sample_path.display(),
-            s.name,
-            a.input.display(),
-            r.meta().sample_name
-        );
-    }
     let pool = thread_pool(a.threads)?;
     let n = usize::from(a.resolution);
     let t0 = std::time::Instant::now();
-    let (fields, report) = pool.install(|| -> Result<_> {
-        let scene = goniospec::trace::Scene::new(&s, resolve_backend(None)?)?;
-        let d = rgl::FacetDistribution::from_sample(&s, scene.ambient, n, r.meta().isotropic)
-            .map_err(|m| anyhow::anyhow!("{}: {m}", sample_path.display()))?;
-        let opts = rgl::RglOptions {
-            resolution: n,
-            theta_i,
-            description: format!(
-                "goniospec {} export of '{}' ({} representation, {} wavelengths)",
-                env!("CARGO_PKG_VERSION"),
-                r.meta().sample_name,
-                r.meta().repr,
-                r.meta().wavelengths_nm.len()
-            ),
-        };
-        rgl::rgl_fields(&r, &d, &opts).map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))
-    })?;
+    let (fields, report) = pool
+        .install(|| export::rgl_for(&r, &s, n, theta_i))
+        .map_err(|m| anyhow::anyhow!("{} ({}): {m}", a.input.display(), sample_path.display()))?;
     tensor::write(&fields, &a.output).with_context(|| format!("writing {}", a.output.display()))?;
     if report.negative > 0 {
         eprintln!(

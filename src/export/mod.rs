@@ -33,3 +33,41 @@ pub fn simulated_incidence(r: &Representation) -> Result<Vec<f64>, String> {
         }
     }
 }
+
+/// The RGL `.bsdf` fields of `r`, simulated from `sample` (its facets give `D(m)`): at
+/// `theta_i` (radians; default the simulated angles), on a `resolution`-node warped grid.
+/// Refuses a sample other than the BRDF's.
+pub fn rgl_for(
+    r: &Representation,
+    sample: &crate::sample::Sample,
+    resolution: usize,
+    theta_i: Option<Vec<f64>>,
+) -> Result<(Vec<tensor::Field>, rgl::RglReport), String> {
+    if sample.name != r.meta().sample_name {
+        return Err(format!(
+            "the sample is '{}', but the BRDF was simulated from '{}'",
+            sample.name,
+            r.meta().sample_name
+        ));
+    }
+    let theta_i = match theta_i {
+        Some(t) => t,
+        None => simulated_incidence(r)?,
+    };
+    let scene = crate::trace::Scene::new(sample, crate::accel::Backend::default_available())
+        .map_err(|e| e.to_string())?;
+    let d =
+        rgl::FacetDistribution::from_sample(sample, scene.ambient, resolution, r.meta().isotropic)?;
+    let opts = rgl::RglOptions {
+        resolution,
+        theta_i,
+        description: format!(
+            "goniospec {} export of '{}' ({} representation, {} wavelengths)",
+            env!("CARGO_PKG_VERSION"),
+            r.meta().sample_name,
+            r.meta().repr,
+            r.meta().wavelengths_nm.len()
+        ),
+    };
+    rgl::rgl_fields(r, &d, &opts)
+}
