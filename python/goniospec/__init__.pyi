@@ -44,11 +44,21 @@ def simulate(
     seed: int = 1,
     coherence: Literal["beamlet", "bucket", "global"] = "beamlet",
     coherence_radius_nm: float = 5000.0,
-    cutoff: float | None = None,
+    cutoff: float = 1e-10,
     monochromatic: bool = False,
-    phi_i_deg: float = 0.0,
+    phi_i: float = 0.0,
     threads: int = 0,
+    backend: Literal["embree", "obvhs"] | None = None,
+    theta_o_bins: int = 45,
+    phi_o_bins: int = 36,
+    max_depth: int = 64,
+    max_segments: int = 20000,
+    tolerance: float | None = None,
+    max_rays: int = 1000000,
+    no_path_sharing: bool = False,
+    progress: bool = False,
 ) -> Accumulator:
-    """theta_i in degrees; wavelengths in nm as the CLI's --wavelengths."""
+    """goniospec simulate's flags as keywords: theta_i and phi_i in degrees, wavelengths in
+    nm as --wavelengths, coherence_radius_nm in nm, cutoff a fraction of launched power."""
 def analytic(sample: Sample, theta_i: float, wavelengths: str = "380:780:10", monochromatic: bool = False) -> dict[str, npt.NDArray[np.float64]]:
     """Transfer-matrix lambda_nm, Rs, Rp, R, Ts, Tp, T of a [stack] sample; theta_i in degrees."""

@@ -268,15 +268,19 @@ fn parse_coherence(s: &str) -> PyResult<goniospec::accumulate::Coherence> {
     })
 }
 
-/// Simulates the virtual goniospectrometer (`goniospec simulate`): `rays` coherent ray
-/// trees per incident direction `theta_i` (degrees), `wavelengths` as the CLI's
-/// `--wavelengths` (nm: "A:B:STEP" bins, or a comma list of edges; exact wavelengths with
-/// `monochromatic=True`), the beamlet estimator of `coherence_radius_nm` (float("inf"):
-/// the plane-wave limit), power `cutoff`. Releases the GIL; Ctrl-C raises
-/// KeyboardInterrupt within 50 ms and returns nothing; `threads=0` uses all cores and
-/// results do not depend on it.
+/// Simulates the virtual goniospectrometer (`goniospec simulate`, with its flags as
+/// keywords of the same names): `rays` coherent ray trees per incident direction
+/// `theta_i` (degrees) at azimuth `phi_i` (degrees); `wavelengths` as `--wavelengths` (nm:
+/// "A:B:STEP" bins, or a comma list of edges; exact wavelengths with `monochromatic=True`);
+/// the estimator `coherence` with `coherence_radius_nm` (float("inf"): the plane-wave
+/// limit); `theta_o_bins` x `phi_o_bins` outgoing buckets; power `cutoff`, `max_depth`,
+/// `max_segments`; an adaptive budget to relative standard error `tolerance` with at most
+/// `max_rays` trees per direction; `no_path_sharing`; `backend` ("embree" or "obvhs").
+/// Releases the GIL; Ctrl-C raises KeyboardInterrupt within 50 ms and returns nothing;
+/// `progress=True` prints the trees done to stderr; `threads=0` uses all cores and results
+/// do not depend on it.
 #[pyfunction]
-#[pyo3(signature = (sample, theta_i, wavelengths = "380:780:10", rays = 1024, seed = 1, coherence = "beamlet", coherence_radius_nm = 5000.0, cutoff = None, monochromatic = false, phi_i_deg = 0.0, threads = 0))]
+#[pyo3(signature = (sample, theta_i, wavelengths = "380:780:10", rays = 1024, seed = 1, coherence = "beamlet", coherence_radius_nm = 5000.0, cutoff = 1e-10, monochromatic = false, phi_i = 0.0, threads = 0, backend = None, theta_o_bins = 45, phi_o_bins = 36, max_depth = 64, max_segments = 20_000, tolerance = None, max_rays = 1_000_000, no_path_sharing = false, progress = false))]
 #[allow(clippy::too_many_arguments)]
 fn simulate(
     py: Python<'_>,
@@ -287,22 +291,50 @@ fn simulate(
     seed: u64,
     coherence: &str,
     coherence_radius_nm: f64,
-    cutoff: Option<f64>,
+    cutoff: f64,
     monochromatic: bool,
-    phi_i_deg: f64,
+    phi_i: f64,
     threads: usize,
+    backend: Option<&str>,
+    theta_o_bins: u32,
+    phi_o_bins: u32,
+    max_depth: u32,
+    max_segments: u32,
+    tolerance: Option<f64>,
+    max_rays: u64,
+    no_path_sharing: bool,
+    progress: bool,
 ) -> PyResult<Accumulator> {
     let w = Wavelengths::parse(wavelengths, monochromatic).map_err(value_err)?;
+    let backend = match backend {
+        Some(b) => b.parse::<goniospec::accel::Backend>().map_err(value_err)?,
+        None => goniospec::accel::Backend::default_available(),
+    };
+    if !backend.is_available() {
+        return Err(value_err(goniospec::accel::AccelError::EmbreeUnavailable));
+    }
+    let total = if tolerance.is_some() { max_rays } else { rays } * theta_i.len() as u64;
     let mut cfg = SimConfig {
         seed,
+        backend,
         coherence: parse_coherence(coherence)?,
         rho_nm: coherence_radius_nm,
-        phi_i_deg,
+        phi_i_deg: phi_i,
+        limits: goniospec::trace::TraceLimits {
+            cutoff,
+            max_depth,
+            max_segments,
+            ..Default::default()
+        },
+        buckets: goniospec::accumulate::Buckets {
+            theta_bins: theta_o_bins,
+            phi_bins: phi_o_bins,
+        },
+        path_sharing: no_path_sharing.then_some(false),
+        tolerance,
+        max_rays,
         ..SimConfig::new(theta_i, w, rays)
     };
-    if let Some(c) = cutoff {
-        cfg.limits.cutoff = c;
-    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -311,14 +343,25 @@ fn simulate(
     // let Python handle signals, and Ctrl-C (KeyboardInterrupt) cancels the run.
     let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     cfg.cancel = Some(cancel.clone());
+    let done = std::sync::atomic::AtomicU64::new(0);
     let (result, interrupt) = py.allow_threads(|| {
         std::thread::scope(|scope| {
             let run = scope.spawn(|| {
-                pool.install(|| goniospec::simulate::simulate(&sample.inner, &cfg, &|_| {}))
+                pool.install(|| {
+                    goniospec::simulate::simulate(&sample.inner, &cfg, &|n| {
+                        done.store(n, std::sync::atomic::Ordering::Relaxed)
+                    })
+                })
             });
             let mut interrupt = None;
+            let mut shown = std::time::Instant::now();
             while !run.is_finished() {
                 std::thread::sleep(std::time::Duration::from_millis(50));
+                if progress && shown.elapsed().as_millis() >= 500 {
+                    shown = std::time::Instant::now();
+                    let n = done.load(std::sync::atomic::Ordering::Relaxed);
+                    eprint!("\rgoniospec: {n} of {total} trees");
+                }
                 if interrupt.is_none()
                     && let Err(e) = Python::with_gil(|py| py.check_signals())
                 {
@@ -332,6 +375,9 @@ fn simulate(
             )
         })
     });
+    if progress {
+        eprintln!();
+    }
     if let Some(e) = interrupt {
         return Err(e);
     }

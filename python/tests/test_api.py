@@ -40,6 +40,22 @@ def test_reflectance_is_the_clis(tmp_path):
         assert np.all(np.abs(r[key] - [float(x[key]) for x in rows]) <= 5e-9), key
 
 
+def test_every_simulate_flag_is_a_keyword(tmp_path):
+    s = gs.Sample.load(mesh("rough-gold.toml"))
+    kw = dict(theta_o_bins=30, phi_o_bins=24, max_depth=32, max_segments=5000, cutoff=1e-8,
+              backend="obvhs", phi_i=15.0, tolerance=0.2, max_rays=512, no_path_sharing=True)
+    acc = gs.simulate(s, theta_i=[20], wavelengths="400:700:100", rays=128, progress=True, **kw)
+    acc.save(tmp_path / "py.gsa")
+    flags = []
+    for k, v in kw.items():
+        flag = "--" + k.replace("_", "-")
+        flags += [flag] if v is True else [flag, str(v)]
+    subprocess.run([CLI, "simulate", mesh("rough-gold.toml"), "--theta-i", "20", "--wavelengths",
+                    "400:700:100", "--rays", "128", *flags, "-o", str(tmp_path / "cli.gsa")],
+                   check=True, cwd=ROOT, capture_output=True)
+    assert (tmp_path / "py.gsa").read_bytes() == (tmp_path / "cli.gsa").read_bytes()
+
+
 def test_eval_matches_cli_and_vectorises(tmp_path):
     s = gs.Sample.load(mesh("rough-gold.toml"))
     brdf = gs.simulate(s, theta_i=[0, 30, 60], wavelengths="400:700:50", rays=256).build("table")
