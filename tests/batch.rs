@@ -12,6 +12,24 @@ fn ok(args: &[&str]) -> String {
     out
 }
 
+/// `batch plan PLAN -o DIR`.
+fn plan_into(plan: &Path, dir: &Path) -> String {
+    ok(&[
+        "batch",
+        "plan",
+        plan.to_str().unwrap(),
+        "-o",
+        dir.to_str().unwrap(),
+    ])
+}
+
+/// The whole plan in one process: plan, run every unit, merge.
+fn one_process(plan: &Path, dir: &Path) {
+    plan_into(plan, dir);
+    ok(&["batch", "run", dir.to_str().unwrap()]);
+    ok(&["batch", "merge", dir.to_str().unwrap()]);
+}
+
 /// A plan of two materials (4 + 2 directions, two representations) beside `dir`.
 fn plan(dir: &Path, rays: u64) -> PathBuf {
     std::fs::create_dir_all(dir).unwrap();
@@ -58,13 +76,7 @@ fn shards_merge_to_the_bytes_of_one_run() {
         (5, vec![3, 5, 1, 4, 2]),
     ] {
         let b = d.join(format!("b{n}"));
-        let out = ok(&[
-            "batch",
-            "plan",
-            p.to_str().unwrap(),
-            "-o",
-            b.to_str().unwrap(),
-        ]);
+        let out = plan_into(&p, &b);
         assert!(out.contains("planned 6 units (2 materials"), "{out}");
         for i in order {
             ok(&[
@@ -171,13 +183,7 @@ fn corrupt_and_missing_units_are_named_and_repaired_by_a_rerun() {
         .replace("rays = 64", "rays = 64\nseed = 99");
     let p2 = d.join("plan2.toml");
     std::fs::write(&p2, text).unwrap();
-    ok(&[
-        "batch",
-        "plan",
-        p2.to_str().unwrap(),
-        "-o",
-        other.to_str().unwrap(),
-    ]);
+    plan_into(&p2, &other);
     ok(&["batch", "run", other.to_str().unwrap()]);
     std::fs::copy(
         other.join("units/gold/0000.gsa"),
@@ -200,23 +206,9 @@ fn a_killed_shard_resumes_to_the_same_bytes() {
     // About a second per unit on two cores: the kill lands inside a unit.
     let p = plan(&d, 200_000);
     let whole = d.join("whole");
-    ok(&[
-        "batch",
-        "plan",
-        p.to_str().unwrap(),
-        "-o",
-        whole.to_str().unwrap(),
-    ]);
-    ok(&["batch", "run", whole.to_str().unwrap()]);
-    ok(&["batch", "merge", whole.to_str().unwrap()]);
+    one_process(&p, &whole);
     let b = d.join("b");
-    ok(&[
-        "batch",
-        "plan",
-        p.to_str().unwrap(),
-        "-o",
-        b.to_str().unwrap(),
-    ]);
+    plan_into(&p, &b);
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_goniospec"))
         .args(["batch", "run", b.to_str().unwrap()])
         .current_dir(root())
@@ -250,24 +242,10 @@ fn gnu_parallel_and_slurm_launchers() {
     let d = scratch("batch-launch");
     let p = plan(&d, 64);
     let one = d.join("one");
-    ok(&[
-        "batch",
-        "plan",
-        p.to_str().unwrap(),
-        "-o",
-        one.to_str().unwrap(),
-    ]);
-    ok(&["batch", "run", one.to_str().unwrap()]);
-    ok(&["batch", "merge", one.to_str().unwrap()]);
+    one_process(&p, &one);
     for shards in ["2", "5"] {
         let b = d.join(format!("par{shards}"));
-        ok(&[
-            "batch",
-            "plan",
-            p.to_str().unwrap(),
-            "-o",
-            b.to_str().unwrap(),
-        ]);
+        plan_into(&p, &b);
         let cmd = ok(&[
             "batch",
             "parallel",
