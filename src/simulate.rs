@@ -956,6 +956,15 @@ fn validate(cfg: &SimConfig) -> Result<(), SimError> {
     if let Some(t) = cfg.theta_i_deg.iter().find(|t| !(0.0..90.0).contains(*t)) {
         return bad(format!("incident angle {t} deg is outside [0, 90)"));
     }
+    if !cfg.phi_i_deg.is_finite() {
+        return bad(format!("--phi-i must be finite, got {}", cfg.phi_i_deg));
+    }
+    if !cfg.origin_nm.is_finite() {
+        return bad(format!(
+            "the sample's origin must be finite, got {}",
+            cfg.origin_nm
+        ));
+    }
     if cfg.rays == 0 {
         return bad("--rays must be at least 1".into());
     }

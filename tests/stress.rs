@@ -349,3 +349,22 @@ fn a_cancelled_run_returns_no_result() {
     ));
     assert!(t0.elapsed().as_secs() < 5);
 }
+
+/// The library refuses non-finite geometry settings before tracing (a NaN or infinite ray
+/// would reach Embree, which aborts on it).
+#[test]
+fn non_finite_incidence_and_origin_are_refused() {
+    let s = shipped("rough-gold.toml");
+    let mut cfg = config(&[0.0], Wavelengths::Monochromatic(vec![550.0]), 16);
+    cfg.phi_i_deg = f64::INFINITY;
+    let e = goniospec::simulate::simulate(&s, &cfg, &|_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--phi-i must be finite"), "{e}");
+    cfg.phi_i_deg = 0.0;
+    cfg.origin_nm = glam::DVec3::new(f64::NAN, 0.0, 0.0);
+    let e = goniospec::simulate::simulate(&s, &cfg, &|_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("origin must be finite"), "{e}");
+}

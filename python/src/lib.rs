@@ -335,6 +335,11 @@ fn simulate(
         max_rays,
         ..SimConfig::new(theta_i, w, rays)
     };
+    if threads > 1024 {
+        return Err(value_err(format!(
+            "threads must be at most 1024, got {threads}"
+        )));
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
