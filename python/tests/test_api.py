@@ -98,7 +98,7 @@ def test_flat_soap_film_matches_the_tmm_package():
     assert np.allclose(sim, a["R"], rtol=0, atol=1e-6)
 
 
-def test_errors_are_exceptions_with_the_clis_messages():
+def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
     with pytest.raises(ValueError, match="nowhere.toml"):
         gs.Sample.load("nowhere.toml")
     s = gs.Sample.load(mesh("rough-gold.toml"))
@@ -121,6 +121,10 @@ def test_errors_are_exceptions_with_the_clis_messages():
     brdf = acc.build()
     with pytest.raises(ValueError, match="needs sample"):
         brdf.export("x.bsdf", format="rgl")
+    for n in [0, 1, 16, 10_000]:
+        with pytest.raises(ValueError, match="resolution must be odd"):
+            brdf.export(str(tmp_path / "x.bsdf"), format="rgl", sample=s, resolution=n)
+    assert not any(tmp_path.iterdir())
     with pytest.raises(ValueError, match="polar angles"):
         brdf.eval(95, 0, 10, 0)
     with pytest.raises(ValueError, match="share one shape"):

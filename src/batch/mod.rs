@@ -271,26 +271,28 @@ impl Manifest {
 
     /// Why a unit's output is not a finished unit of this plan, or `None` when it is.
     pub fn verify(&self, dir: &Path, u: &Unit) -> Option<String> {
+        self.read_unit(dir, u).err()
+    }
+
+    /// A unit's accumulator, read once and checked to be this unit's ("missing" when
+    /// absent; otherwise why it is not).
+    pub fn read_unit(&self, dir: &Path, u: &Unit) -> Result<Accumulator, String> {
         let p = dir.join(&u.output);
         if !p.exists() {
-            return Some("missing".into());
+            return Err("missing".into());
         }
-        let acc = match Accumulator::read(&p) {
-            Ok(a) => a,
-            Err(e) => return Some(format!("unreadable: {e}")),
-        };
+        let acc = Accumulator::read(&p).map_err(|e| format!("unreadable: {e}"))?;
         let m = self.material(&u.material);
         let s = &acc.header.settings;
-        let want_rays = vec![m.rays];
         if s.sample_hash != m.sample_hash
             || s.theta_i_deg != [u.theta_i_deg]
             || s.first_direction != u.direction as u64
             || acc.header.seeds != [m.seed]
-            || acc.header.rays_per_direction != want_rays
+            || acc.header.rays_per_direction != [m.rays]
         {
-            return Some("from another plan or sample (its header does not match the unit)".into());
+            return Err("from another plan or sample (its header does not match the unit)".into());
         }
-        None
+        Ok(acc)
     }
 
     /// Runs one unit and writes its output atomically.
@@ -318,13 +320,15 @@ impl Manifest {
     /// them, units that are missing, corrupt or from another plan.
     pub fn merge_material(&self, dir: &Path, name: &str) -> Result<Accumulator, String> {
         let units: Vec<&Unit> = self.units.iter().filter(|u| u.material == name).collect();
-        let problems: Vec<String> = units
-            .iter()
-            .filter_map(|u| {
-                self.verify(dir, u)
-                    .map(|why| format!("unit {} ({}): {why}", u.id, u.output.display()))
-            })
-            .collect();
+        // Each unit is read once: checked, then assembled.
+        let mut parts = Vec::with_capacity(units.len());
+        let mut problems = Vec::new();
+        for u in &units {
+            match self.read_unit(dir, u) {
+                Ok(acc) => parts.push(acc),
+                Err(why) => problems.push(format!("unit {} ({}): {why}", u.id, u.output.display())),
+            }
+        }
         if !problems.is_empty() {
             return Err(format!(
                 "material '{name}': {} of {} units are not done:\n  {}",
@@ -332,10 +336,6 @@ impl Manifest {
                 units.len(),
                 problems.join("\n  ")
             ));
-        }
-        let mut parts = Vec::with_capacity(units.len());
-        for u in &units {
-            parts.push(Accumulator::read(&dir.join(&u.output)).map_err(|e| e.to_string())?);
         }
         let m = self.material(name);
         let first = &parts[0].header;

@@ -200,6 +200,7 @@ impl FacetDistribution {
         n: usize,
         isotropic: bool,
     ) -> Result<FacetDistribution, String> {
+        check_resolution(n)?;
         // Facet normals binned on a fine grid of (u_theta, u_phi), with their mean normal.
         const G: usize = 256;
         let mut area = vec![0.0f64; G * G];
@@ -374,6 +375,19 @@ pub struct RglOptions {
 /// The largest grid side accepted (spectra hold `phi_i x theta_i x lambda x n x n` f32).
 pub const MAX_RESOLUTION: usize = 255;
 
+/// Refuses a grid resolution the writer cannot use: odd, 3..=[`MAX_RESOLUTION`] (odd:
+/// half a turn about the normal then maps the azimuth grid onto itself, as the reader's
+/// normal incidence needs).
+pub fn check_resolution(n: usize) -> Result<(), String> {
+    if (3..=MAX_RESOLUTION).contains(&n) && n % 2 == 1 {
+        Ok(())
+    } else {
+        Err(format!(
+            "the resolution must be odd, 3..={MAX_RESOLUTION}, got {n} (odd: half a turn about the normal then maps the azimuth grid onto itself, as the reader's normal incidence needs)"
+        ))
+    }
+}
+
 /// Builds the fields of a `.bsdf` for `brdf` with the microfacet distribution `d`.
 pub fn rgl_fields(
     brdf: &(dyn Brdf + Sync),
@@ -381,9 +395,11 @@ pub fn rgl_fields(
     opts: &RglOptions,
 ) -> Result<(Vec<Field>, RglReport), String> {
     let n = opts.resolution;
-    if !(3..=MAX_RESOLUTION).contains(&n) || n % 2 == 0 || d.n != n {
+    check_resolution(n)?;
+    if d.n != n {
         return Err(format!(
-            "the resolution must be odd, 3..={MAX_RESOLUTION}, got {n} (odd: half a turn about the normal then maps the azimuth grid onto itself, as the reader's normal incidence needs)"
+            "the facet distribution has {} nodes, the grid {n}",
+            d.n
         ));
     }
     if d.flat_fraction > 0.99 {
