@@ -181,32 +181,64 @@ pub fn simulate_bench(
             "{backend} raw intersector: {:.2} Mrays/s (random rays)",
             raw / 1e6
         ));
-        for sharing in [true, false] {
+        log(&format!("{backend}_raw_rays_per_s: {raw:.0} rays/s"));
+        // Path sharing (one tree for every wavelength), wavelength sharing (every
+        // wavelength at once, exact per-wavelength results) and each wavelength alone.
+        let mut times = [0.0; 3];
+        for (m, (what, key, sharing, lanes)) in [
+            ("path sharing on          ", "path_sharing", true, false),
+            ("wavelength sharing       ", "wavelength_sharing", false, true),
+            ("each wavelength traced   ", "per_wavelength", false, false),
+        ]
+        .into_iter()
+        .enumerate()
+        {
             let mut c = base.clone();
             c.backend = backend;
             c.path_sharing = Some(sharing);
-            let (_, st) = simulate(sample, &c, &|_| {})?;
+            c.wavelength_sharing = lanes;
+            let st = match simulate(sample, &c, &|_| {}) {
+                Ok((_, st)) => st,
+                // Dispersive or coated samples cannot share one tree.
+                Err(crate::simulate::SimError::Config(e)) if sharing => {
+                    log(&format!("{backend} {what}: not applicable: {e}"));
+                    times[m] = f64::NAN;
+                    continue;
+                }
+                Err(e) => return Err(e),
+            };
             let seg_rate = st.segments as f64 / st.seconds;
+            times[m] = st.seconds;
             log(&format!(
-                "{backend} path sharing {}: {:.2} s, {:.0} launched rays/s ({:.0} ray-wavelengths/s), {:.2} M segments/s = {:.0} % of raw",
-                if sharing { "on " } else { "off" },
+                "{backend} {what}: {:.2} s, {:.0} launched rays/s ({:.0} ray-wavelengths/s), {:.2} M segments/s = {:.0} % of raw",
                 st.seconds,
                 st.trees as f64 / st.seconds,
                 (st.trees * nbins as u64) as f64 / st.seconds,
                 seg_rate / 1e6,
                 100.0 * seg_rate / raw
             ));
-            if sharing {
-                shared_time.push(st.seconds);
-            } else {
-                log(&format!(
-                    "{backend} path-sharing speed-up: {:.1}x",
-                    st.seconds / shared_time.last().copied().unwrap_or(st.seconds)
-                ));
-            }
+            log(&format!(
+                "{backend}_{key}_segments_per_s: {:.0} segments/s",
+                seg_rate
+            ));
+            log(&format!(
+                "{backend}_{key}_fraction_of_raw: {:.1} %",
+                100.0 * seg_rate / raw
+            ));
         }
+        shared_time.push(times[0]);
+        if times[0].is_finite() {
+            log(&format!(
+                "{backend}_path_sharing_speedup: {:.2} x",
+                times[2] / times[0]
+            ));
+        }
+        log(&format!(
+            "{backend}_wavelength_sharing_speedup: {:.2} x",
+            times[2] / times[1]
+        ));
     }
-    if shared_time.len() == 2 {
+    if shared_time.len() == 2 && shared_time.iter().all(|t| t.is_finite()) {
         log(&format!(
             "obvhs/embree end-to-end time: {:.2}",
             shared_time[1] / shared_time[0]

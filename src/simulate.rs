@@ -20,7 +20,7 @@ use crate::io::fnv1a;
 use crate::optics::C64;
 use crate::rng::Rng;
 use crate::sample::Sample;
-use crate::trace::{RayState, Scene, SceneError, TraceLimits, Tree, launch_fields};
+use crate::trace::{Lane, Scene, SceneError, TraceLimits, TraceStack, Tree, launch_fields};
 use glam::DVec3;
 
 /// Trees per block: the unit of parallel work and of deterministic summation.
@@ -133,6 +133,10 @@ pub struct SimConfig {
     pub buckets: Buckets,
     /// Share traced geometry across wavelengths; `None` = whenever no medium is dispersive.
     pub path_sharing: Option<bool>,
+    /// Without path sharing, trace every wavelength of a tree at once, sharing each ray
+    /// until it refracts into a dispersive medium (`Scene::trace_lanes`); `false` traces
+    /// each wavelength on its own. Both give the same bits; this only changes the speed.
+    pub wavelength_sharing: bool,
     /// Where the sample's frame sits in the world, nm: exit points and launch points are
     /// reported in world coordinates. The estimator must not depend on it (DESIGN.md §3).
     pub origin_nm: DVec3,
@@ -180,6 +184,7 @@ impl SimConfig {
                 phi_bins: 36,
             },
             path_sharing: None,
+            wavelength_sharing: true,
             origin_nm: DVec3::ZERO,
             tolerance: None,
             max_rays: 0,
@@ -262,6 +267,8 @@ pub struct SimStats {
     pub leaks: u64,
     pub seconds: f64,
     pub path_sharing: bool,
+    /// Every wavelength of a tree was traced at once (`SimConfig::wavelength_sharing`).
+    pub wavelength_sharing: bool,
     pub directions: Vec<DirectionStats>,
     /// Per cell (direction-major, like the accumulator's cells): the summed power per tree
     /// dropped by limits (depth, segments, wraps) and leaks rather than by the cutoff.
@@ -385,16 +392,29 @@ struct Counters {
     energy_faults: AtomicU64,
 }
 
-/// One worker's reusable state: the ray stack, the tree, the estimator's scratch and
-/// deposits, the dense block sums, and the media indices at the current wavelength.
+/// One worker's reusable state: the ray stack, the trees (one per wavelength when they
+/// are traced at once), the estimator's scratch and deposits, the dense block sums, and
+/// the media indices and wavelength of each tree.
 struct Worker {
-    stack: Vec<RayState>,
-    tree: Tree,
+    stack: TraceStack,
+    trees: Vec<Tree>,
     scratch: Scratch,
     deps: Vec<(u32, f64)>,
     glob: Vec<(u32, [crate::optics::fresnel::Field; 2])>,
     dense: Dense,
-    indices: Vec<C64>,
+    indices: Vec<Vec<C64>>,
+    lambdas: Vec<f64>,
+}
+
+/// How a tree's wavelengths are traced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Tracing {
+    /// One tree at the longest wavelength serves every wavelength (path sharing).
+    Shared,
+    /// Every wavelength at once, rays shared until a dispersive refraction.
+    Lanes,
+    /// Each wavelength on its own.
+    PerWavelength,
 }
 
 /// Everything a run shares between its directions and workers.
@@ -406,6 +426,7 @@ struct Run<'a> {
     settings: Settings,
     /// Geometry traced once for all wavelengths.
     sharing: bool,
+    tracing: Tracing,
     global: bool,
     nl: usize,
     lambda_max: f64,
@@ -513,6 +534,13 @@ impl<'a> Run<'a> {
             est,
             settings,
             sharing,
+            tracing: if sharing {
+                Tracing::Shared
+            } else if cfg.wavelength_sharing && nl > 1 {
+                Tracing::Lanes
+            } else {
+                Tracing::PerWavelength
+            },
             global: cfg.coherence == Coherence::Global,
             nl,
             lambda_max,
@@ -524,13 +552,14 @@ impl<'a> Run<'a> {
 
     fn worker(&self) -> Worker {
         Worker {
-            stack: Vec::new(),
-            tree: Tree::default(),
+            stack: TraceStack::default(),
+            trees: (0..self.nl).map(|_| Tree::default()).collect(),
             scratch: Scratch::default(),
             deps: Vec::new(),
             glob: Vec::new(),
             dense: Dense::new(self.nl, 2 * self.cfg.buckets.len(), self.global),
-            indices: Vec::new(),
+            indices: vec![Vec::new(); self.nl],
+            lambdas: vec![0.0; self.nl],
         }
     }
 
@@ -666,18 +695,24 @@ impl<'a> Run<'a> {
                 Wavelengths::Monochromatic(v) => v[j],
             };
             let world_origin = origin + cfg.origin_nm;
+            // The tree's jitter in bin j: the j-th draw of its stream (tracing draws
+            // nothing from it).
+            for j in 0..self.nl {
+                w.lambdas[j] = lambda_of(j, rng.uniform());
+            }
             let traced = |tree: &mut Tree, scratch: &mut Scratch| {
                 for x in &mut tree.exits {
                     x.x += cfg.origin_nm;
                 }
                 est.prepare(tree, scratch);
-                c.segments
-                    .fetch_add(u64::from(tree.segments), Ordering::Relaxed);
                 c.leaks.fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
+            };
+            let count = |segments: u64| {
+                c.segments.fetch_add(segments, Ordering::Relaxed);
                 c.traces.fetch_add(1, Ordering::Relaxed);
             };
-            if self.sharing {
-                self.scene.trace(
+            match self.tracing {
+                Tracing::Shared => count(self.scene.trace(
                     origin,
                     d,
                     e0,
@@ -685,34 +720,65 @@ impl<'a> Run<'a> {
                     self.lambda_max,
                     &cfg.limits,
                     &mut w.stack,
-                    &mut w.tree,
-                );
-                traced(&mut w.tree, &mut w.scratch);
-            }
-            for (j, cell) in out.iter_mut().enumerate() {
-                // The tree's jitter in bin j: the j-th draw of its stream (tracing draws
-                // nothing from it).
-                let lambda = lambda_of(j, rng.uniform());
-                if !self.sharing {
-                    indices_into(sample, lambda, &mut w.indices);
-                    self.scene.trace(
+                    &mut w.trees[0],
+                )),
+                Tracing::Lanes => {
+                    for (j, v) in w.indices.iter_mut().enumerate() {
+                        indices_into(sample, w.lambdas[j], v);
+                    }
+                    let lanes: Vec<Lane> = (w.indices.iter().zip(&w.lambdas))
+                        .map(|(v, &l)| Lane {
+                            indices: v,
+                            lambda_nm: l,
+                        })
+                        .collect();
+                    count(self.scene.trace_lanes(
                         origin,
                         d,
                         e0,
-                        &w.indices,
-                        lambda,
+                        &lanes,
                         &cfg.limits,
                         &mut w.stack,
-                        &mut w.tree,
-                    );
-                    traced(&mut w.tree, &mut w.scratch);
+                        &mut w.trees,
+                    ));
                 }
+                Tracing::PerWavelength => {}
+            }
+            for (j, cell) in out.iter_mut().enumerate() {
+                let lambda = w.lambdas[j];
+                let tree = match self.tracing {
+                    Tracing::Shared => {
+                        if j == 0 {
+                            traced(&mut w.trees[0], &mut w.scratch);
+                        }
+                        &w.trees[0]
+                    }
+                    Tracing::Lanes => {
+                        traced(&mut w.trees[j], &mut w.scratch);
+                        &w.trees[j]
+                    }
+                    Tracing::PerWavelength => {
+                        indices_into(sample, lambda, &mut w.indices[0]);
+                        count(self.scene.trace(
+                            origin,
+                            d,
+                            e0,
+                            &w.indices[0],
+                            lambda,
+                            &cfg.limits,
+                            &mut w.stack,
+                            &mut w.trees[0],
+                        ));
+                        traced(&mut w.trees[0], &mut w.scratch);
+                        &w.trees[0]
+                    }
+                };
                 w.deps.clear();
                 w.glob.clear();
                 let k = 2.0 * std::f64::consts::PI / lambda;
                 let entry_phase = est.entry_phase(k, d, world_origin);
                 est.deposit(
-                    &w.tree,
+                    tree,
                     lambda,
                     entry_phase,
                     &mut w.scratch,
@@ -720,17 +786,17 @@ impl<'a> Run<'a> {
                     &mut w.glob,
                 );
                 let (r, t) = w.dense.add_tree(j, &w.deps, &w.glob);
-                let (dropped, dropped_limit) = w.tree.dropped(lambda);
+                let (dropped, dropped_limit) = tree.dropped(lambda);
                 cell.trees += 1;
                 cell.r.0 += r;
                 cell.r.1 += r * r;
                 cell.t.0 += t;
                 cell.t.1 += t * t;
-                cell.absorbed += absorbed_power(&w.tree, lambda, r, t, dropped, self.global);
+                cell.absorbed += absorbed_power(tree, lambda, r, t, dropped, self.global);
                 cell.dropped += dropped;
                 cell.dropped_limit += dropped_limit;
                 c.energy_faults
-                    .fetch_add(u64::from(w.tree.energy_faults), Ordering::Relaxed);
+                    .fetch_add(u64::from(tree.energy_faults), Ordering::Relaxed);
             }
         }
         w.dense.drain(&mut out);
@@ -761,6 +827,7 @@ impl<'a> Run<'a> {
             leaks: c.leaks.load(Ordering::Relaxed),
             seconds: start_time.elapsed().as_secs_f64(),
             path_sharing: self.sharing,
+            wavelength_sharing: self.tracing == Tracing::Lanes,
             directions,
             limit_dropped,
         };

@@ -272,7 +272,7 @@ fn each_polarisation_of_a_coated_interface_matches_the_tmm() {
     // One traced tree of a coated flat interface: the s and p exit powers separately
     // against the independent TMM (the unpolarised averages above could hide a swap).
     use goniospec::optics::fresnel::field_power;
-    use goniospec::trace::{Scene, TraceLimits, Tree, launch_fields};
+    use goniospec::trace::{Scene, TraceLimits, TraceStack, Tree, launch_fields};
     let s = coated_stack(
         "pol",
         "[media.air]\nn = 1.0\n[media.tio2]\nn = 2.4\n[media.mgf2]\nn = 1.38\n[media.glass]\nn = 1.52\n",
@@ -297,7 +297,7 @@ fn each_polarisation_of_a_coated_interface_matches_the_tmm() {
                 &indices,
                 lambda,
                 &TraceLimits::default(),
-                &mut Vec::new(),
+                &mut TraceStack::default(),
                 &mut tree,
             );
             let up: Vec<_> = tree.exits.iter().filter(|x| x.up).collect();

@@ -56,6 +56,7 @@ def simulate(
     tolerance: float | None = None,
     max_rays: int = 1000000,
     no_path_sharing: bool = False,
+    no_wavelength_sharing: bool = False,
     progress: bool = False,
 ) -> Accumulator:
     """goniospec simulate's flags as keywords: theta_i and phi_i in degrees, wavelengths in

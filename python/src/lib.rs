@@ -275,12 +275,12 @@ fn parse_coherence(s: &str) -> PyResult<goniospec::accumulate::Coherence> {
 /// the estimator `coherence` with `coherence_radius_nm` (float("inf"): the plane-wave
 /// limit); `theta_o_bins` x `phi_o_bins` outgoing buckets; power `cutoff`, `max_depth`,
 /// `max_segments`; an adaptive budget to relative standard error `tolerance` with at most
-/// `max_rays` trees per direction; `no_path_sharing`; `backend` ("embree" or "obvhs").
+/// `max_rays` trees per direction; `no_path_sharing`; `no_wavelength_sharing`; `backend` ("embree" or "obvhs").
 /// Releases the GIL; Ctrl-C raises KeyboardInterrupt within 50 ms and returns nothing;
 /// `progress=True` prints the trees done to stderr; `threads=0` uses all cores and results
 /// do not depend on it.
 #[pyfunction]
-#[pyo3(signature = (sample, theta_i, wavelengths = "380:780:10", rays = 1024, seed = 1, coherence = "beamlet", coherence_radius_nm = 5000.0, cutoff = 1e-10, monochromatic = false, phi_i = 0.0, threads = 0, backend = None, theta_o_bins = 45, phi_o_bins = 36, max_depth = 64, max_segments = 20_000, tolerance = None, max_rays = 1_000_000, no_path_sharing = false, progress = false))]
+#[pyo3(signature = (sample, theta_i, wavelengths = "380:780:10", rays = 1024, seed = 1, coherence = "beamlet", coherence_radius_nm = 5000.0, cutoff = 1e-10, monochromatic = false, phi_i = 0.0, threads = 0, backend = None, theta_o_bins = 45, phi_o_bins = 36, max_depth = 64, max_segments = 20_000, tolerance = None, max_rays = 1_000_000, no_path_sharing = false, no_wavelength_sharing = false, progress = false))]
 #[allow(clippy::too_many_arguments)]
 fn simulate(
     py: Python<'_>,
@@ -303,6 +303,7 @@ fn simulate(
     tolerance: Option<f64>,
     max_rays: u64,
     no_path_sharing: bool,
+    no_wavelength_sharing: bool,
     progress: bool,
 ) -> PyResult<Accumulator> {
     let w = Wavelengths::parse(wavelengths, monochromatic).map_err(value_err)?;
@@ -331,6 +332,7 @@ fn simulate(
             phi_bins: phi_o_bins,
         },
         path_sharing: no_path_sharing.then_some(false),
+        wavelength_sharing: !no_wavelength_sharing,
         tolerance,
         max_rays,
         ..SimConfig::new(theta_i, w, rays)

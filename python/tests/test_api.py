@@ -43,7 +43,8 @@ def test_reflectance_is_the_clis(tmp_path):
 def test_every_simulate_flag_is_a_keyword(tmp_path):
     s = gs.Sample.load(mesh("rough-gold.toml"))
     kw = dict(theta_o_bins=30, phi_o_bins=24, max_depth=32, max_segments=5000, cutoff=1e-8,
-              backend="obvhs", phi_i=15.0, tolerance=0.2, max_rays=512, no_path_sharing=True)
+              backend="obvhs", phi_i=15.0, tolerance=0.2, max_rays=512, no_path_sharing=True,
+              no_wavelength_sharing=True)
     acc = gs.simulate(s, theta_i=[20], wavelengths="400:700:100", rays=128, progress=True, **kw)
     acc.save(tmp_path / "py.gsa")
     flags = []

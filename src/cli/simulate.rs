@@ -62,6 +62,12 @@ pub(super) struct SimulateArgs {
     /// Trace every wavelength separately even when no medium is dispersive.
     #[arg(long)]
     no_path_sharing: bool,
+    /// Trace each wavelength of a tree on its own instead of all at once. By default,
+    /// without path sharing, a tree's wavelengths are traced together and each ray is
+    /// shared until it refracts into a dispersive medium; both give the same bits, this
+    /// only makes the run slower (for checking).
+    #[arg(long)]
+    no_wavelength_sharing: bool,
     /// Drop degenerate triangles instead of refusing the mesh.
     #[arg(long)]
     drop_degenerate: bool,
@@ -114,6 +120,7 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
             phi_bins: a.phi_o_bins,
         },
         path_sharing: a.no_path_sharing.then_some(false),
+        wavelength_sharing: !a.no_wavelength_sharing,
         allow_unphysical: a.allow_unphysical,
         tolerance: a.tolerance,
         max_rays: a.max_rays,
@@ -147,7 +154,13 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         stats.seconds,
         stats.trees as f64 / stats.seconds,
         stats.segments as f64 / stats.seconds / 1e6,
-        if stats.path_sharing { "on" } else { "off" },
+        if stats.path_sharing {
+            "on"
+        } else if stats.wavelength_sharing {
+            "off (wavelengths traced together, rays shared up to dispersive refractions)"
+        } else {
+            "off"
+        },
         goniospec::io::peak_rss_mb().map_or_else(|| "unknown".into(), |m| format!("{m:.0} MB"))
     );
     if a.tolerance.is_some() {

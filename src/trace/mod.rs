@@ -15,7 +15,9 @@
 //! Propagation phases are kept out of the fields: a tree's exit amplitude at wavelength
 //! `lambda` is `E * exp(i 2 pi OPL / lambda)`. When no medium is dispersive the Fresnel
 //! coefficients do not depend on wavelength either, so one traced tree serves every
-//! wavelength (spectral path sharing); dispersive samples trace per wavelength.
+//! wavelength (spectral path sharing). Otherwise [`Scene::trace_lanes`] traces every
+//! wavelength of a tree at once, sharing each ray until it refracts into a dispersive
+//! medium and evaluating the coefficients per wavelength along it (wavelength sharing).
 
 use crate::accel::{Accel, AccelError, Backend, Intersector, Ray};
 use crate::optics::C64;
@@ -80,6 +82,15 @@ impl Tree {
         self.flux_normalised = 0;
         self.leaks = 0;
         self.segments = 0;
+    }
+
+    /// Records the power of a field dropped at optical path `opl` (see [`Dropped`]).
+    fn drop_field(&mut self, e: &[Field; 2], opl: C64, limit: bool) {
+        self.dropped.push(Dropped {
+            power: [field_power(&e[0]), field_power(&e[1])],
+            im: opl.im,
+            limit,
+        });
     }
 
     /// Incoherent power of the exits at `lambda_nm` (the sum of `|a_j|^2`, both
@@ -251,11 +262,11 @@ impl<'a> Scene<'a> {
         self.accel.backend()
     }
 
-    /// Traces one tree. `indices[m]` is medium m's complex index at the tracing
-    /// wavelength; `lambda_nm` is the tracing wavelength (coated interfaces need it; with
-    /// path sharing it is the longest wavelength evaluated, where absorption is weakest),
-    /// also used to decide dropping. `e0` are the launched fields
-    /// (unit power) of the two polarisations; `origin` lies on the launch plane.
+    /// Traces one tree at one wavelength. `indices[m]` is medium m's complex index at the
+    /// tracing wavelength `lambda_nm` (coated interfaces need it; with path sharing it is
+    /// the longest wavelength evaluated, where absorption is weakest), also used to decide
+    /// dropping. `e0` are the launched fields (unit power) of the two polarisations;
+    /// `origin` lies on the launch plane.
     #[allow(clippy::too_many_arguments)]
     pub fn trace(
         &self,
@@ -265,43 +276,118 @@ impl<'a> Scene<'a> {
         indices: &[C64],
         lambda_nm: f64,
         limits: &TraceLimits,
-        stack: &mut Vec<RayState>,
+        stack: &mut TraceStack,
         out: &mut Tree,
-    ) {
-        out.clear();
-        stack.clear();
-        debug_assert_eq!(
-            indices[self.ambient].im, 0.0,
-            "the ambient medium is lossless"
+    ) -> u64 {
+        self.trace_lanes(
+            origin,
+            dir,
+            e0,
+            &[Lane { indices, lambda_nm }],
+            limits,
+            stack,
+            std::slice::from_mut(out),
+        )
+    }
+
+    /// Traces one tree at every wavelength of `lanes` at once, into `trees[j]` for lane
+    /// `j`, and returns the number of segments traced.
+    ///
+    /// Wavelength sharing: directions change with the wavelength only where a wave
+    /// refracts into a medium whose index differs between the lanes (a dispersive one);
+    /// reflection keeps the tangential index and the incident medium's normal index
+    /// (`fresnel::split_wave`), so a ray in a medium with the same index in every lane is
+    /// traced once for all of them, carrying one field per lane, with Fresnel (and coating)
+    /// coefficients, the cutoff, the depth and segment limits and the energy checks applied
+    /// lane by lane. A refraction into a dispersive medium branches into one ray per lane;
+    /// for a metal that is the light that enters it and is absorbed. Each `trees[j]` is
+    /// exactly the tree that [`Scene::trace`] at lane `j` alone gives: the same exits and
+    /// dropped entries in the same order (tests/wavelength_sharing.rs checks the bits).
+    #[allow(clippy::too_many_arguments)]
+    pub fn trace_lanes(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        e0: [Field; 2],
+        lanes: &[Lane],
+        limits: &TraceLimits,
+        stack: &mut TraceStack,
+        trees: &mut [Tree],
+    ) -> u64 {
+        assert!(
+            !lanes.is_empty() && lanes.len() == trees.len() && lanes.len() < ALL as usize,
+            "one tree per lane"
         );
-        stack.push(RayState {
+        for t in trees.iter_mut() {
+            t.clear();
+        }
+        stack.clear();
+        let nm = self.sample.media.len();
+        stack
+            .varies
+            .extend((0..nm).map(|m| lanes.iter().any(|l| l.indices[m] != lanes[0].indices[m])));
+        for l in lanes {
+            debug_assert_eq!(
+                l.indices[self.ambient].im, 0.0,
+                "the ambient medium is lossless"
+            );
+        }
+        let launch = |lane: u32, n: C64, at: usize| RayState {
             pos: origin,
             dir,
-            n_re: (dir * (indices[self.ambient].re)),
+            n_re: (dir * n.re),
             n_im: DVec3::ZERO,
             off: [0.0; 2],
             medium: self.ambient,
-            e: e0,
             opl: C64::new(0.0, 0.0),
             depth: 0,
-        });
-        let [lx, ly] = self.sample.tile_nm;
-        let prune = -4.0 * std::f64::consts::PI / lambda_nm;
-        let power_of = |e: &[Field; 2], opl: C64| {
-            field_power(&e[0]).max(field_power(&e[1])) * (prune * opl.im).exp()
+            lane,
+            at: at as u32,
         };
-        while let Some(mut r) = stack.pop() {
-            if out.segments >= limits.max_segments {
-                out.dropped.push(Dropped {
-                    power: [field_power(&r.e[0]), field_power(&r.e[1])],
-                    im: r.opl.im,
-                    limit: true,
-                });
+        if stack.varies[self.ambient] {
+            for (j, l) in lanes.iter().enumerate() {
+                let at = stack.fields.len();
+                stack.fields.push(Some(e0));
+                stack
+                    .rays
+                    .push(launch(j as u32, l.indices[self.ambient], at));
+            }
+        } else {
+            stack.fields.extend(lanes.iter().map(|_| Some(e0)));
+            stack
+                .rays
+                .push(launch(ALL, lanes[0].indices[self.ambient], 0));
+        }
+        let [lx, ly] = self.sample.tile_nm;
+        let mut traced = 0u64;
+        while let Some(mut r) = stack.rays.pop() {
+            // The ray's fields are the top of the field stack (pushed with it).
+            stack.cur.clear();
+            stack.cur.extend(stack.fields.drain(r.at as usize..));
+            // `lane_of(k)`: the lane of the ray's k-th field.
+            let first = if r.lane == ALL { 0 } else { r.lane as usize };
+            for (k, f) in stack.cur.iter_mut().enumerate() {
+                let t = &mut trees[first + k];
+                if let Some(e) = f
+                    && t.segments >= limits.max_segments
+                {
+                    t.drop_field(e, r.opl, true);
+                    *f = None;
+                }
+            }
+            if stack.cur.iter().all(Option::is_none) {
                 continue;
             }
+            // The ray's medium has the same index in every lane it carries.
+            let n_med = lanes[first].indices[r.medium];
             let mut wraps = 0u32;
             loop {
-                out.segments += 1;
+                traced += 1;
+                for (k, f) in stack.cur.iter().enumerate() {
+                    if f.is_some() {
+                        trees[first + k].segments += 1;
+                    }
+                }
                 // Distances to the tile's sides and to the exit plane along dir.
                 let (mut t_side, mut axis) = (f64::INFINITY, 0usize);
                 for (a, l) in [(0usize, lx), (1, ly)] {
@@ -334,7 +420,6 @@ impl<'a> Scene<'a> {
                     tmax: t_lim.min(f64::from(f32::MAX)) as f32,
                 };
                 let hit = self.accel.closest_hit(&ray);
-                let n_med = indices[r.medium];
                 if hit.is_hit() && f64::from(hit.t) <= t_lim * (1.0 + 1e-6) {
                     // Refine in f64 against the hit triangle's plane.
                     let (v0, n) = self.plane[hit.prim as usize];
@@ -347,43 +432,43 @@ impl<'a> Scene<'a> {
                     if !(t.is_finite() && t >= 0.0) {
                         t = f64::from(hit.t);
                     }
-                    self.advance(&mut r, t, n_med, out);
-                    self.interface_event(
-                        r, hit.prim, n, indices, lambda_nm, limits, &power_of, stack, out,
-                    );
+                    self.advance(&mut r, t, n_med, &stack.cur, first, trees);
+                    self.interface_event(r, hit.prim, n, lanes, limits, stack, trees);
                     break;
                 }
                 if t_plane <= t_side {
-                    self.advance(&mut r, t_plane, n_med, out);
+                    self.advance(&mut r, t_plane, n_med, &stack.cur, first, trees);
                     let up = r.dir[2] > 0.0;
-                    if !up && indices[r.medium].im > 0.0 {
-                        // A semi-infinite absorbing substrate absorbs everything that
-                        // enters it: nothing reaches infinity below (the exit plane is
-                        // only where the tile ends).
-                        out.absorbing = true;
-                        break;
+                    let absorbed = !up && n_med.im > 0.0;
+                    let x = DVec3::new(r.pos.x + r.off[0], r.pos.y + r.off[1], r.pos.z);
+                    for (k, f) in stack.cur.iter().enumerate() {
+                        let Some(e) = f else { continue };
+                        let t = &mut trees[first + k];
+                        if absorbed {
+                            // A semi-infinite absorbing substrate absorbs everything that
+                            // enters it: nothing reaches infinity below (the exit plane is
+                            // only where the tile ends).
+                            t.absorbing = true;
+                        } else {
+                            t.exits.push(Exit {
+                                e: *e,
+                                opl: r.opl,
+                                dir: r.dir,
+                                x,
+                                up,
+                            });
+                        }
                     }
-                    out.exits.push(Exit {
-                        e: r.e,
-                        opl: r.opl,
-                        dir: r.dir,
-                        x: DVec3::new(r.pos.x + r.off[0], r.pos.y + r.off[1], r.pos.z),
-                        up,
-                    });
                     break;
                 }
                 if !t_side.is_finite() {
                     // Horizontal ray with nowhere to go: cannot happen for finite t_side
                     // unless dir is vertical, which has a finite t_plane. Guard anyway.
-                    out.dropped.push(Dropped {
-                        power: [field_power(&r.e[0]), field_power(&r.e[1])],
-                        im: r.opl.im,
-                        limit: true,
-                    });
+                    drop_all(&stack.cur, first, r.opl, trees);
                     break;
                 }
                 // Wrap around the tile side; re-enter a little outside the opposite side.
-                self.advance(&mut r, t_side, n_med, out);
+                self.advance(&mut r, t_side, n_med, &stack.cur, first, trees);
                 // The unwrapped position steps back by the re-entry margin: keep the plane
                 // wave's phase exact there too.
                 let l = [lx, ly][axis];
@@ -399,21 +484,27 @@ impl<'a> Scene<'a> {
                 r.opl += C64::new(r.n_re[axis] * jump, r.n_im[axis] * jump);
                 wraps += 1;
                 if wraps > limits.max_wraps {
-                    out.dropped.push(Dropped {
-                        power: [field_power(&r.e[0]), field_power(&r.e[1])],
-                        im: r.opl.im,
-                        limit: true,
-                    });
+                    drop_all(&stack.cur, first, r.opl, trees);
                     break;
                 }
             }
         }
+        traced
     }
 
     /// Moves the ray by `t` nm, adding `N . dr` to its optical path (the phase and the
-    /// attenuation of its plane wave, DESIGN.md §3).
+    /// attenuation of its plane wave, DESIGN.md §3); the lanes it carries (`cur`, the
+    /// first being lane `first`) note power entering an absorbing medium.
     #[inline]
-    fn advance(&self, r: &mut RayState, t: f64, n: C64, out: &mut Tree) {
+    fn advance(
+        &self,
+        r: &mut RayState,
+        t: f64,
+        n: C64,
+        cur: &[Option<[Field; 2]>],
+        first: usize,
+        trees: &mut [Tree],
+    ) {
         let step = r.dir * t;
         if n.im == 0.0 {
             // A lossless medium carries homogeneous waves: `N . dr = n t`.
@@ -422,24 +513,27 @@ impl<'a> Scene<'a> {
             let im = r.n_im.dot(step);
             r.opl += C64::new(r.n_re.dot(step), im);
             if im > 0.0 {
-                out.absorbing = true;
+                for (k, f) in cur.iter().enumerate() {
+                    if f.is_some() {
+                        trees[first + k].absorbing = true;
+                    }
+                }
             }
         }
         r.pos += step;
     }
 
+    /// Splits the ray `r` at an interface, lane by lane, and pushes its children.
     #[allow(clippy::too_many_arguments)]
     fn interface_event(
         &self,
         r: RayState,
         prim: u32,
         n: DVec3,
-        indices: &[C64],
-        lambda_nm: f64,
+        lanes: &[Lane],
         limits: &TraceLimits,
-        power_of: &impl Fn(&[Field; 2], C64) -> f64,
-        stack: &mut Vec<RayState>,
-        out: &mut Tree,
+        stack: &mut TraceStack,
+        trees: &mut [Tree],
     ) {
         let itf = &self.sample.interfaces[self.owner[prim as usize] as usize];
         let cos = r.dir.dot(n);
@@ -448,127 +542,241 @@ impl<'a> Scene<'a> {
         } else {
             (itf.back, itf.front, -n)
         };
-        let drop = |out: &mut Tree, e: &[Field; 2], opl: C64, limit: bool| {
-            out.dropped.push(Dropped {
-                power: [field_power(&e[0]), field_power(&e[1])],
-                im: opl.im,
-                limit,
-            });
-        };
+        let first = if r.lane == ALL { 0 } else { r.lane as usize };
         if from != r.medium {
-            out.leaks += 1;
-            drop(out, &r.e, r.opl, true);
+            for (k, f) in stack.cur.iter().enumerate() {
+                if f.is_some() {
+                    trees[first + k].leaks += 1;
+                }
+            }
+            drop_all(&stack.cur, first, r.opl, trees);
             return;
         }
-        let (n1, n2) = (indices[from], indices[to]);
-        let mut g = fresnel::split_wave(r.dir, r.n_re, r.n_im, nf, n1, n2);
-        let coated = !itf.coating.is_empty();
-        let mut coating_absorbs = false;
-        if coated {
-            // The thin stack's transfer-matrix amplitudes in the direction of travel
-            // (front to back: outermost layer first), at this event's tangential index.
-            out.n_buf.clear();
-            out.d_buf.clear();
-            out.n_buf.push(n1);
-            let k = itf.coating.len();
-            for i in 0..k {
-                let (m, d) = itf.coating[if from == itf.front { i } else { k - 1 - i }];
-                out.n_buf.push(indices[m]);
-                out.d_buf.push(d);
-                coating_absorbs |= indices[m].im > 0.0;
-            }
-            out.n_buf.push(n2);
-            let amp = tmm::amplitudes(&out.n_buf, &out.d_buf, C64::new(g.kappa, 0.0), lambda_nm);
-            g.c = fresnel::coated(&g.c, n1, n2, amp);
-            if coating_absorbs {
-                out.absorbing = true;
-            }
-        }
-        if n1.im > 0.0 && r.n_im.cross(nf).length() > 1e-6 * r.n_im.length() {
-            // Inside an absorbing medium, at a facet not parallel to the one the wave
-            // entered through: the reflections of this region leave in other directions,
-            // so the series no longer recombines into the exact field and each event must
-            // balance on its own (optics::fresnel, "flux-normalised events").
-            if fresnel::flux_normalise(&mut g.c) {
-                out.flux_normalised += 1;
-            }
-        } else if n1.im == 0.0 {
-            // From a lossless medium |r|^2 + T = 1 exactly (optics::fresnel); an absorbing
-            // coating may only take power away.
-            let [es, ep] = fresnel::balance_excess(&g.c);
-            let ok = if coating_absorbs {
-                es <= 1e-9 && ep <= 1e-9
-            } else {
-                es.abs() <= 1e-9 && ep.abs() <= 1e-9
+        // Each lane's split: coefficients, and the children's fields.
+        stack.splits.clear();
+        for (k, f) in stack.cur.iter().enumerate() {
+            let Some(e) = f else {
+                stack.splits.push(None);
+                continue;
             };
-            debug_assert!(ok, "energy fault at an interface: {n1} -> {n2}, {:?}", g.c);
-            if !ok {
-                out.energy_faults += 1;
+            let (j, tree) = (first + k, &mut trees[first + k]);
+            let (indices, lambda_nm) = (lanes[j].indices, lanes[j].lambda_nm);
+            let (n1, n2) = (indices[from], indices[to]);
+            let mut g = fresnel::split_wave(r.dir, r.n_re, r.n_im, nf, n1, n2);
+            let mut coating_absorbs = false;
+            if !itf.coating.is_empty() {
+                // The thin stack's transfer-matrix amplitudes in the direction of travel
+                // (front to back: outermost layer first), at this event's tangential index.
+                tree.n_buf.clear();
+                tree.d_buf.clear();
+                tree.n_buf.push(n1);
+                let nc = itf.coating.len();
+                for i in 0..nc {
+                    let (m, d) = itf.coating[if from == itf.front { i } else { nc - 1 - i }];
+                    tree.n_buf.push(indices[m]);
+                    tree.d_buf.push(d);
+                    coating_absorbs |= indices[m].im > 0.0;
+                }
+                tree.n_buf.push(n2);
+                let amp =
+                    tmm::amplitudes(&tree.n_buf, &tree.d_buf, C64::new(g.kappa, 0.0), lambda_nm);
+                g.c = fresnel::coated(&g.c, n1, n2, amp);
+                if coating_absorbs {
+                    tree.absorbing = true;
+                }
             }
+            if n1.im > 0.0 && r.n_im.cross(nf).length() > 1e-6 * r.n_im.length() {
+                // Inside an absorbing medium, at a facet not parallel to the one the wave
+                // entered through: the reflections of this region leave in other
+                // directions, so the series no longer recombines into the exact field and
+                // each event must balance on its own (optics::fresnel, "flux-normalised
+                // events").
+                if fresnel::flux_normalise(&mut g.c) {
+                    tree.flux_normalised += 1;
+                }
+            } else if n1.im == 0.0 {
+                // From a lossless medium |r|^2 + T = 1 exactly (optics::fresnel); an
+                // absorbing coating may only take power away.
+                let [es, ep] = fresnel::balance_excess(&g.c);
+                let ok = if coating_absorbs {
+                    es <= 1e-9 && ep <= 1e-9
+                } else {
+                    es.abs() <= 1e-9 && ep.abs() <= 1e-9
+                };
+                debug_assert!(ok, "energy fault at an interface: {n1} -> {n2}, {:?}", g.c);
+                if !ok {
+                    tree.energy_faults += 1;
+                }
+            }
+            if n2.im > 0.0 && (g.c.t_s != C64::new(0.0, 0.0) || g.c.t_p != C64::new(0.0, 0.0)) {
+                tree.absorbing = true;
+            }
+            let (er0, et0) = fresnel::split_field(&e[0], &g);
+            let (er1, et1) = fresnel::split_field(&e[1], &g);
+            stack.splits.push(Some((g, [er0, er1], [et0, et1])));
         }
-        if n2.im > 0.0 && (g.c.t_s != C64::new(0.0, 0.0) || g.c.t_p != C64::new(0.0, 0.0)) {
-            out.absorbing = true;
-        }
-        let (er0, et0) = fresnel::split_field(&r.e[0], &g);
-        let (er1, et1) = fresnel::split_field(&r.e[1], &g);
         let depth = r.depth + 1;
-        let mut child = |e: [Field; 2],
-                         dir: DVec3,
-                         wave: (DVec3, DVec3),
-                         medium: usize,
-                         side: f64,
-                         out: &mut Tree| {
-            if power_of(&e, r.opl) < limits.cutoff {
-                drop(out, &e, r.opl, false);
-                return;
+        // Whether lane j keeps a child of field `e`: below the cutoff or past the depth
+        // limit its power is dropped (recorded in its tree).
+        let keep = |tree: &mut Tree, e: &[Field; 2], j: usize| -> bool {
+            let prune = -4.0 * std::f64::consts::PI / lanes[j].lambda_nm;
+            let power = field_power(&e[0]).max(field_power(&e[1])) * (prune * r.opl.im).exp();
+            if power < limits.cutoff {
+                tree.drop_field(e, r.opl, false);
+                false
+            } else if depth > limits.max_depth {
+                tree.drop_field(e, r.opl, true);
+                false
+            } else {
+                true
             }
-            if depth > limits.max_depth {
-                drop(out, &e, r.opl, true);
-                return;
-            }
-            // The child starts a little off the surface; its plane wave's phase there is
-            // `N . offset` past the hit point, so the path stays exact however thin the
-            // layer (a 5 nm film would otherwise lose 2 eps of thickness per round trip).
+        };
+        // The child starts a little off the surface; its plane wave's phase there is `N .
+        // offset` past the hit point, so the path stays exact however thin the layer (a 5
+        // nm film would otherwise lose 2 eps of thickness per round trip).
+        let child = |dir: DVec3, wave: (DVec3, DVec3), medium: usize, side: f64, lane, at| {
             let offset = nf * (side * self.eps);
             let shift = C64::new(wave.0.dot(offset), wave.1.dot(offset));
-            stack.push(RayState {
+            RayState {
                 pos: (r.pos + offset),
                 dir,
                 n_re: wave.0,
                 n_im: wave.1,
                 off: r.off,
                 medium,
-                e,
                 opl: r.opl + shift,
                 depth,
-            });
+                lane,
+                at: at as u32,
+            }
         };
-        // Transmitted child first so the reflected one is traced first (stack order does
-        // not change results; it keeps the stack shallow for films). Under total internal
-        // reflection into a lossless medium no wave propagates and T = 0.
-        if let Some(dt) = g.dir_t {
-            child([et0, et1], dt, g.n_t, to, -1.0, out);
+        // Transmitted children first so the reflected one is traced first (stack order
+        // does not change results; it keeps the stack shallow for films). Under total
+        // internal reflection into a lossless medium no wave propagates and T = 0.
+        let TraceStack {
+            rays,
+            fields,
+            splits,
+            varies,
+            ..
+        } = stack;
+        if r.lane != ALL || varies[to] {
+            // One ray per lane: its own direction into the dispersive medium.
+            for (k, s) in splits.iter().enumerate() {
+                let Some((g, _, et)) = s else { continue };
+                let Some(dt) = g.dir_t else { continue };
+                let j = first + k;
+                if keep(&mut trees[j], et, j) {
+                    rays.push(child(dt, g.n_t, to, -1.0, j as u32, fields.len()));
+                    fields.push(Some(*et));
+                }
+            }
+        } else if let Some((g, _, _)) = splits.iter().flatten().next()
+            && let Some(dt) = g.dir_t
+        {
+            // Every lane refracts alike into a medium of the same index in each.
+            let (wave, at) = (g.n_t, fields.len());
+            let mut any = false;
+            for (j, s) in splits.iter().enumerate() {
+                let kept = s
+                    .as_ref()
+                    .and_then(|(_, _, et)| keep(&mut trees[j], et, j).then_some(*et));
+                any |= kept.is_some();
+                fields.push(kept);
+            }
+            if any {
+                rays.push(child(dt, wave, to, -1.0, ALL, at));
+            } else {
+                fields.truncate(at);
+            }
         }
-        child([er0, er1], g.dir_r, g.n_r, from, 1.0, out);
+        // The reflected wave stays in `from`, whose index is the same in every lane the
+        // ray carries, and its direction does not depend on the far side's index.
+        let Some((g, _, _)) = splits.iter().flatten().next() else {
+            return;
+        };
+        let (dir_r, wave, at) = (g.dir_r, g.n_r, fields.len());
+        let mut any = false;
+        for (k, s) in splits.iter().enumerate() {
+            let kept = s
+                .as_ref()
+                .and_then(|(_, er, _)| keep(&mut trees[first + k], er, first + k).then_some(*er));
+            any |= kept.is_some();
+            fields.push(kept);
+        }
+        if any {
+            rays.push(child(dir_r, wave, from, 1.0, r.lane, at));
+        } else {
+            fields.truncate(at);
+        }
+    }
+}
+
+/// Drops every field the ray carries (`cur`, lanes from `first`) by a limit or a leak.
+fn drop_all(cur: &[Option<[Field; 2]>], first: usize, opl: C64, trees: &mut [Tree]) {
+    for (k, f) in cur.iter().enumerate() {
+        if let Some(e) = f {
+            trees[first + k].drop_field(e, opl, true);
+        }
+    }
+}
+
+/// One wavelength of a spectral trace: every medium's complex index there and the
+/// wavelength (nm).
+#[derive(Clone, Copy, Debug)]
+pub struct Lane<'a> {
+    pub indices: &'a [C64],
+    pub lambda_nm: f64,
+}
+
+/// One lane's split at an interface: the geometry and coefficients, then the reflected
+/// and transmitted fields of the two polarisations.
+type LaneSplit = (fresnel::Split, [Field; 2], [Field; 2]);
+
+/// `RayState::lane` of a ray that carries every lane.
+const ALL: u32 = u32::MAX;
+
+/// A tracer's reusable state: rays in flight, their fields (a stack parallel to the
+/// rays': one field pair per lane for a shared ray, `None` where that lane dropped it; one
+/// for a single lane's ray), and scratch.
+#[derive(Default)]
+pub struct TraceStack {
+    rays: Vec<RayState>,
+    fields: Vec<Option<[Field; 2]>>,
+    cur: Vec<Option<[Field; 2]>>,
+    splits: Vec<Option<LaneSplit>>,
+    /// Per medium: whether its index differs between the lanes.
+    varies: Vec<bool>,
+}
+
+impl TraceStack {
+    fn clear(&mut self) {
+        self.rays.clear();
+        self.fields.clear();
+        self.cur.clear();
+        self.varies.clear();
     }
 }
 
 /// A ray in flight.
 #[derive(Clone, Copy, Debug)]
-pub struct RayState {
-    pub pos: DVec3,
+struct RayState {
+    pos: DVec3,
     /// Unit direction of travel: the real part of the index vector, normalised.
-    pub dir: DVec3,
+    dir: DVec3,
     /// Complex index vector of the ray's plane wave (`optics::fresnel`): real part and
     /// imaginary part (the latter normal to the interface the wave entered through).
-    pub n_re: DVec3,
-    pub n_im: DVec3,
+    n_re: DVec3,
+    n_im: DVec3,
     /// Unwrapped offset of the current tile copy, nm.
-    pub off: [f64; 2],
-    pub medium: usize,
-    pub e: [Field; 2],
-    pub opl: C64,
-    pub depth: u32,
+    off: [f64; 2],
+    medium: usize,
+    opl: C64,
+    depth: u32,
+    /// The lane it carries, or [`ALL`].
+    lane: u32,
+    /// Where its fields start on the field stack.
+    at: u32,
 }
 
 /// The two launched fields for a wave travelling along `d` (unit): s (perpendicular to the
