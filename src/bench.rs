@@ -187,7 +187,12 @@ pub fn simulate_bench(
         let mut times = [0.0; 3];
         for (m, (what, key, sharing, lanes)) in [
             ("path sharing on          ", "path_sharing", true, false),
-            ("wavelength sharing       ", "wavelength_sharing", false, true),
+            (
+                "wavelength sharing       ",
+                "wavelength_sharing",
+                false,
+                true,
+            ),
             ("each wavelength traced   ", "per_wavelength", false, false),
         ]
         .into_iter()

@@ -137,6 +137,9 @@ pub struct SimConfig {
     /// until it refracts into a dispersive medium (`Scene::trace_lanes`); `false` traces
     /// each wavelength on its own. Both give the same bits; this only changes the speed.
     pub wavelength_sharing: bool,
+    /// Use the reference estimator (`accumulate::Estimator::reference`): the same physics,
+    /// slower; for tests.
+    pub reference_estimator: bool,
     /// Where the sample's frame sits in the world, nm: exit points and launch points are
     /// reported in world coordinates. The estimator must not depend on it (DESIGN.md §3).
     pub origin_nm: DVec3,
@@ -185,6 +188,7 @@ impl SimConfig {
             },
             path_sharing: None,
             wavelength_sharing: true,
+            reference_estimator: false,
             origin_nm: DVec3::ZERO,
             tolerance: None,
             max_rays: 0,
@@ -482,6 +486,8 @@ impl<'a> Run<'a> {
             n_up: index_at(lambda_max)[scene.ambient].re,
             n_down: index_at(lambda_max)[scene.substrate].re,
             precision: cfg.precision,
+            lambda_max_nm: lambda_max,
+            reference: cfg.reference_estimator,
         };
         if let Some(&l) = lambdas
             .iter()

@@ -22,6 +22,7 @@
 pub(crate) mod block;
 pub mod buckets;
 pub mod file;
+pub mod phase;
 
 use std::f64::consts::PI;
 
@@ -87,7 +88,20 @@ pub struct Estimator {
     /// stores them in `f32` would (the study's f32-against-f64 experiment). `F64` is the
     /// default and the only precision for production runs.
     pub precision: PhasePrecision,
+    /// The longest wavelength any tree is evaluated at, nm: a pair's Gaussian overlap
+    /// kernel is largest there, which bounds its cross term at every wavelength (pairs
+    /// whose bound is below [`NEGLIGIBLE_CROSS`] are culled before the wavelength loop).
+    pub lambda_max_nm: f64,
+    /// The reference estimator: culls pairs by the positional overlap only and forms
+    /// every phase with the C library's `sincos` (slower; the fast estimator is tested
+    /// against it to 1e-12 relative, tests/estimator.rs).
+    pub reference: bool,
 }
+
+/// A pair of exits whose cross term `|c_jl| <= 2 |h| K` is below this fraction of the
+/// launched power at every wavelength is left out (its contribution is below the
+/// rounding of the cell sums it would be added to).
+pub const NEGLIGIBLE_CROSS: f64 = 1e-15;
 
 /// The floating-point precision phases are formed in (see [`Estimator::precision`]);
 /// written by name ("f64", "f32").
@@ -127,6 +141,10 @@ fn dot32(a: DVec3, b: DVec3) -> f32 {
 pub struct Scratch {
     amp: Vec<[Field; 2]>,
     sums: Vec<(u32, [Field; 2])>,
+    /// Pair phases at the current wavelength and their sines and cosines.
+    phase: Vec<f64>,
+    sin: Vec<f64>,
+    cos: Vec<f64>,
     /// The wavelength-independent part of the current tree (see [`Estimator::prepare`]).
     prep: Prepared,
 }
@@ -201,6 +219,9 @@ impl Estimator {
             self.prepare_groups(tree, p);
             return;
         }
+        // The directional kernel `exp(-|dw|^2 / (2 theta_w^2))`, `theta_w = lambda / (pi
+        // rho)`, is largest at the longest wavelength.
+        let two_theta_max2 = 2.0 * (self.lambda_max_nm / (PI * self.rho_nm)).powi(2);
         for j in 0..ex.len() {
             for l in j + 1..ex.len() {
                 if ex[j].up != ex[l].up {
@@ -218,7 +239,12 @@ impl Estimator {
                 let h = 0.5
                     * (hermitian(&ex[j].e[0], &ex[l].e[0]) + hermitian(&ex[j].e[1], &ex[l].e[1]));
                 // Pairs that cannot contribute at any wavelength are skipped: |c| <= 2|h| K.
-                if 2.0 * h.norm() * k_pos < 1e-15 {
+                let bound = 2.0 * h.norm() * k_pos;
+                if bound < NEGLIGIBLE_CROSS
+                    || (!self.reference
+                        && dw2 > 0.0
+                        && bound * (-dw2 / two_theta_max2).exp() < NEGLIGIBLE_CROSS)
+                {
                     continue;
                 }
                 let n0 = if ex[j].up { self.n_up } else { self.n_down };
@@ -346,13 +372,24 @@ impl Estimator {
                 }
             }
             let theta_w2 = (lambda_nm / (PI * self.rho_nm)).powi(2);
-            for pr in &p.pairs {
+            // Every pair's phase at once (phase::sin_cos_batch); the reference estimator
+            // calls the C library per pair.
+            if !self.reference {
+                s.phase.clear();
+                s.phase.extend(p.pairs.iter().map(|pr| k * pr.delta_nm));
+                phase::sin_cos_batch(&s.phase, &mut s.sin, &mut s.cos);
+            }
+            for (i, pr) in p.pairs.iter().enumerate() {
                 let (j, l) = (pr.j as usize, pr.l as usize);
                 let mut kernel = pr.k_pos;
                 if pr.dw2 > 0.0 {
                     kernel *= (-pr.dw2 / (2.0 * theta_w2)).exp();
                 }
-                let (sn, cs) = (k * pr.delta_nm).sin_cos();
+                let (sn, cs) = if self.reference {
+                    (k * pr.delta_nm).sin_cos()
+                } else {
+                    (s.sin[i], s.cos[i])
+                };
                 let mut c = 2.0 * (pr.h.re * cs - pr.h.im * sn) * kernel;
                 let (mut pj, mut pl) = (p.pow[j], p.pow[l]);
                 if p.absorbing {

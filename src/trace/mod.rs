@@ -333,6 +333,7 @@ impl<'a> Scene<'a> {
             );
         }
         let launch = |lane: u32, n: C64, at: usize| RayState {
+            e: e0,
             pos: origin,
             dir,
             n_re: (dir * n.re),
@@ -344,13 +345,12 @@ impl<'a> Scene<'a> {
             lane,
             at: at as u32,
         };
-        if stack.varies[self.ambient] {
+        // One lane, or an ambient medium that differs between them: a ray per lane.
+        if lanes.len() == 1 || stack.varies[self.ambient] {
             for (j, l) in lanes.iter().enumerate() {
-                let at = stack.fields.len();
-                stack.fields.push(Some(e0));
                 stack
                     .rays
-                    .push(launch(j as u32, l.indices[self.ambient], at));
+                    .push(launch(j as u32, l.indices[self.ambient], 0));
             }
         } else {
             stack.fields.extend(lanes.iter().map(|_| Some(e0)));
@@ -361,9 +361,14 @@ impl<'a> Scene<'a> {
         let [lx, ly] = self.sample.tile_nm;
         let mut traced = 0u64;
         while let Some(mut r) = stack.rays.pop() {
-            // The ray's fields are the top of the field stack (pushed with it).
+            // A shared ray's fields are the top of the field stack (pushed with it); a
+            // single lane's ray carries its own.
             stack.cur.clear();
-            stack.cur.extend(stack.fields.drain(r.at as usize..));
+            if r.lane == ALL {
+                stack.cur.extend(stack.fields.drain(r.at as usize..));
+            } else {
+                stack.cur.push(Some(r.e));
+            }
             // `lane_of(k)`: the lane of the ray's k-th field.
             let first = if r.lane == ALL { 0 } else { r.lane as usize };
             for (k, f) in stack.cur.iter_mut().enumerate() {
@@ -552,69 +557,43 @@ impl<'a> Scene<'a> {
             drop_all(&stack.cur, first, r.opl, trees);
             return;
         }
-        // Each lane's split: coefficients, and the children's fields.
-        stack.splits.clear();
-        for (k, f) in stack.cur.iter().enumerate() {
-            let Some(e) = f else {
-                stack.splits.push(None);
-                continue;
-            };
-            let (j, tree) = (first + k, &mut trees[first + k]);
-            let (indices, lambda_nm) = (lanes[j].indices, lanes[j].lambda_nm);
-            let (n1, n2) = (indices[from], indices[to]);
-            let mut g = fresnel::split_wave(r.dir, r.n_re, r.n_im, nf, n1, n2);
-            let mut coating_absorbs = false;
-            if !itf.coating.is_empty() {
-                // The thin stack's transfer-matrix amplitudes in the direction of travel
-                // (front to back: outermost layer first), at this event's tangential index.
-                tree.n_buf.clear();
-                tree.d_buf.clear();
-                tree.n_buf.push(n1);
-                let nc = itf.coating.len();
-                for i in 0..nc {
-                    let (m, d) = itf.coating[if from == itf.front { i } else { nc - 1 - i }];
-                    tree.n_buf.push(indices[m]);
-                    tree.d_buf.push(d);
-                    coating_absorbs |= indices[m].im > 0.0;
-                }
-                tree.n_buf.push(n2);
-                let amp =
-                    tmm::amplitudes(&tree.n_buf, &tree.d_buf, C64::new(g.kappa, 0.0), lambda_nm);
-                g.c = fresnel::coated(&g.c, n1, n2, amp);
-                if coating_absorbs {
-                    tree.absorbing = true;
-                }
-            }
-            if n1.im > 0.0 && r.n_im.cross(nf).length() > 1e-6 * r.n_im.length() {
-                // Inside an absorbing medium, at a facet not parallel to the one the wave
-                // entered through: the reflections of this region leave in other
-                // directions, so the series no longer recombines into the exact field and
-                // each event must balance on its own (optics::fresnel, "flux-normalised
-                // events").
-                if fresnel::flux_normalise(&mut g.c) {
-                    tree.flux_normalised += 1;
-                }
-            } else if n1.im == 0.0 {
-                // From a lossless medium |r|^2 + T = 1 exactly (optics::fresnel); an
-                // absorbing coating may only take power away.
-                let [es, ep] = fresnel::balance_excess(&g.c);
-                let ok = if coating_absorbs {
-                    es <= 1e-9 && ep <= 1e-9
-                } else {
-                    es.abs() <= 1e-9 && ep.abs() <= 1e-9
-                };
-                debug_assert!(ok, "energy fault at an interface: {n1} -> {n2}, {:?}", g.c);
-                if !ok {
-                    tree.energy_faults += 1;
-                }
-            }
-            if n2.im > 0.0 && (g.c.t_s != C64::new(0.0, 0.0) || g.c.t_p != C64::new(0.0, 0.0)) {
-                tree.absorbing = true;
-            }
-            let (er0, et0) = fresnel::split_field(&e[0], &g);
-            let (er1, et1) = fresnel::split_field(&e[1], &g);
-            stack.splits.push(Some((g, [er0, er1], [et0, et1])));
+        // Each lane's split: the children's directions, waves and fields (a ray of one
+        // lane, the common case, needs no list).
+        let TraceStack {
+            rays,
+            fields,
+            splits,
+            varies,
+            cur,
+            ..
+        } = stack;
+        // Written in place (a split is a few hundred bytes); `splits[k]` is valid where
+        // `cur[k]` holds a field.
+        if splits.len() < cur.len() {
+            splits.resize_with(cur.len(), LaneSplit::default);
         }
+        for (k, f) in cur.iter().enumerate() {
+            if let Some(e) = f {
+                let j = first + k;
+                self.lane_split(
+                    itf,
+                    &r,
+                    nf,
+                    from,
+                    to,
+                    e,
+                    &lanes[j],
+                    &mut trees[j],
+                    &mut splits[k],
+                );
+            }
+        }
+        // The lanes' splits, `None` where the lane dropped the ray.
+        let lane_splits = || {
+            cur.iter()
+                .zip(splits.iter())
+                .map(|(f, g)| f.is_some().then_some(g))
+        };
         let depth = r.depth + 1;
         // Whether lane j keeps a child of field `e`: below the cutoff or past the depth
         // limit its power is dropped (recorded in its tree).
@@ -634,10 +613,17 @@ impl<'a> Scene<'a> {
         // The child starts a little off the surface; its plane wave's phase there is `N .
         // offset` past the hit point, so the path stays exact however thin the layer (a 5
         // nm film would otherwise lose 2 eps of thickness per round trip).
-        let child = |dir: DVec3, wave: (DVec3, DVec3), medium: usize, side: f64, lane, at| {
+        let child = |dir: DVec3,
+                     wave: (DVec3, DVec3),
+                     medium: usize,
+                     side: f64,
+                     lane,
+                     at: usize,
+                     e: [Field; 2]| {
             let offset = nf * (side * self.eps);
             let shift = C64::new(wave.0.dot(offset), wave.1.dot(offset));
             RayState {
+                e,
                 pos: (r.pos + offset),
                 dir,
                 n_re: wave.0,
@@ -653,62 +639,133 @@ impl<'a> Scene<'a> {
         // Transmitted children first so the reflected one is traced first (stack order
         // does not change results; it keeps the stack shallow for films). Under total
         // internal reflection into a lossless medium no wave propagates and T = 0.
-        let TraceStack {
-            rays,
-            fields,
-            splits,
-            varies,
-            ..
-        } = stack;
         if r.lane != ALL || varies[to] {
             // One ray per lane: its own direction into the dispersive medium.
-            for (k, s) in splits.iter().enumerate() {
-                let Some((g, _, et)) = s else { continue };
+            for (k, s) in lane_splits().enumerate() {
+                let Some(g) = s else { continue };
                 let Some(dt) = g.dir_t else { continue };
                 let j = first + k;
-                if keep(&mut trees[j], et, j) {
-                    rays.push(child(dt, g.n_t, to, -1.0, j as u32, fields.len()));
-                    fields.push(Some(*et));
+                if keep(&mut trees[j], &g.et, j) {
+                    rays.push(child(dt, g.n_t, to, -1.0, j as u32, 0, g.et));
                 }
             }
-        } else if let Some((g, _, _)) = splits.iter().flatten().next()
+        } else if let Some(g) = lane_splits().flatten().next()
             && let Some(dt) = g.dir_t
         {
             // Every lane refracts alike into a medium of the same index in each.
             let (wave, at) = (g.n_t, fields.len());
             let mut any = false;
-            for (j, s) in splits.iter().enumerate() {
-                let kept = s
-                    .as_ref()
-                    .and_then(|(_, _, et)| keep(&mut trees[j], et, j).then_some(*et));
+            for (j, s) in lane_splits().enumerate() {
+                let kept = s.and_then(|g| keep(&mut trees[j], &g.et, j).then_some(g.et));
                 any |= kept.is_some();
                 fields.push(kept);
             }
             if any {
-                rays.push(child(dt, wave, to, -1.0, ALL, at));
+                rays.push(child(dt, wave, to, -1.0, ALL, at, [[C64::ZERO; 3]; 2]));
             } else {
                 fields.truncate(at);
             }
         }
         // The reflected wave stays in `from`, whose index is the same in every lane the
         // ray carries, and its direction does not depend on the far side's index.
-        let Some((g, _, _)) = splits.iter().flatten().next() else {
+        let Some(g) = lane_splits().flatten().next() else {
             return;
         };
         let (dir_r, wave, at) = (g.dir_r, g.n_r, fields.len());
+        if r.lane != ALL {
+            if keep(&mut trees[first], &g.er, first) {
+                rays.push(child(dir_r, wave, from, 1.0, r.lane, 0, g.er));
+            }
+            return;
+        }
         let mut any = false;
-        for (k, s) in splits.iter().enumerate() {
-            let kept = s
-                .as_ref()
-                .and_then(|(_, er, _)| keep(&mut trees[first + k], er, first + k).then_some(*er));
+        for (k, s) in lane_splits().enumerate() {
+            let kept =
+                s.and_then(|g| keep(&mut trees[first + k], &g.er, first + k).then_some(g.er));
             any |= kept.is_some();
             fields.push(kept);
         }
         if any {
-            rays.push(child(dir_r, wave, from, 1.0, r.lane, at));
+            rays.push(child(dir_r, wave, from, 1.0, ALL, at, [[C64::ZERO; 3]; 2]));
         } else {
             fields.truncate(at);
         }
+    }
+
+    /// One lane's split of ray `r` (field `e`) at interface `itf` (normal `nf` facing the
+    /// ray, from medium `from` to `to`): the coefficients (coated where the interface
+    /// carries thin layers), the energy checks, and the children's fields; notes absorption
+    /// and faults in the lane's `tree`.
+    #[allow(clippy::too_many_arguments)]
+    fn lane_split(
+        &self,
+        itf: &crate::sample::Interface,
+        r: &RayState,
+        nf: DVec3,
+        from: usize,
+        to: usize,
+        e: &[Field; 2],
+        lane: &Lane,
+        tree: &mut Tree,
+        out: &mut LaneSplit,
+    ) {
+        let (indices, lambda_nm) = (lane.indices, lane.lambda_nm);
+        let (n1, n2) = (indices[from], indices[to]);
+        let mut g = fresnel::split_wave(r.dir, r.n_re, r.n_im, nf, n1, n2);
+        let mut coating_absorbs = false;
+        if !itf.coating.is_empty() {
+            // The thin stack's transfer-matrix amplitudes in the direction of travel
+            // (front to back: outermost layer first), at this event's tangential index.
+            tree.n_buf.clear();
+            tree.d_buf.clear();
+            tree.n_buf.push(n1);
+            let nc = itf.coating.len();
+            for i in 0..nc {
+                let (m, d) = itf.coating[if from == itf.front { i } else { nc - 1 - i }];
+                tree.n_buf.push(indices[m]);
+                tree.d_buf.push(d);
+                coating_absorbs |= indices[m].im > 0.0;
+            }
+            tree.n_buf.push(n2);
+            let amp = tmm::amplitudes(&tree.n_buf, &tree.d_buf, C64::new(g.kappa, 0.0), lambda_nm);
+            g.c = fresnel::coated(&g.c, n1, n2, amp);
+            if coating_absorbs {
+                tree.absorbing = true;
+            }
+        }
+        if n1.im > 0.0 && r.n_im.cross(nf).length() > 1e-6 * r.n_im.length() {
+            // Inside an absorbing medium, at a facet not parallel to the one the wave
+            // entered through: the reflections of this region leave in other
+            // directions, so the series no longer recombines into the exact field and
+            // each event must balance on its own (optics::fresnel, "flux-normalised
+            // events").
+            if fresnel::flux_normalise(&mut g.c) {
+                tree.flux_normalised += 1;
+            }
+        } else if n1.im == 0.0 {
+            // From a lossless medium |r|^2 + T = 1 exactly (optics::fresnel); an
+            // absorbing coating may only take power away.
+            let [es, ep] = fresnel::balance_excess(&g.c);
+            let ok = if coating_absorbs {
+                es <= 1e-9 && ep <= 1e-9
+            } else {
+                es.abs() <= 1e-9 && ep.abs() <= 1e-9
+            };
+            debug_assert!(ok, "energy fault at an interface: {n1} -> {n2}, {:?}", g.c);
+            if !ok {
+                tree.energy_faults += 1;
+            }
+        }
+        if n2.im > 0.0 && (g.c.t_s != C64::new(0.0, 0.0) || g.c.t_p != C64::new(0.0, 0.0)) {
+            tree.absorbing = true;
+        }
+        // Field by field: no temporary of the whole split.
+        (out.er[0], out.et[0]) = fresnel::split_field(&e[0], &g);
+        (out.er[1], out.et[1]) = fresnel::split_field(&e[1], &g);
+        out.dir_r = g.dir_r;
+        out.n_r = g.n_r;
+        out.dir_t = g.dir_t;
+        out.n_t = g.n_t;
     }
 }
 
@@ -729,22 +786,30 @@ pub struct Lane<'a> {
     pub lambda_nm: f64,
 }
 
-/// One lane's split at an interface: the geometry and coefficients, then the reflected
-/// and transmitted fields of the two polarisations.
-type LaneSplit = (fresnel::Split, [Field; 2], [Field; 2]);
+/// One lane's split at an interface: the children's directions and complex index
+/// vectors, and their fields of the two polarisations.
+#[derive(Default)]
+struct LaneSplit {
+    dir_r: DVec3,
+    n_r: (DVec3, DVec3),
+    dir_t: Option<DVec3>,
+    n_t: (DVec3, DVec3),
+    er: [Field; 2],
+    et: [Field; 2],
+}
 
 /// `RayState::lane` of a ray that carries every lane.
 const ALL: u32 = u32::MAX;
 
-/// A tracer's reusable state: rays in flight, their fields (a stack parallel to the
-/// rays': one field pair per lane for a shared ray, `None` where that lane dropped it; one
-/// for a single lane's ray), and scratch.
+/// A tracer's reusable state: rays in flight, the fields of shared rays (a stack parallel
+/// to the rays': one field pair per lane, `None` where that lane dropped it), and
+/// scratch.
 #[derive(Default)]
 pub struct TraceStack {
     rays: Vec<RayState>,
     fields: Vec<Option<[Field; 2]>>,
     cur: Vec<Option<[Field; 2]>>,
-    splits: Vec<Option<LaneSplit>>,
+    splits: Vec<LaneSplit>,
     /// Per medium: whether its index differs between the lanes.
     varies: Vec<bool>,
 }
@@ -775,7 +840,9 @@ struct RayState {
     depth: u32,
     /// The lane it carries, or [`ALL`].
     lane: u32,
-    /// Where its fields start on the field stack.
+    /// A single lane's ray: its field of each polarisation.
+    e: [Field; 2],
+    /// A shared ray: where its fields (one pair per lane) start on the field stack.
     at: u32,
 }
 
