@@ -25,9 +25,11 @@
 
 pub mod check;
 pub mod generate;
+pub mod heightmap;
 pub mod media;
 pub mod mesh;
 pub mod obj;
+pub mod plystl;
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -276,7 +278,8 @@ struct RawPlainLayer {
 struct RawHeader {
     name: String,
     unit: Spanned<String>,
-    tile: Spanned<Vec<f64>>,
+    /// Optional where a height map sets the tile.
+    tile: Option<Spanned<Vec<f64>>>,
     #[serde(default)]
     #[allow(dead_code)]
     description: Option<String>,
@@ -287,15 +290,99 @@ struct RawHeader {
 struct RawInterface {
     mesh: Option<Spanned<String>>,
     generator: Option<Spanned<GeneratorSpec>>,
+    /// A measured surface (`heightmap` module), with its scale where the format has none,
+    /// how its edges are made periodic and what happens to missing points.
+    heightmap: Option<Spanned<String>>,
+    pixel_size: Option<Spanned<RawPixelSize>>,
+    height_scale: Option<Spanned<f64>>,
+    edges: Option<heightmap::Edges>,
+    missing: Option<heightmap::Missing>,
     front: Spanned<String>,
     back: Spanned<String>,
     /// Thin layers on the front side, outermost first.
     coating: Option<Vec<RawLayer>>,
 }
 
+/// `pixel_size = 0.05` or `pixel_size = [0.05, 0.08]` (x, y), sample units.
+#[derive(Deserialize, Clone, Copy)]
+#[serde(untagged)]
+enum RawPixelSize {
+    Both(f64),
+    Each([f64; 2]),
+}
+
 /// 1-based line of byte offset `pos` in `text`.
 pub(crate) fn line_of(text: &str, pos: usize) -> usize {
     line_of_bytes(text.as_bytes(), pos)
+}
+
+/// Loads a mesh file by its extension: OBJ (the default), PLY or STL.
+pub fn load_mesh(path: &Path, nm_per_unit: f64, opts: MeshOptions) -> Result<Mesh, SampleError> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("ply") => plystl::load_ply(path, nm_per_unit, opts),
+        Some("stl") => plystl::load_stl(path, nm_per_unit, opts),
+        _ => load_obj(path, nm_per_unit, opts),
+    }
+}
+
+/// Reads an interface's height map and meshes it: (mesh, tile in nm, description).
+fn load_heightmap(
+    ri: &RawInterface,
+    h: &Spanned<String>,
+    base: &Path,
+    nm_per_unit: f64,
+) -> Result<(Mesh, [f64; 2], String), String> {
+    let file = base.join(h.get_ref());
+    let scale = match (ri.pixel_size.as_ref(), ri.height_scale.as_ref()) {
+        (None, None) => None,
+        (Some(p), Some(z)) => {
+            let [dx, dy] = match *p.get_ref() {
+                RawPixelSize::Both(d) => [d, d],
+                RawPixelSize::Each(d) => d,
+            };
+            let z = *z.get_ref();
+            if !(dx.is_finite() && dy.is_finite() && dx > 0.0 && dy > 0.0) {
+                return Err(format!(
+                    "pixel_size must be positive and finite, got [{dx}, {dy}]"
+                ));
+            }
+            if !(z.is_finite() && z != 0.0) {
+                return Err(format!("height_scale must be finite and non-zero, got {z}"));
+            }
+            Some(heightmap::Scale {
+                dx_nm: dx * nm_per_unit,
+                dy_nm: dy * nm_per_unit,
+                dz_nm: z * nm_per_unit,
+            })
+        }
+        _ => return Err("give both pixel_size and height_scale, or neither".into()),
+    };
+    let mut map = heightmap::read(&file, scale)?;
+    let filled = map.resolve_missing(ri.missing.unwrap_or_default())?;
+    let edges = ri.edges.unwrap_or_default();
+    let (mesh, tile) = map.mesh(edges)?;
+    let desc = format!(
+        "height map {} ({} x {} points, {} x {} nm apart{}, edges {})",
+        file.display(),
+        map.nx,
+        map.ny,
+        map.dx_nm,
+        map.dy_nm,
+        if filled > 0 {
+            format!(", {filled} missing points filled")
+        } else {
+            String::new()
+        },
+        match edges {
+            heightmap::Edges::Mirror => "mirrored",
+            heightmap::Edges::Periodic => "periodic",
+        }
+    );
+    Ok((mesh, tile, desc))
 }
 
 /// 1-based line of byte offset `pos` in `bytes` (`\n` ends a line).
@@ -416,23 +503,82 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
             SampleErrorKind::BadUnit(unit.clone()),
         )
     })?;
-    let [tx, ty] = match raw.sample.tile.get_ref()[..] {
-        [x, y] => [x, y],
-        ref other => {
-            return Err(at(
-                raw.sample.tile.span(),
-                SampleErrorKind::Invalid(format!(
-                    "tile must be [Lx, Ly] (two lengths; the tile is periodic in x and y only), got {} values",
-                    other.len()
-                )),
+    let base = path.parent().unwrap_or(Path::new(""));
+    // Measured surfaces first: they set the tile.
+    let mut measured: Vec<Option<(Mesh, [f64; 2], String)>> = Vec::new();
+    for ri in &raw.interface {
+        measured.push(match &ri.heightmap {
+            None => {
+                if ri.pixel_size.is_some()
+                    || ri.height_scale.is_some()
+                    || ri.edges.is_some()
+                    || ri.missing.is_some()
+                {
+                    return Err(at(
+                        ri.front.span(),
+                        SampleErrorKind::Invalid(
+                            "pixel_size, height_scale, edges and missing belong to an interface with a heightmap".into(),
+                        ),
+                    ));
+                }
+                None
+            }
+            Some(h) => Some(load_heightmap(ri, h, base, scale).map_err(|m| {
+                at(
+                    h.span(),
+                    SampleErrorKind::Invalid(format!(
+                        "height map {}: {m}",
+                        base.join(h.get_ref()).display()
+                    )),
+                )
+            })?),
+        });
+    }
+    let measured_tile = measured.iter().flatten().next().map(|m| m.1);
+    let [tx, ty] = match (&raw.sample.tile, measured_tile) {
+        (Some(tile), _) => match tile.get_ref()[..] {
+            [x, y] => [x, y],
+            ref other => {
+                return Err(at(
+                    tile.span(),
+                    SampleErrorKind::Invalid(format!(
+                        "tile must be [Lx, Ly] (two lengths; the tile is periodic in x and y only), got {} values",
+                        other.len()
+                    )),
+                ));
+            }
+        },
+        (None, Some(t)) => [t[0] / scale, t[1] / scale],
+        (None, None) => {
+            return Err(SampleError::file(
+                path,
+                SampleErrorKind::Invalid(
+                    "[sample] needs tile = [Lx, Ly] (only a heightmap interface sets the tile itself)"
+                        .into(),
+                ),
             ));
         }
     };
+    let tile_span = raw.sample.tile.as_ref().map_or(0..0, |t| t.span());
     if !(tx.is_finite() && ty.is_finite() && tx > 0.0 && ty > 0.0) {
-        return Err(at(raw.sample.tile.span(), SampleErrorKind::BadTile(tx, ty)));
+        return Err(at(tile_span, SampleErrorKind::BadTile(tx, ty)));
+    }
+    // Every measured surface spans the tile exactly.
+    for (ri, m) in raw.interface.iter().zip(&measured) {
+        if let (Some((_, t, _)), Some(h)) = (m, &ri.heightmap) {
+            let (ex, ey) = (t[0] / scale, t[1] / scale);
+            if (ex - tx).abs() > 1e-9 * tx || (ey - ty).abs() > 1e-9 * ty {
+                return Err(at(
+                    h.span(),
+                    SampleErrorKind::Invalid(format!(
+                        "height map {} spans [{ex}, {ey}] {unit} (with its edges made periodic), but the tile is [{tx}, {ty}] {unit}: remove tile from [sample] or make it match",
+                        h.get_ref()
+                    )),
+                ));
+            }
+        }
     }
 
-    let base = path.parent().unwrap_or(Path::new(""));
     let mut media = Vec::new();
     for (name, m) in &raw.media {
         let model = media::build_model(m.get_ref(), base, true).map_err(|e| match e.file {
@@ -491,7 +637,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
     let tile_nm = [tx * scale, ty * scale];
     for (axis, v, nm) in [("x", tx, tile_nm[0]), ("y", ty, tile_nm[1])] {
         check_length(&format!("tile side {axis}"), v, unit, nm)
-            .map_err(|m| at(raw.sample.tile.span(), SampleErrorKind::Invalid(m)))?;
+            .map_err(|m| at(tile_span.clone(), SampleErrorKind::Invalid(m)))?;
     }
     let mut interfaces = Vec::new();
 
@@ -606,7 +752,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         match (mesh, generator) {
             (Some(m), None) => {
                 let mesh_path = base.join(m.get_ref());
-                let mesh = load_obj(&mesh_path, scale, opts).map_err(|e| {
+                let mesh = load_mesh(&mesh_path, scale, opts).map_err(|e| {
                     at(
                         m.span(),
                         SampleErrorKind::Mesh {
@@ -666,12 +812,28 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         }
     };
 
-    for ri in &raw.interface {
+    for (ri, m) in raw.interface.iter().zip(measured) {
         let front = medium(&ri.front)?;
         let back = medium(&ri.back)?;
-        let (g, desc) = source(&ri.mesh, &ri.generator, false, "[[interface]]")?;
-        let Generated::Sheet(mesh) = g else {
-            unreachable!("sheet requested")
+        let (mesh, desc) = match m {
+            Some((mesh, _, desc)) => {
+                if ri.mesh.is_some() || ri.generator.is_some() {
+                    return Err(at(
+                        ri.front.span(),
+                        SampleErrorKind::Invalid(
+                            "an [[interface]] takes one of mesh, generator or heightmap".into(),
+                        ),
+                    ));
+                }
+                (mesh, desc)
+            }
+            None => {
+                let (g, desc) = source(&ri.mesh, &ri.generator, false, "[[interface]]")?;
+                let Generated::Sheet(mesh) = g else {
+                    unreachable!("sheet requested")
+                };
+                (mesh, desc)
+            }
         };
         let coating = layers_of(&ri.coating)?;
         interfaces.push(Interface {

@@ -255,7 +255,7 @@ pub fn parse_obj(
 /// The first corner at which polygon `p` turns against its overall orientation (Newell's
 /// normal, Sutherland, Sproull & Schumacker 1974), or `None` for a convex polygon.
 /// Corners on a straight edge are allowed.
-fn concave_corner(p: &[DVec3]) -> Option<usize> {
+pub(crate) fn concave_corner(p: &[DVec3]) -> Option<usize> {
     let k = p.len();
     let mut n = DVec3::ZERO;
     for i in 0..k {

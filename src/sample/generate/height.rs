@@ -38,7 +38,7 @@ pub fn height_field(
 }
 
 /// Triangulates a `(nx+1) x (ny+1)` grid of points (row-major, x fastest).
-fn height_field_from_grid(cells: [usize; 2], positions_nm: Vec<DVec3>) -> Mesh {
+pub(crate) fn height_field_from_grid(cells: [usize; 2], positions_nm: Vec<DVec3>) -> Mesh {
     let [nx, ny] = cells;
     let idx = |i: usize, j: usize| (j * (nx + 1) + i) as u32;
     let mut triangles = Vec::with_capacity(2 * nx * ny);

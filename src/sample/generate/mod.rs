@@ -15,7 +15,7 @@ use serde::Deserialize;
 use super::mesh::Mesh;
 
 mod bodies;
-mod height;
+pub(crate) mod height;
 mod microfacet;
 
 pub use bodies::{enclosed_volume, flakes, icosphere, pigment_spheres};
