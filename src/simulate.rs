@@ -269,7 +269,11 @@ pub struct SimStats {
     pub traces: u64,
     pub segments: u64,
     pub leaks: u64,
+    /// Wall time of the whole run, s.
     pub seconds: f64,
+    /// The part of `seconds` spent before tracing (building the scene's accelerator,
+    /// hashing the sample), s; rates of trees and segments are over the rest.
+    pub setup_seconds: f64,
     pub path_sharing: bool,
     /// Every wavelength of a tree was traced at once (`SimConfig::wavelength_sharing`).
     pub wavelength_sharing: bool,
@@ -280,6 +284,11 @@ pub struct SimStats {
 }
 
 impl SimStats {
+    /// Wall time spent tracing and estimating (after the set-up), s.
+    pub fn trace_seconds(&self) -> f64 {
+        (self.seconds - self.setup_seconds).max(f64::MIN_POSITIVE)
+    }
+
     /// The largest mean power per tree that any cell lost to limits and leaks: when it is
     /// not small the ray series was cut before it converged.
     pub fn worst_limit_dropped(&self, acc: &Accumulator) -> f64 {
@@ -363,7 +372,8 @@ pub fn simulate(
 ) -> Result<(Accumulator, SimStats), SimError> {
     validate(cfg)?;
     let start_time = Instant::now();
-    let run = Run::prepare(sample, cfg)?;
+    let mut run = Run::prepare(sample, cfg)?;
+    run.setup_seconds = start_time.elapsed().as_secs_f64();
     let mut cells: Vec<Cell> = (0..cfg.theta_i_deg.len() * run.nl)
         .map(|_| Cell::new(&cfg.buckets, run.global))
         .collect();
@@ -437,6 +447,8 @@ struct Run<'a> {
     /// Media indices at the longest wavelength (the shared geometry's).
     fixed_indices: Vec<C64>,
     counters: Counters,
+    /// Wall time of `prepare` (the scene's build, the sample's hash), s.
+    setup_seconds: f64,
 }
 
 impl<'a> Run<'a> {
@@ -552,6 +564,7 @@ impl<'a> Run<'a> {
             lambda_max,
             fixed_indices: index_at(lambda_max),
             counters: Counters::default(),
+            setup_seconds: 0.0,
             scene,
         })
     }
@@ -832,6 +845,7 @@ impl<'a> Run<'a> {
             segments: c.segments.load(Ordering::Relaxed),
             leaks: c.leaks.load(Ordering::Relaxed),
             seconds: start_time.elapsed().as_secs_f64(),
+            setup_seconds: self.setup_seconds,
             path_sharing: self.sharing,
             wavelength_sharing: self.tracing == Tracing::Lanes,
             directions,

@@ -212,6 +212,7 @@ fn degenerate_triangles_are_counted_and_dropped_only_on_request() {
         &obj,
         MeshOptions {
             drop_degenerate: true,
+            ..MeshOptions::default()
         },
     )
     .unwrap();

@@ -19,6 +19,39 @@ pub(super) enum BenchCommand {
     /// against brute-force search; and accuracy on a rough simulated sample against a
     /// high-sample dense table.
     Eval(EvalBenchArgs),
+    /// Large imported meshes: for a generated rough gold of 1M and 10M triangles and the
+    /// seed's film at 2M triangles (or the samples given with --sample), the time to read
+    /// the mesh files once, to load them parsing the text and from the binary mesh cache,
+    /// to build the Embree scene, the raw Embree random-ray rate, trees/s and segments/s
+    /// of a simulation and their fraction of the raw rate, and the peak memory. Each
+    /// sample runs in a child process, so its peak memory is its own. The generated
+    /// samples are kept in --dir and reused.
+    ///
+    /// Example: goniospec bench large --samples gold_1m --rays 20000
+    Large(LargeBenchArgs),
+}
+
+#[derive(Args)]
+pub(super) struct LargeBenchArgs {
+    /// Generated samples to measure, comma-separated: gold_1m, film_2m, gold_10m.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "gold_1m,film_2m,gold_10m"
+    )]
+    samples: Vec<String>,
+    /// Measure these sample files (TOML naming large meshes) instead.
+    #[arg(long = "sample", value_name = "SAMPLE.toml")]
+    sample_files: Vec<PathBuf>,
+    /// Where generated samples are written and reused.
+    #[arg(long, default_value = "target/bench-large")]
+    dir: PathBuf,
+    /// Trees of each simulation (30 degrees, 40 bins).
+    #[arg(long, default_value_t = 20_000)]
+    rays: u64,
+    /// Internal: measure one sample in this process, naming its figures KEY.
+    #[arg(long, hide = true, num_args = 2, value_names = ["KEY", "SAMPLE"])]
+    one: Vec<String>,
 }
 
 #[derive(Args)]
@@ -237,6 +270,114 @@ pub(super) fn bench_trace(a: TraceArgs) -> Result<ExitCode> {
                 outln!("obvhs/embree {o} {t}T: {:.2}", v / e);
             }
         }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+pub(super) fn bench_large(a: LargeBenchArgs) -> Result<ExitCode> {
+    use goniospec::bench::LargeSample;
+    if a.rays == 0 {
+        bail!("--rays must be at least 1");
+    }
+    if let [key, sample] = &a.one[..] {
+        goniospec::bench::large_case(std::path::Path::new(sample), key, a.rays, emit)
+            .map_err(|e| anyhow::anyhow!(e))?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    let mut cases: Vec<(String, PathBuf)> = Vec::new();
+    if a.sample_files.is_empty() {
+        for name in &a.samples {
+            let which = LargeSample::parse(name).with_context(|| {
+                format!("unknown sample '{name}' (use gold_1m, film_2m, gold_10m)")
+            })?;
+            let path = goniospec::bench::large_sample(&a.dir, which, |l| eprintln!("{l}"))
+                .map_err(|e| anyhow::anyhow!(e))?;
+            cases.push((which.name().to_string(), path));
+        }
+    } else {
+        for (k, p) in a.sample_files.iter().enumerate() {
+            if !p.is_file() {
+                bail!("{}: no such sample file", p.display());
+            }
+            cases.push((format!("sample{k}"), p.clone()));
+        }
+    }
+    let exe = std::env::current_exe().context("finding this program to run each sample")?;
+    let mut figures: Vec<(String, f64)> = Vec::new();
+    for (key, path) in &cases {
+        outln!("# {key}: {}", path.display());
+        let out = std::process::Command::new(&exe)
+            .args([
+                "bench",
+                "large",
+                "--rays",
+                &a.rays.to_string(),
+                "--one",
+                key,
+            ])
+            .arg(path)
+            .stderr(std::process::Stdio::inherit())
+            .output()
+            .with_context(|| format!("running the {key} measurement"))?;
+        let text = String::from_utf8_lossy(&out.stdout);
+        for line in text.lines() {
+            outln!("{line}");
+            if let Some((name, rest)) = line.split_once(": ")
+                && let Some(v) = rest.split_whitespace().next().and_then(|v| v.parse().ok())
+            {
+                figures.push((name.to_string(), v));
+            }
+        }
+        if !out.status.success() {
+            bail!("the {key} measurement failed ({})", out.status);
+        }
+    }
+    // The goals of the large-mesh issue, where their samples were measured.
+    let get = |n: &str| figures.iter().find(|(k, _)| k == n).map(|f| f.1);
+    let goal =
+        |name: &str, value: Option<f64>, unit: &str, limit: f64, below: bool| -> Result<()> {
+            if let Some(v) = value {
+                let met = if below { v <= limit } else { v >= limit };
+                outln!(
+                    "{name}: {v:.3} {unit} (goal {} {limit} {unit}: {})",
+                    if below { "<=" } else { ">=" },
+                    if met { "met" } else { "not met" }
+                );
+            }
+            Ok(())
+        };
+    goal(
+        "goal_film_2m_1e7_rays_projected_s",
+        get("film_2m_projected_1e7_rays_s"),
+        "s",
+        60.0,
+        true,
+    )?;
+    goal(
+        "goal_gold_10m_load_cached_s",
+        get("gold_10m_load_cached_s"),
+        "s",
+        3.0,
+        true,
+    )?;
+    goal(
+        "goal_gold_10m_peak_rss_mb",
+        get("gold_10m_peak_rss_mb"),
+        "MB",
+        4096.0,
+        true,
+    )?;
+    if let (Some(g), Some(f)) = (
+        get("gold_10m_segments_per_s"),
+        get("film_2m_segments_per_s"),
+    ) {
+        goal(
+            "goal_gold_10m_segment_rate_vs_film_percent",
+            Some(100.0 * g / f),
+            "%",
+            100.0,
+            false,
+        )?;
     }
     Ok(ExitCode::SUCCESS)
 }

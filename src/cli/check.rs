@@ -9,6 +9,11 @@ pub(super) struct CheckArgs {
     /// Drop degenerate (zero-area) triangles instead of refusing the mesh.
     #[arg(long)]
     drop_degenerate: bool,
+    /// Parse mesh files even where their binary cache (MESH.gsmesh, written beside meshes
+    /// of 16 MiB and more and checked against the file's size, time and CRC-32) is valid,
+    /// and write none.
+    #[arg(long)]
+    no_mesh_cache: bool,
     /// Accelerator for the intersection and leak tests: embree or obvhs (default: embree
     /// where available).
     #[arg(long, value_parser = parse_backend)]
@@ -24,6 +29,11 @@ pub(super) struct CheckArgs {
 pub(super) fn check(a: CheckArgs) -> Result<ExitCode> {
     let opts = MeshOptions {
         drop_degenerate: a.drop_degenerate,
+        cache: if a.no_mesh_cache {
+            sample::cache::CachePolicy::Off
+        } else {
+            sample::cache::CachePolicy::Large
+        },
     };
     let s = sample::load(&a.sample, opts)?;
     let copts = sample::check::CheckOptions {

@@ -105,6 +105,7 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
                 1.0,
                 MeshOptions {
                     drop_degenerate: true,
+                    ..MeshOptions::default()
                 },
             )?;
             Shape::mesh(mesh, Backend::default_available())?

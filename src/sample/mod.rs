@@ -23,6 +23,7 @@
 //!
 //! Every error names the file, and the line where there is one.
 
+pub mod cache;
 pub mod check;
 pub mod generate;
 pub mod heightmap;
@@ -317,16 +318,32 @@ pub(crate) fn line_of(text: &str, pos: usize) -> usize {
 }
 
 /// Loads a mesh file by its extension: OBJ (the default), PLY or STL.
+/// Large files go through their binary cache (`cache`, per `opts.cache`).
 pub fn load_mesh(path: &Path, nm_per_unit: f64, opts: MeshOptions) -> Result<Mesh, SampleError> {
+    load_mesh_with(path, nm_per_unit, opts).map(|(m, _)| m)
+}
+
+/// [`load_mesh`], also saying whether the mesh came from its cache.
+pub fn load_mesh_with(
+    path: &Path,
+    nm_per_unit: f64,
+    opts: MeshOptions,
+) -> Result<(Mesh, cache::Loaded), SampleError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("ply") => plystl::load_ply(path, nm_per_unit, opts),
-        Some("stl") => plystl::load_stl(path, nm_per_unit, opts),
-        _ => load_obj(path, nm_per_unit, opts),
-    }
+    cache::load(
+        path,
+        nm_per_unit,
+        opts.drop_degenerate,
+        opts.cache,
+        || match ext.as_deref() {
+            Some("ply") => plystl::load_ply(path, nm_per_unit, opts),
+            Some("stl") => plystl::load_stl(path, nm_per_unit, opts),
+            _ => load_obj(path, nm_per_unit, opts),
+        },
+    )
 }
 
 /// Reads an interface's height map and meshes it: (mesh, tile in nm, description).

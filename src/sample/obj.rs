@@ -22,6 +22,8 @@ use glam::DVec3;
 pub struct MeshOptions {
     /// Drop degenerate (zero-area) triangles instead of refusing the mesh.
     pub drop_degenerate: bool,
+    /// Whether large mesh files go through their binary cache (`sample::cache`).
+    pub cache: super::cache::CachePolicy,
 }
 
 /// Lines of `text` with their 1-based numbers, split at `\n`, `\r\n` or a lone `\r`.
