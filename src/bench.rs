@@ -421,8 +421,7 @@ pub fn eval_bench(
         let t0 = Instant::now();
         let kd = KdTreeBrdf::build(&data, 4, true, false);
         let bt = t0.elapsed().as_secs_f64();
-        let mem =
-            (kd.points.len() * (4 * 8 * 2 + 6 * 8 + 4) + kd.values.len() * 8) as f64 / 1e6 * 1.25;
+        let mem = (kd.tree.heap_bytes() + kd.points.len() * 32 + kd.values.len() * 8) as f64 / 1e6;
         reps.push(("kdtree", Box::new(kd), bt, mem));
         let t0 = Instant::now();
         let sub = SubdividedBrdf::build(&data, 0.05);
@@ -451,6 +450,8 @@ pub fn eval_bench(
                 "{name:<11} {n:<9} {bt:<9.3} {mem:<10.1} {med:<10.0} {p99:<8.0} {maxe:<24.4} {:.4}",
                 sume / 5000.0
             ));
+            log(&format!("{name}_{n}_median_ns: {med:.0} ns"));
+            log(&format!("{name}_{n}_p99_ns: {p99:.0} ns"));
         }
         // Brute-force nearest search over the same points, for the kd-tree's speed-up.
         let kd = KdTreeBrdf::build(&data, 4, true, false);

@@ -20,19 +20,53 @@ use super::{BucketData, Meta, angles, arc, dir};
 use glam::DVec3;
 
 /// Points per leaf.
-const LEAF: usize = 8;
+const LEAF: usize = 16;
+/// `Node::a` of a leaf carries this bit.
+const LEAF_BIT: u32 = 1 << 31;
+/// Radians taken off every node bound, which is formed from single-precision bounds and
+/// trigonometric values (relative error below 1e-7): the bound stays a lower bound.
+const BOUND_SLACK: f64 = 1e-6;
+/// Radians taken off the chord lower bound of a point's distance: a chord `sqrt(2 - 2
+/// cos)` formed from a rounded cosine is off by at most `sqrt(1e-15)` near zero.
+const CHORD_SLACK: f64 = 1e-7;
 
+/// A node in 72 bytes (a leaf's points follow it in memory order of the build).
 #[derive(Clone, Debug, PartialEq)]
 struct Node {
-    lo: [f64; 4],
-    hi: [f64; 4],
+    /// Bounds of `(theta_i, phi_i, theta_o, phi_o)`, rounded outwards to f32.
+    lo: [f32; 4],
+    hi: [f32; 4],
     /// Cosine and sine of the azimuth bounds, `[cos lo, sin lo, cos hi, sin hi]`, for the
-    /// incident and the outgoing azimuth.
-    trig: [[f64; 4]; 2],
-    /// Inner node: children `a` and `b`; leaf (`leaf` = true): points `a..b`.
+    /// incident and the outgoing azimuth (f32; see [`BOUND_SLACK`]).
+    trig: [[f32; 4]; 2],
+    /// Inner node: children `a` and `b`; leaf (`a & LEAF_BIT`): points `a & !LEAF_BIT..b`.
     a: u32,
     b: u32,
-    leaf: bool,
+}
+
+impl Node {
+    fn is_leaf(&self) -> bool {
+        self.a & LEAF_BIT != 0
+    }
+}
+
+/// `x` (finite) rounded to f32 towards minus (`down`) or plus infinity.
+fn f32_outward(x: f64, down: bool) -> f32 {
+    let f = x as f32;
+    // One f32 step towards minus (`up` false) or plus infinity.
+    let step = |f: f32, up: bool| {
+        if f == 0.0 {
+            let tiny = f32::from_bits(1);
+            return if up { tiny } else { -tiny };
+        }
+        let b = f.to_bits();
+        f32::from_bits(if (f > 0.0) == up { b + 1 } else { b - 1 })
+    };
+    match (down, f64::from(f) > x, f64::from(f) < x) {
+        (true, true, _) => step(f, false),
+        (false, _, true) => step(f, true),
+        _ => f,
+    }
 }
 
 /// A query: angles, their sines, and unit vectors.
@@ -47,13 +81,16 @@ struct Query {
 }
 
 /// A kd-tree over points `(theta_i, phi_i, theta_o, phi_o)` (radians).
+///
+/// Layout for the cache: nodes of 72 bytes with single-precision bounds in depth-first
+/// order, and each point's two unit vectors side by side (48 bytes) in tree order, so a
+/// leaf's points are contiguous.
 #[derive(Clone, Debug, PartialEq)]
 pub struct KdTree {
     nodes: Vec<Node>,
-    /// Points in tree order, as coordinates and unit vectors.
+    /// Points in tree order: coordinates, and `wi` then `wo`.
     coords: Vec<[f64; 4]>,
-    wi: Vec<DVec3>,
-    wo: Vec<DVec3>,
+    w: Vec<[f64; 6]>,
     /// Tree order -> original index.
     index: Vec<u32>,
 }
@@ -97,6 +134,10 @@ fn direction_bound(
 impl KdTree {
     /// Builds the tree over `points` (any order).
     pub fn build(points: &[[f64; 4]]) -> KdTree {
+        assert!(
+            (points.len() as u64) < u64::from(LEAF_BIT),
+            "a kd-tree holds fewer than 2^31 points"
+        );
         let mut idx: Vec<u32> = (0..points.len() as u32).collect();
         let mut nodes = Vec::new();
         if !points.is_empty() {
@@ -105,8 +146,13 @@ impl KdTree {
         let coords: Vec<[f64; 4]> = idx.iter().map(|&i| points[i as usize]).collect();
         KdTree {
             nodes,
-            wi: coords.iter().map(|c| dir(c[0], c[1])).collect(),
-            wo: coords.iter().map(|c| dir(c[2], c[3])).collect(),
+            w: coords
+                .iter()
+                .map(|c| {
+                    let (a, b) = (dir(c[0], c[1]), dir(c[2], c[3]));
+                    [a.x, a.y, a.z, b.x, b.y, b.z]
+                })
+                .collect(),
             coords,
             index: idx,
         }
@@ -128,14 +174,13 @@ impl KdTree {
             }
         }
         let me = nodes.len() as u32;
-        let t = |d: usize| [lo[d].cos(), lo[d].sin(), hi[d].cos(), hi[d].sin()];
+        let t = |d: usize| [lo[d].cos(), lo[d].sin(), hi[d].cos(), hi[d].sin()].map(|v| v as f32);
         nodes.push(Node {
-            lo,
-            hi,
+            lo: lo.map(|v| f32_outward(v, true)),
+            hi: hi.map(|v| f32_outward(v, false)),
             trig: [t(1), t(3)],
-            a: start as u32,
+            a: start as u32 | LEAF_BIT,
             b: end as u32,
-            leaf: true,
         });
         if end - start <= LEAF {
             return me;
@@ -160,12 +205,19 @@ impl KdTree {
         let n = &mut nodes[me as usize];
         n.a = a;
         n.b = b;
-        n.leaf = false;
         me
     }
 
     pub fn len(&self) -> usize {
         self.coords.len()
+    }
+
+    /// Bytes the tree holds on the heap (nodes, points, vectors, index).
+    pub fn heap_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node>()
+            + self.coords.len() * std::mem::size_of::<[f64; 4]>()
+            + self.w.len() * std::mem::size_of::<[f64; 6]>()
+            + self.index.len() * 4
     }
 
     pub fn is_empty(&self) -> bool {
@@ -174,12 +226,13 @@ impl KdTree {
 
     #[inline]
     fn node_bound(&self, n: &Node, q: &Query) -> f64 {
-        let (lo, hi) = (&n.lo, &n.hi);
+        let (lo, hi) = (n.lo.map(f64::from), n.hi.map(f64::from));
+        let (ti, to) = (n.trig[0].map(f64::from), n.trig[1].map(f64::from));
         direction_bound(
-            q.c[0], q.sin_i, q.c[1], q.cs[0], q.cs[1], lo[0], hi[0], lo[1], hi[1], &n.trig[0],
+            q.c[0], q.sin_i, q.c[1], q.cs[0], q.cs[1], lo[0], hi[0], lo[1], hi[1], &ti,
         ) + direction_bound(
-            q.c[2], q.sin_o, q.c[3], q.cs[2], q.cs[3], lo[2], hi[2], lo[3], hi[3], &n.trig[1],
-        )
+            q.c[2], q.sin_o, q.c[3], q.cs[2], q.cs[3], lo[2], hi[2], lo[3], hi[3], &to,
+        ) - 2.0 * BOUND_SLACK
     }
 
     /// The `k` nearest points to `(wi, wo)`: `(distance, original index)`, sorted by
@@ -204,22 +257,36 @@ impl KdTree {
 
     fn search(&self, node: u32, q: &Query, k: usize, out: &mut Vec<(f64, u32)>) {
         let n = &self.nodes[node as usize];
-        if n.leaf {
+        if n.is_leaf() {
             let (wi, wo) = (q.wi, q.wo);
-            // Each arc alone is at most the full distance: once k candidates are held, a
-            // point whose incident or outgoing cosine is below cos(worst) cannot qualify,
-            // which rejects most points without a trigonometric call. (The 1e-12 margin keeps
-            // the test conservative where cosines of tiny arcs round to 1.)
+            // Once k candidates are held, two tests reject most points without a
+            // trigonometric call: each arc alone is at most the full distance, so a point
+            // whose incident or outgoing cosine is below cos(worst) cannot qualify (the
+            // 1e-12 margin keeps the test conservative where cosines of tiny arcs round to
+            // 1); and an arc is at least its chord `sqrt(2 - 2 cos)`, so the sum of the two
+            // chords (less CHORD_SLACK) bounds the distance from below.
+            let mut worst = if out.len() < k {
+                f64::INFINITY
+            } else {
+                out[out.len() - 1].0
+            };
             let mut cos_worst = if out.len() < k {
                 -2.0
             } else {
-                out[out.len() - 1].0.min(PI).cos() - 1e-12
+                worst.min(PI).cos() - 1e-12
             };
-            for p in n.a as usize..n.b as usize {
-                if wi.dot(self.wi[p]) < cos_worst || wo.dot(self.wo[p]) < cos_worst {
+            for p in (n.a & !LEAF_BIT) as usize..n.b as usize {
+                let v = &self.w[p];
+                let (pi, po) = (DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]));
+                let (ci, co) = (wi.dot(pi), wo.dot(po));
+                if ci < cos_worst || co < cos_worst {
                     continue;
                 }
-                let d = arc(wi, self.wi[p]) + arc(wo, self.wo[p]);
+                let chords = (2.0 - 2.0 * ci).max(0.0).sqrt() + (2.0 - 2.0 * co).max(0.0).sqrt();
+                if chords - CHORD_SLACK > worst {
+                    continue;
+                }
+                let d = arc(wi, pi) + arc(wo, po);
                 let id = self.index[p];
                 let better = out.len() < k || {
                     let w = out[out.len() - 1];
@@ -232,7 +299,8 @@ impl KdTree {
                         out.pop();
                     }
                     if out.len() == k {
-                        cos_worst = out[k - 1].0.min(PI).cos() - 1e-12;
+                        worst = out[k - 1].0;
+                        cos_worst = worst.min(PI).cos() - 1e-12;
                     }
                 }
             }
@@ -258,7 +326,11 @@ impl KdTree {
     /// Brute-force k nearest, same ordering: the reference for tests and benchmarks.
     pub fn nearest_brute(&self, wi: DVec3, wo: DVec3, k: usize) -> Vec<(f64, u32)> {
         let mut all: Vec<(f64, u32)> = (0..self.len())
-            .map(|p| (arc(wi, self.wi[p]) + arc(wo, self.wo[p]), self.index[p]))
+            .map(|p| {
+                let v = &self.w[p];
+                let (pi, po) = (DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]));
+                (arc(wi, pi) + arc(wo, po), self.index[p])
+            })
             .collect();
         all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         all.truncate(k);
@@ -273,28 +345,29 @@ impl KdTree {
         let mut stack = vec![(0u32, [f64::NEG_INFINITY; 4], [f64::INFINITY; 4])];
         while let Some((i, plo, phi)) = stack.pop() {
             let n = &self.nodes[i as usize];
+            let (lo, hi) = (n.lo.map(f64::from), n.hi.map(f64::from));
             for d in 0..4 {
-                if n.lo[d] < plo[d] || n.hi[d] > phi[d] {
+                if lo[d] < plo[d] || hi[d] > phi[d] {
                     return Err(format!(
                         "node {i} exceeds its parent's bounds in dimension {d}"
                     ));
                 }
             }
-            if n.leaf {
-                for p in n.a as usize..n.b as usize {
+            if n.is_leaf() {
+                for p in (n.a & !LEAF_BIT) as usize..n.b as usize {
                     if seen[p] {
                         return Err(format!("point {p} in two leaves"));
                     }
                     seen[p] = true;
                     for d in 0..4 {
-                        if self.coords[p][d] < n.lo[d] || self.coords[p][d] > n.hi[d] {
+                        if self.coords[p][d] < lo[d] || self.coords[p][d] > hi[d] {
                             return Err(format!("point {p} outside leaf {i}"));
                         }
                     }
                 }
             } else {
-                stack.push((n.a, n.lo, n.hi));
-                stack.push((n.b, n.lo, n.hi));
+                stack.push((n.a, lo, hi));
+                stack.push((n.b, lo, hi));
             }
         }
         match seen.iter().position(|s| !s) {
@@ -425,5 +498,27 @@ impl KdTreeBrdf {
                 *o /= wsum;
             }
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn outward_rounding_brackets_the_value() {
+        let mut x = 0.37f64;
+        for k in 0..100_000 {
+            x = (x * 7.13 + 0.31).fract() * TAU - if k % 3 == 0 { PI } else { 0.0 };
+            for v in [x, -x, 0.0, 1e-300, -1e-300, PI, TAU] {
+                let (lo, hi) = (f32_outward(v, true), f32_outward(v, false));
+                assert!(f64::from(lo) <= v && v <= f64::from(hi), "{v}: {lo} {hi}");
+                // At most one f32 step apart from the nearest.
+                assert!(
+                    f64::from(hi) - f64::from(lo)
+                        <= 2.0 * f64::from(f32::EPSILON) * v.abs().max(1e-38)
+                );
+            }
+        }
     }
 }
