@@ -21,6 +21,7 @@ bench: deps
 	$(CARGO) run --release -- bench trace
 	$(CARGO) run --release -- bench simulate
 	$(CARGO) run --release -- bench eval
+	$(CARGO) run --release -- bench large
 
 ## Run the whole test suite, then the batch test on a local Slurm cluster (as root; it
 ## says so when it cannot run).
