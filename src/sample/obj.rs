@@ -225,6 +225,18 @@ pub fn parse_obj(
             _ => {}
         }
     }
+    finish_mesh(path, mesh, opts, |i| Some(triangle_lines[i]))
+}
+
+/// The checks every loaded mesh gets, whatever its format: triangles present, and none
+/// degenerate (or, with `opts.drop_degenerate`, those dropped). `line_of(i)` is the line
+/// of triangle `i` where the format has lines.
+pub(crate) fn finish_mesh(
+    path: &Path,
+    mut mesh: Mesh,
+    opts: MeshOptions,
+    line_of: impl Fn(usize) -> Option<usize>,
+) -> Result<Mesh, SampleError> {
     if mesh.triangles.is_empty() {
         return Err(SampleError::file(path, SampleErrorKind::EmptyMesh));
     }
@@ -241,14 +253,14 @@ pub fn parse_obj(
                 return Err(SampleError::file(path, SampleErrorKind::EmptyMesh));
             }
         } else {
-            return Err(SampleError::at(
-                path,
-                triangle_lines[degenerate[0]],
-                SampleErrorKind::DegenerateTriangles {
-                    count: degenerate.len(),
-                    total: mesh.triangles.len(),
-                },
-            ));
+            let kind = SampleErrorKind::DegenerateTriangles {
+                count: degenerate.len(),
+                total: mesh.triangles.len(),
+            };
+            return Err(match line_of(degenerate[0]) {
+                Some(line) => SampleError::at(path, line, kind),
+                None => SampleError::file(path, kind),
+            });
         }
     }
     Ok(mesh)

@@ -48,33 +48,9 @@ fn corner(path: &Path, p: [f64; 3], nm_per_unit: f64, what: &str) -> Result<DVec
     Ok(DVec3::from(q))
 }
 
-/// The checks every loaded mesh gets: triangles present, none degenerate (or dropped).
-fn finish(path: &Path, mut mesh: Mesh, opts: MeshOptions) -> Result<Mesh, SampleError> {
-    if mesh.triangles.is_empty() {
-        return Err(SampleError::file(path, SampleErrorKind::EmptyMesh));
-    }
-    let degenerate = mesh.degenerate_triangles();
-    if !degenerate.is_empty() {
-        if !opts.drop_degenerate {
-            return Err(SampleError::file(
-                path,
-                SampleErrorKind::DegenerateTriangles {
-                    count: degenerate.len(),
-                    total: mesh.triangles.len(),
-                },
-            ));
-        }
-        let mut keep = vec![true; mesh.triangles.len()];
-        for &i in &degenerate {
-            keep[i] = false;
-        }
-        let mut k = keep.iter();
-        mesh.triangles.retain(|_| *k.next().unwrap_or(&true));
-        if mesh.triangles.is_empty() {
-            return Err(SampleError::file(path, SampleErrorKind::EmptyMesh));
-        }
-    }
-    Ok(mesh)
+/// OBJ's checks (`obj::finish_mesh`); these formats have no line per triangle.
+fn finish(path: &Path, mesh: Mesh, opts: MeshOptions) -> Result<Mesh, SampleError> {
+    super::obj::finish_mesh(path, mesh, opts, |_| None)
 }
 
 /// Loads a binary or ASCII STL.
