@@ -116,17 +116,14 @@ pub fn exp_batch(arg: &[f64], out: &mut Vec<f64>) {
         let n_int = t.to_bits() as i64 - round_bits;
         let n = t - ROUND;
         let r = (x - n * LN2_1) - n * LN2_2;
-        let p = E[0]
-            + r * (E[1]
-                + r * (E[2]
-                    + r * (E[3]
-                        + r * (E[4]
-                            + r * (E[5]
-                                + r * (E[6]
-                                    + r * (E[7]
-                                        + r * (E[8]
-                                            + r * (E[9]
-                                                + r * (E[10] + r * (E[11] + r * E[12])))))))))));
+        // Estrin's scheme (independent products, flat for rustfmt, which takes
+        // exponential time on deeply nested brackets).
+        let (r2, r4) = (r * r, r * r * r * r);
+        let r8 = r4 * r4;
+        let q0 = (E[0] + r * E[1]) + r2 * (E[2] + r * E[3]);
+        let q1 = (E[4] + r * E[5]) + r2 * (E[6] + r * E[7]);
+        let q2 = (E[8] + r * E[9]) + r2 * (E[10] + r * E[11]);
+        let p = (q0 + r4 * q1) + r8 * (q2 + r4 * E[12]);
         let er = 1.0 + r * p;
         // 2^n for -1022 <= n <= 0: the biased exponent n + 1023.
         let two_n = f64::from_bits(((n_int + 1023) as u64) << 52);
