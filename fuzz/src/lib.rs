@@ -39,7 +39,15 @@ fn text(data: &[u8]) -> Option<&str> {
 pub fn obj(data: &[u8]) {
     if let Some(t) = text(data) {
         for drop_degenerate in [false, true] {
-            let _ = sample::parse_obj(base(), t, 1000.0, MeshOptions { drop_degenerate });
+            let _ = sample::parse_obj(
+                base(),
+                t,
+                1000.0,
+                MeshOptions {
+                    drop_degenerate,
+                    ..MeshOptions::default()
+                },
+            );
         }
     }
 }
