@@ -80,6 +80,64 @@ fn kdtree_nearest_neighbours_equal_brute_force() {
     );
 }
 
+/// Bucket centres on a grid, as `build` makes them for an isotropic sample (`phi_i = 0`),
+/// are full of exact ties: queries at grid points, half-way between them and at random,
+/// with k from 1 to 8, must still equal brute force (ties broken by index).
+#[test]
+fn kdtree_on_a_bucket_grid_equals_brute_force() {
+    let mut pts = Vec::new();
+    for i in 0..12 {
+        let ti = (80.0 * f64::from(i) / 11.0).to_radians();
+        for t in 0..30 {
+            for p in 0..48 {
+                let to = (f64::from(t) + 0.5) * 3f64.to_radians();
+                pts.push([ti, 0.0, to, (f64::from(p) + 0.5) * TAU / 48.0]);
+            }
+        }
+    }
+    // The reciprocal entries, as `build --reciprocal` adds them.
+    let n = pts.len();
+    for j in 0..n {
+        let [ti, _, to, po] = pts[j];
+        pts.push([to, 0.0, ti, (-po).rem_euclid(TAU)]);
+    }
+    let tree = KdTree::build(&pts);
+    tree.validate().unwrap();
+    let mut r = Rng::new(23, 0);
+    let queries: Vec<(glam::DVec3, glam::DVec3)> = (0..2_400)
+        .map(|i| {
+            let c = pts[(r.uniform() * pts.len() as f64) as usize];
+            match i % 3 {
+                0 => (dir(c[0], c[1]), dir(c[2], c[3])),
+                1 => (
+                    dir(c[0] + 4f64.to_radians(), 0.0),
+                    dir(c[2] + 1.5f64.to_radians(), c[3] + PI / 48.0),
+                ),
+                _ => (
+                    dir(r.range(0.0, FRAC_PI_2), 0.0),
+                    dir(r.range(0.0, FRAC_PI_2), r.range(0.0, TAU)),
+                ),
+            }
+        })
+        .collect();
+    let mismatches = queries
+        .par_iter()
+        .enumerate()
+        .filter(|&(i, &(wi, wo))| {
+            let k = 1 + i % 8;
+            let mut got = Vec::new();
+            tree.nearest(wi, wo, k, &mut got);
+            got != tree.nearest_brute(wi, wo, k)
+        })
+        .count();
+    assert_eq!(
+        mismatches,
+        0,
+        "{mismatches} of {} queries differ",
+        queries.len()
+    );
+}
+
 /// A rough dielectric simulated at six incident angles (shared by the tests below).
 fn rough_data(buckets: Buckets) -> (BucketData, goniospec::accumulate::file::Accumulator) {
     let s = goniospec::sample::load(

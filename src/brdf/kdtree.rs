@@ -1,52 +1,105 @@
-//! The seed's 4-D spherically parameterised kd-tree over bucket centres
-//! `(theta_i, phi_i, theta_o, phi_o)`.
+//! A kd-tree over bucket centres `(theta_i, phi_i, theta_o, phi_o)`, the seed's 4-D
+//! spherical parameterisation, for exact k-nearest queries.
 //!
 //! Distance: the great-circle arc between the incident directions plus that between the
-//! outgoing directions. Every node keeps the bounds of its points in each of the four
-//! coordinates, and a query prunes a node with a lower bound that never over-estimates:
-//! for each direction the larger of the polar-band bound `|theta - band|` (an arc is at
-//! least its change in polar angle) and the azimuth-wedge bound, the arc to the nearer
-//! bounding meridian. For a meridian within 90 degrees of azimuth that arc is half the arc
-//! to the query's mirror image about the meridian plane (the seed's "reflected point"
-//! trick): `asin(sin(theta) |sin(dphi)|)`, used through its lower bound
-//! `sin(theta) |sin(dphi)|` so no trigonometric call is needed per node; beyond 90 degrees
-//! the nearest point of the meridian is a pole. A k-nearest query is therefore exact (tested against brute force),
-//! and the BRDF blends the k nearest buckets' intensities with a Gaussian kernel whose width
-//! is the distance to the k-th neighbour, which follows the local bucket spacing.
+//! outgoing directions (radians), as in the seed. The tree partitions the points by their
+//! two unit vectors, six Cartesian coordinates, which have no seam at `phi = 2 pi` and no
+//! pole. A chord never exceeds its arc (`chord = 2 sin(arc / 2)`), so the Euclidean
+//! distance from a query direction to an axis-aligned box of directions bounds from below
+//! the arc to any direction inside it, and the sum of the two bounds a node's distance
+//! (tighter than the arc sum by `arc^2 / 24` relative). A k-nearest query is therefore exact
+//! (tested against brute force), and the BRDF blends the k nearest buckets' intensities with
+//! a Gaussian kernel whose width is the distance to the k-th neighbour, which follows the
+//! local bucket spacing.
+//!
+//! Layout for the cache and for SSE: each inner node holds both children's boxes (single
+//! precision, rounded outwards) in two aligned cache lines, coordinate by coordinate across
+//! the four directions, so one fetch and a few 4-lane operations bound both children. A
+//! leaf's points are also kept in single precision, four to a group, and the sum of their
+//! two chords less a stated slack rejects most points before the exact double-precision arc.
 
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::TAU;
 
-use super::{BucketData, Meta, angles, arc, dir};
-use glam::DVec3;
+use super::{BucketData, Meta, arc, dir};
+use glam::{DVec3, Vec4};
 
 /// Points per leaf.
 const LEAF: usize = 16;
-/// `Node::a` of a leaf carries this bit.
+/// A child reference with this bit is a leaf: its first group.
 const LEAF_BIT: u32 = 1 << 31;
-/// Radians taken off every node bound, which is formed from single-precision bounds and
-/// trigonometric values (relative error below 1e-7): the bound stays a lower bound.
-const BOUND_SLACK: f64 = 1e-6;
-/// Radians taken off the chord lower bound of a point's distance: a chord `sqrt(2 - 2
-/// cos)` formed from a rounded cosine is off by at most `sqrt(1e-15)` near zero.
-const CHORD_SLACK: f64 = 1e-7;
+/// `Group::id` of a lane past its leaf's last point.
+const PAD: u32 = u32::MAX;
+/// Radians taken off every single-precision chord sum, box or point. Unit-vector
+/// coordinates rounded to f32 are off by at most 3e-8 each, and the differences, squares,
+/// square roots and the sum of two chords (each at most 2) add a few f32 roundings of
+/// values up to 4 (2.4e-7 each): the error stays below 3e-6, so the sum less this slack
+/// never exceeds the exact chord sum, which never exceeds the arc sum.
+const F32_SLACK: f64 = 1e-5;
 
-/// A node in 72 bytes (a leaf's points follow it in memory order of the build).
+/// An axis-aligned box of `(wi, wo)`: `lo` and `hi` of the six coordinates.
+type Bounds = [[f32; 6]; 2];
+
+/// A subtree: an inner node's number, or a leaf's first group with [`LEAF_BIT`] and its
+/// number of groups.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Child {
+    at: u32,
+    groups: u32,
+}
+
+/// An inner node: both children's boxes and references (two aligned cache lines). Lane
+/// order of each vector: child 0's incident and outgoing parts, then child 1's.
 #[derive(Clone, Debug, PartialEq)]
+#[repr(C, align(64))]
 struct Node {
-    /// Bounds of `(theta_i, phi_i, theta_o, phi_o)`, rounded outwards to f32.
-    lo: [f32; 4],
-    hi: [f32; 4],
-    /// Cosine and sine of the azimuth bounds, `[cos lo, sin lo, cos hi, sin hi]`, for the
-    /// incident and the outgoing azimuth (f32; see [`BOUND_SLACK`]).
-    trig: [[f32; 4]; 2],
-    /// Inner node: children `a` and `b`; leaf (`a & LEAF_BIT`): points `a & !LEAF_BIT..b`.
-    a: u32,
-    b: u32,
+    /// Lower then upper bounds of x, y and z.
+    lo: [Vec4; 3],
+    hi: [Vec4; 3],
+    child: [Child; 2],
 }
 
 impl Node {
-    fn is_leaf(&self) -> bool {
-        self.a & LEAF_BIT != 0
+    fn new(boxes: [Bounds; 2], child: [Child; 2]) -> Node {
+        let lanes = |side: usize, c: usize| {
+            Vec4::new(
+                boxes[0][side][c],
+                boxes[0][side][c + 3],
+                boxes[1][side][c],
+                boxes[1][side][c + 3],
+            )
+        };
+        Node {
+            lo: [0, 1, 2].map(|c| lanes(0, c)),
+            hi: [0, 1, 2].map(|c| lanes(1, c)),
+            child,
+        }
+    }
+
+    /// Child `c`'s box.
+    fn bounds(&self, c: usize) -> Bounds {
+        let get = |v: &[Vec4; 3], d: usize| v[d % 3][2 * c + d / 3];
+        [
+            std::array::from_fn(|d| get(&self.lo, d)),
+            std::array::from_fn(|d| get(&self.hi, d)),
+        ]
+    }
+
+    /// Lower bounds (radians, [`F32_SLACK`] included) of the distance from the query to
+    /// any point in each child's box: the Euclidean distance from `wi` to the box's
+    /// incident part plus that from `wo` to its outgoing part, each at most the chord and
+    /// so at most the arc. `q` holds `(wi, wo, wi, wo)` lane-wise for x, y and z.
+    #[inline]
+    fn bounds_to(&self, q: &[Vec4; 3]) -> (f64, f64) {
+        let mut d2 = Vec4::ZERO;
+        for ((lo, hi), q) in self.lo.iter().zip(&self.hi).zip(q) {
+            let e = (*lo - *q).max(*q - *hi).max(Vec4::ZERO);
+            d2 += e * e;
+        }
+        let d = sqrt4(d2);
+        (
+            f64::from(d.x + d.y) - F32_SLACK,
+            f64::from(d.z + d.w) - F32_SLACK,
+        )
     }
 }
 
@@ -69,267 +122,323 @@ fn f32_outward(x: f64, down: bool) -> f32 {
     }
 }
 
-/// A query: angles, their sines, and unit vectors.
-struct Query {
-    c: [f64; 4],
-    /// Cosine and sine of the two azimuths.
-    cs: [f64; 4],
-    sin_i: f64,
-    sin_o: f64,
-    wi: DVec3,
-    wo: DVec3,
+/// Lane-wise square root written so that LLVM emits one `sqrtps` (glam's `Vec4::sqrt`
+/// takes four scalar roots).
+#[inline(always)]
+fn sqrt4(v: Vec4) -> Vec4 {
+    Vec4::from_array(v.to_array().map(f32::sqrt))
+}
+
+/// The chords (single precision) from the query direction `q` (each coordinate splat) to
+/// four points' incident (`off` 0) or outgoing (`off` 3) directions.
+#[inline(always)]
+fn chords(v: &[Vec4; 6], off: usize, q: &[Vec4; 3]) -> Vec4 {
+    let (dx, dy, dz) = (v[off] - q[0], v[off + 1] - q[1], v[off + 2] - q[2]);
+    sqrt4(dx * dx + dy * dy + dz * dz)
+}
+
+/// An upper bound of the arc (radians) whose chord is `c`: the arc `2 asin(c / 2)` is at
+/// most `c (1 + c^2 / 12)` for `c <= 1` (its series is `c + c^3/24 + 3 c^5/640 + ...`) and
+/// at most `c pi / 2` beyond (`arc / c` grows with `c` to `pi / 2` at `c = 2`).
+#[inline]
+fn arc_upper(c: f32) -> f32 {
+    if c <= 1.0 {
+        c * (1.0 + c * c / 12.0)
+    } else {
+        c * std::f32::consts::FRAC_PI_2
+    }
+}
+
+/// Four points of a leaf: single-precision coordinates lane by lane (`wi` x, y, z, then
+/// `wo`) and their original indices. A leaf's lanes past its last point repeat that point
+/// with the index [`PAD`].
+#[derive(Clone, Debug, PartialEq)]
+#[repr(C, align(16))]
+struct Group {
+    v: [Vec4; 6],
+    id: [u32; 4],
 }
 
 /// A kd-tree over points `(theta_i, phi_i, theta_o, phi_o)` (radians).
-///
-/// Layout for the cache: nodes of 72 bytes with single-precision bounds in depth-first
-/// order, and each point's two unit vectors side by side (48 bytes) in tree order, so a
-/// leaf's points are contiguous.
 #[derive(Clone, Debug, PartialEq)]
 pub struct KdTree {
     nodes: Vec<Node>,
-    /// Points in tree order: coordinates, and `wi` then `wo`.
-    coords: Vec<[f64; 4]>,
+    /// The root and its box.
+    root: Child,
+    root_box: Bounds,
+    /// Four points per group, each leaf's starting a new group.
+    groups: Vec<Group>,
+    /// The points as `wi` then `wo`, four per group in the groups' order (padding lanes
+    /// repeat their leaf's last point).
     w: Vec<[f64; 6]>,
-    /// Tree order -> original index.
-    index: Vec<u32>,
-}
-
-/// Lower bound of the arc from a query direction (polar angle `tq`, its sine, azimuth `pq`
-/// with cosine and sine `cq`, `sq`) to any direction with theta in `[tlo, thi]` and phi in
-/// `[plo, phi_hi]` (whose cosines and sines are `trig`). Never over-estimates:
-/// - an arc is at least its change in polar angle (band bound);
-/// - outside the azimuth wedge, the arc to the nearer bounding meridian: for a meridian
-///   within 90 degrees, `asin(sin(theta) |sin(dphi)|)` (half the arc to the mirror image),
-///   bounded below by its argument since `asin(x) >= x`; beyond 90 degrees the nearest
-///   point of the meridian is a pole, `min(theta, pi - theta)`.
-#[inline]
-#[allow(clippy::too_many_arguments)]
-fn direction_bound(
-    tq: f64,
-    sin_tq: f64,
-    pq: f64,
-    cq: f64,
-    sq: f64,
-    tlo: f64,
-    thi: f64,
-    plo: f64,
-    phi_hi: f64,
-    trig: &[f64; 4],
-) -> f64 {
-    let band = (tlo - tq).max(tq - thi).max(0.0);
-    if pq >= plo && pq <= phi_hi {
-        return band;
-    }
-    let semicircle = |c: f64, s: f64| {
-        if cq * c + sq * s >= 0.0 {
-            sin_tq * (sq * c - cq * s).abs()
-        } else {
-            tq.min(PI - tq)
-        }
-    };
-    band.max(semicircle(trig[0], trig[1]).min(semicircle(trig[2], trig[3])))
+    /// Points held (padding not counted).
+    len: usize,
 }
 
 impl KdTree {
     /// Builds the tree over `points` (any order).
     pub fn build(points: &[[f64; 4]]) -> KdTree {
         assert!(
-            (points.len() as u64) < u64::from(LEAF_BIT),
-            "a kd-tree holds fewer than 2^31 points"
+            (points.len() as u64) < u64::from(LEAF_BIT) / 4,
+            "a kd-tree holds fewer than 2^29 points"
         );
+        let all: Vec<[f64; 6]> = points
+            .iter()
+            .map(|c| {
+                let (a, b) = (dir(c[0], c[1]), dir(c[2], c[3]));
+                [a.x, a.y, a.z, b.x, b.y, b.z]
+            })
+            .collect();
         let mut idx: Vec<u32> = (0..points.len() as u32).collect();
-        let mut nodes = Vec::new();
+        let mut tree = KdTree {
+            nodes: Vec::new(),
+            root: Child {
+                at: LEAF_BIT,
+                groups: 0,
+            },
+            root_box: [[0.0; 6]; 2],
+            groups: Vec::new(),
+            w: Vec::new(),
+            len: points.len(),
+        };
         if !points.is_empty() {
-            Self::build_rec(points, &mut idx, 0, points.len(), &mut nodes);
+            let (root, root_box) = tree.build_rec(&all, &mut idx, 0, points.len());
+            tree.root = root;
+            tree.root_box = root_box;
         }
-        let coords: Vec<[f64; 4]> = idx.iter().map(|&i| points[i as usize]).collect();
-        KdTree {
-            nodes,
-            w: coords
-                .iter()
-                .map(|c| {
-                    let (a, b) = (dir(c[0], c[1]), dir(c[2], c[3]));
-                    [a.x, a.y, a.z, b.x, b.y, b.z]
-                })
-                .collect(),
-            coords,
-            index: idx,
-        }
+        tree
     }
 
+    /// Builds the subtree over `idx[start..end]`: its reference and box.
     fn build_rec(
-        points: &[[f64; 4]],
+        &mut self,
+        all: &[[f64; 6]],
         idx: &mut [u32],
         start: usize,
         end: usize,
-        nodes: &mut Vec<Node>,
-    ) -> u32 {
-        let mut lo = [f64::INFINITY; 4];
-        let mut hi = [f64::NEG_INFINITY; 4];
+    ) -> (Child, Bounds) {
+        let mut lo = [f64::INFINITY; 6];
+        let mut hi = [f64::NEG_INFINITY; 6];
         for &i in &idx[start..end] {
-            for d in 0..4 {
-                lo[d] = lo[d].min(points[i as usize][d]);
-                hi[d] = hi[d].max(points[i as usize][d]);
+            for d in 0..6 {
+                lo[d] = lo[d].min(all[i as usize][d]);
+                hi[d] = hi[d].max(all[i as usize][d]);
             }
         }
-        let me = nodes.len() as u32;
-        let t = |d: usize| [lo[d].cos(), lo[d].sin(), hi[d].cos(), hi[d].sin()].map(|v| v as f32);
-        nodes.push(Node {
-            lo: lo.map(|v| f32_outward(v, true)),
-            hi: hi.map(|v| f32_outward(v, false)),
-            trig: [t(1), t(3)],
-            a: start as u32 | LEAF_BIT,
-            b: end as u32,
-        });
-        if end - start <= LEAF {
-            return me;
-        }
-        // Split the dimension of largest extent (azimuths count half: they matter less
-        // near the poles), at the median.
-        let ext = |d: usize| (hi[d] - lo[d]) * if d % 2 == 1 { 0.5 } else { 1.0 };
-        let dim = (0..4)
-            .max_by(|&a, &b| ext(a).total_cmp(&ext(b)))
+        let bounds = [
+            lo.map(|v| f32_outward(v, true)),
+            hi.map(|v| f32_outward(v, false)),
+        ];
+        // Split the coordinate of largest extent at the median (ties by index).
+        let dim = (0..6)
+            .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
             .unwrap_or(0);
-        if ext(dim) <= 0.0 {
-            return me; // all points coincide
+        if end - start <= LEAF || hi[dim] - lo[dim] <= 0.0 {
+            // A leaf (also when all points coincide).
+            let first = self.groups.len() as u32;
+            let ids = &idx[start..end];
+            for chunk in ids.chunks(4) {
+                let lane = |l: usize| chunk[l.min(chunk.len() - 1)] as usize;
+                let v = |d: usize| {
+                    Vec4::new(
+                        all[lane(0)][d] as f32,
+                        all[lane(1)][d] as f32,
+                        all[lane(2)][d] as f32,
+                        all[lane(3)][d] as f32,
+                    )
+                };
+                self.groups.push(Group {
+                    v: std::array::from_fn(v),
+                    id: std::array::from_fn(|l| chunk.get(l).copied().unwrap_or(PAD)),
+                });
+                self.w.extend((0..4).map(|l| all[lane(l)]));
+            }
+            let child = Child {
+                at: first | LEAF_BIT,
+                groups: self.groups.len() as u32 - first,
+            };
+            return (child, bounds);
         }
+        let me = self.nodes.len();
+        let none = Child { at: 0, groups: 0 };
+        self.nodes.push(Node::new([[[0.0; 6]; 2]; 2], [none; 2]));
         let mid = (start + end) / 2;
         idx[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
-            points[a as usize][dim]
-                .total_cmp(&points[b as usize][dim])
+            all[a as usize][dim]
+                .total_cmp(&all[b as usize][dim])
                 .then(a.cmp(&b))
         });
-        let a = Self::build_rec(points, idx, start, mid, nodes);
-        let b = Self::build_rec(points, idx, mid, end, nodes);
-        let n = &mut nodes[me as usize];
-        n.a = a;
-        n.b = b;
-        me
+        let (a, box_a) = self.build_rec(all, idx, start, mid);
+        let (b, box_b) = self.build_rec(all, idx, mid, end);
+        self.nodes[me] = Node::new([box_a, box_b], [a, b]);
+        (
+            Child {
+                at: me as u32,
+                groups: 0,
+            },
+            bounds,
+        )
     }
 
     pub fn len(&self) -> usize {
-        self.coords.len()
+        self.len
     }
 
-    /// Bytes the tree holds on the heap (nodes, points, vectors, index).
+    /// Bytes the tree holds on the heap (nodes, groups, vectors).
     pub fn heap_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<Node>()
-            + self.coords.len() * std::mem::size_of::<[f64; 4]>()
+            + self.groups.len() * std::mem::size_of::<Group>()
             + self.w.len() * std::mem::size_of::<[f64; 6]>()
-            + self.index.len() * 4
     }
 
     pub fn is_empty(&self) -> bool {
-        self.coords.is_empty()
-    }
-
-    #[inline]
-    fn node_bound(&self, n: &Node, q: &Query) -> f64 {
-        let (lo, hi) = (n.lo.map(f64::from), n.hi.map(f64::from));
-        let (ti, to) = (n.trig[0].map(f64::from), n.trig[1].map(f64::from));
-        direction_bound(
-            q.c[0], q.sin_i, q.c[1], q.cs[0], q.cs[1], lo[0], hi[0], lo[1], hi[1], &ti,
-        ) + direction_bound(
-            q.c[2], q.sin_o, q.c[3], q.cs[2], q.cs[3], lo[2], hi[2], lo[3], hi[3], &to,
-        ) - 2.0 * BOUND_SLACK
+        self.len == 0
     }
 
     /// The `k` nearest points to `(wi, wo)`: `(distance, original index)`, sorted by
     /// distance then index, into `out` (cleared first).
     pub fn nearest(&self, wi: DVec3, wo: DVec3, k: usize, out: &mut Vec<(f64, u32)>) {
         out.clear();
-        if self.nodes.is_empty() || k == 0 {
+        if self.is_empty() || k == 0 {
             return;
         }
-        let (ti, pi) = angles(wi);
-        let (to, po) = angles(wo);
-        let q = Query {
-            c: [ti, pi, to, po],
-            cs: [pi.cos(), pi.sin(), po.cos(), po.sin()],
-            sin_i: ti.sin(),
-            sin_o: to.sin(),
-            wi,
-            wo,
-        };
-        self.search(0, &q, k, out);
-    }
-
-    fn search(&self, node: u32, q: &Query, k: usize, out: &mut Vec<(f64, u32)>) {
-        let n = &self.nodes[node as usize];
-        if n.is_leaf() {
-            let (wi, wo) = (q.wi, q.wo);
-            // Once k candidates are held, two tests reject most points without a
-            // trigonometric call: each arc alone is at most the full distance, so a point
-            // whose incident or outgoing cosine is below cos(worst) cannot qualify (the
-            // 1e-12 margin keeps the test conservative where cosines of tiny arcs round to
-            // 1); and an arc is at least its chord `sqrt(2 - 2 cos)`, so the sum of the two
-            // chords (less CHORD_SLACK) bounds the distance from below.
-            let mut worst = if out.len() < k {
+        let (fi, fo) = (wi.as_vec3(), wo.as_vec3());
+        let q = [0, 1, 2].map(|c| Vec4::new(fi[c], fo[c], fi[c], fo[c]));
+        // The distance a candidate must not exceed (`<=` keeps exact ties, equal distance
+        // and lower index, reachable).
+        let worst = |out: &Vec<(f64, u32)>| {
+            if out.len() < k {
                 f64::INFINITY
             } else {
-                out[out.len() - 1].0
-            };
-            let mut cos_worst = if out.len() < k {
-                -2.0
+                out[k - 1].0
+            }
+        };
+        // Subtrees still to visit, with their bounds; at most one per level.
+        let mut stack = [(0.0, self.root); 64];
+        let mut top = 0;
+        let mut cur = self.root;
+        loop {
+            if cur.at & LEAF_BIT == 0 {
+                let n = &self.nodes[cur.at as usize];
+                let (ba, bb) = n.bounds_to(&q);
+                let (near, far, bn, bf) = if ba <= bb {
+                    (n.child[0], n.child[1], ba, bb)
+                } else {
+                    (n.child[1], n.child[0], bb, ba)
+                };
+                let w = worst(out);
+                if bf <= w {
+                    stack[top] = (bf, far);
+                    top += 1;
+                }
+                if bn <= w {
+                    cur = near;
+                    continue;
+                }
             } else {
-                worst.min(PI).cos() - 1e-12
-            };
-            for p in (n.a & !LEAF_BIT) as usize..n.b as usize {
-                let v = &self.w[p];
-                let (pi, po) = (DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]));
-                let (ci, co) = (wi.dot(pi), wo.dot(po));
-                if ci < cos_worst || co < cos_worst {
-                    continue;
+                self.scan_leaf(cur, wi, wo, &q, k, out);
+            }
+            // The next pending subtree still within reach.
+            let w = worst(out);
+            loop {
+                if top == 0 {
+                    return;
                 }
-                let chords = (2.0 - 2.0 * ci).max(0.0).sqrt() + (2.0 - 2.0 * co).max(0.0).sqrt();
-                if chords - CHORD_SLACK > worst {
-                    continue;
+                top -= 1;
+                if stack[top].0 <= w {
+                    break;
                 }
-                let d = arc(wi, pi) + arc(wo, po);
-                let id = self.index[p];
+            }
+            cur = stack[top].1;
+        }
+    }
+
+    /// Offers a leaf's points to the k nearest in `out`. A point whose two
+    /// single-precision chords (less [`F32_SLACK`]) already exceed the k-th distance held
+    /// cannot qualify; the others get their exact arcs.
+    fn scan_leaf(
+        &self,
+        leaf: Child,
+        wi: DVec3,
+        wo: DVec3,
+        q: &[Vec4; 3],
+        k: usize,
+        out: &mut Vec<(f64, u32)>,
+    ) {
+        let first = (leaf.at & !LEAF_BIT) as usize;
+        let groups = &self.groups[first..first + leaf.groups as usize];
+        let (qi, qo) = (
+            [0, 1, 2].map(|c| Vec4::splat(q[c].x)),
+            [0, 1, 2].map(|c| Vec4::splat(q[c].y)),
+        );
+        let mut limit = f32::INFINITY;
+        if out.len() == k {
+            limit = (out[k - 1].0 + F32_SLACK) as f32;
+        } else if out.is_empty() && k <= LEAF {
+            // The first leaf: the k-th smallest upper bound of its points' distances bounds
+            // the k-th distance from above, so points whose lower bound exceeds it need no
+            // arc. A leaf of coincident points may hold more than LEAF: its first LEAF
+            // points serve.
+            let mut ub = [f32::INFINITY; LEAF];
+            let mut n = 0;
+            for group in groups.iter().take(LEAF / 4) {
+                let (ci, co) = (chords(&group.v, 0, &qi), chords(&group.v, 3, &qo));
+                for lane in 0..4 {
+                    if group.id[lane] != PAD {
+                        ub[n] = arc_upper(ci[lane]) + arc_upper(co[lane]);
+                        n += 1;
+                    }
+                }
+            }
+            if n >= k {
+                let (_, kth, _) = ub[..n].select_nth_unstable_by(k - 1, f32::total_cmp);
+                limit = (f64::from(*kth) + 2.0 * F32_SLACK) as f32;
+            }
+        }
+        for (g, group) in groups.iter().enumerate() {
+            let sum = chords(&group.v, 0, &qi) + chords(&group.v, 3, &qo);
+            let mut mask = sum.cmple(Vec4::splat(limit)).bitmask();
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let id = group.id[lane];
+                if id == PAD {
+                    break;
+                }
+                let v = &self.w[4 * (first + g) + lane];
+                let d =
+                    arc(wi, DVec3::new(v[0], v[1], v[2])) + arc(wo, DVec3::new(v[3], v[4], v[5]));
                 let better = out.len() < k || {
-                    let w = out[out.len() - 1];
+                    let w = out[k - 1];
                     d < w.0 || (d == w.0 && id < w.1)
                 };
                 if better {
                     let pos = out.partition_point(|e| e.0 < d || (e.0 == d && e.1 < id));
                     out.insert(pos, (d, id));
-                    if out.len() > k {
-                        out.pop();
-                    }
+                    out.truncate(k);
                     if out.len() == k {
-                        worst = out[k - 1].0;
-                        cos_worst = worst.min(PI).cos() - 1e-12;
+                        limit = (out[k - 1].0 + F32_SLACK) as f32;
                     }
                 }
-            }
-            return;
-        }
-        let (ba, bb) = (
-            self.node_bound(&self.nodes[n.a as usize], q),
-            self.node_bound(&self.nodes[n.b as usize], q),
-        );
-        let (first, second, b1, b2) = if ba <= bb {
-            (n.a, n.b, ba, bb)
-        } else {
-            (n.b, n.a, bb, ba)
-        };
-        for (child, bound) in [(first, b1), (second, b2)] {
-            // `<=` keeps exact ties (equal distance, lower index) reachable.
-            if out.len() < k || bound <= out[out.len() - 1].0 {
-                self.search(child, q, k, out);
             }
         }
     }
 
+    /// Every point: its slot in `w` and its original index.
+    fn points(&self) -> impl Iterator<Item = (usize, u32)> + '_ {
+        self.groups.iter().enumerate().flat_map(|(g, group)| {
+            (0..4).filter_map(move |l| (group.id[l] != PAD).then_some((4 * g + l, group.id[l])))
+        })
+    }
+
     /// Brute-force k nearest, same ordering: the reference for tests and benchmarks.
     pub fn nearest_brute(&self, wi: DVec3, wo: DVec3, k: usize) -> Vec<(f64, u32)> {
-        let mut all: Vec<(f64, u32)> = (0..self.len())
-            .map(|p| {
+        let mut all: Vec<(f64, u32)> = self
+            .points()
+            .map(|(p, id)| {
                 let v = &self.w[p];
                 let (pi, po) = (DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]));
-                (arc(wi, pi) + arc(wo, po), self.index[p])
+                (arc(wi, pi) + arc(wo, po), id)
             })
             .collect();
         all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
@@ -337,37 +446,50 @@ impl KdTree {
         all
     }
 
-    /// Checks the tree's invariants: every point lies inside its leaf's and ancestors'
-    /// bounds, and every point is in exactly one leaf.
-    #[allow(clippy::needless_range_loop)] // p indexes points and their flags alike
+    /// Checks the tree's invariants: every child's box lies inside its parent's, every
+    /// point inside its leaf's box (both precisions agreeing), and every point is in
+    /// exactly one leaf.
     pub fn validate(&self) -> Result<(), String> {
+        if self.is_empty() {
+            return Ok(());
+        }
         let mut seen = vec![false; self.len()];
-        let mut stack = vec![(0u32, [f64::NEG_INFINITY; 4], [f64::INFINITY; 4])];
-        while let Some((i, plo, phi)) = stack.pop() {
-            let n = &self.nodes[i as usize];
-            let (lo, hi) = (n.lo.map(f64::from), n.hi.map(f64::from));
-            for d in 0..4 {
-                if lo[d] < plo[d] || hi[d] > phi[d] {
-                    return Err(format!(
-                        "node {i} exceeds its parent's bounds in dimension {d}"
-                    ));
+        let inside = |inner: &Bounds, outer: &Bounds| {
+            (0..6).all(|d| inner[0][d] >= outer[0][d] && inner[1][d] <= outer[1][d])
+        };
+        let mut stack = vec![(self.root, self.root_box)];
+        while let Some((c, b)) = stack.pop() {
+            if c.at & LEAF_BIT == 0 {
+                let n = &self.nodes[c.at as usize];
+                for i in 0..2 {
+                    if !inside(&n.bounds(i), &b) {
+                        return Err(format!("node {}: child {i}'s box exceeds the node's", c.at));
+                    }
+                    stack.push((n.child[i], n.bounds(i)));
                 }
+                continue;
             }
-            if n.is_leaf() {
-                for p in (n.a & !LEAF_BIT) as usize..n.b as usize {
-                    if seen[p] {
-                        return Err(format!("point {p} in two leaves"));
+            let first = (c.at & !LEAF_BIT) as usize;
+            for g in first..first + c.groups as usize {
+                let group = &self.groups[g];
+                for l in 0..4 {
+                    let v = &self.w[4 * g + l];
+                    if !(0..6).all(|d| {
+                        f64::from(b[0][d]) <= v[d]
+                            && v[d] <= f64::from(b[1][d])
+                            && group.v[d][l] == v[d] as f32
+                    }) {
+                        return Err(format!("group {g} lane {l} outside its leaf's box"));
                     }
-                    seen[p] = true;
-                    for d in 0..4 {
-                        if self.coords[p][d] < lo[d] || self.coords[p][d] > hi[d] {
-                            return Err(format!("point {p} outside leaf {i}"));
-                        }
+                    let id = group.id[l];
+                    if id == PAD {
+                        continue;
+                    }
+                    match seen.get_mut(id as usize) {
+                        Some(s) if !*s => *s = true,
+                        _ => return Err(format!("point {id} in two leaves or out of range")),
                     }
                 }
-            } else {
-                stack.push((n.a, lo, hi));
-                stack.push((n.b, lo, hi));
             }
         }
         match seen.iter().position(|s| !s) {
@@ -439,13 +561,24 @@ impl KdTreeBrdf {
         }
     }
 
+    /// The query as two unit vectors; for an isotropic tree both turned about the normal by
+    /// `-phi_i`, which puts `wi` in the half-plane `y = 0, x >= 0` (`phi_i = 0`; at normal
+    /// incidence, where `phi_i` is undefined, no turn).
     fn query_dirs(&self, wi: DVec3, wo: DVec3) -> (DVec3, DVec3) {
+        let (wi, wo) = (wi.normalize(), wo.normalize());
         if !self.meta.isotropic {
             return (wi, wo);
         }
-        let (ti, pi) = angles(wi);
-        let (to, po) = angles(wo);
-        (dir(ti, 0.0), dir(to, (po - pi).rem_euclid(TAU)))
+        let rho = wi.x.hypot(wi.y);
+        let (c, s) = if rho > 0.0 {
+            (wi.x / rho, wi.y / rho)
+        } else {
+            (1.0, 0.0)
+        };
+        (
+            DVec3::new(rho, 0.0, wi.z),
+            DVec3::new(c * wo.x + s * wo.y, c * wo.y - s * wo.x, wo.z),
+        )
     }
 }
 
@@ -504,6 +637,7 @@ impl KdTreeBrdf {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::{FRAC_PI_2, PI};
 
     #[test]
     fn outward_rounding_brackets_the_value() {
@@ -518,6 +652,85 @@ mod tests {
                     f64::from(hi) - f64::from(lo)
                         <= 2.0 * f64::from(f32::EPSILON) * v.abs().max(1e-38)
                 );
+            }
+        }
+    }
+
+    /// Random unit-vector pairs, from coincident and nearly so to antipodal.
+    fn pairs() -> impl Iterator<Item = (DVec3, DVec3)> {
+        let mut r = crate::rng::Rng::new(5, 1);
+        (0..200_000).map(move |i| {
+            let a = dir(r.range(0.0, PI), r.range(0.0, TAU));
+            let sep = [0.0, 1e-9, 1e-6, 1e-3, 0.1, 1.0, 3.0, PI - 1e-6][i % 8] * r.uniform();
+            let b = if i % 9 == 0 {
+                a
+            } else {
+                let t = dir(FRAC_PI_2, r.range(0.0, TAU));
+                let t = (t - a * a.dot(t)).normalize();
+                (a * sep.cos() + t * sep.sin()).normalize()
+            };
+            (a, b)
+        })
+    }
+
+    #[test]
+    fn single_precision_chords_bracket_the_arc() {
+        for (a, b) in pairs() {
+            let exact = arc(a, b);
+            let q = [a.x, a.y, a.z].map(|x| Vec4::splat(x as f32));
+            let p = [b.x, b.y, b.z, b.x, b.y, b.z].map(|x| Vec4::splat(x as f32));
+            let c = chords(&p, 0, &q).x;
+            // Two chords summed, less the slack, stay below two arcs.
+            assert!(
+                f64::from(c + c) - F32_SLACK <= 2.0 * exact,
+                "{a} {b}: {c} {exact}"
+            );
+            // The upper bound, with the slack the search adds, stays above.
+            assert!(
+                f64::from(arc_upper(c)) + F32_SLACK >= exact,
+                "{a} {b}: {c} {exact}"
+            );
+        }
+    }
+
+    #[test]
+    fn box_bounds_never_exceed_the_distance_to_a_point_inside() {
+        let pts: Vec<(DVec3, DVec3)> = pairs().take(4096).collect();
+        let mut r = crate::rng::Rng::new(6, 1);
+        for chunk in pts.chunks(16) {
+            let box_of = |part: &[(DVec3, DVec3)]| -> Bounds {
+                let v = |p: &(DVec3, DVec3)| [p.0.x, p.0.y, p.0.z, p.1.x, p.1.y, p.1.z];
+                [
+                    std::array::from_fn(|d| {
+                        f32_outward(
+                            part.iter().map(|p| v(p)[d]).fold(f64::INFINITY, f64::min),
+                            true,
+                        )
+                    }),
+                    std::array::from_fn(|d| {
+                        f32_outward(
+                            part.iter()
+                                .map(|p| v(p)[d])
+                                .fold(f64::NEG_INFINITY, f64::max),
+                            false,
+                        )
+                    }),
+                ]
+            };
+            let none = Child { at: 0, groups: 0 };
+            let node = Node::new([box_of(&chunk[..8]), box_of(&chunk[8..])], [none; 2]);
+            for _ in 0..16 {
+                let (wi, wo) = (
+                    dir(r.range(0.0, PI), r.range(0.0, TAU)),
+                    dir(r.range(0.0, PI), r.range(0.0, TAU)),
+                );
+                let (fi, fo) = (wi.as_vec3(), wo.as_vec3());
+                let q = [0, 1, 2].map(|c| Vec4::new(fi[c], fo[c], fi[c], fo[c]));
+                let (b0, b1) = node.bounds_to(&q);
+                for (j, p) in chunk.iter().enumerate() {
+                    let d = arc(wi, p.0) + arc(wo, p.1);
+                    assert!(if j < 8 { b0 } else { b1 } <= d, "{b0} {b1} {d}");
+                }
             }
         }
     }
