@@ -629,33 +629,19 @@ fn read_npy(bytes: &[u8]) -> Result<(usize, usize, Vec<f64>), String> {
     let DType::Plain(t) = npy.dtype() else {
         return Err("the .npy array is not of a plain numeric type".into());
     };
-    let bad = |e: std::io::Error| format!(".npy data: {e}");
-    let v: Vec<f64> = match (t.type_char(), t.size_field()) {
-        (TypeChar::Float, 8) => npy.into_vec::<f64>().map_err(bad)?,
-        (TypeChar::Float, 4) => npy
-            .into_vec::<f32>()
-            .map_err(bad)?
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-        (TypeChar::Int, 2) => npy
-            .into_vec::<i16>()
-            .map_err(bad)?
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-        (TypeChar::Uint, 2) => npy
-            .into_vec::<u16>()
-            .map_err(bad)?
-            .into_iter()
-            .map(f64::from)
-            .collect(),
-        (TypeChar::Int, 4) => npy
-            .into_vec::<i32>()
-            .map_err(bad)?
-            .into_iter()
-            .map(f64::from)
-            .collect(),
+    // The data as `T`, widened to f64 (exactly, for every type accepted).
+    fn widen<T: npyz::Deserialize + Into<f64>>(
+        npy: npyz::NpyFile<&[u8]>,
+    ) -> Result<Vec<f64>, String> {
+        let v = npy.into_vec::<T>().map_err(|e| format!(".npy data: {e}"))?;
+        Ok(v.into_iter().map(Into::into).collect())
+    }
+    let v = match (t.type_char(), t.size_field()) {
+        (TypeChar::Float, 8) => widen::<f64>(npy)?,
+        (TypeChar::Float, 4) => widen::<f32>(npy)?,
+        (TypeChar::Int, 2) => widen::<i16>(npy)?,
+        (TypeChar::Uint, 2) => widen::<u16>(npy)?,
+        (TypeChar::Int, 4) => widen::<i32>(npy)?,
         _ => {
             return Err(format!(
                 "the .npy array's type {t} is not supported: use float32, float64, int16, uint16 or int32"

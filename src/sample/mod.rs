@@ -420,10 +420,7 @@ fn check_geometry(interfaces: &[Interface], tile_nm: [f64; 2]) -> Result<(), Str
         for p in &itf.mesh.positions_nm {
             for c in p.to_array() {
                 if !(c.is_finite() && c.abs() <= MAX_LENGTH_NM) {
-                    return Err(format!(
-                        "{}: coordinate {c:e} nm is beyond the {MAX_LENGTH_NM:e} nm (10 cm) limit of f32 geometry and f64 phase",
-                        itf.mesh_path.display()
-                    ));
+                    return Err(format!("{}: {}", itf.mesh_path.display(), beyond_limit(c)));
                 }
                 extent = extent.max(c.abs());
             }
@@ -460,6 +457,35 @@ pub fn nm_per_unit(unit: &str) -> Option<f64> {
 /// over 1e8 nm at 380 nm, `k L` is 1.7e6 rad with a rounding error near 4e-10 rad
 /// (`../shared/DESIGN.md` §1). Microgeometry tiles are micrometres to millimetres.
 pub const MAX_LENGTH_NM: f64 = 1e8;
+
+/// Why a vertex cannot be scaled to nanometres.
+pub(crate) enum VertexFault {
+    /// Not finite after scaling (the coordinate, nm).
+    NonFinite(f64),
+    /// Beyond [`MAX_LENGTH_NM`] (the coordinate, nm).
+    TooFar(f64),
+}
+
+/// A vertex `p` in file units scaled to nanometres and checked: finite, and every
+/// coordinate within [`MAX_LENGTH_NM`]. Shared by the OBJ, PLY and STL readers, which
+/// place the fault in their own terms.
+pub(crate) fn scale_vertex(p: [f64; 3], nm_per_unit: f64) -> Result<glam::DVec3, VertexFault> {
+    let q = p.map(|c| c * nm_per_unit);
+    if let Some(&c) = q.iter().find(|c| !c.is_finite()) {
+        return Err(VertexFault::NonFinite(c));
+    }
+    if let Some(&c) = q.iter().find(|c| c.abs() > MAX_LENGTH_NM) {
+        return Err(VertexFault::TooFar(c));
+    }
+    Ok(glam::DVec3::from(q))
+}
+
+/// The message for a coordinate `c` (nm) beyond [`MAX_LENGTH_NM`].
+pub(crate) fn beyond_limit(c: f64) -> String {
+    format!(
+        "coordinate {c:e} nm is beyond the {MAX_LENGTH_NM:e} nm (10 cm) limit of f32 geometry and f64 phase"
+    )
+}
 
 /// The separation f32 vertices can resolve in a scene whose coordinates reach `extent_nm`:
 /// the f32 spacing there (`extent * 2^-23`), floored at the tracer's 1e-4 nm restart

@@ -134,26 +134,22 @@ pub fn parse_obj(
                         ));
                     }
                 }
-                let p = [num[0], num[1], num[2]].map(|c| c * nm_per_unit);
-                if let Some(c) = p.iter().find(|c| !c.is_finite()) {
-                    return Err(SampleError::at(
-                        path,
-                        line,
-                        SampleErrorKind::NonFiniteVertex(format!(
-                            "{c} after scaling to nanometres: the coordinate is too large"
-                        )),
-                    ));
-                }
-                if let Some(c) = p.iter().find(|c| c.abs() > super::MAX_LENGTH_NM) {
-                    return Err(err(
-                        line,
-                        format!(
-                            "coordinate {c:e} nm is beyond the {:e} nm (10 cm) limit of f32 geometry and f64 phase",
-                            super::MAX_LENGTH_NM
-                        ),
-                    ));
-                }
-                positions.push(DVec3::from(p));
+                let p = match super::scale_vertex([num[0], num[1], num[2]], nm_per_unit) {
+                    Ok(p) => p,
+                    Err(super::VertexFault::NonFinite(c)) => {
+                        return Err(SampleError::at(
+                            path,
+                            line,
+                            SampleErrorKind::NonFiniteVertex(format!(
+                                "{c} after scaling to nanometres: the coordinate is too large"
+                            )),
+                        ));
+                    }
+                    Err(super::VertexFault::TooFar(c)) => {
+                        return Err(err(line, super::beyond_limit(c)));
+                    }
+                };
+                positions.push(p);
                 renumber.push(u32::MAX);
             }
             Some("f") => {

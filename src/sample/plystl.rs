@@ -27,25 +27,17 @@ fn malformed(path: &Path, msg: String) -> SampleError {
     SampleError::file(path, SampleErrorKind::MalformedObj(msg))
 }
 
-/// Scales a corner to nm and checks it.
+/// Scales a corner to nm and checks it (`sample::scale_vertex`).
 fn corner(path: &Path, p: [f64; 3], nm_per_unit: f64, what: &str) -> Result<DVec3, SampleError> {
-    let q = p.map(|c| c * nm_per_unit);
-    if let Some(c) = q.iter().find(|c| !c.is_finite()) {
-        return Err(SampleError::file(
+    super::scale_vertex(p, nm_per_unit).map_err(|fault| match fault {
+        super::VertexFault::NonFinite(c) => SampleError::file(
             path,
             SampleErrorKind::NonFiniteVertex(format!("{c} ({what})")),
-        ));
-    }
-    if let Some(c) = q.iter().find(|c| c.abs() > super::MAX_LENGTH_NM) {
-        return Err(malformed(
-            path,
-            format!(
-                "{what}: coordinate {c:e} nm is beyond the {:e} nm (10 cm) limit of f32 geometry and f64 phase",
-                super::MAX_LENGTH_NM
-            ),
-        ));
-    }
-    Ok(DVec3::from(q))
+        ),
+        super::VertexFault::TooFar(c) => {
+            malformed(path, format!("{what}: {}", super::beyond_limit(c)))
+        }
+    })
 }
 
 /// OBJ's checks (`obj::finish_mesh`); these formats have no line per triangle.
