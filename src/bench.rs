@@ -385,6 +385,19 @@ fn query_times(b: &dyn crate::brdf::Brdf, queries: &[(DVec3, DVec3)]) -> (f64, f
     (t[t.len() / 2], t[(t.len() * 99) / 100])
 }
 
+/// A benchmark's default input, a path relative to the goniospec checkout: as given when
+/// it exists from the working directory, otherwise in the checkout this binary was built
+/// from, so `goniospec bench ...` runs from any directory.
+pub fn shipped(path: &std::path::Path) -> std::path::PathBuf {
+    if path.is_relative() && !path.exists() {
+        let there = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
+        if there.exists() {
+            return there;
+        }
+    }
+    path.to_path_buf()
+}
+
 /// `bench eval`: query time, memory, build time and accuracy of each representation.
 pub fn eval_bench(
     rough: Option<(&crate::brdf::BucketData, &crate::brdf::BucketData)>,
@@ -634,8 +647,7 @@ pub fn large_sample(
         ),
         _ => format!(
             "[media.gold]\ntable = \"{}\"\n[[interface]]\nmesh = \"{name}-0.obj\"\nfront = \"air\"\nback = \"gold\"\n",
-            std::env::current_dir()
-                .map(|d| d.join("data/au-johnson.csv"))
+            std::path::absolute(shipped(std::path::Path::new("data/au-johnson.csv")))
                 .unwrap_or_default()
                 .display()
         ),
@@ -761,4 +773,29 @@ pub fn large_case(
         log(&format!("{key}_{name}: {v} {unit}"));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shipped;
+    use std::path::Path;
+
+    #[test]
+    fn shipped_inputs_are_found_from_any_directory() {
+        let checkout = Path::new(env!("CARGO_MANIFEST_DIR"));
+        // Missing here (tests run in the checkout, so ask for a name only the checkout's
+        // meshes/ folder resolves from elsewhere): relative paths resolve in the checkout.
+        let rel = Path::new("meshes/rough-glass.toml");
+        assert!(shipped(rel).exists());
+        assert_eq!(
+            std::fs::canonicalize(shipped(rel)).unwrap(),
+            std::fs::canonicalize(checkout.join(rel)).unwrap()
+        );
+        // A path found nowhere is returned as given, for the loader's error to name.
+        let nowhere = Path::new("meshes/no-such-sample.toml");
+        assert_eq!(shipped(nowhere), nowhere);
+        // Absolute paths are never redirected.
+        let abs = Path::new("/no/such/file.toml");
+        assert_eq!(shipped(abs), abs);
+    }
 }

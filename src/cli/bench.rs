@@ -57,6 +57,8 @@ pub(super) struct LargeBenchArgs {
 #[derive(Args)]
 pub(super) struct EvalBenchArgs {
     /// Rough sample for the accuracy comparison.
+    /// (A relative path missing from the working directory is taken from the goniospec
+    /// checkout this binary was built from.)
     #[arg(default_value = "meshes/rough-glass.toml")]
     sample: PathBuf,
     /// Rays of the low- and high-sample simulations.
@@ -67,6 +69,8 @@ pub(super) struct EvalBenchArgs {
 #[derive(Args)]
 pub(super) struct SimBenchArgs {
     /// Sample to benchmark.
+    /// (A relative path missing from the working directory is taken from the goniospec
+    /// checkout this binary was built from.)
     #[arg(default_value = "meshes/thin-film-600nm.toml")]
     sample: PathBuf,
     /// Trees per run.
@@ -79,6 +83,8 @@ pub(super) struct SimBenchArgs {
     #[arg(long, default_value_t = 0)]
     threads: usize,
     /// Flat film for the TMM comparison.
+    /// (A relative path missing from the working directory is taken from the goniospec
+    /// checkout this binary was built from.)
     #[arg(long, default_value = "meshes/flat-soap-film.toml")]
     flat: PathBuf,
 }
@@ -113,7 +119,10 @@ pub(super) fn bench_eval(a: EvalBenchArgs) -> Result<ExitCode> {
     if a.rays.len() != 2 || a.rays[0] == 0 || a.rays[0] >= a.rays[1] {
         bail!("--rays needs two counts LOW,HIGH with 0 < LOW < HIGH");
     }
-    let s = sample::load(&a.sample, MeshOptions::default())?;
+    let s = sample::load(
+        &goniospec::bench::shipped(&a.sample),
+        MeshOptions::default(),
+    )?;
     let run = |rays: u64| -> Result<BucketData> {
         let cfg = SimConfig {
             seed: rays,
@@ -140,8 +149,9 @@ pub(super) fn bench_eval(a: EvalBenchArgs) -> Result<ExitCode> {
 }
 
 pub(super) fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
-    let s = sample::load(&a.sample, MeshOptions::default())?;
-    let flat = sample::load(&a.flat, MeshOptions::default())?;
+    let sample_path = goniospec::bench::shipped(&a.sample);
+    let s = sample::load(&sample_path, MeshOptions::default())?;
+    let flat = sample::load(&goniospec::bench::shipped(&a.flat), MeshOptions::default())?;
     let cfg = goniospec::bench::SimulateBenchConfig {
         rays: a.rays,
         theta_i_deg: a.theta_i,
@@ -162,7 +172,7 @@ pub(super) fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
     for rays in [a.rays, 10 * a.rays] {
         let out = std::process::Command::new(std::env::current_exe()?)
             .arg("simulate")
-            .arg(&a.sample)
+            .arg(&sample_path)
             .args([
                 "--theta-i",
                 &a.theta_i.to_string(),
