@@ -783,8 +783,8 @@ mod tests {
     #[test]
     fn shipped_inputs_are_found_from_any_directory() {
         let checkout = Path::new(env!("CARGO_MANIFEST_DIR"));
-        // Missing here (tests run in the checkout, so ask for a name only the checkout's
-        // meshes/ folder resolves from elsewhere): relative paths resolve in the checkout.
+        // Tests run in the checkout, where the relative path names the checkout's file
+        // (from elsewhere the fallback gives the same file: `bench eval` run from /tmp).
         let rel = Path::new("meshes/rough-glass.toml");
         assert!(shipped(rel).exists());
         assert_eq!(
