@@ -20,7 +20,9 @@ use crate::io::fnv1a;
 use crate::optics::C64;
 use crate::rng::Rng;
 use crate::sample::Sample;
-use crate::trace::{Lane, Scene, SceneError, TraceLimits, TraceStack, Tree, launch_fields};
+use crate::trace::{
+    DroppedPower, Lane, Scene, SceneError, TraceLimits, TraceStack, Tree, launch_fields,
+};
 use glam::DVec3;
 
 /// Trees per block: the unit of parallel work and of deterministic summation.
@@ -281,12 +283,26 @@ pub struct SimStats {
     /// Per cell (direction-major, like the accumulator's cells): the summed power per tree
     /// dropped by limits (depth, segments, wraps) and leaks rather than by the cutoff.
     pub limit_dropped: Vec<f64>,
+    /// Per cell: the summed power per tree that left an open sample through its sides
+    /// (`Sample::guard_nm`; zero for periodic sides). It is part of the dropped power.
+    pub escaped: Vec<f64>,
 }
 
 impl SimStats {
     /// Wall time spent tracing and estimating (after the set-up), s.
     pub fn trace_seconds(&self) -> f64 {
         (self.seconds - self.setup_seconds).max(f64::MIN_POSITIVE)
+    }
+
+    /// The largest mean power per tree that any cell lost through the sides of an open
+    /// sample, with that cell's index.
+    pub fn worst_escaped(&self, acc: &Accumulator) -> (f64, usize) {
+        self.escaped
+            .iter()
+            .zip(&acc.cells)
+            .map(|(d, c)| d / c.trees.max(1) as f64)
+            .enumerate()
+            .fold((0.0, 0), |w, (i, v)| if v > w.0 { (v, i) } else { w })
     }
 
     /// The largest mean power per tree that any cell lost to limits and leaks: when it is
@@ -327,6 +343,11 @@ pub fn sample_hash(sample: &Sample) -> String {
         bytes.extend_from_slice(m.name.as_bytes());
         m.model.canonical_bytes(&mut bytes);
     }
+    // Open samples only, so periodic samples keep their hash.
+    if let Some(g) = sample.guard_nm {
+        bytes.extend_from_slice(b"guard");
+        bytes.extend_from_slice(&g.to_le_bytes());
+    }
     for i in &sample.interfaces {
         bytes.extend_from_slice(&(i.front as u64).to_le_bytes());
         bytes.extend_from_slice(&(i.back as u64).to_le_bytes());
@@ -352,11 +373,15 @@ pub fn sample_hash(sample: &Sample) -> String {
 
 /// Entry point `i` of `n` on the tile: the R2 low-discrepancy sequence (Roberts 2018,
 /// "The unreasonable effectiveness of quasirandom sequences") with a random shift.
-fn entry_point(i: u64, shift: [f64; 2], tile: [f64; 2]) -> [f64; 2] {
+/// `guard` (nm) keeps the points that far from every side (open samples; 0 otherwise).
+fn entry_point(i: u64, shift: [f64; 2], tile: [f64; 2], guard: f64) -> [f64; 2] {
     const G: f64 = 1.324_717_957_244_746; // plastic number
     let a = [1.0 / G, 1.0 / (G * G)];
     let f = |k: usize| (shift[k] + (i as f64) * a[k]).rem_euclid(1.0);
-    [f(0) * tile[0], f(1) * tile[1]]
+    if guard == 0.0 {
+        return [f(0) * tile[0], f(1) * tile[1]];
+    }
+    [0, 1].map(|k| guard + f(k) * (tile[k] - 2.0 * guard))
 }
 
 /// Runs the simulation. `progress` receives the number of trees finished so far.
@@ -378,12 +403,14 @@ pub fn simulate(
         .map(|_| Cell::new(&cfg.buckets, run.global))
         .collect();
     let mut limit_dropped = vec![0.0; cells.len()];
+    let mut escaped = vec![0.0; cells.len()];
     let directions = cfg
         .theta_i_deg
         .iter()
         .enumerate()
         .map(|(di, &theta_deg)| {
-            run.direction(di, theta_deg, &mut cells, &mut limit_dropped, progress)
+            let lost = (&mut limit_dropped[..], &mut escaped[..]);
+            run.direction(di, theta_deg, &mut cells, lost, progress)
         })
         .collect();
     if cfg
@@ -393,7 +420,7 @@ pub fn simulate(
     {
         return Err(SimError::Cancelled);
     }
-    run.finish(cells, limit_dropped, directions, start_time)
+    run.finish(cells, (limit_dropped, escaped), directions, start_time)
 }
 
 /// Counters every worker adds to.
@@ -590,7 +617,7 @@ impl<'a> Run<'a> {
         di: usize,
         theta_deg: f64,
         cells: &mut [Cell],
-        limit_dropped: &mut [f64],
+        (limit_dropped, escaped): (&mut [f64], &mut [f64]),
         progress: &(dyn Fn(u64) + Sync),
     ) -> DirectionStats {
         let (cfg, nl) = (self.cfg, self.nl);
@@ -655,6 +682,7 @@ impl<'a> Run<'a> {
                     for (j, bc) in block.iter().enumerate() {
                         add_block(&mut cells[di * nl + j], bc);
                         limit_dropped[di * nl + j] += bc.dropped_limit;
+                        escaped[di * nl + j] += bc.escaped;
                     }
                 }
                 chunk_lo = chunk_hi;
@@ -690,13 +718,15 @@ impl<'a> Run<'a> {
         let mut out: Vec<BlockCell> = (0..self.nl).map(|_| BlockCell::default()).collect();
         for i in trees {
             let mut rng = Rng::new(cfg.seed, (cfg.first_direction + di as u64) << 40 | i);
+            // Open samples launch in the interior, the guard band from every side.
+            let g = sample.guard_nm.unwrap_or(0.0);
             let xy = if cfg.random_entry {
                 [
-                    rng.range(0.0, sample.tile_nm[0]),
-                    rng.range(0.0, sample.tile_nm[1]),
+                    rng.range(g, sample.tile_nm[0] - g),
+                    rng.range(g, sample.tile_nm[1] - g),
                 ]
             } else {
-                entry_point(i, shift, sample.tile_nm)
+                entry_point(i, shift, sample.tile_nm, g)
             };
             let origin = DVec3::new(xy[0], xy[1], self.scene.z_top);
             // Stratified jitter: tree i takes stratum i of N in every bin.
@@ -805,7 +835,11 @@ impl<'a> Run<'a> {
                     &mut w.glob,
                 );
                 let (r, t) = w.dense.add_tree(j, &w.deps, &w.glob);
-                let (dropped, dropped_limit) = tree.dropped(lambda);
+                let DroppedPower {
+                    all: dropped,
+                    limit: dropped_limit,
+                    escaped,
+                } = tree.dropped(lambda);
                 cell.trees += 1;
                 cell.r.0 += r;
                 cell.r.1 += r * r;
@@ -814,6 +848,7 @@ impl<'a> Run<'a> {
                 cell.absorbed += absorbed_power(tree, lambda, r, t, dropped, self.global);
                 cell.dropped += dropped;
                 cell.dropped_limit += dropped_limit;
+                cell.escaped += escaped;
                 c.energy_faults
                     .fetch_add(u64::from(tree.energy_faults), Ordering::Relaxed);
             }
@@ -827,7 +862,7 @@ impl<'a> Run<'a> {
     fn finish(
         self,
         cells: Vec<Cell>,
-        limit_dropped: Vec<f64>,
+        (limit_dropped, escaped): (Vec<f64>, Vec<f64>),
         directions: Vec<DirectionStats>,
         start_time: Instant,
     ) -> Result<(Accumulator, SimStats), SimError> {
@@ -850,6 +885,7 @@ impl<'a> Run<'a> {
             wavelength_sharing: self.tracing == Tracing::Lanes,
             directions,
             limit_dropped,
+            escaped,
         };
         let header = Header {
             settings: self.settings,

@@ -672,3 +672,127 @@ fn ply_and_stl_load_the_same_mesh_as_obj() {
         .to_string();
     assert!(e.contains("refers to vertex 5"), "{e}");
 }
+
+#[test]
+fn guard_band_edges_keep_the_patch_and_open_the_sides() {
+    let d = scratch("heightmap-guard");
+    let z = heights();
+    let z32: Vec<f32> = z.iter().map(|&v| v as f32).collect();
+    std::fs::write(d.join("g.gsf"), gsf_bytes(NX, NY, DX, DY, &z32, "nm")).unwrap();
+    // The patch as it is: (NX - 1) x (NY - 1) cells, every point at its known height.
+    let s = load_in(&d, "heightmap = \"g.gsf\"\nedges = \"guard\"").unwrap();
+    let (lx, ly) = ((NX - 1) as f64 * DX, (NY - 1) as f64 * DY);
+    assert!((s.tile_nm[0] - lx).abs() < 1e-6 && (s.tile_nm[1] - ly).abs() < 1e-6);
+    let m = &s.interfaces[0].mesh;
+    assert_eq!(m.positions_nm.len(), NX * NY);
+    assert_eq!(m.triangles.len(), 2 * (NX - 1) * (NY - 1));
+    for p in &m.positions_nm {
+        let (i, j) = ((p.x / DX).round() as usize, (p.y / DY).round() as usize);
+        assert!((p.z - f64::from(z32[j * NX + i])).abs() < 1e-6, "{p}");
+    }
+    // The default band: a tenth of the shorter side.
+    let g = s.guard_nm.unwrap();
+    assert!((g - 0.1 * lx.min(ly)).abs() < 1e-9, "{g}");
+    // [sample] guard sets it (sample units) and makes guard the default edges.
+    let with_guard = |extra: &str, itf: &str| {
+        std::fs::write(
+            d.join("s.toml"),
+            sample_text(itf).replace("unit = \"um\"\n", &format!("unit = \"um\"\n{extra}")),
+        )
+        .unwrap();
+        sample::load(&d.join("s.toml"), MeshOptions::default()).map_err(|e| e.to_string())
+    };
+    let s = with_guard("guard = 0.5\n", "heightmap = \"g.gsf\"").unwrap();
+    assert_eq!(s.guard_nm, Some(500.0));
+    assert_eq!(s.interfaces[0].mesh.positions_nm.len(), NX * NY);
+    // A periodic patch and open sides contradict each other; a band must leave an
+    // interior.
+    let e = with_guard("guard = 0.5\n", "heightmap = \"g.gsf\"\nedges = \"mirror\"").unwrap_err();
+    assert!(
+        e.contains("edges = \"mirror\" makes the patch periodic"),
+        "{e}"
+    );
+    for bad in ["0.0", "-1.0", "3.6", "nan"] {
+        let e = with_guard(&format!("guard = {bad}\n"), "heightmap = \"g.gsf\"").unwrap_err();
+        assert!(e.contains("guard must leave an interior"), "{bad}: {e}");
+    }
+    // A flat scan with open sides is still the bare interface of the independent TMM, and
+    // nothing escapes (the exits leave within the band).
+    std::fs::write(
+        d.join("flat.gsf"),
+        gsf_bytes(16, 12, 500.0, 500.0, &[0.0; 192], "nm"),
+    )
+    .unwrap();
+    let s = load_in(&d, "heightmap = \"flat.gsf\"\nedges = \"guard\"").unwrap();
+    let lambdas = vec![450.0, 600.0];
+    let cfg = config(
+        &[0.0, 30.0, 60.0],
+        Wavelengths::Monochromatic(lambdas.clone()),
+        64,
+    );
+    let (acc, stats) = goniospec::simulate::simulate(&s, &cfg, &|_| {}).unwrap();
+    for (i, th) in [0.0f64, 30.0, 60.0].iter().enumerate() {
+        for (j, &l) in lambdas.iter().enumerate() {
+            let (r, _) = totals(&acc, i, j);
+            let (want, _) = tmm_ref(&[c(1.0, 0.0), c(1.5, 0.0)], &[], l, th.to_radians());
+            assert!((r - want).abs() < 1e-9, "{th} deg {l} nm: {r} vs {want}");
+        }
+    }
+    assert!(
+        stats.escaped.iter().all(|&e| e == 0.0),
+        "{:?}",
+        stats.escaped
+    );
+}
+
+/// Open sides, checked against geometry: light refracted into a glass slab (its bottom an
+/// index-matched interface, so nothing reflects there) walks sideways `D tan theta_t`
+/// before it leaves through the bottom; trees launched uniformly in `[g, L - g]` whose walk
+/// reaches the side escape, so the escaped power per tree is `(1 - R) f` with `f = (s - g)
+/// / (L - 2 g)` for the total walk `s`, and the Fresnel `R` still leaves through the top.
+#[test]
+fn escaped_power_through_open_sides_is_the_fraction_that_walks_out() {
+    let (l, g, depth) = (10_000.0, 1_000.0, 4_000.0);
+    let s = sample_from(
+        "guard-slab",
+        &format!(
+            "[sample]\nname = \"slab\"\nunit = \"nm\"\ntile = [{l}, {l}]\nguard = {g}\n\
+             [media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[media.glass2]\nn = 1.5\n\
+             [[interface]]\ngenerator = {{ kind = \"flat\" }}\nfront = \"air\"\nback = \"glass\"\n\
+             [[interface]]\ngenerator = {{ kind = \"flat\", z = -{depth} }}\nfront = \"glass\"\nback = \"glass2\"\n"
+        ),
+    );
+    assert_eq!(s.guard_nm, Some(g));
+    let scene = goniospec::trace::Scene::new(&s, goniospec::accel::Backend::Obvhs).unwrap();
+    let rays = 8192;
+    for theta in [30.0f64, 60.0] {
+        let cfg = config(&[theta], Wavelengths::Monochromatic(vec![550.0]), rays);
+        let (acc, stats) = goniospec::simulate::simulate(&s, &cfg, &|_| {}).unwrap();
+        let (t0, st) = (theta.to_radians(), theta.to_radians().sin() / 1.5);
+        let tan_t = st / (1.0 - st * st).sqrt();
+        // The walk from the launch height to the surface, then through the glass to the
+        // exit plane below the slab.
+        let walk = scene.z_top * t0.tan() - scene.z_bottom * tan_t;
+        let f = ((walk - g) / (l - 2.0 * g)).clamp(0.0, 1.0);
+        let (r, t) = totals(&acc, 0, 0);
+        let (r_fresnel, _) = tmm_ref(&[c(1.0, 0.0), c(1.5, 0.0)], &[], 550.0, t0);
+        let escaped = stats.escaped[0] / rays as f64;
+        let want = (1.0 - r_fresnel) * f;
+        // The launch points' x follow a Kronecker sequence: the share below a threshold is
+        // within a few / N of its measure.
+        assert!(
+            (escaped - want).abs() < 8.0 / rays as f64,
+            "{theta} deg: escaped {escaped} vs (1 - R) f = {want} (f {f})"
+        );
+        assert!(
+            f > 0.05,
+            "the geometry must make some light escape: f = {f}"
+        );
+        assert!((r - r_fresnel).abs() < 1e-9, "{r} vs {r_fresnel}");
+        // Energy: what did not reflect either left through the bottom or escaped.
+        assert!(
+            (r + t + escaped - 1.0).abs() < 1e-9,
+            "R {r} + T {t} + escaped {escaped} != 1"
+        );
+    }
+}

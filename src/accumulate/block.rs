@@ -18,6 +18,8 @@ pub(crate) struct BlockCell {
     pub(crate) absorbed: f64,
     pub(crate) dropped: f64,
     pub(crate) dropped_limit: f64,
+    /// Power that left an open sample through its sides (part of `dropped`).
+    pub(crate) escaped: f64,
 }
 
 /// Per-thread dense accumulators with touched lists: no allocation and no hashing per

@@ -186,6 +186,27 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
             2.0 * cut.sqrt()
         );
     }
+    if let Some(g) = s.guard_nm {
+        // Open sides: what left through them is reported, never silently lost.
+        let (worst, cell) = stats.worst_escaped(&acc);
+        let nl = acc.header.settings.wavelength_count();
+        let (di, j) = (cell / nl.max(1), cell % nl.max(1));
+        eprintln!(
+            "open sides (guard band {g:.0} nm): up to {worst:.2e} of the launched power per tree escaped through the sides (theta_i {} deg, wavelength bin {}); it is counted with the dropped power{}",
+            acc.header
+                .settings
+                .theta_i_deg
+                .get(di)
+                .copied()
+                .unwrap_or(f64::NAN),
+            j + 1,
+            if worst > 0.01 {
+                ": widen the guard band or use a larger scan to keep it small"
+            } else {
+                ""
+            }
+        );
+    }
     if stats.leaks > 0 {
         eprintln!(
             "warning: {} rays met an interface from the wrong medium (leaky geometry); their power is counted as dropped. Run goniospec check.",

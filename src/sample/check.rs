@@ -66,6 +66,14 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
         sample.interfaces.len(),
         sample.triangle_count()
     ));
+    r.facts.push(match sample.guard_nm {
+        Some(g) => format!(
+            "sides: open, with a guard band of {g} nm (trees launch in [{g}, {}] x [{g}, {}] nm; light reaching a side escapes and is reported)",
+            lx - g,
+            ly - g
+        ),
+        None => "sides: periodic (rays leaving the tile re-enter on the opposite side)".into(),
+    });
     for m in &sample.media {
         r.facts
             .push(format!("medium {:<14} {}", m.name, m.model.describe()));
@@ -130,7 +138,7 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
                     p.interior_boundary_edges
                 ));
             }
-            if p.unmatched > 0 {
+            if p.unmatched > 0 && sample.guard_nm.is_none() {
                 r.defects.push(format!(
                     "{name} does not tile: {} boundary edges on the tile's sides have no partner on the opposite side",
                     p.unmatched

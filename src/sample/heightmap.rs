@@ -26,7 +26,11 @@
 //! sign there, as they would at a mirror, which keeps the slope distribution of the
 //! patch). `edges = "periodic"` takes the patch as one period (for maps of periodic
 //! structures, or ones already made periodic); the wrap then joins the last row to the
-//! first.
+//! first. `edges = "guard"` keeps the patch as it is and opens the sample's sides
+//! (`[sample] guard`, a band 10 % of the shorter side wide unless given): trees launch only
+//! in the interior, at least the band's width from every side, and light that reaches a
+//! side leaves the sample as escaped power, reported with the results (no seams, at the
+//! cost of the band's area and of what escapes).
 //!
 //! **Missing points** (NaN, common in AFM and optical scans where the signal dropped
 //! out): refused by default, naming how many and where the first is; `missing = "fill"`
@@ -58,13 +62,29 @@ pub struct HeightMap {
     pub z_nm: Vec<f64>,
 }
 
-/// How the patch is made periodic.
+/// How the patch's edges are treated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Edges {
+    /// Reflected into a periodic, continuous 2x2 tile.
     #[default]
     Mirror,
+    /// The patch is one period.
     Periodic,
+    /// The patch as it is, in a sample with open sides and a guard band (`[sample]
+    /// guard`).
+    Guard,
+}
+
+impl Edges {
+    /// The key's value.
+    pub fn name(self) -> &'static str {
+        match self {
+            Edges::Mirror => "mirror",
+            Edges::Periodic => "periodic",
+            Edges::Guard => "guard",
+        }
+    }
 }
 
 /// What to do with missing points.
@@ -285,19 +305,18 @@ impl HeightMap {
         let (cx, cy) = match edges {
             Edges::Mirror => (2 * (nx - 1), 2 * (ny - 1)),
             Edges::Periodic => (nx, ny),
+            Edges::Guard => (nx - 1, ny - 1),
         };
         let triangles = 2 * cx as u64 * cy as u64;
         if triangles > MAX_GENERATED_TRIANGLES {
             return Err(format!(
                 "meshed with edges = \"{}\", this map makes {triangles} triangles, more than {MAX_GENERATED_TRIANGLES}; crop or resample the scan",
-                match edges {
-                    Edges::Mirror => "mirror",
-                    Edges::Periodic => "periodic",
-                }
+                edges.name()
             ));
         }
         let fold = |i: usize, n: usize, c: usize| match edges {
             Edges::Periodic => i % n,
+            Edges::Guard => i,
             // Mirror: 0, 1, ..., n-1, n-2, ..., 1, then again.
             Edges::Mirror => {
                 let k = i % c;

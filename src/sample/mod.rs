@@ -152,6 +152,10 @@ pub struct Sample {
     /// The layer structure when the sample was written as a `[stack]`, for analytic
     /// references.
     pub stack: Option<Stack>,
+    /// Open sides with a guard band (`[sample] guard`, nm): trees launch at least this far
+    /// from every side of the tile, and light that reaches a side leaves the sample as
+    /// escaped power. `None`: periodic sides, where rays wrap around the tile.
+    pub guard_nm: Option<f64>,
 }
 
 /// A flat layered sample: media from top to bottom and the layer thicknesses (nm).
@@ -183,8 +187,11 @@ impl Sample {
     ///
     /// # Panics
     /// When a count is zero.
+    /// The sample repeated `k` times along x and y (periodic sides only: an open sample is
+    /// one patch).
     pub fn tiled(&self, k: [usize; 2]) -> Sample {
         assert!(k[0] > 0 && k[1] > 0, "tile at least once");
+        assert!(self.guard_nm.is_none(), "an open sample cannot be tiled");
         let [lx, ly] = self.tile_nm;
         let mut out = self.clone();
         out.tile_nm = [lx * k[0] as f64, ly * k[1] as f64];
@@ -281,6 +288,8 @@ struct RawHeader {
     unit: Spanned<String>,
     /// Optional where a height map sets the tile.
     tile: Option<Spanned<Vec<f64>>>,
+    /// Open sides with a guard band this wide (sample units).
+    guard: Option<Spanned<f64>>,
     #[serde(default)]
     #[allow(dead_code)]
     description: Option<String>,
@@ -352,6 +361,7 @@ fn load_heightmap(
     h: &Spanned<String>,
     base: &Path,
     nm_per_unit: f64,
+    open: bool,
 ) -> Result<(Mesh, [f64; 2], String), String> {
     let file = base.join(h.get_ref());
     let scale = match (ri.pixel_size.as_ref(), ri.height_scale.as_ref()) {
@@ -380,7 +390,17 @@ fn load_heightmap(
     };
     let mut map = heightmap::read(&file, scale)?;
     let filled = map.resolve_missing(ri.missing.unwrap_or_default())?;
-    let edges = ri.edges.unwrap_or_default();
+    let edges = match (ri.edges, open) {
+        (None, true) => heightmap::Edges::Guard,
+        (None, false) => heightmap::Edges::default(),
+        (Some(e @ (heightmap::Edges::Mirror | heightmap::Edges::Periodic)), true) => {
+            return Err(format!(
+                "edges = \"{}\" makes the patch periodic, but [sample] guard opens the sample's sides: use edges = \"guard\" (the default with a guard band) or remove guard",
+                e.name()
+            ));
+        }
+        (Some(e), _) => e,
+    };
     let (mesh, tile) = map.mesh(edges)?;
     let desc = format!(
         "height map {} ({} x {} points, {} x {} nm apart{}, edges {})",
@@ -397,6 +417,7 @@ fn load_heightmap(
         match edges {
             heightmap::Edges::Mirror => "mirrored",
             heightmap::Edges::Periodic => "periodic",
+            heightmap::Edges::Guard => "open, with a guard band",
         }
     );
     Ok((mesh, tile, desc))
@@ -449,6 +470,10 @@ pub fn nm_per_unit(unit: &str) -> Option<f64> {
         _ => None,
     }
 }
+
+/// The guard band of an open sample whose `[sample]` does not give one, as a fraction of
+/// the shorter tile side: trees launch in the central 80 % of each side.
+pub const DEFAULT_GUARD_FRACTION: f64 = 0.1;
 
 /// The largest tile side, layer thickness or coordinate a sample may have, nm (10 cm).
 ///
@@ -547,6 +572,12 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         )
     })?;
     let base = path.parent().unwrap_or(Path::new(""));
+    // Open sides: asked for in [sample], or by a height map's edges.
+    let open = raw.sample.guard.is_some()
+        || raw
+            .interface
+            .iter()
+            .any(|ri| ri.edges == Some(heightmap::Edges::Guard));
     // Measured surfaces first: they set the tile.
     let mut measured: Vec<Option<(Mesh, [f64; 2], String)>> = Vec::new();
     for ri in &raw.interface {
@@ -566,7 +597,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
                 }
                 None
             }
-            Some(h) => Some(load_heightmap(ri, h, base, scale).map_err(|m| {
+            Some(h) => Some(load_heightmap(ri, h, base, scale, open).map_err(|m| {
                 at(
                     h.span(),
                     SampleErrorKind::Invalid(format!(
@@ -682,6 +713,26 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         check_length(&format!("tile side {axis}"), v, unit, nm)
             .map_err(|m| at(tile_span.clone(), SampleErrorKind::Invalid(m)))?;
     }
+    // The guard band: as given, or a tenth of the shorter side; it must leave an interior
+    // to launch trees in.
+    let short = tx.min(ty);
+    let guard_nm = match (&raw.sample.guard, open) {
+        (Some(g), _) => {
+            let v = *g.get_ref();
+            if !(v.is_finite() && v > 0.0 && v < 0.5 * short) {
+                return Err(at(
+                    g.span(),
+                    SampleErrorKind::Invalid(format!(
+                        "guard must leave an interior to launch trees in: 0 < guard < {} {unit} (half the shorter tile side), got {v} {unit}",
+                        0.5 * short
+                    )),
+                ));
+            }
+            Some(v * scale)
+        }
+        (None, true) => Some(DEFAULT_GUARD_FRACTION * short * scale),
+        (None, false) => None,
+    };
     let mut interfaces = Vec::new();
 
     // Layers (of a [stack] or a coating) as (medium, thickness in nm).
@@ -964,5 +1015,6 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         media,
         interfaces,
         stack,
+        guard_nm,
     })
 }

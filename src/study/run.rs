@@ -22,6 +22,12 @@ pub fn run_area(st: &Study, mut log: impl FnMut(&str)) -> Result<Vec<AreaPoint>,
     };
     let sample: Sample =
         sample::load(&st.sample_path, MeshOptions::default()).map_err(|e| e.to_string())?;
+    if sample.guard_nm.is_some() {
+        return Err(format!(
+            "{}: the sampled-area experiment repeats the tile, which needs periodic sides; this sample's sides are open (guard band)",
+            st.sample_path.display()
+        ));
+    }
     let mut out = Vec::new();
     for name in &a.coherence {
         let coherence =

@@ -50,6 +50,20 @@ pub struct Dropped {
     /// cutoff: such power says the ray series was cut before it converged, and its
     /// coherent effect on the result is not bounded by the cutoff.
     pub limit: bool,
+    /// Left an open sample through a side (`Sample::guard_nm`): escaped, not cut.
+    pub escaped: bool,
+}
+
+/// A tree's dropped power at one wavelength (see [`Tree::dropped`]), as fractions of the
+/// launched power.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DroppedPower {
+    /// Everything dropped, escaped included.
+    pub all: f64,
+    /// The part dropped by limits and leaks ([`Dropped::limit`]).
+    pub limit: f64,
+    /// The part that left through the sides of an open sample ([`Dropped::escaped`]).
+    pub escaped: f64,
 }
 
 /// Everything one tree produced.
@@ -90,6 +104,17 @@ impl Tree {
             power: [field_power(&e[0]), field_power(&e[1])],
             im: opl.im,
             limit,
+            escaped: false,
+        });
+    }
+
+    /// Records the power of a field that left an open sample through a side.
+    fn escape_field(&mut self, e: &[Field; 2], opl: C64) {
+        self.dropped.push(Dropped {
+            power: [field_power(&e[0]), field_power(&e[1])],
+            im: opl.im,
+            limit: false,
+            escaped: true,
         });
     }
 
@@ -103,14 +128,22 @@ impl Tree {
             .sum()
     }
 
-    /// Dropped power at `lambda_nm`, averaged over the two polarisations: all of it, and
-    /// the part dropped by limits and leaks (see [`Dropped::limit`]).
-    pub fn dropped(&self, lambda_nm: f64) -> (f64, f64) {
+    /// Dropped power at `lambda_nm`, averaged over the two polarisations: all of it, the
+    /// part dropped by limits and leaks, and the part that escaped through the sides.
+    pub fn dropped(&self, lambda_nm: f64) -> DroppedPower {
         let a = -4.0 * std::f64::consts::PI / lambda_nm;
-        self.dropped.iter().fold((0.0, 0.0), |(all, lim), d| {
+        let mut out = DroppedPower::default();
+        for d in &self.dropped {
             let p = 0.5 * (d.power[0] + d.power[1]) * (a * d.im).exp();
-            (all + p, if d.limit { lim + p } else { lim })
-        })
+            out.all += p;
+            if d.limit {
+                out.limit += p;
+            }
+            if d.escaped {
+                out.escaped += p;
+            }
+        }
+        out
     }
 }
 
@@ -472,8 +505,17 @@ impl<'a> Scene<'a> {
                     drop_all(&stack.cur, first, r.opl, trees);
                     break;
                 }
-                // Wrap around the tile side; re-enter a little outside the opposite side.
                 self.advance(&mut r, t_side, n_med, &stack.cur, first, trees);
+                if self.sample.guard_nm.is_some() {
+                    // An open sample: the light leaves through the side.
+                    for (k, f) in stack.cur.iter().enumerate() {
+                        if let Some(e) = f {
+                            trees[first + k].escape_field(e, r.opl);
+                        }
+                    }
+                    break;
+                }
+                // Wrap around the tile side; re-enter a little outside the opposite side.
                 // The unwrapped position steps back by the re-entry margin: keep the plane
                 // wave's phase exact there too.
                 let l = [lx, ly][axis];
