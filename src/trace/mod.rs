@@ -640,8 +640,11 @@ impl<'a> Scene<'a> {
         // Whether lane j keeps a child of field `e`: below the cutoff or past the depth
         // limit its power is dropped (recorded in its tree).
         let keep = |tree: &mut Tree, e: &[Field; 2], j: usize| -> bool {
-            let prune = -4.0 * std::f64::consts::PI / lanes[j].lambda_nm;
-            let power = field_power(&e[0]).max(field_power(&e[1])) * (prune * r.opl.im).exp();
+            let mut power = field_power(&e[0]).max(field_power(&e[1]));
+            // Attenuated along the path so far (exactly 1 on a lossless path: no call).
+            if r.opl.im != 0.0 {
+                power *= (-4.0 * std::f64::consts::PI / lanes[j].lambda_nm * r.opl.im).exp();
+            }
             if power < limits.cutoff {
                 tree.drop_field(e, r.opl, false);
                 false
