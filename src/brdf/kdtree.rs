@@ -16,7 +16,8 @@
 //! precision, rounded outwards) in two aligned cache lines, coordinate by coordinate across
 //! the four directions, so one fetch and a few 4-lane operations bound both children. A
 //! leaf's points are also kept in single precision, four to a group, and the sum of their
-//! two chords less a stated slack rejects most points before the exact double-precision arc.
+//! two chords less a stated slack rejects most points before the exact double-precision arc,
+//! whose vectors sit in the same group (one stretch of memory per leaf).
 
 use std::f64::consts::TAU;
 
@@ -150,13 +151,16 @@ fn arc_upper(c: f32) -> f32 {
 }
 
 /// Four points of a leaf: single-precision coordinates lane by lane (`wi` x, y, z, then
-/// `wo`) and their original indices. A leaf's lanes past its last point repeat that point
-/// with the index [`PAD`].
+/// `wo`), their original indices, and their exact vectors for the arcs, side by side so a
+/// point's arc reads memory next to what its bound read. A leaf's lanes past its last
+/// point repeat that point with the index [`PAD`].
 #[derive(Clone, Debug, PartialEq)]
 #[repr(C, align(16))]
 struct Group {
     v: [Vec4; 6],
     id: [u32; 4],
+    /// `wi` then `wo` of each lane.
+    w: [[f64; 6]; 4],
 }
 
 /// A kd-tree over points `(theta_i, phi_i, theta_o, phi_o)` (radians).
@@ -168,9 +172,6 @@ pub struct KdTree {
     root_box: Bounds,
     /// Four points per group, each leaf's starting a new group.
     groups: Vec<Group>,
-    /// The points as `wi` then `wo`, four per group in the groups' order (padding lanes
-    /// repeat their leaf's last point).
-    w: Vec<[f64; 6]>,
     /// Points held (padding not counted).
     len: usize,
 }
@@ -198,7 +199,6 @@ impl KdTree {
             },
             root_box: [[0.0; 6]; 2],
             groups: Vec::new(),
-            w: Vec::new(),
             len: points.len(),
         };
         if !points.is_empty() {
@@ -250,8 +250,8 @@ impl KdTree {
                 self.groups.push(Group {
                     v: std::array::from_fn(v),
                     id: std::array::from_fn(|l| chunk.get(l).copied().unwrap_or(PAD)),
+                    w: std::array::from_fn(|l| all[lane(l)]),
                 });
-                self.w.extend((0..4).map(|l| all[lane(l)]));
             }
             let child = Child {
                 at: first | LEAF_BIT,
@@ -284,11 +284,10 @@ impl KdTree {
         self.len
     }
 
-    /// Bytes the tree holds on the heap (nodes, groups, vectors).
+    /// Bytes the tree holds on the heap (nodes, and the groups with their vectors).
     pub fn heap_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<Node>()
             + self.groups.len() * std::mem::size_of::<Group>()
-            + self.w.len() * std::mem::size_of::<[f64; 6]>()
     }
 
     pub fn is_empty(&self) -> bool {
@@ -395,7 +394,7 @@ impl KdTree {
                 limit = (f64::from(*kth) + 2.0 * F32_SLACK) as f32;
             }
         }
-        for (g, group) in groups.iter().enumerate() {
+        for group in groups {
             let sum = chords(&group.v, 0, &qi) + chords(&group.v, 3, &qo);
             let mut mask = sum.cmple(Vec4::splat(limit)).bitmask();
             while mask != 0 {
@@ -405,7 +404,7 @@ impl KdTree {
                 if id == PAD {
                     break;
                 }
-                let v = &self.w[4 * (first + g) + lane];
+                let v = &group.w[lane];
                 let d =
                     arc(wi, DVec3::new(v[0], v[1], v[2])) + arc(wo, DVec3::new(v[3], v[4], v[5]));
                 let better = out.len() < k || {
@@ -436,7 +435,7 @@ impl KdTree {
         let mut all: Vec<(f64, u32)> = self
             .points()
             .map(|(p, id)| {
-                let v = &self.w[p];
+                let v = &self.groups[p / 4].w[p % 4];
                 let (pi, po) = (DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]));
                 (arc(wi, pi) + arc(wo, po), id)
             })
@@ -473,7 +472,7 @@ impl KdTree {
             for g in first..first + c.groups as usize {
                 let group = &self.groups[g];
                 for l in 0..4 {
-                    let v = &self.w[4 * g + l];
+                    let v = &group.w[l];
                     if !(0..6).all(|d| {
                         f64::from(b[0][d]) <= v[d]
                             && v[d] <= f64::from(b[1][d])
