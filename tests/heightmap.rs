@@ -478,6 +478,36 @@ fn bad_files_get_clear_errors() {
     assert!(e.contains("belong to an interface with a heightmap"), "{e}");
 }
 
+/// Writes the known surface as `g.gsf` (f32 heights) in `dir`; returns the heights.
+fn write_known_gsf(dir: &Path) -> Vec<f32> {
+    let z32: Vec<f32> = heights().iter().map(|&v| v as f32).collect();
+    std::fs::write(dir.join("g.gsf"), gsf_bytes(NX, NY, DX, DY, &z32, "nm")).unwrap();
+    z32
+}
+
+/// The flat scan's angles (deg) and wavelengths (nm).
+const FLAT_THETA: [f64; 3] = [0.0, 30.0, 60.0];
+const FLAT_LAMBDA: [f64; 2] = [450.0, 600.0];
+
+/// Simulates a flat glass patch at [`FLAT_THETA`] x [`FLAT_LAMBDA`] and checks R against the
+/// independent TMM's bare interface within 1e-9; returns the run's statistics.
+fn check_flat_glass_is_tmm(s: &Sample) -> goniospec::simulate::SimStats {
+    let cfg = config(
+        &FLAT_THETA,
+        Wavelengths::Monochromatic(FLAT_LAMBDA.to_vec()),
+        64,
+    );
+    let (acc, stats) = goniospec::simulate::simulate(s, &cfg, &|_| {}).unwrap();
+    for (i, th) in FLAT_THETA.iter().enumerate() {
+        for (j, &l) in FLAT_LAMBDA.iter().enumerate() {
+            let (r, _) = totals(&acc, i, j);
+            let (want, _) = tmm_ref(&[c(1.0, 0.0), c(1.5, 0.0)], &[], l, th.to_radians());
+            assert!((r - want).abs() < 1e-9, "{th} deg {l} nm: {r} vs {want}");
+        }
+    }
+    stats
+}
+
 #[test]
 fn a_flat_measured_patch_is_the_fresnel_interface() {
     // A flat scan of glass (all heights 0): R at every angle is the bare interface's, from
@@ -489,22 +519,7 @@ fn a_flat_measured_patch_is_the_fresnel_interface() {
     )
     .unwrap();
     let s = load_in(&d, "heightmap = \"flat.gsf\"").unwrap();
-    let lambdas = vec![450.0, 600.0];
-    let acc = run(
-        &s,
-        &config(
-            &[0.0, 30.0, 60.0],
-            Wavelengths::Monochromatic(lambdas.clone()),
-            64,
-        ),
-    );
-    for (i, th) in [0.0f64, 30.0, 60.0].iter().enumerate() {
-        for (j, &l) in lambdas.iter().enumerate() {
-            let (r, _) = totals(&acc, i, j);
-            let (want, _) = tmm_ref(&[c(1.0, 0.0), c(1.5, 0.0)], &[], l, th.to_radians());
-            assert!((r - want).abs() < 1e-9, "{th} deg {l} nm: {r} vs {want}");
-        }
-    }
+    check_flat_glass_is_tmm(&s);
 }
 
 #[test]
@@ -512,9 +527,7 @@ fn a_non_periodic_patch_equals_its_obj_equivalent() {
     // The known surface as a GSF (mirror edges) against an OBJ of the same mirrored surface
     // written here, triangulated along the other diagonal: the same R within error bars.
     let d = scratch("heightmap-obj");
-    let z = heights();
-    let z32: Vec<f32> = z.iter().map(|&v| v as f32).collect();
-    std::fs::write(d.join("g.gsf"), gsf_bytes(NX, NY, DX, DY, &z32, "nm")).unwrap();
+    let z32 = write_known_gsf(&d);
     let measured = load_in(&d, "heightmap = \"g.gsf\"").unwrap();
     let (cx, cy) = (2 * (NX - 1), 2 * (NY - 1));
     let mut obj = String::new();
@@ -676,9 +689,7 @@ fn ply_and_stl_load_the_same_mesh_as_obj() {
 #[test]
 fn guard_band_edges_keep_the_patch_and_open_the_sides() {
     let d = scratch("heightmap-guard");
-    let z = heights();
-    let z32: Vec<f32> = z.iter().map(|&v| v as f32).collect();
-    std::fs::write(d.join("g.gsf"), gsf_bytes(NX, NY, DX, DY, &z32, "nm")).unwrap();
+    let z32 = write_known_gsf(&d);
     // The patch as it is: (NX - 1) x (NY - 1) cells, every point at its known height.
     let s = load_in(&d, "heightmap = \"g.gsf\"\nedges = \"guard\"").unwrap();
     let (lx, ly) = ((NX - 1) as f64 * DX, (NY - 1) as f64 * DY);
@@ -724,20 +735,7 @@ fn guard_band_edges_keep_the_patch_and_open_the_sides() {
     )
     .unwrap();
     let s = load_in(&d, "heightmap = \"flat.gsf\"\nedges = \"guard\"").unwrap();
-    let lambdas = vec![450.0, 600.0];
-    let cfg = config(
-        &[0.0, 30.0, 60.0],
-        Wavelengths::Monochromatic(lambdas.clone()),
-        64,
-    );
-    let (acc, stats) = goniospec::simulate::simulate(&s, &cfg, &|_| {}).unwrap();
-    for (i, th) in [0.0f64, 30.0, 60.0].iter().enumerate() {
-        for (j, &l) in lambdas.iter().enumerate() {
-            let (r, _) = totals(&acc, i, j);
-            let (want, _) = tmm_ref(&[c(1.0, 0.0), c(1.5, 0.0)], &[], l, th.to_radians());
-            assert!((r - want).abs() < 1e-9, "{th} deg {l} nm: {r} vs {want}");
-        }
-    }
+    let stats = check_flat_glass_is_tmm(&s);
     assert!(
         stats.escaped.iter().all(|&e| e == 0.0),
         "{:?}",
