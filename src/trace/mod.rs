@@ -40,7 +40,7 @@ pub struct Exit {
     pub up: bool,
 }
 
-/// Power dropped by the cutoff or a limit (or lost to a leak):
+/// Power dropped by the cutoff or a limit, lost to a leak, or escaped through an open side:
 /// `power[p] * exp(-4 pi im / lambda)`.
 #[derive(Clone, Copy, Debug)]
 pub struct Dropped {
