@@ -2,10 +2,11 @@
 //!
 //! Reports triangle counts, bounds and media, and looks for defects: interfaces whose
 //! normals point the wrong way, closed bodies that are not watertight, interfaces that cut
-//! through each other, sheets whose boundary does not tile periodically, and leaks: random
-//! rays walk the sample (reflecting or passing at random at each crossing, wrapping around
-//! the tile's sides) while tracking the current medium, and every crossing whose source
-//! medium does not match is counted (DESIGN.md §2).
+//! through each other, sheets whose boundary does not tile periodically (periodic sides
+//! only), and leaks: random rays walk the sample (reflecting or passing at random at each
+//! crossing, wrapping around the tile's sides, or ending at a side of an open sample) while
+//! tracking the current medium, and every crossing whose source medium does not match is
+//! counted (DESIGN.md §2).
 
 use glam::DVec3;
 use std::collections::HashMap;
@@ -419,7 +420,7 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
             };
             let hit: Hit = accel.closest_hit(&ray);
             if !hit.is_hit() || f64::from(hit.t) > t_limit {
-                if t_side.is_finite() {
+                if t_side.is_finite() && sample.guard_nm.is_none() {
                     // Wrap around the tile side and go on.
                     wraps += 1;
                     pos += dir * t_side;
@@ -430,7 +431,9 @@ fn leak_test(sample: &Sample, accel: &Accel, first: &[u32], opts: &CheckOptions)
                     }
                     continue;
                 }
-                break; // vertical ray that left the sample
+                // A vertical ray that left the sample, or one that left an open sample
+                // through a side (no medium is known beyond it).
+                break;
             }
             events += 1;
             stats.crossings += 1;
