@@ -297,23 +297,24 @@ impl SimStats {
     /// The largest mean power per tree that any cell lost through the sides of an open
     /// sample, with that cell's index.
     pub fn worst_escaped(&self, acc: &Accumulator) -> (f64, usize) {
-        self.escaped
-            .iter()
-            .zip(&acc.cells)
-            .map(|(d, c)| d / c.trees.max(1) as f64)
-            .enumerate()
-            .fold((0.0, 0), |w, (i, v)| if v > w.0 { (v, i) } else { w })
+        worst_per_tree(&self.escaped, acc)
     }
 
     /// The largest mean power per tree that any cell lost to limits and leaks: when it is
     /// not small the ray series was cut before it converged.
     pub fn worst_limit_dropped(&self, acc: &Accumulator) -> f64 {
-        self.limit_dropped
-            .iter()
-            .zip(&acc.cells)
-            .map(|(d, c)| d / c.trees.max(1) as f64)
-            .fold(0.0, f64::max)
+        worst_per_tree(&self.limit_dropped, acc).0
     }
+}
+
+/// The largest of the per-cell sums `per_cell` divided by the cell's trees, and its cell.
+fn worst_per_tree(per_cell: &[f64], acc: &Accumulator) -> (f64, usize) {
+    per_cell
+        .iter()
+        .zip(&acc.cells)
+        .map(|(d, c)| d / c.trees.max(1) as f64)
+        .enumerate()
+        .fold((0.0, 0), |w, (i, v)| if v > w.0 { (v, i) } else { w })
 }
 
 /// What can stop a simulation.
@@ -378,9 +379,7 @@ fn entry_point(i: u64, shift: [f64; 2], tile: [f64; 2], guard: f64) -> [f64; 2] 
     const G: f64 = 1.324_717_957_244_746; // plastic number
     let a = [1.0 / G, 1.0 / (G * G)];
     let f = |k: usize| (shift[k] + (i as f64) * a[k]).rem_euclid(1.0);
-    if guard == 0.0 {
-        return [f(0) * tile[0], f(1) * tile[1]];
-    }
+    // With no guard this is `f * tile` exactly (`0 + x` and `L - 0` round to themselves).
     [0, 1].map(|k| guard + f(k) * (tile[k] - 2.0 * guard))
 }
 
