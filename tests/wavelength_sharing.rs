@@ -54,10 +54,6 @@ fn assert_same_tree(a: &Tree, b: &Tree, what: &str) {
     assert_eq!(a.leaks, b.leaks, "{what}: leaks");
     assert_eq!(a.segments, b.segments, "{what}: segments");
     assert_eq!(a.energy_faults, b.energy_faults, "{what}: energy faults");
-    assert_eq!(
-        a.flux_normalised, b.flux_normalised,
-        "{what}: flux-normalised"
-    );
 }
 
 /// Traces `entries` trees of `s` at 30 deg with lanes at `lambdas` both ways and compares

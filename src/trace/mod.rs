@@ -77,9 +77,13 @@ pub struct Tree {
     /// Interface events arriving from a lossless medium whose `|r|^2 + T` missed 1 by more
     /// than 1e-9 (an arithmetic or branch fault; always 0 in a correct build).
     pub energy_faults: u32,
-    /// Events inside an absorbing medium at a facet not parallel to the wave's entry facet
-    /// whose `|r|^2 + T` exceeded 1 and were flux-normalised (`fresnel::flux_normalise`).
-    pub flux_normalised: u32,
+    /// Events whose energy was limited because their partial waves recombine only in
+    /// part (`fresnel::limit_excess`).
+    pub limited: u32,
+    /// The incident power (fraction of launched, attenuated along its path) of those
+    /// events, each weighted by `1 - w`: how much light went through events that are
+    /// energy-limited rather than exact (`SimStats::limited`).
+    pub limited_power: f64,
     pub leaks: u32,
     pub segments: u32,
     /// Scratch for coated interfaces (indices and thicknesses of one event's stack).
@@ -93,7 +97,8 @@ impl Tree {
         self.dropped.clear();
         self.absorbing = false;
         self.energy_faults = 0;
-        self.flux_normalised = 0;
+        self.limited = 0;
+        self.limited_power = 0.0;
         self.leaks = 0;
         self.segments = 0;
     }
@@ -190,6 +195,9 @@ pub struct Scene<'a> {
     /// Medium above everything and below everything.
     pub ambient: usize,
     pub substrate: usize,
+    /// The length over which the illumination is coherent, nm: the beamlet radius of a
+    /// finite-radius estimator, else the tile's longer side (`set_coherence_length`).
+    coherence_nm: f64,
 }
 
 /// Why a scene cannot be traced.
@@ -242,10 +250,21 @@ impl<'a> Scene<'a> {
             eps,
             ambient: 0,
             substrate: 0,
+            coherence_nm: lx.max(ly),
         };
         scene.ambient = scene.outer_medium(true)?;
         scene.substrate = scene.outer_medium(false)?;
         Ok(scene)
+    }
+
+    /// Sets the length over which the illumination is coherent (nm, finite and positive;
+    /// anything else keeps the tile's longer side): the scale against which an event
+    /// inside an absorber judges whether its partial waves recombine
+    /// ([`recombination_weight`]).
+    pub fn set_coherence_length(&mut self, nm: f64) {
+        if nm.is_finite() && nm > 0.0 {
+            self.coherence_nm = nm;
+        }
     }
 
     /// The medium beyond the sample above (or below) it, from vertical probe rays; the
@@ -772,25 +791,35 @@ impl<'a> Scene<'a> {
                 coating_absorbs |= indices[m].im > 0.0;
             }
             tree.n_buf.push(n2);
-            let amp = tmm::amplitudes(&tree.n_buf, &tree.d_buf, C64::new(g.kappa, 0.0), lambda_nm);
-            g.c = fresnel::coated(&g.c, n1, n2, amp);
+            let amp = tmm::amplitudes(&tree.n_buf, &tree.d_buf, g.kappa, lambda_nm);
+            g.c = fresnel::coated(&g.c, amp);
             if coating_absorbs {
                 tree.absorbing = true;
             }
         }
-        if n1.im > 0.0 && r.n_im.cross(nf).length() > 1e-6 * r.n_im.length() {
-            // Inside an absorbing medium, at a facet not parallel to the one the wave
-            // entered through: the reflections of this region leave in other
-            // directions, so the series no longer recombines into the exact field and
-            // each event must balance on its own (optics::fresnel, "flux-normalised
-            // events").
-            if fresnel::flux_normalise(&mut g.c) {
-                tree.flux_normalised += 1;
+        if g.k_im > 0.0 {
+            // The wave's amplitude varies along this facet (it entered through a facet
+            // not parallel to this one): its partial waves recombine only in part.
+            let w = recombination_weight(g.k_im, lambda_nm, self.coherence_nm);
+            if fresnel::limit_excess(&mut g.c, w) {
+                tree.limited += 1;
+                // The incident power, attenuated along the path, that met an event whose
+                // amplitudes are a model rather than the exact plane-wave ones.
+                let mut p = field_power(&e[0]).max(field_power(&e[1]));
+                if r.opl.im != 0.0 {
+                    p *= (-4.0 * std::f64::consts::PI / lambda_nm * r.opl.im).exp();
+                }
+                tree.limited_power += p * (1.0 - w);
             }
-        } else if n1.im == 0.0 {
-            // From a lossless medium |r|^2 + T = 1 exactly (optics::fresnel); an
-            // absorbing coating may only take power away.
-            let [es, ep] = fresnel::balance_excess(&g.c);
+        }
+        if n1.im == 0.0 && r.n_im == DVec3::ZERO {
+            // A homogeneous wave from a lossless medium: |r|^2 + T = 1 exactly
+            // (optics::fresnel::balance_excess); an absorbing coating may only take power
+            // away. From an absorbing medium, or for an inhomogeneous wave, the incident
+            // and reflected fluxes do not separate and no single event balances on its
+            // own: energy is checked on the run's coherent totals
+            // (simulate::check_physical).
+            let [es, ep] = fresnel::balance_excess(&g.c, n1, n2);
             let ok = if coating_absorbs {
                 es <= 1e-9 && ep <= 1e-9
             } else {
@@ -812,6 +841,21 @@ impl<'a> Scene<'a> {
         out.dir_t = g.dir_t;
         out.n_t = g.n_t;
     }
+}
+
+/// The weight in [0, 1] with which the partial waves of an event recombine, for an
+/// incident wave whose amplitude changes along the facet at the rate `k_im` (`|Im K|`,
+/// in units of `k0 = 2 pi / lambda`), under illumination coherent over `coherence_nm`:
+/// `exp(-x^2 / 2)` with `x = k0 k_im coherence_nm`, the number of e-foldings of the
+/// wave's amplitude across the coherent area. A film whose faces are parallel has `x = 0`
+/// and keeps the exact amplitudes (its series recombines into the transfer-matrix field);
+/// a slightly tilted face keeps them to second order in the tilt; a ridge tip, where the
+/// wave enters by one face and meets another at a large angle, has `x` in the hundreds,
+/// its partial waves leave in directions that never interfere, and the event conserves
+/// power on its own (docs/physics.md, "Energy at interfaces").
+pub fn recombination_weight(k_im: f64, lambda_nm: f64, coherence_nm: f64) -> f64 {
+    let x = 2.0 * std::f64::consts::PI / lambda_nm * k_im * coherence_nm;
+    (-0.5 * x * x).exp()
 }
 
 /// Drops every field the ray carries (`cur`, lanes from `first`) by a limit or a leak.
