@@ -20,6 +20,14 @@ pub(crate) struct BlockCell {
     pub(crate) dropped_limit: f64,
     /// Power that left an open sample through its sides (part of `dropped`).
     pub(crate) escaped: f64,
+    /// Sum over trees of `2 sqrt(D_l (R + T)) + D_l`, `D_l` a tree's power cut by limits:
+    /// the most that power can change the tree's coherent totals (Cauchy-Schwarz).
+    pub(crate) limit_bound: f64,
+    /// Sum over absorbing trees of `max(0, R + T + dropped - 1)`: power a tree's ray series
+    /// created because its terms did not recombine (`SimStats::created`).
+    pub(crate) created: f64,
+    /// Sum over trees of `Tree::limited_power`.
+    pub(crate) limited: f64,
 }
 
 /// Per-thread dense accumulators with touched lists: no allocation and no hashing per

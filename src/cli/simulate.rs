@@ -181,9 +181,37 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     }
     let cut = stats.worst_limit_dropped(&acc);
     if cut > 1e-6 {
+        let (bound, _) = stats.worst_limit_bound(&acc);
         eprintln!(
-            "warning: up to {cut:.1e} of the launched power per tree was cut by --max-depth or --max-segments before the ray series converged; R and T can be off by up to about 2 sqrt({cut:.1e}) = {:.1e} (raise the limits, or model thin layers as a flat [stack])",
-            2.0 * cut.sqrt()
+            "warning: up to {cut:.1e} of the launched power per tree was cut by --max-depth or --max-segments before the ray series converged; R and T change by about {cut:.1e} when the cut light adds incoherently to the rest (the usual case) and by at most {bound:.1e} if it all added in phase (raise the limits, or model thin layers as a flat [stack])"
+        );
+    }
+    let (limited, cell) = stats.worst_limited(&acc);
+    if limited > goniospec::simulate::CREATED_WARN {
+        let nl = acc.header.settings.wavelength_count().max(1);
+        eprintln!(
+            "warning: {limited:.1e} of the launched power per tree (theta_i {} deg, wavelength bin {}) met absorbing facets tilted against the face the light entered by, beyond what its partial waves recombine over the coherence length (film faces tilted by more than about 0.02 degrees at the default 5 um beamlet, ridge tips); those events conserve energy by a model, not exactly, and R and T can be off by up to about that much (a tilted 20 nm gold film at 1 degree: R 0.72 against 0.34). A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
+            acc.header
+                .settings
+                .theta_i_deg
+                .get(cell / nl)
+                .copied()
+                .unwrap_or(f64::NAN),
+            cell % nl + 1
+        );
+    }
+    let (created, cell) = stats.worst_created(&acc);
+    if created > goniospec::simulate::CREATED_WARN {
+        let nl = acc.header.settings.wavelength_count().max(1);
+        eprintln!(
+            "warning: {created:.1e} of the launched power per tree (theta_i {} deg, wavelength bin {}) came from ray series that created energy: light crossed absorbing features thinner than their decay length (ridge tips at grazing light, sub-skin-depth wedges), where the partial waves of one region leave in directions that cannot interfere and no ray model holds; R is uncertain by about that much there. Check such a sample against a rigorous solver (RCWA), or use less grazing light or rounder ridges (docs/physics.md, \"Where the ray model stops\")",
+            acc.header
+                .settings
+                .theta_i_deg
+                .get(cell / nl)
+                .copied()
+                .unwrap_or(f64::NAN),
+            cell % nl + 1
         );
     }
     if let Some(g) = s.guard_nm {
