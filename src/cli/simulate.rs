@@ -186,48 +186,32 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
             "warning: up to {cut:.1e} of the launched power per tree was cut by --max-depth or --max-segments before the ray series converged; R and T change by about {cut:.1e} when the cut light adds incoherently to the rest (the usual case) and by at most {bound:.1e} if it all added in phase (raise the limits, or model thin layers as a flat [stack])"
         );
     }
+    // A cell's incident angle (deg) and wavelength bin (from 1), for the warnings.
+    let where_ = |cell: usize| {
+        let nl = acc.header.settings.wavelength_count().max(1);
+        let theta = acc.header.settings.theta_i_deg.get(cell / nl);
+        (theta.copied().unwrap_or(f64::NAN), cell % nl + 1)
+    };
     let (limited, cell) = stats.worst_limited(&acc);
     if limited > goniospec::simulate::CREATED_WARN {
-        let nl = acc.header.settings.wavelength_count().max(1);
+        let (theta, bin) = where_(cell);
         eprintln!(
-            "warning: {limited:.1e} of the launched power per tree (theta_i {} deg, wavelength bin {}) met absorbing facets tilted against the face the light entered by, beyond what its partial waves recombine over the coherence length (film faces tilted by more than about 0.02 degrees at the default 5 um beamlet, ridge tips); those events conserve energy by a model, not exactly, and R and T can be off by up to about that much (a tilted 20 nm gold film at 1 degree: R 0.72 against 0.34). A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
-            acc.header
-                .settings
-                .theta_i_deg
-                .get(cell / nl)
-                .copied()
-                .unwrap_or(f64::NAN),
-            cell % nl + 1
+            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets tilted against the face the light entered by, beyond what its partial waves recombine over the coherence length (film faces tilted by more than about 0.02 degrees at the default 5 um beamlet, ridge tips); those events conserve energy by a model, not exactly, and R and T can be off by up to about that much (a tilted 20 nm gold film at 1 degree: R 0.72 against 0.34). A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
         );
     }
     let (created, cell) = stats.worst_created(&acc);
     if created > goniospec::simulate::CREATED_WARN {
-        let nl = acc.header.settings.wavelength_count().max(1);
+        let (theta, bin) = where_(cell);
         eprintln!(
-            "warning: {created:.1e} of the launched power per tree (theta_i {} deg, wavelength bin {}) came from ray series that created energy: light crossed absorbing features thinner than their decay length (ridge tips at grazing light, sub-skin-depth wedges), where the partial waves of one region leave in directions that cannot interfere and no ray model holds; R is uncertain by about that much there. Check such a sample against a rigorous solver (RCWA), or use less grazing light or rounder ridges (docs/physics.md, \"Where the ray model stops\")",
-            acc.header
-                .settings
-                .theta_i_deg
-                .get(cell / nl)
-                .copied()
-                .unwrap_or(f64::NAN),
-            cell % nl + 1
+            "warning: {created:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) came from ray series that created energy: light crossed absorbing features thinner than their decay length (ridge tips at grazing light, sub-skin-depth wedges), where the partial waves of one region leave in directions that cannot interfere and no ray model holds; R is uncertain by about that much there. Check such a sample against a rigorous solver (RCWA), or use less grazing light or rounder ridges (docs/physics.md, \"Where the ray model stops\")",
         );
     }
     if let Some(g) = s.guard_nm {
         // Open sides: what left through them is reported, never silently lost.
         let (worst, cell) = stats.worst_escaped(&acc);
-        let nl = acc.header.settings.wavelength_count();
-        let (di, j) = (cell / nl.max(1), cell % nl.max(1));
+        let (theta, bin) = where_(cell);
         eprintln!(
-            "open sides (guard band {g:.0} nm): up to {worst:.2e} of the launched power per tree escaped through the sides (theta_i {} deg, wavelength bin {}); it is counted with the dropped power{}",
-            acc.header
-                .settings
-                .theta_i_deg
-                .get(di)
-                .copied()
-                .unwrap_or(f64::NAN),
-            j + 1,
+            "open sides (guard band {g:.0} nm): up to {worst:.2e} of the launched power per tree escaped through the sides (theta_i {theta} deg, wavelength bin {bin}); it is counted with the dropped power{}",
             if worst > 0.01 {
                 ": widen the guard band or use a larger scan to keep it small"
             } else {
