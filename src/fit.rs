@@ -22,7 +22,9 @@
 //!    search on `log(alpha)`;
 //! 2. base: directional reflectance `R(theta_i, lambda)` against `E(theta_i) F(theta_i,
 //!    lambda)`, `E` the model's own directional albedo with `F = 1` (the specular lobe is
-//!    narrow enough that `F` at `theta_i` stands for it; docs/fitting.md);
+//!    narrow enough that `F` at `theta_i` stands for it; docs/fitting.md), plus the
+//!    multiple-scattering albedo `(1 - E) F_avg^2 E_avg / (1 - F_avg (1 - E_avg))` (Kulla &
+//!    Conty 2017; [`multiple_scattering`]);
 //! 3. film: a grid over thickness (5 nm steps, 20-2000 nm) and index (1.2-2.6) for the
 //!    multimodal start, then Nelder-Mead on (d, n_f, w, n_b), with the CIELAB colour
 //!    difference of every incident angle's reflected spectrum under D65 added to the squared
@@ -283,8 +285,16 @@ fn reflectance(base: &Base, film: Option<(f64, f64)>, theta: f64, lambda: f64, j
     tmm::solve(&StackIndices { n, d_nm }, lambda, theta).r()
 }
 
-/// The model's reflectance table `R[i][j]` for given parameters and albedos `e[i]`.
-fn model_r(data: &Data, e: &[f64], base: &Base, film: Option<Film>) -> Vec<Vec<f64>> {
+/// The model's reflectance table `R[i][j]` for given parameters, albedos `e[i]` and the
+/// mean albedo `e_avg` ([`Albedo`]): single scattering `E F` plus the multiple-scattering
+/// term of the bare base ([`multiple_scattering`]).
+fn model_r(data: &Data, e: &Albedo, base: &Base, film: Option<Film>) -> Vec<Vec<f64>> {
+    let ms: Vec<f64> = data
+        .lambda_nm
+        .iter()
+        .enumerate()
+        .map(|(j, &l)| multiple_scattering(base, l, j, e.avg))
+        .collect();
     data.theta_i_rad
         .iter()
         .enumerate()
@@ -301,11 +311,54 @@ fn model_r(data: &Data, e: &[f64], base: &Base, film: Option<Film>) -> Vec<Vec<f
                         }
                         None => fb,
                     };
-                    e[i] * f
+                    e.at[i] * f + (1.0 - e.at[i]) * ms[j]
                 })
                 .collect()
         })
         .collect()
+}
+
+/// The single-scattering lobe's directional albedo with `F = 1` at each incident angle
+/// (`at`) and its cosine-weighted mean over the hemisphere (`avg`, `2 int E(mu) mu dmu`).
+struct Albedo {
+    at: Vec<f64>,
+    avg: f64,
+}
+
+impl Albedo {
+    fn new(data: &Data, alpha: f64) -> Albedo {
+        let e = |th: f64| lobe_model(data, alpha, th).iter().sum::<f64>().min(1.0);
+        // Midpoint rule in mu on 16 points: E(mu) is smooth and bounded.
+        const M: usize = 16;
+        let avg = (0..M)
+            .map(|k| {
+                let mu = (k as f64 + 0.5) / M as f64;
+                2.0 * mu * e(mu.acos()) / M as f64
+            })
+            .sum();
+        Albedo {
+            at: data.theta_i_rad.iter().map(|&th| e(th)).collect(),
+            avg,
+        }
+    }
+}
+
+/// The directional albedo the single-scattering lobe leaves out, per unit `1 - E(theta_i)`:
+/// light that a microfacet sends into another one before it escapes, Fresnel-weighted at
+/// every bounce, `F_avg^2 E_avg / (1 - F_avg (1 - E_avg))` (Kulla & Conty, "Revisiting
+/// Physically Based Shading at Imageworks", SIGGRAPH 2017 course, the Fresnel term of their
+/// multiple-scattering lobe), with `F_avg = 2 int F(mu) mu dmu` of the bare base. The
+/// simulation keeps that light; without the term the fit pushed a conductor's `k` to its
+/// bound to make up for it.
+fn multiple_scattering(base: &Base, lambda: f64, j: usize, e_avg: f64) -> f64 {
+    const M: usize = 16;
+    let f_avg: f64 = (0..M)
+        .map(|k| {
+            let mu = (k as f64 + 0.5) / M as f64;
+            2.0 * mu * reflectance(base, None, mu.acos(), lambda, j) / M as f64
+        })
+        .sum();
+    f_avg * f_avg * e_avg / (1.0 - f_avg * (1.0 - e_avg))
 }
 
 /// Sum of squared reflectance errors plus the colour term (see the module docs).
@@ -336,11 +389,7 @@ pub enum BaseKind {
 /// Runs the three stages.
 pub fn fit(data: &Data, base_kind: BaseKind, try_film: bool) -> Fit {
     let alpha = fit_alpha(data);
-    let e: Vec<f64> = data
-        .theta_i_rad
-        .iter()
-        .map(|&th| lobe_model(data, alpha, th).iter().sum::<f64>().min(1.0))
-        .collect();
+    let e = Albedo::new(data, alpha);
     let weights = colour::bin_weights(&data.lambda_nm);
     let white = colour::xyz(&vec![1.0; data.lambda_nm.len()], &weights);
     let total = |base: &Base, film: Option<Film>| {
@@ -364,11 +413,14 @@ pub fn fit(data: &Data, base_kind: BaseKind, try_film: bool) -> Fit {
                 let f = |p: &[f64]| {
                     let nb = clampn(p);
                     let base = Base::Conductor { n: vec![nb; j + 1] };
+                    let ms = multiple_scattering(&base, l, j, e.avg);
                     data.theta_i_rad
                         .iter()
                         .enumerate()
                         .map(|(i, &th)| {
-                            (e[i] * reflectance(&base, None, th, l, j) - data.r[i][j]).powi(2)
+                            let model =
+                                e.at[i] * reflectance(&base, None, th, l, j) + (1.0 - e.at[i]) * ms;
+                            (model - data.r[i][j]).powi(2)
                         })
                         .sum::<f64>()
                 };
