@@ -337,4 +337,41 @@ fn a_body_can_carry_thin_layers_and_keeps_its_meshed_shell_form() {
     );
     let (r, t) = totals(&acc, 0, 0);
     assert!(r > 0.0 && t > 0.0 && r + t <= 1.0 + 5e-3, "R {r} T {t}");
+    // The shell form: the flakes generator's coated flakes (`coating = 0.1`) carry a
+    // meshed coat around each core; `coating = "tio2"` names its medium. Before issue 30
+    // this was always refused ("did not match any variant of untagged enum RawCoating").
+    std::fs::write(
+        d.join("f.toml"),
+        "[sample]\nname = \"coated flakes\"\nunit = \"um\"\ntile = [20.0, 20.0]\n[media.air]\nn = 1.0\n[media.mica]\nn = 1.58\n[media.tio2]\nn = 2.4\n[[body]]\ngenerator = { kind = \"flakes\", size = 6.0, thickness = 0.5, tilt_sd_deg = 5.0, volume_fraction = 0.02, layer = [1.0, 5.0], coating = 0.1, seed = 3 }\ninside = \"mica\"\noutside = \"air\"\ncoating = \"tio2\"\n",
+    )
+    .unwrap();
+    let s = goniospec::sample::load(&d.join("f.toml"), Default::default())
+        .unwrap_or_else(|e| panic!("the shell form is refused: {e}"));
+    let (tio2, mica) = (s.medium_id("tio2").unwrap(), s.medium_id("mica").unwrap());
+    let shells = s
+        .interfaces
+        .iter()
+        .filter(|i| i.closed && i.back == tio2)
+        .count();
+    let cores = s
+        .interfaces
+        .iter()
+        .filter(|i| i.closed && i.back == mica && i.front == tio2)
+        .count();
+    assert!(
+        shells > 0 && shells == cores,
+        "{shells} shells, {cores} cores"
+    );
+    // A misspelt medium names itself.
+    std::fs::write(
+        d.join("g.toml"),
+        std::fs::read_to_string(d.join("f.toml"))
+            .unwrap()
+            .replace("coating = \"tio2\"", "coating = \"tiO2\""),
+    )
+    .unwrap();
+    let e = goniospec::sample::load(&d.join("g.toml"), Default::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("tiO2"), "{e}");
 }

@@ -265,12 +265,12 @@ struct RawBody {
 }
 
 /// A body's `coating`: a medium name for a meshed shell, or a list of thin layers. (Inside
-/// an untagged enum serde buffers the value, which loses TOML spans: errors in the layers
-/// point at the body's `inside` line.)
+/// an untagged enum serde buffers the value, which loses TOML spans, and a `Spanned` there
+/// matches no variant at all: errors in either form point at the body's `inside` line.)
 #[derive(Deserialize)]
 #[serde(untagged)]
 enum RawCoating {
-    Shell(Spanned<String>),
+    Shell(String),
     Layers(Vec<RawPlainLayer>),
 }
 
@@ -945,7 +945,10 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         // `coating = "MEDIUM"`: a meshed shell (the generator's coated bodies);
         // `coating = [ { medium, thickness }, ... ]`: thin layers on the outside.
         let (coating, thin) = match &rb.coating {
-            Some(RawCoating::Shell(m)) => (Some(medium(m)?), Vec::new()),
+            Some(RawCoating::Shell(m)) => {
+                let m = Spanned::new(rb.inside.span(), m.clone());
+                (Some(medium(&m)?), Vec::new())
+            }
             Some(RawCoating::Layers(l)) => {
                 let span = rb.inside.span();
                 let spanned: Vec<RawLayer> = l
