@@ -814,3 +814,62 @@ fn escaped_power_through_open_sides_is_the_fraction_that_walks_out() {
         );
     }
 }
+
+/// Writes a float32 EXR with the given channels (each the known surface times a factor).
+fn write_exr(path: &Path, channels: &[(&str, f32)]) {
+    use exr::prelude::*;
+    let z = heights();
+    let list: Vec<AnyChannel<FlatSamples>> = channels
+        .iter()
+        .map(|&(name, f)| {
+            AnyChannel::new(
+                name,
+                FlatSamples::F32(z.iter().map(|&v| v as f32 * f).collect()),
+            )
+        })
+        .collect();
+    let img = Image::from_channels((NX, NY), AnyChannels::sort(SmallVec::from_vec(list)));
+    img.write().to_file(path).unwrap();
+}
+
+/// Issue 30: an EXR height map takes its heights from the channel named Z, else Y, else
+/// its only channel; several channels and neither name are refused, not read from whichever
+/// sorts first (an RGBA map became a flat surface taken from alpha). A header declaring a
+/// 100000 x 100000 data window is refused before anything is allocated (it aborted on a
+/// 40 GB allocation).
+#[test]
+fn exr_heights_come_from_a_named_channel_and_huge_windows_are_refused() {
+    let d = scratch("heightmap-exr");
+    let z = heights();
+    let scaled = "pixel_size = [0.25, 0.3]\nheight_scale = 0.001";
+    write_exr(&d.join("yz.exr"), &[("Y", 2.0), ("Z", 1.0)]);
+    let s = load_in(&d, &format!("heightmap = \"yz.exr\"\n{scaled}")).unwrap();
+    check_mirrored(&s, &z, DX, DY, 1e-4);
+    write_exr(&d.join("ay.exr"), &[("A", 0.0), ("Y", 1.0)]);
+    let s = load_in(&d, &format!("heightmap = \"ay.exr\"\n{scaled}")).unwrap();
+    check_mirrored(&s, &z, DX, DY, 1e-4);
+    write_exr(
+        &d.join("rgba.exr"),
+        &[("R", 1.0), ("G", 1.0), ("B", 1.0), ("A", 0.0)],
+    );
+    let e = load_in(&d, &format!("heightmap = \"rgba.exr\"\n{scaled}")).unwrap_err();
+    assert!(
+        e.contains("none named Z or Y") && e.contains("A, B, G, R"),
+        "{e}"
+    );
+    // The data window patched to 100000 x 100000 in an otherwise valid header.
+    write_exr(&d.join("small.exr"), &[("Z", 1.0)]);
+    let mut bytes = std::fs::read(d.join("small.exr")).unwrap();
+    let key = b"dataWindow\0box2i\0";
+    let at = bytes
+        .windows(key.len())
+        .position(|w| w == key)
+        .expect("a dataWindow attribute")
+        + key.len()
+        + 4;
+    bytes[at + 8..at + 12].copy_from_slice(&99_999i32.to_le_bytes());
+    bytes[at + 12..at + 16].copy_from_slice(&99_999i32.to_le_bytes());
+    std::fs::write(d.join("huge.exr"), &bytes).unwrap();
+    let e = load_in(&d, &format!("heightmap = \"huge.exr\"\n{scaled}")).unwrap_err();
+    assert!(e.contains("100000 x 100000 points is more than"), "{e}");
+}

@@ -679,6 +679,13 @@ fn read_npy(bytes: &[u8]) -> Result<(usize, usize, Vec<f64>), String> {
 /// The first channel of an OpenEXR image: (nx, ny, values).
 fn read_exr(bytes: &[u8]) -> Result<(usize, usize, Vec<f64>), String> {
     use exr::prelude::*;
+    // The header first: a 300-byte file may declare a data window of 10^10 pixels, which
+    // the decoder would allocate before any check of ours.
+    let meta = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+        .map_err(|e| format!("not a readable OpenEXR image: {e}"))?;
+    for h in &meta.headers {
+        check_size(h.layer_size.width() as u64, h.layer_size.height() as u64)?;
+    }
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -690,16 +697,38 @@ fn read_exr(bytes: &[u8]) -> Result<(usize, usize, Vec<f64>), String> {
     let layer = &image.layer_data;
     let size = layer.size;
     let (nx, ny) = check_size(size.width() as u64, size.height() as u64)?;
-    let channel = layer
-        .channel_data
-        .list
-        .first()
-        .ok_or("the OpenEXR image has no channel")?;
-    let v: Vec<f64> = channel.sample_data.values_as_f32().map(f64::from).collect();
+    let list = &layer.channel_data.list;
+    let names: Vec<String> = list.iter().map(|c| c.name.to_string()).collect();
+    let channel = exr_height_channel(&names)?;
+    let v: Vec<f64> = list[channel]
+        .sample_data
+        .values_as_f32()
+        .map(f64::from)
+        .collect();
     if v.len() != nx * ny {
         return Err("the OpenEXR channel's size does not match the image".into());
     }
     Ok((nx, ny, v))
+}
+
+/// Which OpenEXR channel holds the heights: `Z` (the depth / height convention), else `Y`
+/// (a luminance image), else the only channel. Several channels and neither name is
+/// ambiguous and refused: an RGBA image would otherwise give whichever channel sorts
+/// first (its alpha, a flat surface).
+fn exr_height_channel(names: &[String]) -> Result<usize, String> {
+    for want in ["Z", "Y"] {
+        if let Some(i) = names.iter().position(|n| n == want) {
+            return Ok(i);
+        }
+    }
+    match names.len() {
+        0 => Err("the OpenEXR image has no channel".into()),
+        1 => Ok(0),
+        _ => Err(format!(
+            "the OpenEXR image has channels {} and none named Z or Y: store the heights in a channel named Z",
+            names.join(", ")
+        )),
+    }
 }
 
 /// A 16-bit greyscale PNG: (nx, ny, values 0..65535).
