@@ -369,3 +369,64 @@ fn bad_plans_fail_at_plan_time() {
     assert_eq!(code, 2);
     assert!(err.contains("1 <= I <= N"), "{err}");
 }
+
+/// Issue 30: a manifest edited after `plan` is refused by status, run and merge with exit 1
+/// and a message, never a panic, a unit filed under another angle, an empty accumulator or
+/// a unit output written over the manifest. Each edit is applied to a freshly planned copy.
+#[test]
+fn an_edited_manifest_is_refused_not_trusted() {
+    let d = scratch("batch-edited");
+    let p = plan(&d, 8);
+    let good = d.join("good");
+    plan_into(&p, &good);
+    let text = std::fs::read_to_string(good.join("manifest.toml")).unwrap();
+    // The units as plan wrote them, for the edits to find.
+    assert!(text.contains("material = \"gold\""), "{text}");
+    assert!(text.contains("theta_i_deg = 20.0"), "{text}");
+    for (tag, from, to) in [
+        // A unit naming a material the manifest does not hold (panicked).
+        ("unknown", "material = \"gold\"", "material = \"silver\""),
+        // A unit's angle edited: its data would be filed under 45 degrees.
+        ("unit-angle", "theta_i_deg = 20.0", "theta_i_deg = 45.0"),
+        // A material's list edited 0 -> 1: 0-degree data labelled 1 degree.
+        ("list", "theta_i_deg = [0.0,", "theta_i_deg = [1.0,"),
+        // An empty list (wrote a .gsa that info rejects).
+        ("empty", "theta_i_deg = [10.0, 30.0]", "theta_i_deg = []"),
+        // A unit's output sent over the manifest.
+        (
+            "output",
+            "output = \"units/gold/0000.gsa\"",
+            "output = \"manifest.toml\"",
+        ),
+        (
+            "outside",
+            "output = \"units/gold/0001.gsa\"",
+            "output = \"../elsewhere.gsa\"",
+        ),
+    ] {
+        assert!(
+            text.contains(from),
+            "{tag}: the manifest has no '{from}':\n{text}"
+        );
+        let dir = d.join(tag);
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("manifest.toml"), text.replacen(from, to, 1)).unwrap();
+        for cmd in ["status", "run", "merge"] {
+            let (code, _, err) = goniospec(&["batch", cmd, dir.to_str().unwrap()]);
+            assert_eq!(code, 1, "{tag}, batch {cmd}: exit {code}: {err}");
+            assert!(err.contains("edited"), "{tag}, batch {cmd}: {err}");
+        }
+        assert_eq!(
+            std::fs::read_to_string(dir.join("manifest.toml")).unwrap(),
+            text.replacen(from, to, 1),
+            "{tag}: the manifest was changed"
+        );
+        assert!(!dir.join("units").exists() && !d.join("elsewhere.gsa").exists());
+    }
+    // The unedited manifest still reads: status lists its units as missing.
+    let (code, out, err) = goniospec(&["batch", "status", good.to_str().unwrap()]);
+    assert!(
+        code == 1 && out.contains("0 done") && !err.contains("edited"),
+        "{out}{err}"
+    );
+}

@@ -99,6 +99,54 @@ pub struct Manifest {
 /// The most units a plan may hold.
 pub const MAX_UNITS: usize = 1_000_000;
 
+/// A material's name names files and folders: letters, digits, '-', '_' or '.', not
+/// starting with '.'.
+fn check_name(name: &str) -> Result<(), String> {
+    if name.is_empty()
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
+        || name.starts_with('.')
+    {
+        return Err(format!(
+            "name '{name}' must be letters, digits, '-', '_' or '.' (it names files)"
+        ));
+    }
+    Ok(())
+}
+
+/// FNV-1a of the resolved materials, as the manifest records it.
+fn plan_hash(materials: &[Material]) -> Result<String, String> {
+    let canonical = serde_json::to_string(materials).map_err(|e| e.to_string())?;
+    Ok(format!("{:016x}", crate::io::fnv1a(canonical.as_bytes())))
+}
+
+/// The units the materials expand to: each material at each of its directions, in order,
+/// each writing `units/MATERIAL/NNNN.gsa` inside the batch folder.
+fn units_of(materials: &[Material]) -> Result<Vec<Unit>, String> {
+    let mut units = Vec::new();
+    for m in materials {
+        if m.theta_i_deg.is_empty() {
+            return Err(format!("material '{}' has no incident angle", m.name));
+        }
+        for (k, &t) in m.theta_i_deg.iter().enumerate() {
+            units.push(Unit {
+                id: units.len(),
+                material: m.name.clone(),
+                direction: k,
+                theta_i_deg: t,
+                output: PathBuf::from("units")
+                    .join(&m.name)
+                    .join(format!("{k:04}.gsa")),
+            });
+            if units.len() > MAX_UNITS {
+                return Err(format!("the plan expands to more than {MAX_UNITS} units"));
+            }
+        }
+    }
+    Ok(units)
+}
+
 /// The material's own setting, else the default.
 fn pick<T: Clone>(own: &Option<T>, default: &Option<T>) -> Option<T> {
     own.clone().or_else(|| default.clone())
@@ -172,16 +220,7 @@ impl Manifest {
                     .to_string_lossy()
                     .into_owned(),
             };
-            if name.is_empty()
-                || !name
-                    .chars()
-                    .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
-                || name.starts_with('.')
-            {
-                return Err(at(format!(
-                    "name '{name}' must be letters, digits, '-', '_' or '.' (it names files)"
-                )));
-            }
+            check_name(&name).map_err(at)?;
             if materials.iter().any(|x: &Material| x.name == name) {
                 return Err(at(format!(
                     "two materials are named '{name}'; give them distinct names"
@@ -199,37 +238,46 @@ impl Manifest {
                 representations,
             });
         }
-        let mut units = Vec::new();
-        for m in &materials {
-            for (k, &t) in m.theta_i_deg.iter().enumerate() {
-                units.push(Unit {
-                    id: units.len(),
-                    material: m.name.clone(),
-                    direction: k,
-                    theta_i_deg: t,
-                    output: PathBuf::from("units")
-                        .join(&m.name)
-                        .join(format!("{k:04}.gsa")),
-                });
-                if units.len() > MAX_UNITS {
-                    return Err(format!("the plan expands to more than {MAX_UNITS} units"));
-                }
-            }
-        }
-        let canonical = serde_json::to_string(&materials).map_err(|e| e.to_string())?;
+        let units = units_of(&materials)?;
         Ok(Manifest {
-            plan_hash: format!("{:016x}", crate::io::fnv1a(canonical.as_bytes())),
+            plan_hash: plan_hash(&materials)?,
             materials,
             units,
         })
     }
 
-    /// Reads `DIR/manifest.toml`.
+    /// Reads `DIR/manifest.toml` and checks that it is as `plan` wrote it: its materials
+    /// hash to its plan hash, their names are file-safe, and its units are exactly the ones
+    /// its materials expand to (so every unit names a material of the manifest, at the
+    /// angle of its direction, with its output inside the batch folder). An edited manifest
+    /// would otherwise file a unit's data under another angle, write an empty accumulator,
+    /// or send a unit's output over the manifest itself.
     pub fn read(dir: &Path) -> Result<Manifest, String> {
         let p = dir.join("manifest.toml");
         let text = crate::io::read_text(&p)
             .map_err(|e| format!("{}: {e} (run `goniospec batch plan` first)", p.display()))?;
-        toml::from_str(&text).map_err(|e| format!("{}: {}", p.display(), e.message().trim()))
+        let m: Manifest = toml::from_str(&text)
+            .map_err(|e| format!("{}: {}", p.display(), e.message().trim()))?;
+        let edited = |why: String| {
+            format!(
+                "{}: {why}; the manifest was edited after `goniospec batch plan` wrote it: plan again",
+                p.display()
+            )
+        };
+        for mat in &m.materials {
+            check_name(&mat.name).map_err(edited)?;
+        }
+        if plan_hash(&m.materials)? != m.plan_hash {
+            return Err(edited(
+                "its materials do not match its plan hash".to_string(),
+            ));
+        }
+        if units_of(&m.materials)? != m.units {
+            return Err(edited(
+                "its units are not the ones its materials expand to".to_string(),
+            ));
+        }
+        Ok(m)
     }
 
     /// Writes `DIR/manifest.toml` atomically (making DIR).
