@@ -105,3 +105,58 @@ fn is_root() -> bool {
         })
         .unwrap_or(false)
 }
+
+/// Issue 30: a cache with a valid checksum but senseless content is data from outside
+/// like any other: an empty mesh (it panicked `check`), vertex counts whose byte length
+/// wraps around 2^64 (a capacity overflow), a non-finite or out-of-range coordinate, or a
+/// degenerate triangle are not used; the source is parsed again and the cache rewritten.
+#[test]
+fn a_cache_with_a_valid_checksum_and_senseless_content_is_not_used() {
+    use goniospec::container;
+    use goniospec::sample::cache::FORMAT;
+    let d = scratch("mesh-cache-forged");
+    let obj = d.join("m.obj");
+    std::fs::copy(root().join("meshes/v-grooves-90.obj"), &obj).unwrap();
+    let always = opts(CachePolicy::Always);
+    let (parsed, _) = load_mesh_with(&obj, 1.0, always).unwrap();
+    let cache = cache_path(&obj);
+    let good = std::fs::read(&cache).unwrap();
+    let frame = container::decode(&FORMAT, &good, "").unwrap();
+    let (header, payload) = (frame.header.to_string(), frame.payload.to_vec());
+    let counts = |nv: u64, nt: u64, rest: &[u8]| -> Vec<u8> {
+        let mut p = Vec::new();
+        p.extend(nv.to_le_bytes());
+        p.extend(nt.to_le_bytes());
+        p.extend(rest);
+        p
+    };
+    let nv = u64::from_le_bytes(payload[0..8].try_into().unwrap());
+    let vertex = |k: usize| 16 + 24 * k;
+    let mut far = payload.clone();
+    far[vertex(0)..vertex(0) + 8].copy_from_slice(&1e12f64.to_le_bytes());
+    let mut nan = payload.clone();
+    nan[vertex(1) + 8..vertex(1) + 16].copy_from_slice(&f64::NAN.to_le_bytes());
+    // Every triangle's corners the same vertex: degenerate.
+    let mut flat = payload.clone();
+    for b in &mut flat[vertex(nv as usize)..] {
+        *b = 0;
+    }
+    // 24 * 2^61 + 12 * 2^62 + 16 wraps to 16: an empty payload after the counts.
+    let wrapped = counts(1 << 61, 1 << 62, &[]);
+    for (tag, forged) in [
+        ("empty", counts(0, 0, &[])),
+        ("wrapped", wrapped),
+        ("far", far),
+        ("nan", nan),
+        ("degenerate", flat),
+    ] {
+        std::fs::write(&cache, container::encode(&FORMAT, &header, &forged)).unwrap();
+        let (m, how) = load_mesh_with(&obj, 1.0, always).unwrap_or_else(|e| panic!("{tag}: {e}"));
+        assert_eq!(
+            (how, &m),
+            (Loaded::ParsedAndCached, &parsed),
+            "{tag}: the forged cache was used"
+        );
+        assert_eq!(std::fs::read(&cache).unwrap(), good, "{tag}: not rewritten");
+    }
+}

@@ -20,7 +20,8 @@ use glam::DVec3;
 /// Source files at least this large are cached (by default).
 pub const MIN_BYTES: u64 = 16 << 20;
 
-const FORMAT: Format = Format {
+/// The cache file's container format (public for tests that forge caches).
+pub const FORMAT: Format = Format {
     magic: b"GSMESH\x00\x01",
     what: "mesh cache (.gsmesh)",
     version: 1,
@@ -110,10 +111,16 @@ fn decode(bytes: &[u8], key: &str) -> Option<Mesh> {
     let u64_at = |at: usize| -> Option<u64> {
         Some(u64::from_le_bytes(p.get(at..at + 8)?.try_into().ok()?))
     };
-    let (nv, nt) = (u64_at(0)? as usize, u64_at(8)? as usize);
-    if p.len() as u64 != 16 + 24 * nv as u64 + 12 * nt as u64 {
+    let (nv, nt) = (u64_at(0)?, u64_at(8)?);
+    // Checked: counts near 2^61 wrapped the unchecked sum into a plausible length.
+    let want = nv
+        .checked_mul(24)
+        .and_then(|v| nt.checked_mul(12)?.checked_add(v))
+        .and_then(|v| v.checked_add(16))?;
+    if p.len() as u64 != want || nt == 0 {
         return None;
     }
+    let (nv, nt) = (usize::try_from(nv).ok()?, usize::try_from(nt).ok()?);
     let f = |at: usize| f64::from_le_bytes(p[at..at + 8].try_into().expect("8 bytes"));
     let positions_nm = (0..nv)
         .map(|k| {
@@ -132,10 +139,19 @@ fn decode(bytes: &[u8], key: &str) -> Option<Mesh> {
         }
         triangles.push(t);
     }
-    Some(Mesh {
+    let mesh = Mesh {
         positions_nm,
         triangles,
-    })
+    };
+    // A file from outside, checksum or not: the cache holds only what the parsers accept
+    // (finite coordinates within the length limit, no degenerate triangle); anything else
+    // is treated as no cache, and the source is parsed again.
+    let sane = mesh
+        .positions_nm
+        .iter()
+        .all(|v| v.is_finite() && v.abs().max_element() <= super::MAX_LENGTH_NM)
+        && mesh.degenerate_triangles().is_empty();
+    sane.then_some(mesh)
 }
 
 /// Loads `source` through its cache: the cached mesh when it matches, otherwise
