@@ -674,7 +674,35 @@ fn ply_and_stl_load_the_same_mesh_as_obj() {
     let e = sample::load_mesh(&d.join("cut.stl"), 1000.0, MeshOptions::default())
         .unwrap_err()
         .to_string();
-    assert!(e.contains("truncated") || e.contains("neither"), "{e}");
+    assert!(
+        e.contains("malformed STL") && e.contains("truncated"),
+        "{e}"
+    );
+    // Issue 30: padding after the last triangle is named as such, not "truncated"; PLY and
+    // STL errors name their format, not OBJ.
+    let mut padded = bin.clone();
+    padded.extend([0u8; 16]);
+    std::fs::write(d.join("padded.stl"), &padded).unwrap();
+    let e = sample::load_mesh(&d.join("padded.stl"), 1000.0, MeshOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("malformed STL")
+            && e.contains("after the last triangle")
+            && !e.contains("truncated"),
+        "{e}"
+    );
+    // An element without properties but a count of 2^64 - 1 holds no data: it is skipped at
+    // once (it looped for minutes), and the mesh around it loads.
+    let t0 = std::time::Instant::now();
+    std::fs::write(
+        d.join("empty-element.ply"),
+        "ply\nformat ascii 1.0\nelement nothing 18446744073709551615\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+    )
+    .unwrap();
+    let m1 = sample::load_mesh(&d.join("empty-element.ply"), 1.0, MeshOptions::default()).unwrap();
+    assert_eq!(m1.triangles.len(), 1);
+    assert!(t0.elapsed().as_secs_f64() < 5.0, "{:?}", t0.elapsed());
     std::fs::write(
         d.join("bad.ply"),
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n",
@@ -683,7 +711,10 @@ fn ply_and_stl_load_the_same_mesh_as_obj() {
     let e = sample::load_mesh(&d.join("bad.ply"), 1.0, MeshOptions::default())
         .unwrap_err()
         .to_string();
-    assert!(e.contains("refers to vertex 5"), "{e}");
+    assert!(
+        e.contains("malformed PLY") && e.contains("refers to vertex 5"),
+        "{e}"
+    );
 }
 
 #[test]

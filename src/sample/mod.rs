@@ -89,6 +89,9 @@ pub enum SampleErrorKind {
     Toml(String),
     #[error("malformed OBJ: {0}")]
     MalformedObj(String),
+    /// A PLY or STL file that does not follow its format (`format` names it).
+    #[error("malformed {format}: {msg}")]
+    MalformedMesh { format: &'static str, msg: String },
     #[error("non-finite vertex coordinate ({0}); coordinates must be finite numbers")]
     NonFiniteVertex(String),
     #[error("the mesh has no triangles")]

@@ -23,8 +23,13 @@ use super::obj::MeshOptions;
 use super::{SampleError, SampleErrorKind};
 use glam::DVec3;
 
+/// A PLY or STL error, named by the file's extension (these readers are chosen by it).
 fn malformed(path: &Path, msg: String) -> SampleError {
-    SampleError::file(path, SampleErrorKind::MalformedObj(msg))
+    let ply = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("ply"));
+    let format = if ply { "PLY" } else { "STL" };
+    SampleError::file(path, SampleErrorKind::MalformedMesh { format, msg })
 }
 
 /// Scales a corner to nm and checks it (`sample::scale_vertex`).
@@ -72,10 +77,15 @@ pub fn load_stl(path: &Path, nm_per_unit: f64, opts: MeshOptions) -> Result<Mesh
                 path,
                 if bytes.len() >= 84 {
                     let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]);
+                    let want = 84 + 50 * u64::from(n);
                     format!(
-                        "neither ASCII STL nor binary STL: a binary STL of {n} triangles is {} bytes, this file is {} (truncated?)",
-                        84 + 50 * u64::from(n),
-                        bytes.len()
+                        "neither ASCII STL nor binary STL: a binary STL of {n} triangles is {want} bytes, this file is {} ({})",
+                        bytes.len(),
+                        if (bytes.len() as u64) < want {
+                            "truncated?"
+                        } else {
+                            "bytes after the last triangle: padding or another file appended"
+                        }
                     )
                 } else {
                     "too short for a binary STL and not ASCII".into()
@@ -311,6 +321,14 @@ pub fn load_ply(path: &Path, nm_per_unit: f64, opts: MeshOptions) -> Result<Mesh
     let mut poly: Vec<u32> = Vec::new();
     let cut = |what: &str| bad(format!("the PLY data end inside {what} (truncated?)"));
     for e in &elements {
+        if e.props.is_empty() {
+            // An element without properties holds no data, however many it declares (a
+            // count of 2^64 - 1 looped for minutes); a vertex needs its coordinates.
+            if e.name == "vertex" && e.count > 0 {
+                return Err(bad("the vertex element needs x, y and z".into()));
+            }
+            continue;
+        }
         for k in 0..e.count {
             let mut p = [f64::NAN; 3];
             poly.clear();
