@@ -277,13 +277,13 @@ impl HeightMap {
         };
         let mut queued = vec![false; self.z_nm.len()];
         let mut next: Vec<usize> = Vec::new();
-        for i in 0..self.z_nm.len() {
+        for (i, q) in queued.iter_mut().enumerate() {
             if self.z_nm[i].is_nan()
                 && neighbours(i)
                     .iter()
                     .any(|&(ok, j)| ok && !self.z_nm[j].is_nan())
             {
-                queued[i] = true;
+                *q = true;
                 next.push(i);
             }
         }
