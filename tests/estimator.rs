@@ -62,3 +62,76 @@ fn the_fast_estimator_equals_the_reference_on_every_shipped_sample() {
     // The comparison must have seen culled pairs, or it tested nothing.
     assert!(culled_somewhere, "no sample had a pair to cull");
 }
+
+/// Issue 30: trees with thousands of exits (a steep rough glass surface at 60 degrees)
+/// find their pairs through a grid of directions instead of a double loop; the kept pairs,
+/// and so every bucket, are the reference's to 1e-12. The sample is checked to produce
+/// trees of more than 32 exits, where the grid is used.
+#[test]
+fn the_direction_grid_keeps_every_pair_that_matters_on_trees_with_many_exits() {
+    use goniospec::sample::generate;
+    let tile = [20_000.0, 20_000.0];
+    let z = generate::gaussian_heights(3, tile, 128, 3000.0, 1500.0).unwrap();
+    let mesh = generate::grid_mesh(tile, 128, &z, 0.0);
+    let d = scratch("steep-glass");
+    mesh.write_obj(&d.join("g.obj"), 1.0, "steep").unwrap();
+    let s = sample_in(
+        &d,
+        "[sample]\nname = \"steep glass\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[[interface]]\nmesh = \"g.obj\"\nfront = \"air\"\nback = \"glass\"\n",
+    );
+    // Some trees have many exits.
+    let scene =
+        goniospec::trace::Scene::new(&s, goniospec::accel::Backend::default_available()).unwrap();
+    let indices: Vec<_> = s
+        .media
+        .iter()
+        .map(|m| {
+            let (n, k) = m.model.eval(550.0).unwrap();
+            num_complex::Complex64::new(n, k)
+        })
+        .collect();
+    let t = 60f64.to_radians();
+    let dir = glam::DVec3::new(t.sin(), 0.0, -t.cos());
+    let mut most = 0;
+    for i in 0..24 {
+        let mut tree = goniospec::trace::Tree::default();
+        scene.trace(
+            glam::DVec3::new(
+                800.0 * i as f64 + 37.0,
+                613.0 * i as f64 + 11.0,
+                scene.z_top,
+            ),
+            dir,
+            goniospec::trace::launch_fields(dir),
+            &indices,
+            550.0,
+            &goniospec::trace::TraceLimits::default(),
+            &mut goniospec::trace::TraceStack::default(),
+            &mut tree,
+        );
+        most = most.max(tree.exits.len());
+    }
+    assert!(
+        most > 32,
+        "the largest tree has {most} exits: the grid is not used"
+    );
+    let cfg = config(&[60.0], Wavelengths::Bins(vec![450.0, 550.0, 650.0]), 24);
+    let fast = run(&s, &cfg);
+    let reference = run(
+        &s,
+        &SimConfig {
+            reference_estimator: true,
+            ..cfg.clone()
+        },
+    );
+    for (k, (a, b)) in fast.cells.iter().zip(&reference.cells).enumerate() {
+        let (rb, tb) = b.totals(Coherence::Beamlet, &cfg.buckets);
+        let scale = (rb + tb).abs() * b.trees as f64;
+        for (x, y) in a.sum.iter().zip(&b.sum) {
+            assert!(
+                (x - y).abs() <= 1e-12 * scale,
+                "cell {k}: bucket sum {x:e} vs {y:e}"
+            );
+        }
+    }
+}

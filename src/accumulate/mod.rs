@@ -152,6 +152,10 @@ pub struct Scratch {
     exit_sum: Vec<f64>,
     /// The wavelength-independent part of the current tree (see [`Estimator::prepare`]).
     prep: Prepared,
+    /// Candidate pairs and the direction grid that finds them
+    /// ([`Estimator::candidate_pairs`]).
+    cand: Vec<(u32, u32)>,
+    grid: Vec<([i64; 3], u32)>,
 }
 
 /// What the estimator needs of one tree, computed once and reused for every wavelength
@@ -227,43 +231,110 @@ impl Estimator {
         // The directional kernel `exp(-|dw|^2 / (2 theta_w^2))`, `theta_w = lambda / (pi
         // rho)`, is largest at the longest wavelength.
         let two_theta_max2 = 2.0 * (self.lambda_max_nm / (PI * self.rho_nm)).powi(2);
-        for j in 0..ex.len() {
-            for l in j + 1..ex.len() {
-                if ex[j].up != ex[l].up {
-                    continue;
+        let mut candidates = std::mem::take(&mut s.cand);
+        candidates.clear();
+        self.candidate_pairs(ex, &p.pow, two_theta_max2, &mut s.grid, &mut candidates);
+        for &(j, l) in &candidates {
+            let (j, l) = (j as usize, l as usize);
+            let dw = ex[j].dir - ex[l].dir;
+            let dw2 = dw.dot(dw);
+            let dx = ex[j].x - ex[l].x;
+            let wbar = (ex[j].dir + ex[l].dir).normalize();
+            let k_pos = {
+                let along = dx.dot(wbar);
+                let perp = dx - wbar * along;
+                (-perp.dot(perp) / (2.0 * self.rho_nm * self.rho_nm)).exp()
+            };
+            let h =
+                0.5 * (hermitian(&ex[j].e[0], &ex[l].e[0]) + hermitian(&ex[j].e[1], &ex[l].e[1]));
+            // Pairs that cannot contribute at any wavelength are skipped: |c| <= 2|h| K.
+            let bound = 2.0 * h.norm() * k_pos;
+            if bound < NEGLIGIBLE_CROSS
+                || (!self.reference
+                    && dw2 > 0.0
+                    && bound * (-dw2 / two_theta_max2).exp() < NEGLIGIBLE_CROSS)
+            {
+                continue;
+            }
+            let n0 = if ex[j].up { self.n_up } else { self.n_down };
+            let delta_nm = self.path_difference(&ex[j], &ex[l], wbar, n0);
+            p.pairs.push(Pair {
+                j: j as u32,
+                l: l as u32,
+                h,
+                delta_nm,
+                k_pos,
+                dw2,
+            });
+        }
+        s.cand = candidates;
+    }
+
+    /// The pairs `(j, l)`, `j < l`, of exits in one hemisphere that [`Estimator::prepare`]
+    /// must look at, in the order of a double loop over `j` then `l`. The reference
+    /// estimator and small trees take every pair. Otherwise only exits whose directions are
+    /// close enough for the directional kernel to matter at the longest wavelength can pair:
+    /// `|h| <= max P`, so a pair with `|w_j - w_l|^2 > 2 theta_max^2 ln(2 max P /
+    /// NEGLIGIBLE_CROSS)` has a bound below `NEGLIGIBLE_CROSS` and would be culled anyway.
+    /// They are found through a grid of the unit directions with cells that wide, looking
+    /// at the 27 cells around each exit, so a tree of n exits costs about n, not n^2 (a
+    /// steep height map's 10^4 exits took seconds per tree). The kept pairs, and so the
+    /// sums, are the double loop's exactly.
+    fn candidate_pairs(
+        &self,
+        ex: &[crate::trace::Exit],
+        pow: &[f64],
+        two_theta_max2: f64,
+        grid: &mut Vec<([i64; 3], u32)>,
+        out: &mut Vec<(u32, u32)>,
+    ) {
+        let n = ex.len();
+        let max_pow = pow.iter().copied().fold(0.0, f64::max);
+        let reach2 = if max_pow > 0.0 {
+            two_theta_max2 * (2.0 * max_pow / NEGLIGIBLE_CROSS).ln().max(0.0)
+        } else {
+            0.0
+        };
+        // Unit directions differ by at most 2; cells narrower than that pay off.
+        let cell = reach2.sqrt() * (1.0 + 1e-9);
+        if self.reference || n <= 32 || !(cell > 0.0 && cell < 0.5) {
+            for j in 0..n {
+                for l in j + 1..n {
+                    if ex[j].up == ex[l].up {
+                        out.push((j as u32, l as u32));
+                    }
                 }
-                let dw = ex[j].dir - ex[l].dir;
-                let dw2 = dw.dot(dw);
-                let dx = ex[j].x - ex[l].x;
-                let wbar = (ex[j].dir + ex[l].dir).normalize();
-                let k_pos = {
-                    let along = dx.dot(wbar);
-                    let perp = dx - wbar * along;
-                    (-perp.dot(perp) / (2.0 * self.rho_nm * self.rho_nm)).exp()
-                };
-                let h = 0.5
-                    * (hermitian(&ex[j].e[0], &ex[l].e[0]) + hermitian(&ex[j].e[1], &ex[l].e[1]));
-                // Pairs that cannot contribute at any wavelength are skipped: |c| <= 2|h| K.
-                let bound = 2.0 * h.norm() * k_pos;
-                if bound < NEGLIGIBLE_CROSS
-                    || (!self.reference
-                        && dw2 > 0.0
-                        && bound * (-dw2 / two_theta_max2).exp() < NEGLIGIBLE_CROSS)
-                {
-                    continue;
+            }
+            return;
+        }
+        let key = |d: DVec3| (d / cell).floor().as_i64vec3().to_array();
+        grid.clear();
+        grid.extend(ex.iter().enumerate().map(|(i, x)| (key(x.dir), i as u32)));
+        grid.sort_unstable();
+        for (j, x) in ex.iter().enumerate() {
+            let k = key(x.dir);
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        let c = [k[0] + dx, k[1] + dy, k[2] + dz];
+                        let from = grid.partition_point(|e| e.0 < c);
+                        for &(kc, l) in &grid[from..] {
+                            if kc != c {
+                                break;
+                            }
+                            let l = l as usize;
+                            if l > j && ex[l].up == x.up {
+                                let dw = x.dir - ex[l].dir;
+                                if dw.dot(dw) <= reach2 * (1.0 + 1e-9) {
+                                    out.push((j as u32, l as u32));
+                                }
+                            }
+                        }
+                    }
                 }
-                let n0 = if ex[j].up { self.n_up } else { self.n_down };
-                let delta_nm = self.path_difference(&ex[j], &ex[l], wbar, n0);
-                p.pairs.push(Pair {
-                    j: j as u32,
-                    l: l as u32,
-                    h,
-                    delta_nm,
-                    k_pos,
-                    dw2,
-                });
             }
         }
+        out.sort_unstable();
     }
 
     /// `Re(OPL_j - OPL_l) - n0 w . (x_j - x_l)`, nm, in the estimator's precision: the
