@@ -44,6 +44,12 @@ pub struct StackIndices {
     pub d_nm: Vec<f64>,
 }
 
+/// A layer whose phase thickness has an imaginary part above this (its amplitude falls by
+/// `e^-30` across it) is factored out of the transfer matrix (`amplitudes`).
+const OPAQUE: f64 = 30.0;
+/// The transfer matrix is rescaled when an entry grows past this.
+const RESCALE: f64 = 1e150;
+
 /// Amplitude reflection and transmission coefficients `(r, t)` of a stack for s (`[0]`)
 /// and p (`[1]`) light at wavelength `lambda_nm`, for a wave whose tangential index
 /// `n sin(theta)` is `kx` (conserved through the stack). `n` runs from the incidence
@@ -84,11 +90,25 @@ pub fn amplitudes(n: &[C64], d_nm: &[f64], kx: C64, lambda_nm: f64) -> [(C64, C6
             [C64::new(1.0, 0.0) / t01, r01 / t01],
             [r01 / t01, C64::new(1.0, 0.0) / t01],
         ];
+        // Factors taken out of M to keep it finite: the sum of the opaque layers' phase
+        // thicknesses (their e^{-i delta}) and the log of rescalings. r = M10 / M00 does
+        // not see them; t = 1 / M00 is divided by them at the end (and rounds to 0 where a
+        // stack is opaque, rather than overflowing to NaN: a 10 um metal layer or 4,000
+        // layers did).
+        let (mut opaque_delta, mut log_scale) = (C64::new(0.0, 0.0), 0.0);
         for j in 1..last {
             let delta = 2.0 * std::f64::consts::PI * nc(j) * d_nm[j - 1] / lambda_nm;
             let (r, t) = interface(j, j + 1);
-            let (em, ep) = ((-C64::i() * delta).exp(), (C64::i() * delta).exp());
-            let l = [[em / t, em * r / t], [ep * r / t, ep / t]];
+            let l = if delta.im < OPAQUE {
+                let (em, ep) = ((-C64::i() * delta).exp(), (C64::i() * delta).exp());
+                [[em / t, em * r / t], [ep * r / t, ep / t]]
+            } else {
+                // An absorbing layer many decay lengths thick: e^{-i delta} (of modulus
+                // e^{Im delta}) is taken out, leaving e^{2 i delta}, which rounds to 0.
+                opaque_delta += delta;
+                let e2 = (2.0 * C64::i() * delta).exp();
+                [[1.0 / t, r / t], [e2 * r / t, e2 / t]]
+            };
             m = [
                 [
                     m[0][0] * l[0][0] + m[0][1] * l[1][0],
@@ -99,8 +119,19 @@ pub fn amplitudes(n: &[C64], d_nm: &[f64], kx: C64, lambda_nm: f64) -> [(C64, C6
                     m[1][0] * l[0][1] + m[1][1] * l[1][1],
                 ],
             ];
+            let big = m.iter().flatten().map(|x| x.norm()).fold(0.0, f64::max);
+            if big > RESCALE {
+                for x in m.iter_mut().flatten() {
+                    *x /= big;
+                }
+                log_scale += big.ln();
+            }
         }
-        (m[1][0] / m[0][0], C64::new(1.0, 0.0) / m[0][0])
+        let mut t = C64::new(1.0, 0.0) / m[0][0];
+        if opaque_delta != C64::new(0.0, 0.0) || log_scale != 0.0 {
+            t *= (C64::i() * opaque_delta - log_scale).exp();
+        }
+        (m[1][0] / m[0][0], t)
     };
     [solve_pol(false), solve_pol(true)]
 }
@@ -221,11 +252,11 @@ pub fn analytic(
     }
     let th = theta_i_deg.to_radians();
     let stack_at = |l: f64| stack_indices(sample, l);
-    match wavelengths {
+    let rows: Vec<(f64, Rt)> = match wavelengths {
         crate::simulate::Wavelengths::Monochromatic(v) => v
             .iter()
             .map(|&l| Ok((l, solve(&stack_at(l)?, l, th))))
-            .collect(),
+            .collect::<Result<_, String>>()?,
         crate::simulate::Wavelengths::Bins(e) => e
             .windows(2)
             .map(|w| {
@@ -239,6 +270,23 @@ pub fn analytic(
                 );
                 Ok((0.5 * (w[0] + w[1]), rt))
             })
-            .collect(),
+            .collect::<Result<_, String>>()?,
+    };
+    // No NaN or impossible value is ever printed: the matrix is kept finite, and a result
+    // that still is not is an error.
+    for (l, rt) in &rows {
+        let all = [rt.r_s, rt.r_p, rt.t_s, rt.t_p];
+        if !all
+            .iter()
+            .all(|v| v.is_finite() && (-1e-9..=1.0 + 1e-9).contains(v))
+            || rt.r() + rt.t() > 1.0 + 1e-9
+        {
+            return Err(format!(
+                "the transfer matrix gave an impossible result at {l} nm (R {}, T {}): the stack is beyond what it can represent",
+                rt.r(),
+                rt.t()
+            ));
+        }
     }
+    Ok(rows)
 }
