@@ -904,3 +904,62 @@ fn exr_heights_come_from_a_named_channel_and_huge_windows_are_refused() {
     let e = load_in(&d, &format!("heightmap = \"huge.exr\"\n{scaled}")).unwrap_err();
     assert!(e.contains("100000 x 100000 points is more than"), "{e}");
 }
+
+/// Copies the X3P at `from` to `to` with `main.xml` edited by `edit`.
+fn edit_x3p(from: &Path, to: &Path, edit: impl Fn(&str) -> String) {
+    let mut src = zip::ZipArchive::new(std::fs::File::open(from).unwrap()).unwrap();
+    let mut out = zip::ZipWriter::new(std::fs::File::create(to).unwrap());
+    let opts = zip::write::SimpleFileOptions::default();
+    for i in 0..src.len() {
+        let mut f = src.by_index(i).unwrap();
+        let name = f.name().to_string();
+        let mut bytes = Vec::new();
+        std::io::Read::read_to_end(&mut f, &mut bytes).unwrap();
+        if name == "main.xml" {
+            bytes = edit(std::str::from_utf8(&bytes).unwrap()).into_bytes();
+        }
+        out.start_file(name, opts).unwrap();
+        out.write_all(&bytes).unwrap();
+    }
+    out.finish().unwrap();
+}
+
+/// Issue 30: an X3P increment of 0 flattened the surface silently (while height_scale = 0 is
+/// refused); a denormal one printed a 935-byte message. Both are refused in a short line
+/// naming the field.
+#[test]
+fn x3p_increments_must_be_positive_steps() {
+    let d = scratch("x3p-increments");
+    write_x3p(&d.join("i.x3p"), "I", &heights(), 1e-10, None);
+    for (tag, from, to, field) in [
+        (
+            "z0",
+            "<Increment>1e-10</Increment>",
+            "<Increment>0</Increment>",
+            "CZ/Increment",
+        ),
+        (
+            "zneg",
+            "<Increment>1e-10</Increment>",
+            "<Increment>-1e-10</Increment>",
+            "CZ/Increment",
+        ),
+        (
+            "xdenormal",
+            &format!("<Increment>{:e}</Increment>", DX * 1e-9),
+            "<Increment>5e-324</Increment>",
+            "CX/Increment",
+        ),
+    ] {
+        let name = format!("{tag}.x3p");
+        edit_x3p(&d.join("i.x3p"), &d.join(&name), |x| {
+            assert!(x.contains(from), "{tag}: {from} not in main.xml");
+            x.replacen(from, to, 1)
+        });
+        let e = load_in(&d, &format!("heightmap = \"{name}\"")).unwrap_err();
+        assert!(
+            e.contains(field) && e.contains("positive step") && e.len() < 300,
+            "{tag}: {e}"
+        );
+    }
+}

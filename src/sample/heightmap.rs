@@ -500,7 +500,10 @@ pub fn read_x3p(bytes: &[u8]) -> Result<HeightMap, String> {
         t.parse::<f64>()
             .ok()
             .filter(|v| v.is_finite())
-            .ok_or_else(|| format!("main.xml {} = {t:?} is not a number", path.join("/")))
+            .ok_or_else(|| {
+                let t: String = t.chars().take(40).collect();
+                format!("main.xml {} = {t:?} is not a number", path.join("/"))
+            })
     };
     let feature = need(&["Record1", "FeatureType"])?;
     if feature != "SUR" {
@@ -521,11 +524,26 @@ pub fn read_x3p(bytes: &[u8]) -> Result<HeightMap, String> {
             ));
         }
     }
-    let dx = number(&["Record1", "Axes", "CX", "Increment"])?;
-    let dy = number(&["Record1", "Axes", "CY", "Increment"])?;
+    // An increment is a step in metres: positive and a normal number (0 flattened the
+    // surface; a denormal one gave a kilobyte-long error further on).
+    let increment = |axis: &str| -> Result<f64, String> {
+        let path = ["Record1", "Axes", axis, "Increment"];
+        let v = number(&path)?;
+        if v > 0.0 && v.is_normal() {
+            Ok(v)
+        } else {
+            let t: String = need(&path)?.chars().take(40).collect();
+            Err(format!(
+                "main.xml {} = {t} must be a positive step in metres",
+                path.join("/")
+            ))
+        }
+    };
+    let dx = increment("CX")?;
+    let dy = increment("CY")?;
     let z_type = need(&["Record1", "Axes", "CZ", "DataType"])?;
     let z_inc = match text(&["Record1", "Axes", "CZ", "Increment"]) {
-        Some(_) => number(&["Record1", "Axes", "CZ", "Increment"])?,
+        Some(_) => increment("CZ")?,
         None => 1.0,
     };
     let z_off = match text(&["Record1", "Axes", "CZ", "Offset"]) {
