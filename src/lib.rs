@@ -14,6 +14,7 @@ pub mod export;
 pub mod fit;
 pub mod io;
 pub mod optics;
+pub mod output;
 pub mod plot;
 pub mod render;
 pub mod rng;

@@ -991,3 +991,136 @@ fn sizes_lengths_and_shapes_are_refused_before_work() {
     let r: f64 = row.split(',').nth(3).unwrap().parse().unwrap(); // lambda,Rs,Rp,R,...
     assert!(r.abs() < 1e-12, "{stdout}");
 }
+
+/// Issue 30, one output policy: an output is never a file the run reads (a sample's own
+/// height map or media table), never a file of another kind unless --force, and a prefix
+/// must name a file. Each refusal leaves the file as it was; --force then writes it.
+#[test]
+fn outputs_never_replace_inputs_or_foreign_files() {
+    let d = std::env::temp_dir().join(format!("goniospec-outputs-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let p = |x: &std::path::Path| x.to_str().unwrap().to_string();
+    // A sample with a media table and a mesh beside it.
+    std::fs::write(d.join("n.csv"), "lambda_nm,n,k\n300,1.5,0\n900,1.5,0\n").unwrap();
+    let (code, _, err) = goniospec(&[
+        "generate",
+        "flat",
+        "--tile",
+        "10,10",
+        "-o",
+        &p(&d.join("flat.obj")),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    std::fs::write(
+        d.join("s.toml"),
+        "[sample]\nname = \"glass\"\nunit = \"um\"\ntile = [10.0, 10.0]\n[media.air]\nn = 1.0\n[media.glass]\ntable = \"n.csv\"\n[[interface]]\nmesh = \"flat.obj\"\nfront = \"air\"\nback = \"glass\"\n",
+    )
+    .unwrap();
+    let table = std::fs::read(d.join("n.csv")).unwrap();
+    let sample_path = p(&d.join("s.toml"));
+    let sim = |o: &str, extra: &[&str]| {
+        let mut a = vec![
+            "simulate",
+            sample_path.as_str(),
+            "--rays",
+            "4",
+            "--theta-i",
+            "30",
+            "--wavelengths",
+            "500",
+            "--monochromatic",
+            "-o",
+            o,
+        ];
+        a.extend(extra);
+        goniospec(&a)
+    };
+    // simulate --force over the sample's own media table: still refused.
+    let (code, _, err) = sim(&p(&d.join("n.csv")), &["--force"]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("is the input"), "{err}");
+    assert_eq!(std::fs::read(d.join("n.csv")).unwrap(), table);
+    let gsa = d.join("o.gsa");
+    let (code, _, err) = sim(&p(&gsa), &[]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = goniospec(&["build", &p(&gsa), "-o", &p(&d.join("o.gsb"))]);
+    assert_eq!(code, 0, "{err}");
+    // fit, plot and render over a foreign file: refused without --force, written with it.
+    let notes = b"my notes\n".to_vec();
+    for (tag, args, target) in [
+        (
+            "fit",
+            vec!["fit", &p(&gsa), "-o", &p(&d.join("f"))],
+            d.join("f.json"),
+        ),
+        (
+            "plot",
+            vec![
+                "plot",
+                &p(&d.join("o.gsb")),
+                "--theta-i",
+                "30",
+                "-o",
+                &p(&d.join("l.png")),
+            ],
+            d.join("l.png"),
+        ),
+        (
+            "render",
+            vec![
+                "render",
+                &p(&d.join("o.gsb")),
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--spp",
+                "1",
+                "-o",
+                &p(&d.join("r.exr")),
+            ],
+            d.join("r.png"),
+        ),
+    ] {
+        std::fs::write(&target, &notes).unwrap();
+        let (code, _, err) = goniospec(&args);
+        assert_eq!(code, 1, "{tag}: {err}");
+        assert!(err.contains("--force"), "{tag}: {err}");
+        assert_eq!(std::fs::read(&target).unwrap(), notes, "{tag}: changed");
+        let mut forced = args.clone();
+        forced.push("--force");
+        let (code, _, err) = goniospec(&forced);
+        assert_eq!(code, 0, "{tag} --force: {err}");
+        assert_ne!(std::fs::read(&target).unwrap(), notes, "{tag}: not written");
+        // A second run replaces its own kind of file without --force.
+        let (code, _, err) = goniospec(&args);
+        assert_eq!(code, 0, "{tag} again: {err}");
+    }
+    // fit -o . (it wrote ..json with exit 0) and render --simulate over a foreign .gsa.
+    for prefix in [".", ".."] {
+        let (code, _, err) = goniospec(&["fit", &p(&gsa), "-o", prefix]);
+        assert_eq!(code, 1, "{prefix}: {err}");
+        assert!(err.contains("not a file prefix"), "{err}");
+    }
+    assert!(!std::path::Path::new("..json").exists());
+    std::fs::write(d.join("scene.gsa"), &notes).unwrap();
+    let (code, _, err) = goniospec(&[
+        "render",
+        "--simulate",
+        &p(&d.join("s.toml")),
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "-o",
+        &p(&d.join("scene.exr")),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("scene.gsa") && err.contains("--force"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(d.join("scene.gsa")).unwrap(), notes);
+    let _ = std::fs::remove_dir_all(&d);
+}

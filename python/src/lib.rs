@@ -1,7 +1,7 @@
 //! Python bindings of goniospec (pyo3): the library's API, not the CLI's. Errors become
 //! Python exceptions with the CLI's messages; long runs release the GIL.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use numpy::{IntoPyArray, PyArray1, PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyOSError, PyValueError};
@@ -9,6 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use goniospec::brdf::{Brdf as _, Kind, Representation};
+use goniospec::output::OutputKind;
 use goniospec::simulate::{SimConfig, Wavelengths};
 
 fn value_err(e: impl std::fmt::Display) -> PyErr {
@@ -58,6 +59,9 @@ impl Sample {
 #[pyclass(module = "goniospec", frozen)]
 struct Accumulator {
     inner: goniospec::accumulate::file::Accumulator,
+    /// The files it came from (the `.gsa` it was loaded from, or the sample's own files):
+    /// what `save` and the BRDF's `save` and `export` must never replace.
+    inputs: Vec<PathBuf>,
 }
 
 #[pymethods]
@@ -83,8 +87,11 @@ impl Accumulator {
         Ok(d)
     }
 
-    /// Writes the accumulator as a `.gsa` (atomically).
-    fn save(&self, path: PathBuf) -> PyResult<()> {
+    /// Writes the accumulator as a `.gsa` (atomically). It never replaces a file it came
+    /// from, nor an existing file that is not a `.gsa` unless `force` (the CLI's policy).
+    #[pyo3(signature = (path, force = false))]
+    fn save(&self, path: PathBuf, force: bool) -> PyResult<()> {
+        guard(&path, &self.inputs, OutputKind::Gsa, force)?;
         self.inner
             .write(&path)
             .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))
@@ -98,7 +105,12 @@ impl Accumulator {
             let data = goniospec::brdf::BucketData::from_accumulator(&self.inner);
             Representation::build(kind, &data, &Default::default())
         });
-        inner.map(|inner| Brdf { inner }).map_err(value_err)
+        inner
+            .map(|inner| Brdf {
+                inner,
+                inputs: self.inputs.clone(),
+            })
+            .map_err(value_err)
     }
 
     /// The simulated incident angles, degrees.
@@ -112,6 +124,8 @@ impl Accumulator {
 #[pyclass(module = "goniospec", frozen)]
 struct Brdf {
     inner: Representation,
+    /// As `Accumulator::inputs`, with the `.gsb` it was loaded from.
+    inputs: Vec<PathBuf>,
 }
 
 #[pymethods]
@@ -200,8 +214,11 @@ impl Brdf {
         self.inner.meta().wavelengths_nm.clone().into_pyarray(py)
     }
 
-    /// Writes the BRDF as a `.gsb` (atomically).
-    fn save(&self, path: PathBuf) -> PyResult<()> {
+    /// Writes the BRDF as a `.gsb` (atomically). It never replaces a file it came from,
+    /// nor an existing file that is not a `.gsb` unless `force` (the CLI's policy).
+    #[pyo3(signature = (path, force = false))]
+    fn save(&self, path: PathBuf, force: bool) -> PyResult<()> {
+        guard(&path, &self.inputs, OutputKind::Gsb, force)?;
         goniospec::brdf::file::write(&self.inner, &path)
             .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))
     }
@@ -209,7 +226,9 @@ impl Brdf {
     /// Exports the BRDF: format "npz" (NumPy arrays on the bucket grid), "merl" (sRGB),
     /// or "rgl" (the RGL `.bsdf` of Mitsuba 3 and pbrt-v4; needs `sample`, whose facets
     /// give the microfacet distribution, and an odd `resolution`).
-    #[pyo3(signature = (path, format = "npz", sample = None, resolution = 65))]
+    /// It never replaces a file it came from or the sample's files, nor an existing file
+    /// of another kind unless `force`.
+    #[pyo3(signature = (path, format = "npz", sample = None, resolution = 65, force = false))]
     fn export(
         &self,
         py: Python<'_>,
@@ -217,7 +236,18 @@ impl Brdf {
         format: &str,
         sample: Option<&Sample>,
         resolution: usize,
+        force: bool,
     ) -> PyResult<()> {
+        let kind = match format {
+            "npz" => OutputKind::Npz,
+            "merl" => OutputKind::Merl,
+            _ => OutputKind::Tensor,
+        };
+        let mut inputs = self.inputs.clone();
+        if let Some(s) = sample {
+            inputs.extend(s.inner.inputs.iter().cloned());
+        }
+        guard(&path, &inputs, kind, force)?;
         let bytes = py
             .allow_threads(|| match format {
                 "npz" => {
@@ -244,11 +274,21 @@ impl Brdf {
     }
 }
 
+/// The output policy (`goniospec::output::guard`): refusals are `FileExistsError`.
+fn guard(path: &Path, inputs: &[PathBuf], kind: OutputKind, force: bool) -> PyResult<()> {
+    let inputs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
+    goniospec::output::guard(path, &inputs, kind, force)
+        .map_err(|e| pyo3::exceptions::PyFileExistsError::new_err(e.to_string()))
+}
+
 /// Loads a `.gsa` accumulator.
 #[pyfunction]
 fn load(path: PathBuf) -> PyResult<Accumulator> {
     goniospec::accumulate::file::Accumulator::read(&path)
-        .map(|inner| Accumulator { inner })
+        .map(|inner| Accumulator {
+            inner,
+            inputs: vec![path.clone()],
+        })
         .map_err(value_err)
 }
 
@@ -256,7 +296,10 @@ fn load(path: PathBuf) -> PyResult<Accumulator> {
 #[pyfunction]
 fn load_brdf(path: PathBuf) -> PyResult<Brdf> {
     goniospec::brdf::file::read(&path)
-        .map(|inner| Brdf { inner })
+        .map(|inner| Brdf {
+            inner,
+            inputs: vec![path.clone()],
+        })
         .map_err(value_err)
 }
 
@@ -389,7 +432,10 @@ fn simulate(
         return Err(e);
     }
     let (acc, _) = result.map_err(value_err)?;
-    Ok(Accumulator { inner: acc })
+    Ok(Accumulator {
+        inner: acc,
+        inputs: sample.inner.inputs.clone(),
+    })
 }
 
 /// The transfer-matrix reflectance and transmittance of a `[stack]` sample at `theta_i`

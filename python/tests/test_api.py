@@ -150,3 +150,31 @@ def test_ctrl_c_interrupts_a_long_run_and_returns_nothing(tmp_path):
     assert time.monotonic() - t0 < 10
     assert not out.exists()
     assert not any(tmp_path.iterdir())
+
+
+def test_outputs_never_replace_inputs_or_foreign_files(tmp_path):
+    """Issue 30: save and export follow the CLI's output policy. They overwrote the sample
+    or the file an object came from."""
+    import shutil
+    shutil.copytree(os.path.join(ROOT, "meshes"), tmp_path / "m")
+    sample_toml = tmp_path / "m" / "flat-soap-film.toml"
+    original = sample_toml.read_bytes()
+    s = gs.Sample.load(str(sample_toml))
+    acc = gs.simulate(s, theta_i=[30], wavelengths="500", monochromatic=True, rays=4)
+    with pytest.raises(FileExistsError, match="is the input"):
+        acc.save(sample_toml, force=True)
+    assert sample_toml.read_bytes() == original
+    acc.save(tmp_path / "a.gsa")
+    loaded = gs.load(str(tmp_path / "a.gsa"))
+    with pytest.raises(FileExistsError, match="is the input"):
+        loaded.save(tmp_path / "a.gsa")
+    brdf = loaded.build("table")
+    with pytest.raises(FileExistsError, match="is the input"):
+        brdf.export(tmp_path / "a.gsa", format="npz", force=True)
+    notes = tmp_path / "notes.txt"
+    notes.write_text("mine\n")
+    with pytest.raises(FileExistsError, match="--force"):
+        brdf.save(notes)
+    assert notes.read_text() == "mine\n"
+    brdf.save(notes, force=True)
+    assert notes.read_bytes()[:4] != b"mine"

@@ -104,7 +104,7 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
     match c {
         BatchCommand::Plan(a) => {
             let manifest = a.output.join("manifest.toml");
-            if same_file(&manifest, &a.plan) {
+            if goniospec::output::same_file(&manifest, &a.plan) {
                 bail!(
                     "the plan {} is the manifest this would write: refusing to overwrite it",
                     a.plan.display()

@@ -18,6 +18,9 @@ pub(super) struct FitArgs {
     /// Do not try a thin film.
     #[arg(long)]
     no_film: bool,
+    /// Replace PREFIX.json or PREFIX.gltf even when they are not files goniospec fit wrote.
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -29,6 +32,14 @@ pub(super) enum FitBase {
 
 pub(super) fn fit(a: FitArgs) -> Result<ExitCode> {
     use goniospec::fit;
+    // The prefix names files: it must end in a name (`-o .` wrote `..json`).
+    let name = a.output.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    if name.is_empty() || name == "." || name == ".." || a.output.is_dir() {
+        bail!(
+            "-o {} is not a file prefix: give one such as out/gold (writes out/gold.json and out/gold.gltf)",
+            a.output.display()
+        );
+    }
     let acc = Accumulator::read(&a.file)?;
     let with_ext = |ext: &str| {
         let mut p = a.output.clone().into_os_string();
@@ -37,7 +48,7 @@ pub(super) fn fit(a: FitArgs) -> Result<ExitCode> {
     };
     let (json_path, gltf_path) = (with_ext(".json"), with_ext(".gltf"));
     for p in [&json_path, &gltf_path] {
-        guard_output(p, &[a.file.as_path()], OutputKind::Any, false)?;
+        guard_output(p, &[a.file.as_path()], OutputKind::FitJson, a.force)?;
     }
     let data = fit::Data::from_accumulator(&acc);
     let kind = match a.base {

@@ -295,101 +295,16 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
     }
 }
 
-/// What kind of file an output may replace without `--force`.
-#[derive(Clone, Copy)]
-enum OutputKind {
-    Gsa,
-    Gsb,
-    Obj,
-    /// RGL tensor files (.bsdf).
-    Tensor,
-    /// NumPy archives (.npz).
-    Npz,
-    /// MERL binaries (.binary).
-    Merl,
-    /// Images and JSON: only the same-file and directory checks.
-    Any,
-}
+use goniospec::output::OutputKind;
 
-/// Refuses an output path that is a directory, that is the same file as an input, or (for
-/// goniospec's own formats) that holds a file of another kind, unless `force`: an output
-/// never destroys an input or an unrelated file (writes are atomic, so a refused run
-/// changes nothing).
+/// The output policy (`goniospec::output::guard`) as a command's error.
 fn guard_output(
     out: &std::path::Path,
     inputs: &[&std::path::Path],
     kind: OutputKind,
     force: bool,
 ) -> Result<()> {
-    if out.is_dir() {
-        bail!("output {} is a directory; give a file name", out.display());
-    }
-    for i in inputs {
-        if same_file(out, i) {
-            bail!(
-                "output {} is the input {}: refusing to overwrite it",
-                out.display(),
-                i.display()
-            );
-        }
-    }
-    // Before any work: the folder exists and takes a new file.
-    goniospec::io::check_writable(out).with_context(|| {
-        format!(
-            "cannot write {} (does its folder exist, and may you write there?)",
-            out.display()
-        )
-    })?;
-    if force || !out.exists() {
-        return Ok(());
-    }
-    let head = {
-        use std::io::Read;
-        let mut b = [0u8; 32];
-        let n = std::fs::File::open(out)
-            .and_then(|mut f| f.read(&mut b))
-            .with_context(|| format!("reading {}", out.display()))?;
-        b[..n].to_vec()
-    };
-    let (ok, what) = match kind {
-        OutputKind::Gsa => (
-            head.starts_with(goniospec::accumulate::file::MAGIC),
-            "a goniospec accumulator (.gsa)",
-        ),
-        OutputKind::Gsb => (
-            head.starts_with(goniospec::brdf::file::MAGIC),
-            "a goniospec BRDF (.gsb)",
-        ),
-        OutputKind::Obj => (
-            head.starts_with(b"# goniospec generate"),
-            "an OBJ written by goniospec generate",
-        ),
-        OutputKind::Merl => (
-            head.starts_with(&[90, 0, 0, 0, 90, 0, 0, 0, 180, 0, 0, 0]),
-            "a MERL BRDF (.binary)",
-        ),
-        OutputKind::Npz => (head.starts_with(b"PK\x03\x04"), "a NumPy archive (.npz)"),
-        OutputKind::Tensor => (
-            goniospec::export::tensor::is_tensor_file(&head),
-            "an RGL tensor file (.bsdf)",
-        ),
-        OutputKind::Any => (true, ""),
-    };
-    if !ok {
-        bail!(
-            "refusing to overwrite {}: it is not {what}; remove it, choose another name, or pass --force",
-            out.display()
-        );
-    }
-    Ok(())
-}
-
-/// Whether two paths name the same existing file.
-fn same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
-    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
-        (Ok(x), Ok(y)) => x == y,
-        _ => false,
-    }
+    Ok(goniospec::output::guard(out, inputs, kind, force)?)
 }
 
 /// The requested backend, or the default; refuses one this build lacks.

@@ -21,11 +21,14 @@ pub(super) struct PlotArgs {
     /// Worker threads (0: all cores). The image does not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// Replace an existing output even when it is not an image.
+    #[arg(long)]
+    force: bool,
 }
 
 pub(super) fn plot(a: PlotArgs) -> Result<ExitCode> {
     use goniospec::brdf;
-    guard_output(&a.output, &[a.input.as_path()], OutputKind::Any, false)?;
+    guard_output(&a.output, &[a.input.as_path()], OutputKind::Image, a.force)?;
     if !matches!(
         a.output.extension().and_then(|e| e.to_str()),
         Some("png" | "svg")

@@ -66,6 +66,10 @@ pub(super) struct RenderArgs {
     /// Worker threads (0: all cores). Images do not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// Replace existing outputs (the image, its PNG preview, and with --simulate the .gsa
+    /// and .gsb beside it) even when they are not files of their kind.
+    #[arg(long)]
+    force: bool,
     /// Also render the [stack] sample's analytic (TMM) reflectance under the same
     /// environment and report the difference (relative RMSE, mean CIE DE2000).
     #[arg(long, value_name = "SAMPLE.toml")]
@@ -134,7 +138,26 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
             .map(|p| p.as_path())
             .collect();
         for out in [&a.output, &png] {
-            guard_output(out, &inputs, OutputKind::Any, false)?;
+            guard_output(out, &inputs, OutputKind::Image, a.force)?;
+        }
+        // The accumulator and BRDF written beside the image: never an input of the run, and
+        // replaced only when they are of their kind (they replaced any NAME.gsa / NAME.gsb).
+        if let Some(sample) = &a.simulate {
+            let s = sample::load(sample, MeshOptions::default())?;
+            let mut all = inputs.clone();
+            all.extend(s.inputs.iter().map(|p| p.as_path()));
+            guard_output(
+                &a.output.with_extension("gsa"),
+                &all,
+                OutputKind::Gsa,
+                a.force,
+            )?;
+            guard_output(
+                &a.output.with_extension("gsb"),
+                &all,
+                OutputKind::Gsb,
+                a.force,
+            )?;
         }
     }
     if !(a.fov > 0.0 && a.fov < 180.0) {

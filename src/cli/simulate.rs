@@ -99,18 +99,7 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         },
     )?;
     {
-        let meshes: Vec<PathBuf> = s
-            .interfaces
-            .iter()
-            .map(|i| {
-                a.sample
-                    .parent()
-                    .unwrap_or(std::path::Path::new("."))
-                    .join(&i.mesh_path)
-            })
-            .collect();
-        let mut inputs: Vec<&std::path::Path> = vec![a.sample.as_path()];
-        inputs.extend(meshes.iter().map(|p| p.as_path()));
+        let inputs: Vec<&std::path::Path> = s.inputs.iter().map(|p| p.as_path()).collect();
         guard_output(&a.output, &inputs, OutputKind::Gsa, a.force)?;
     }
     let cfg = SimConfig {

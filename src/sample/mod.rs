@@ -148,6 +148,9 @@ pub struct Interface {
 pub struct Sample {
     pub name: String,
     pub path: PathBuf,
+    /// Every file the description names (itself, meshes, height maps, media tables and
+    /// models): what an output must never replace.
+    pub inputs: Vec<PathBuf>,
     pub tile_nm: [f64; 2],
     /// Sorted by name, so ids are deterministic.
     pub media: Vec<Medium>,
@@ -567,6 +570,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         }
     })?;
 
+    let inputs = input_files(path, &raw);
     let unit = raw.sample.unit.get_ref();
     let scale = nm_per_unit(unit).ok_or_else(|| {
         at(
@@ -1022,5 +1026,30 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         interfaces,
         stack,
         guard_nm,
+        inputs,
     })
+}
+
+/// Every file a sample description names, resolved against its folder: the description
+/// itself, meshes, height maps, and media tables and model files. Outputs must never be one
+/// of them (`simulate --force` overwrote a sample's own `.x3p` or media `.csv`).
+fn input_files(path: &Path, raw: &RawSample) -> Vec<PathBuf> {
+    let base = path.parent().unwrap_or(Path::new(""));
+    let mut files = vec![path.to_path_buf()];
+    for m in raw.media.values() {
+        let m = m.get_ref();
+        files.extend(m.table.iter().chain(&m.model).map(|f| base.join(f)));
+    }
+    for i in &raw.interface {
+        files.extend(
+            i.mesh
+                .iter()
+                .chain(&i.heightmap)
+                .map(|f| base.join(f.get_ref())),
+        );
+    }
+    for b in &raw.body {
+        files.extend(b.mesh.iter().map(|f| base.join(f.get_ref())));
+    }
+    files
 }

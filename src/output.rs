@@ -1,0 +1,138 @@
+//! The output policy of every front end (CLI, Python, batch): an output is never a
+//! directory, never the same file as an input of the run, always in a folder that takes a
+//! new file, and replaces an existing file only when it is of its own kind, unless forced.
+//! Writes are atomic (`io::write_atomic`), so a refused run changes nothing.
+
+use std::path::Path;
+
+/// What kind of file an output may replace without `force`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputKind {
+    Gsa,
+    Gsb,
+    Obj,
+    /// RGL tensor files (.bsdf).
+    Tensor,
+    /// NumPy archives (.npz).
+    Npz,
+    /// MERL binaries (.binary).
+    Merl,
+    /// Images goniospec writes: PNG, OpenEXR or SVG.
+    Image,
+    /// The JSON or glTF `goniospec fit` writes (its `fit` key, or `asset.generator`).
+    FitJson,
+}
+
+/// Why an output was refused.
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    #[error("output {0} is a directory; give a file name")]
+    Directory(String),
+    #[error("output {out} is the input {input}: refusing to overwrite it")]
+    IsInput { out: String, input: String },
+    #[error("cannot write {out} (does its folder exist, and may you write there?): {source}")]
+    NotWritable { out: String, source: std::io::Error },
+    #[error("reading {out}: {source}")]
+    Unreadable { out: String, source: std::io::Error },
+    #[error(
+        "refusing to overwrite {out}: it is not {what}; remove it, choose another name, or pass --force"
+    )]
+    Foreign { out: String, what: &'static str },
+}
+
+/// Checks `out` against the policy (see the module docs); `inputs` are every file the run
+/// reads.
+pub fn guard(
+    out: &Path,
+    inputs: &[&Path],
+    kind: OutputKind,
+    force: bool,
+) -> Result<(), OutputError> {
+    let name = || out.display().to_string();
+    if out.is_dir() {
+        return Err(OutputError::Directory(name()));
+    }
+    for i in inputs {
+        if same_file(out, i) {
+            return Err(OutputError::IsInput {
+                out: name(),
+                input: i.display().to_string(),
+            });
+        }
+    }
+    // Before any work: the folder exists and takes a new file.
+    crate::io::check_writable(out).map_err(|source| OutputError::NotWritable {
+        out: name(),
+        source,
+    })?;
+    if force || !out.exists() {
+        return Ok(());
+    }
+    let head = {
+        use std::io::Read;
+        let mut b = Vec::new();
+        std::fs::File::open(out)
+            .and_then(|f| f.take(4096).read_to_end(&mut b))
+            .map_err(|source| OutputError::Unreadable {
+                out: name(),
+                source,
+            })?;
+        b
+    };
+    let (ok, what) = match kind {
+        OutputKind::Gsa => (
+            head.starts_with(crate::accumulate::file::MAGIC),
+            "a goniospec accumulator (.gsa)",
+        ),
+        OutputKind::Gsb => (
+            head.starts_with(crate::brdf::file::MAGIC),
+            "a goniospec BRDF (.gsb)",
+        ),
+        OutputKind::Obj => (
+            head.starts_with(b"# goniospec generate"),
+            "an OBJ written by goniospec generate",
+        ),
+        OutputKind::Merl => (
+            head.starts_with(&[90, 0, 0, 0, 90, 0, 0, 0, 180, 0, 0, 0]),
+            "a MERL BRDF (.binary)",
+        ),
+        OutputKind::Npz => (head.starts_with(b"PK\x03\x04"), "a NumPy archive (.npz)"),
+        OutputKind::Tensor => (
+            crate::export::tensor::is_tensor_file(&head),
+            "an RGL tensor file (.bsdf)",
+        ),
+        OutputKind::Image => (
+            head.starts_with(b"\x89PNG\r\n\x1a\n")
+                || head.starts_with(&[0x76, 0x2f, 0x31, 0x01])
+                || head.starts_with(b"<svg")
+                || head.starts_with(b"<?xml"),
+            "an image (PNG, OpenEXR or SVG)",
+        ),
+        OutputKind::FitJson => (is_fit_output(out), "a material written by goniospec fit"),
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(OutputError::Foreign { out: name(), what })
+    }
+}
+
+/// Whether `path` is a JSON or glTF file `goniospec fit` wrote: a JSON object with a `fit`
+/// key, or with `asset.generator` "goniospec fit" (files over 64 MiB are not read).
+fn is_fit_output(path: &Path) -> bool {
+    let Ok(text) = crate::io::read_input(path, 64 << 20) else {
+        return false;
+    };
+    let Ok(v) = serde_json::from_slice::<serde_json::Value>(&text) else {
+        return false;
+    };
+    v.get("fit").is_some() || v["asset"]["generator"] == "goniospec fit"
+}
+
+/// Whether two paths name the same existing file.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    }
+}
