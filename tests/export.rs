@@ -163,6 +163,34 @@ fn rgl_export_refuses_what_it_cannot_write() {
     ]);
     assert_eq!(code, 1);
     assert!(err.contains("was simulated from"), "{err}");
+    // Issue 30: the same name over other media is another sample (only names were
+    // compared). Rough gold's description with silver for gold, same name and mesh.
+    let gold = built(&d, "meshes/rough-gold.toml", "gold");
+    let other = d.join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::copy(
+        root().join("meshes/rough-gold-ggx.obj"),
+        other.join("rough-gold-ggx.obj"),
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(root().join("meshes/rough-gold.toml"))
+        .unwrap()
+        .replace(
+            "../data/au-johnson.csv",
+            &root().join("data/ag-johnson.csv").display().to_string(),
+        );
+    std::fs::write(other.join("s.toml"), text).unwrap();
+    let (code, _, err) = goniospec(&[
+        "export",
+        &gold,
+        "--sample",
+        other.join("s.toml").to_str().unwrap(),
+        "-o",
+        p.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("geometry or media differ"), "{err}");
+    assert!(!p.exists());
     let (code, _, err) = goniospec(&[
         "export",
         &flat,

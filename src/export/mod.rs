@@ -50,6 +50,17 @@ pub fn rgl_for(
             r.meta().sample_name
         ));
     }
+    // The name is the user's; the geometry and media are the sample's hash (a different
+    // surface under the same name was accepted).
+    let settings: crate::accumulate::file::Settings = toml::from_str(&r.meta().simulation)
+        .map_err(|e| format!("the BRDF's simulation settings are unreadable: {e}"))?;
+    let hash = crate::simulate::sample_hash(sample);
+    if settings.sample_hash != hash {
+        return Err(format!(
+            "the sample '{}' is not the one the BRDF was simulated from: its geometry or media differ (hash {hash}, the BRDF's {})",
+            sample.name, settings.sample_hash
+        ));
+    }
     let theta_i = match theta_i {
         Some(t) => t,
         None => simulated_incidence(r)?,
