@@ -430,3 +430,57 @@ fn an_edited_manifest_is_refused_not_trusted() {
         "{out}{err}"
     );
 }
+
+/// Issue 30: a batch folder whose name is shell code (`inj$(touch INJECTED)x`, with a `"`
+/// and a `'`) runs under GNU parallel and through the Slurm scripts (run here by bash with
+/// Slurm's array variables) without running that code, and the batch completes.
+#[test]
+fn a_hostile_folder_name_never_reaches_a_shell_unquoted() {
+    let d = scratch("batch-quote");
+    let p = plan(&d, 8);
+    let hostile = d.join("inj$(touch INJECTED)x \"q' `touch TICK`");
+    plan_into(&p, &hostile);
+    let cmd = ok(&[
+        "batch",
+        "parallel",
+        hostile.to_str().unwrap(),
+        "--shards",
+        "2",
+        "--jobs",
+        "2",
+    ]);
+    let status = std::process::Command::new("bash")
+        .args(["-c", cmd.trim()])
+        .current_dir(&d)
+        .status()
+        .expect("GNU parallel (scripts/install-deps.sh installs it)");
+    assert!(status.success(), "{cmd}");
+    ok(&["batch", "merge", hostile.to_str().unwrap()]);
+    // The Slurm array script, as a node would run it: task 1 of 1 reruns nothing (every
+    // unit is done) and exits 0.
+    ok(&["batch", "slurm", hostile.to_str().unwrap(), "--shards", "1"]);
+    let status = std::process::Command::new("bash")
+        .arg(hostile.join("units.sbatch"))
+        .env("SLURM_ARRAY_TASK_ID", "1")
+        .env("SLURM_ARRAY_TASK_COUNT", "1")
+        .current_dir(&d)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let status = std::process::Command::new("bash")
+        .arg(hostile.join("merge.sbatch"))
+        .current_dir(&d)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    for dir in [d.as_path(), hostile.as_path(), root()] {
+        for marker in ["INJECTED", "TICK"] {
+            assert!(
+                !dir.join(marker).exists(),
+                "{marker} was created in {}: the folder name ran as code",
+                dir.display()
+            );
+        }
+    }
+    assert!(hostile.join("out").join("gold.gsa").is_file());
+}

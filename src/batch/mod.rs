@@ -443,39 +443,68 @@ pub fn shard_from_env() -> Option<Result<(usize, usize), String>> {
     })())
 }
 
+/// `s` as one POSIX shell word: single-quoted, each `'` written as `'\''`. Everything
+/// user-controlled that reaches a shell goes through it (a batch folder named
+/// `inj$(touch INJECTED)x` ran `touch` when the Slurm script ran).
+pub fn shell_quote(s: &str) -> String {
+    format!("'{}'", s.replace('\'', "'\\''"))
+}
+
+/// A path as text for a script, or why it cannot be one.
+fn script_path(p: &Path) -> Result<&str, String> {
+    p.to_str().ok_or_else(|| {
+        format!(
+            "{}: the path is not valid UTF-8, which the Slurm and GNU parallel scripts cannot carry; rename the folder",
+            p.to_string_lossy()
+        )
+    })
+}
+
 /// The Slurm scripts of a batch: an array with one task per shard (at most `limit`
-/// running), a merge job, and `submit.sh` chaining them with `--dependency=afterok`.
+/// running), a merge job, and `submit.sh` chaining them with `--dependency=afterok`. The
+/// folder and binary reach the shell quoted ([`shell_quote`]); the `#SBATCH` lines, which
+/// Slurm reads without a shell, name only paths relative to the folder `submit.sh`
+/// submits from.
 pub fn slurm_scripts(
     dir: &Path,
     goniospec: &Path,
     shards: usize,
     limit: usize,
-) -> Vec<(PathBuf, String)> {
-    let d = dir.display();
-    let g = goniospec.display();
+) -> Result<Vec<(PathBuf, String)>, String> {
+    let d = shell_quote(script_path(dir)?);
+    let g = shell_quote(script_path(goniospec)?);
     let array = format!(
-        "#!/bin/bash\n# goniospec batch: one array task per shard; each resumes where a previous run stopped.\n#SBATCH --job-name=goniospec-units\n#SBATCH --array=1-{shards}%{limit}\n#SBATCH --output={d}/logs/units-%A_%a.out\nset -euo pipefail\nexec \"{g}\" batch run \"{d}\"\n"
+        "#!/bin/bash\n# goniospec batch: one array task per shard; each resumes where a previous run stopped.\n#SBATCH --job-name=goniospec-units\n#SBATCH --array=1-{shards}%{limit}\n#SBATCH --output=logs/units-%A_%a.out\nset -euo pipefail\nexec {g} batch run {d}\n"
     );
     let merge = format!(
-        "#!/bin/bash\n# goniospec batch: merge the units and build the representations once every shard succeeded.\n#SBATCH --job-name=goniospec-merge\n#SBATCH --output={d}/logs/merge-%j.out\nset -euo pipefail\nexec \"{g}\" batch merge \"{d}\"\n"
+        "#!/bin/bash\n# goniospec batch: merge the units and build the representations once every shard succeeded.\n#SBATCH --job-name=goniospec-merge\n#SBATCH --output=logs/merge-%j.out\nset -euo pipefail\nexec {g} batch merge {d}\n"
     );
     let submit = String::from(
-        "#!/bin/bash\n# Submits the unit array, then the merge job to run after it succeeds.\nset -euo pipefail\ncd \"$(dirname \"$0\")\"\nmkdir -p logs\njid=$(sbatch --parsable units.sbatch)\nsbatch --parsable --dependency=afterok:${jid%%;*} merge.sbatch\n",
+        "#!/bin/bash\n# Submits the unit array, then the merge job to run after it succeeds (from this\n# folder, where the jobs' logs/ go).\nset -euo pipefail\ncd \"$(dirname \"$0\")\"\nmkdir -p logs\njid=$(sbatch --parsable units.sbatch)\nsbatch --parsable --dependency=afterok:${jid%%;*} merge.sbatch\n",
     );
-    vec![
+    Ok(vec![
         (dir.join("units.sbatch"), array),
         (dir.join("merge.sbatch"), merge),
         (dir.join("submit.sh"), submit),
-    ]
+    ])
 }
 
 /// The GNU parallel command that runs every shard (`--joblog` and `--resume-failed`, so a
-/// rerun repeats only the shards that failed).
-pub fn parallel_command(dir: &Path, goniospec: &Path, shards: usize, jobs: usize) -> String {
-    format!(
-        "parallel --joblog \"{}/parallel.log\" --resume-failed -j {jobs} \"{}\" batch run \"{}\" --shard {{}}/{shards} ::: $(seq 1 {shards})",
-        dir.display(),
-        goniospec.display(),
-        dir.display()
-    )
+/// rerun repeats only the shards that failed). The paths are quoted for the shell the
+/// command is typed into, and `-q` makes parallel quote them again for the shell it runs
+/// each job in.
+pub fn parallel_command(
+    dir: &Path,
+    goniospec: &Path,
+    shards: usize,
+    jobs: usize,
+) -> Result<String, String> {
+    let log = shell_quote(script_path(&dir.join("parallel.log"))?);
+    let (d, g) = (
+        shell_quote(script_path(dir)?),
+        shell_quote(script_path(goniospec)?),
+    );
+    Ok(format!(
+        "parallel --joblog {log} --resume-failed -j {jobs} -q {g} batch run {d} --shard {{}}/{shards} ::: $(seq 1 {shards})"
+    ))
 }

@@ -241,7 +241,9 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
             let exe = std::env::current_exe().context("locating the goniospec binary")?;
             let dir =
                 std::fs::canonicalize(&a.dir).with_context(|| format!("{}", a.dir.display()))?;
-            for (p, text) in batch::slurm_scripts(&dir, &exe, a.shards as usize, a.limit as usize) {
+            let scripts = batch::slurm_scripts(&dir, &exe, a.shards as usize, a.limit as usize)
+                .map_err(anyhow::Error::msg)?;
+            for (p, text) in scripts {
                 goniospec::io::write_atomic(&p, |w| w.write_all(text.as_bytes()))
                     .with_context(|| format!("writing {}", p.display()))?;
                 outln!("wrote {}", p.display());
@@ -254,10 +256,9 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
             let exe = std::env::current_exe().context("locating the goniospec binary")?;
             let dir =
                 std::fs::canonicalize(&a.dir).with_context(|| format!("{}", a.dir.display()))?;
-            outln!(
-                "{}",
-                batch::parallel_command(&dir, &exe, a.shards as usize, a.jobs as usize)
-            );
+            let cmd = batch::parallel_command(&dir, &exe, a.shards as usize, a.jobs as usize)
+                .map_err(anyhow::Error::msg)?;
+            outln!("{cmd}");
             Ok(ExitCode::SUCCESS)
         }
     }
