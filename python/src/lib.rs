@@ -142,14 +142,21 @@ impl Brdf {
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         // Numbers, lists and arrays alike, as numpy.asarray(x, float64) sees them.
         let np = py.import("numpy")?;
-        let as_array = |x: &Bound<'py, PyAny>| -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
-            np.call_method1("asarray", (x, "float64"))?.extract()
-        };
+        let as_array =
+            |name: &str, x: &Bound<'py, PyAny>| -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
+                if x.is_none() {
+                    // numpy makes None a NaN, which read as "got NaN".
+                    return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                        "{name} is None: give an angle in degrees, or an array of them"
+                    )));
+                }
+                np.call_method1("asarray", (x, "float64"))?.extract()
+            };
         let (a0, a1, a2, a3) = (
-            as_array(theta_i_deg)?,
-            as_array(phi_i_deg)?,
-            as_array(theta_o_deg)?,
-            as_array(phi_o_deg)?,
+            as_array("theta_i_deg", theta_i_deg)?,
+            as_array("phi_i_deg", phi_i_deg)?,
+            as_array("theta_o_deg", theta_o_deg)?,
+            as_array("phi_o_deg", phi_o_deg)?,
         );
         let arrays = [&a0, &a1, &a2, &a3];
         let shape: Vec<usize> = arrays
@@ -158,6 +165,21 @@ impl Brdf {
             .max_by_key(|s| s.iter().product::<usize>())
             .unwrap_or_default();
         let n: usize = shape.iter().product();
+        // Four angle columns, two directions and the result per query: refused as a
+        // MemoryError before anything is allocated when it cannot fit (a broadcast view of
+        // 10^11 angles aborted the interpreter).
+        let nl = self.inner.meta().wavelengths_nm.len();
+        let bytes = n
+            .checked_mul(4 + 6 + nl)
+            .and_then(|v| v.checked_mul(8))
+            .filter(|&b| {
+                goniospec::io::available_memory_bytes().is_none_or(|avail| (b as u64) < avail / 2)
+            });
+        let Some(_) = bytes else {
+            return Err(pyo3::exceptions::PyMemoryError::new_err(format!(
+                "evaluating {n} angle sets at {nl} wavelengths needs more memory than this machine has available: evaluate in chunks"
+            )));
+        };
         let mut cols: Vec<Vec<f64>> = Vec::new();
         for a in arrays {
             let v = a.as_array();
@@ -194,7 +216,6 @@ impl Brdf {
                 )));
             }
         }
-        let nl = self.inner.meta().wavelengths_nm.len();
         let dir = |t: f64, p: f64| goniospec::brdf::dir(t.to_radians(), p.to_radians());
         let pairs: Vec<_> = (0..n)
             .map(|k| (dir(cols[0][k], cols[1][k]), dir(cols[2][k], cols[3][k])))

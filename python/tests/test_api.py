@@ -130,6 +130,12 @@ def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
         brdf.eval(95, 0, 10, 0)
     with pytest.raises(ValueError, match="share one shape"):
         brdf.eval([1, 2], 0, [1, 2, 3], 0)
+    # Issue 30: None names itself (it read "got NaN"); a broadcast view of 10^11 angles is a
+    # MemoryError (it aborted the interpreter).
+    with pytest.raises(TypeError, match="phi_o_deg is None"):
+        brdf.eval(30, 0, 30, None)
+    with pytest.raises(MemoryError, match="evaluate in chunks"):
+        brdf.eval(np.broadcast_to(30.0, (10**6, 10**5)), 0, 30, 0)
 
 
 def test_ctrl_c_interrupts_a_long_run_and_returns_nothing(tmp_path):
