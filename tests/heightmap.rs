@@ -963,3 +963,36 @@ fn x3p_increments_must_be_positive_steps() {
         );
     }
 }
+
+/// Issue 30: a signed 16-bit TIFF is a height map (counts either side of zero; it got
+/// "Gray(16): must be 16-bit"), and a GSF written without its header padding is named as
+/// such (it got "not UTF-8").
+#[test]
+fn signed_tiffs_load_and_unpadded_gsfs_are_named() {
+    let d = scratch("heightmap-signed");
+    let z = heights();
+    let counts: Vec<i16> = z.iter().map(|v| (v / 0.01).round() as i16).collect();
+    let quantised: Vec<f64> = counts.iter().map(|&c| f64::from(c) * 0.01).collect();
+    {
+        let f = std::fs::File::create(d.join("s.tif")).unwrap();
+        let mut enc = tiff::encoder::TiffEncoder::new(f).unwrap();
+        enc.write_image::<tiff::encoder::colortype::GrayI16>(NX as u32, NY as u32, &counts)
+            .unwrap();
+    }
+    let s = load_in(
+        &d,
+        "heightmap = \"s.tif\"\npixel_size = [0.25, 0.3]\nheight_scale = 0.00001",
+    )
+    .unwrap();
+    check_mirrored(&s, &quantised, DX, DY, 1e-9);
+    // The header runs straight into float data: no NUL before binary bytes.
+    let z32: Vec<f32> = z.iter().map(|&v| v as f32 + 1000.0).collect();
+    let good = gsf_bytes(NX, NY, DX, DY, &z32, "nm");
+    let text_end = good.iter().position(|&b| b == 0).unwrap();
+    let data_at = (text_end / 4 + 1) * 4;
+    let mut unpadded = good[..text_end].to_vec();
+    unpadded.extend(&good[data_at..]);
+    std::fs::write(d.join("u.gsf"), &unpadded).unwrap();
+    let e = load_in(&d, "heightmap = \"u.gsf\"").unwrap_err();
+    assert!(e.contains("padding"), "{e}");
+}

@@ -384,8 +384,9 @@ pub fn read_gsf(bytes: &[u8]) -> Result<HeightMap, String> {
         .iter()
         .position(|&b| b == 0)
         .ok_or("the GSF header is not terminated by NUL padding (truncated file?)")?;
-    let header = std::str::from_utf8(&bytes[MAGIC.len()..end])
-        .map_err(|_| "the GSF header is not UTF-8 text")?;
+    let header = std::str::from_utf8(&bytes[MAGIC.len()..end]).map_err(|_| {
+        "the GSF header is not UTF-8 text ending in 1 to 4 NUL bytes of padding: a file written without the padding runs into its binary data"
+    })?;
     // The header with its padding is a multiple of 4 bytes, padded by 1 to 4 NULs.
     let data_at = (end / 4 + 1) * 4;
     if bytes.len() < data_at || bytes[end..data_at].iter().any(|&b| b != 0) {
@@ -818,12 +819,29 @@ fn read_tiff(bytes: &[u8]) -> Result<(usize, usize, Vec<f64>), String> {
         (tiff::ColorType::Gray(16), DecodingResult::U16(v)) => {
             v.into_iter().map(f64::from).collect()
         }
+        // Signed 16-bit heights (SampleFormat 2): counts either side of zero.
+        (tiff::ColorType::Gray(16), DecodingResult::I16(v)) => {
+            v.into_iter().map(f64::from).collect()
+        }
         (tiff::ColorType::Gray(32), DecodingResult::F32(v)) => {
             v.into_iter().map(f64::from).collect()
         }
-        (c, _) => {
+        (c, data) => {
+            let samples = match data {
+                DecodingResult::U8(_) => "unsigned 8-bit",
+                DecodingResult::U16(_) => "unsigned 16-bit",
+                DecodingResult::U32(_) => "unsigned 32-bit",
+                DecodingResult::U64(_) => "unsigned 64-bit",
+                DecodingResult::I8(_) => "signed 8-bit",
+                DecodingResult::I16(_) => "signed 16-bit",
+                DecodingResult::I32(_) => "signed 32-bit",
+                DecodingResult::I64(_) => "signed 64-bit",
+                DecodingResult::F32(_) => "float32",
+                DecodingResult::F64(_) => "float64",
+                _ => "other",
+            };
             return Err(format!(
-                "the TIFF is {c:?}: a height map must be 16-bit or float32 greyscale"
+                "the TIFF holds {samples} samples as {c:?}: a height map must be one channel of 16-bit integers (signed or not) or float32"
             ));
         }
     };
