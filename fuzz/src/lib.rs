@@ -19,6 +19,17 @@ pub const TARGETS: &[(&str, Harness)] = &[
     ("gsb", gsb),
     ("study", study),
     ("cli-values", cli_values),
+    ("x3p", x3p),
+    ("gsf", gsf),
+    ("npy", npy),
+    ("exr", exr),
+    ("png", png),
+    ("tiff", tiff),
+    ("ply", ply),
+    ("stl", stl),
+    ("mesh-cache", mesh_cache),
+    ("batch-plan", batch_plan),
+    ("batch-manifest", batch_manifest),
 ];
 
 /// The target called `name`.
@@ -123,5 +134,100 @@ pub fn cli_values(data: &[u8]) {
         }
         let _ = goniospec::render::Light::parse(t);
         let _ = goniospec::render::Env::parse(t);
+    }
+}
+
+/// A height map in `format` (its scale given where the format has none), then what the
+/// loader does next: fill missing points, mesh it with each edge mode.
+fn heightmap(format: goniospec::sample::heightmap::Format, data: &[u8]) {
+    use goniospec::sample::heightmap::{self, Edges, Missing, Scale};
+    let scale = (!format.is_calibrated()).then_some(Scale {
+        dx_nm: 10.0,
+        dy_nm: 10.0,
+        dz_nm: 1.0,
+    });
+    if let Ok(mut m) = heightmap::from_bytes(format, data, scale)
+        && m.resolve_missing(Missing::Fill).is_ok()
+        && m.nx * m.ny <= 1 << 16
+    {
+        for e in [Edges::Mirror, Edges::Periodic, Edges::Guard] {
+            let _ = m.mesh(e);
+        }
+    }
+}
+
+pub fn x3p(data: &[u8]) {
+    heightmap(goniospec::sample::heightmap::Format::X3p, data);
+}
+
+pub fn gsf(data: &[u8]) {
+    heightmap(goniospec::sample::heightmap::Format::Gsf, data);
+}
+
+pub fn npy(data: &[u8]) {
+    heightmap(goniospec::sample::heightmap::Format::Npy, data);
+}
+
+pub fn exr(data: &[u8]) {
+    heightmap(goniospec::sample::heightmap::Format::Exr, data);
+}
+
+pub fn png(data: &[u8]) {
+    heightmap(goniospec::sample::heightmap::Format::Png, data);
+}
+
+pub fn tiff(data: &[u8]) {
+    heightmap(goniospec::sample::heightmap::Format::Tiff, data);
+}
+
+pub fn ply(data: &[u8]) {
+    for drop_degenerate in [false, true] {
+        let opts = MeshOptions {
+            drop_degenerate,
+            ..MeshOptions::default()
+        };
+        let _ = sample::plystl::parse_ply(&base().join("m.ply"), data, 1000.0, opts);
+    }
+}
+
+pub fn stl(data: &[u8]) {
+    for drop_degenerate in [false, true] {
+        let opts = MeshOptions {
+            drop_degenerate,
+            ..MeshOptions::default()
+        };
+        let _ = sample::plystl::parse_stl(&base().join("m.stl"), data, 1000.0, opts);
+    }
+}
+
+/// The mesh cache: its checksum recomputed so mutations reach the content checks, the
+/// key taken from the file itself (a cache is only ever used under its own key).
+pub fn mesh_cache(data: &[u8]) {
+    use goniospec::sample::cache::{FORMAT, decode};
+    let b = with_checksum(data, &FORMAT);
+    if let Ok(frame) = goniospec::container::decode(&FORMAT, &b, "fuzz.gsmesh") {
+        let key = frame.header.to_string();
+        if let Some(m) = decode(&b, &key) {
+            let _ = m.bounds();
+        }
+    }
+}
+
+pub fn batch_plan(data: &[u8]) {
+    if let Some(t) = text(data) {
+        let _ = goniospec::batch::Manifest::plan_text(&base().join("plan.toml"), t);
+    }
+}
+
+/// A manifest, then what status and run ask of it: every unit's material and config.
+pub fn batch_manifest(data: &[u8]) {
+    if let Some(t) = text(data)
+        && let Ok(m) = goniospec::batch::Manifest::from_text(&base().join("manifest.toml"), t)
+    {
+        for u in &m.units {
+            let _ = m.material(&u.material);
+            let _ = m.unit_config(u);
+        }
+        let _ = m.shard(1, 2);
     }
 }

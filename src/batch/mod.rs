@@ -158,7 +158,13 @@ impl Manifest {
     pub fn plan(plan_path: &Path) -> Result<Manifest, String> {
         let text =
             crate::io::read_text(plan_path).map_err(|e| format!("{}: {e}", plan_path.display()))?;
-        let raw: RawPlan = toml::from_str(&text)
+        Self::plan_text(plan_path, &text)
+    }
+
+    /// [`Manifest::plan`] of a plan's text (`plan_path` resolves its samples and names it
+    /// in errors).
+    pub fn plan_text(plan_path: &Path, text: &str) -> Result<Manifest, String> {
+        let raw: RawPlan = toml::from_str(text)
             .map_err(|e| format!("{}: {}", plan_path.display(), e.message().trim()))?;
         if raw.materials.is_empty() {
             return Err(format!(
@@ -256,8 +262,13 @@ impl Manifest {
         let p = dir.join("manifest.toml");
         let text = crate::io::read_text(&p)
             .map_err(|e| format!("{}: {e} (run `goniospec batch plan` first)", p.display()))?;
-        let m: Manifest = toml::from_str(&text)
-            .map_err(|e| format!("{}: {}", p.display(), e.message().trim()))?;
+        Self::from_text(&p, &text)
+    }
+
+    /// [`Manifest::read`] of a manifest's text (`p` names it in errors).
+    pub fn from_text(p: &Path, text: &str) -> Result<Manifest, String> {
+        let m: Manifest =
+            toml::from_str(text).map_err(|e| format!("{}: {}", p.display(), e.message().trim()))?;
         let edited = |why: String| {
             format!(
                 "{}: {why}; the manifest was edited after `goniospec batch plan` wrote it: plan again",

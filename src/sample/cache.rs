@@ -101,8 +101,8 @@ fn encode(key: &str, mesh: &Mesh) -> Vec<u8> {
     container::encode(&FORMAT, key, &payload)
 }
 
-/// The cached mesh, if `bytes` are a valid cache for `key`.
-fn decode(bytes: &[u8], key: &str) -> Option<Mesh> {
+/// The cached mesh, if `bytes` are a valid cache for `key` (public for the fuzzer).
+pub fn decode(bytes: &[u8], key: &str) -> Option<Mesh> {
     let frame = container::decode(&FORMAT, bytes, "").ok()?;
     if frame.header != key {
         return None;

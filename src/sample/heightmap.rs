@@ -159,16 +159,23 @@ pub fn read(path: &Path, scale: Option<Scale>) -> Result<HeightMap, String> {
         _ => {}
     }
     let bytes = crate::io::read_input(path, 1 << 34).map_err(|e| e.to_string())?;
+    from_bytes(format, &bytes, scale)
+}
+
+/// A height map from a file's bytes in `format`, with `scale` for the formats that carry
+/// none (see [`read`], which checks the pairing first; here a missing scale is an error).
+pub fn from_bytes(format: Format, bytes: &[u8], scale: Option<Scale>) -> Result<HeightMap, String> {
     let map = match format {
-        Format::X3p => read_x3p(&bytes)?,
-        Format::Gsf => read_gsf(&bytes)?,
+        Format::X3p => read_x3p(bytes)?,
+        Format::Gsf => read_gsf(bytes)?,
         Format::Npy | Format::Exr | Format::Png | Format::Tiff => {
-            let s = scale.expect("checked above");
+            let s = scale
+                .ok_or("this format has no physical scale: give pixel_size and height_scale")?;
             let (nx, ny, values) = match format {
-                Format::Npy => read_npy(&bytes)?,
-                Format::Exr => read_exr(&bytes)?,
-                Format::Png => read_png(&bytes)?,
-                _ => read_tiff(&bytes)?,
+                Format::Npy => read_npy(bytes)?,
+                Format::Exr => read_exr(bytes)?,
+                Format::Png => read_png(bytes)?,
+                _ => read_tiff(bytes)?,
             };
             HeightMap {
                 nx,

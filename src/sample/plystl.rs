@@ -54,6 +54,16 @@ fn finish(path: &Path, mesh: Mesh, opts: MeshOptions) -> Result<Mesh, SampleErro
 pub fn load_stl(path: &Path, nm_per_unit: f64, opts: MeshOptions) -> Result<Mesh, SampleError> {
     let bytes = crate::io::read_input(path, u64::MAX)
         .map_err(|e| SampleError::file(path, SampleErrorKind::Io(e.to_string())))?;
+    parse_stl(path, &bytes, nm_per_unit, opts)
+}
+
+/// An STL mesh from its bytes (`path` names it in errors).
+pub fn parse_stl(
+    path: &Path,
+    bytes: &[u8],
+    nm_per_unit: f64,
+    opts: MeshOptions,
+) -> Result<Mesh, SampleError> {
     let binary_count = (bytes.len() >= 84)
         .then(|| u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64)
         .filter(|&n| 84 + 50 * n == bytes.len() as u64);
@@ -72,7 +82,7 @@ pub fn load_stl(path: &Path, nm_per_unit: f64, opts: MeshOptions) -> Result<Mesh
             }
         }
     } else {
-        let text = std::str::from_utf8(&bytes).map_err(|_| {
+        let text = std::str::from_utf8(bytes).map_err(|_| {
             malformed(
                 path,
                 if bytes.len() >= 84 {
@@ -232,6 +242,16 @@ impl Source<'_> {
 pub fn load_ply(path: &Path, nm_per_unit: f64, opts: MeshOptions) -> Result<Mesh, SampleError> {
     let bytes = crate::io::read_input(path, u64::MAX)
         .map_err(|e| SampleError::file(path, SampleErrorKind::Io(e.to_string())))?;
+    parse_ply(path, &bytes, nm_per_unit, opts)
+}
+
+/// A PLY mesh from its bytes (`path` names it in errors).
+pub fn parse_ply(
+    path: &Path,
+    bytes: &[u8],
+    nm_per_unit: f64,
+    opts: MeshOptions,
+) -> Result<Mesh, SampleError> {
     let bad = |m: String| malformed(path, m);
     const END: &[u8] = b"end_header";
     let end = bytes
