@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
-# A pass of bad inputs, as a careless or hostile user sends them (issue 12): NaN, infinite
-# and huge numbers in every numeric flag and generator key, sizes that cannot fit,
-# truncated and bit-flipped .gsa/.gsb files, malformed OBJ meshes and sample files,
-# devices and directories as inputs. Reports every panic (101), abort (134) or other
-# signal, and every NaN printed with exit status 0; runs still going after 30 s (a huge
-# but legal amount of work) are listed apart.
+# A pass of bad inputs, as a careless or hostile user sends them (issues 12 and 30): NaN,
+# infinite and huge numbers in every numeric flag and generator key, sizes that cannot fit,
+# truncated and bit-flipped .gsa/.gsb files and height maps (X3P, GSF, npy, EXR, PNG,
+# TIFF), malformed OBJ, PLY and STL meshes and sample files, edited batch manifests and a
+# folder named as shell code, outputs aimed at inputs and at foreign files, devices and
+# directories as inputs. Reports every panic (101), abort (134) or other signal, every NaN
+# printed with exit status 0, and every input or foreign file a run changed; runs still
+# going after 30 s (a huge but legal amount of work) are listed apart.
 #
 #   scripts/bad-inputs.sh            # prints "N runs, B bad, S still running after 30 s"
 #
@@ -119,6 +121,114 @@ back = "glass"
 T
 run $G check mm.toml; run $G simulate mm.toml --rays 10 -o x.gsa; done
 run $G check /dev/null; run $G check /nonexistent.toml; run $G check /tmp; run $G simulate /dev/urandom -o x.gsa
+# --- The surfaces of issue 30. ---
+R=$(realpath "$OLDPWD")
+# keep FILE CMD...: runs CMD, and counts it bad when it changed FILE (a user's file lost).
+keep(){ f=$1; shift; before=$(cksum < "$f"); run "$@"; if [ "$(cksum < "$f")" != "$before" ]; then echo "BAD (changed $f): $*"; bad=$((bad+1)); fi; }
+# Height maps: every fuzz seed, truncated and bit-flipped, behind a sample.
+for fmt in x3p gsf npy exr png tiff; do
+  for seed in "$R"/fuzz/corpus/$fmt/*; do
+    ext=${seed##*.}
+    scale=""; case $fmt in npy|exr|png|tiff) scale='pixel_size = 0.01
+height_scale = 0.001';; esac
+    for i in $(seq 0 12); do
+      python3 -c "
+import random
+b=bytearray(open('$seed','rb').read()); random.seed($i)
+if $i % 3 == 0: b=b[:random.randrange(len(b))]
+else:
+  for _ in range($i): b[random.randrange(len(b))]^=1<<random.randrange(8)
+open('h.$ext','wb').write(b)"
+      printf '[sample]\nname = "h"\nunit = "um"\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[[interface]]\nheightmap = "h.%s"\nmissing = "fill"\n%s\nfront = "air"\nback = "glass"\n' "$ext" "$scale" > hm.toml
+      run $G check hm.toml
+    done
+  done
+done
+# An EXR header declaring a 100000 x 100000 window; X3P increments of 0; one known point in
+# a 2048^2 npy map (filled in linear time).
+python3 -c "
+b=bytearray(open('$R/fuzz/corpus/exr/small.exr','rb').read())
+k=b.find(b'dataWindow\x00box2i\x00')+len(b'dataWindow\x00box2i\x00')+4
+import struct; b[k+8:k+16]=struct.pack('<ii',99999,99999); open('h.exr','wb').write(b)
+import zipfile
+z=zipfile.ZipFile('$R/fuzz/corpus/x3p/small.x3p'); w=zipfile.ZipFile('h.x3p','w')
+for n in z.namelist():
+  d=z.read(n)
+  if n=='main.xml': d=d.replace(b'<Increment>1e-08</Increment>',b'<Increment>0</Increment>',1)
+  w.writestr(n,d)
+w.close()
+import struct
+n=2048; hdr=\"{'descr': '<f8', 'fortran_order': False, 'shape': (%d, %d), }\" % (n, n)
+hdr+=' '*((64-(10+len(hdr)+1)%64)%64)+'\n'
+d=bytearray(struct.pack('<d', float('nan'))*(n*n)); d[0:8]=struct.pack('<d',1.0)
+open('h.npy','wb').write(b'\x93NUMPY\x01\x00'+struct.pack('<H',len(hdr))+hdr.encode()+bytes(d))"
+for ext in exr x3p npy; do
+  scale=""; [ $ext = x3p ] || scale='pixel_size = 0.01
+height_scale = 0.001'
+  printf '[sample]\nname = "h"\nunit = "um"\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[[interface]]\nheightmap = "h.%s"\nmissing = "fill"\nedges = "guard"\n%s\nfront = "air"\nback = "glass"\n' "$ext" "$scale" > hm.toml
+  run $G check hm.toml
+done
+# PLY and STL: the seeds cut and flipped, a property-less element of 2^64 - 1, a padded STL.
+for seed in "$R"/fuzz/corpus/ply/* "$R"/fuzz/corpus/stl/*; do
+  ext=${seed##*.}
+  for i in $(seq 0 9); do
+    python3 -c "
+import random
+b=bytearray(open('$seed','rb').read()); random.seed($i)
+if $i % 3 == 0: b=b[:random.randrange(len(b))]
+else:
+  for _ in range($i): b[random.randrange(len(b))]^=1<<random.randrange(8)
+open('m.$ext','wb').write(b)"
+    sed "s/MESH/m.$ext/" > pm.toml <<'T'
+[sample]
+name = "m"
+unit = "um"
+tile = [4, 4]
+[media.air]
+n = 1.0
+[media.glass]
+n = 1.5
+[[interface]]
+mesh = "MESH"
+front = "air"
+back = "glass"
+T
+    run $G check pm.toml
+  done
+done
+printf 'ply\nformat ascii 1.0\nelement nothing 18446744073709551615\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n' > m.ply
+sed "s/MESH/m.ply/" pm.toml > /dev/null; sed -i 's/mesh = ".*"/mesh = "m.ply"/' pm.toml; run $G check pm.toml
+# Thick metal and thousands of layers in the analytic reference.
+printf '[sample]\nname = "t"\nunit = "nm"\ntile = [20, 20]\n[media.air]\nn = 1.0\n[media.m]\nn = 0.2\nk = 3.0\n[stack]\nambient = "air"\nlayers = [{ medium = "m", thickness = 10000.0 }]\nsubstrate = "air"\n' > thick.toml
+run $G analytic thick.toml --theta-i 30 --wavelengths 500 --monochromatic
+python3 -c "
+print('[sample]\nname = \"l\"\nunit = \"nm\"\ntile = [20, 20]\n[media.air]\nn = 1.0\n[media.h]\nn = 2.4\n[media.l]\nn = 1.46\n[stack]\nambient = \"air\"\nsubstrate = \"air\"\nlayers = [' + ', '.join('{ medium = \"%s\", thickness = %s }' % (m, t) for _ in range(2000) for m, t in (('h', 57.3), ('l', 94.2))) + ']')" > many.toml
+run $G analytic many.toml --theta-i 0 --wavelengths 550 --monochromatic
+# Outputs aimed at inputs and foreign files: nothing may change.
+printf 'lambda_nm,n,k\n300,1.5,0\n900,1.5,0\n' > n.csv
+sed 's/n = 1.5/table = "n.csv"/' v.toml > tv.toml
+keep n.csv $G simulate tv.toml --rays 4 --force -o n.csv
+echo mine > notes.txt
+keep notes.txt $G plot good.gsb --theta-i 30 -o notes.txt
+keep notes.txt $G fit good.gsa -o notes
+cp notes.txt notes.json; keep notes.json $G fit good.gsa -o notes
+cp notes.txt r.png; keep r.png $G render good.gsb --width 8 --height 8 -o r.exr
+cp notes.txt s.gsa; keep s.gsa $G render --simulate v.toml --width 8 --height 8 -o s.exr
+run $G fit good.gsa -o .; [ -e ..json ] && { echo "BAD: fit -o . wrote ..json"; bad=$((bad+1)); }
+# Batch: edited manifests, and a folder named as shell code.
+printf '[defaults]\ntheta_i = [0, 20]\nrays = 4\nwavelengths = "500"\nmonochromatic = true\n[[material]]\nsample = "%s/v.toml"\nname = "v"\n' "$PWD" > plan.toml
+$G batch plan plan.toml -o b >/dev/null 2>&1
+for e in 's/material = "v"/material = "w"/' 's/theta_i_deg = 20.0/theta_i_deg = 45.0/' 's/theta_i_deg = \[0.0, 20.0\]/theta_i_deg = []/' 's|output = "units/v/0000.gsa"|output = "manifest.toml"|'; do
+  rm -rf be; mkdir be; sed "$e" b/manifest.toml > be/manifest.toml
+  for c in status run merge; do keep be/manifest.toml $G batch $c be; done
+done
+hostile='inj$(touch INJECTED)x "q'"'"
+$G batch plan plan.toml -o "$hostile" >/dev/null 2>&1
+cmd=$($G batch parallel "$hostile" --shards 2 2>/dev/null)
+if command -v parallel >/dev/null; then run bash -c "$cmd"; fi
+$G batch slurm "$hostile" --shards 1 >/dev/null 2>&1
+SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_COUNT=1 run bash "$hostile/units.sbatch"
+[ -e INJECTED ] && { echo "BAD: a folder name ran as shell code"; bad=$((bad+1)); }
 run $G study /dev/null -o st; run $G merge good.gsa good.gsa -o m.gsa
 echo "$n runs, $bad bad, $slow still running after 30 s"
 [ "$bad" -eq 0 ]
