@@ -484,3 +484,37 @@ fn a_hostile_folder_name_never_reaches_a_shell_unquoted() {
     }
     assert!(hostile.join("out").join("gold.gsa").is_file());
 }
+
+/// Issue 30: a sample in a folder whose name is not UTF-8 is named in the plan's error (it
+/// read "path contains invalid UTF-8 characters", naming nothing).
+#[test]
+fn a_non_utf8_sample_folder_is_named() {
+    use std::os::unix::ffi::OsStrExt;
+    let d = scratch("batch-utf8");
+    let folder = d.join(std::ffi::OsStr::from_bytes(b"s\xffx"));
+    std::fs::create_dir_all(&folder).unwrap();
+    std::fs::copy(
+        root().join("meshes/flat-soap-film.toml"),
+        folder.join("f.toml"),
+    )
+    .unwrap();
+    std::fs::write(
+        folder.join("p.toml"),
+        "[defaults]\ntheta_i = [0]\nrays = 4\n[[material]]\nsample = \"f.toml\"\nname = \"f\"\n",
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_goniospec"))
+        .arg("batch")
+        .arg("plan")
+        .arg(folder.join("p.toml"))
+        .arg("-o")
+        .arg(d.join("o"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("not valid UTF-8") && err.contains("f.toml") && err.contains("rename"),
+        "{err}"
+    );
+}

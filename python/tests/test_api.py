@@ -184,3 +184,30 @@ def test_outputs_never_replace_inputs_or_foreign_files(tmp_path):
     assert notes.read_text() == "mine\n"
     brdf.save(notes, force=True)
     assert notes.read_bytes()[:4] != b"mine"
+
+
+def test_ctrl_c_is_prompt_on_trees_of_thousands_of_segments(tmp_path):
+    """Issue 30: on a steep height map (trees of up to 20,000 segments) Ctrl-C took 20 s; the
+    run now stops within a tree."""
+    import signal
+    import threading
+    import time
+
+    subprocess.run([CLI, "generate", "gaussian", "--tile", "20,20", "--unit", "um", "-p", "rms=3",
+                    "-p", "correlation_length=0.5", "-p", "resolution=256", "-o",
+                    str(tmp_path / "steep.obj")], check=True, capture_output=True)
+    (tmp_path / "steep.toml").write_text(
+        '[sample]\nname = "steep"\nunit = "um"\ntile = [20.0, 20.0]\n[media.air]\nn = 1.0\n'
+        '[media.glass]\nn = 1.5\n[[interface]]\nmesh = "steep.obj"\nfront = "air"\nback = "glass"\n')
+    s = gs.Sample.load(str(tmp_path / "steep.toml"))
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        t0 = time.monotonic()
+        try:
+            gs.simulate(s, theta_i=[60], rays=1_000_000, max_segments=20000)
+        finally:
+            stopped = time.monotonic()
+    timer.cancel()
+    # From the signal (0.5 s after the start) to the return.
+    assert stopped - t0 < 0.5 + 2.0, stopped - t0

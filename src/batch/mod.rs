@@ -216,6 +216,12 @@ impl Manifest {
                 .map_err(at)?;
             let path = base.join(&m.sample);
             let path = std::fs::canonicalize(&path).map_err(|e| at(format!("{e}")))?;
+            if path.to_str().is_none() {
+                return Err(at(format!(
+                    "{}: the sample's path is not valid UTF-8, which the manifest (TOML) cannot hold; rename its folder",
+                    path.to_string_lossy()
+                )));
+            }
             let sample =
                 sample::load(&path, MeshOptions::default()).map_err(|e| at(e.to_string()))?;
             let name = match &m.name {
