@@ -222,12 +222,13 @@ for e in 's/material = "v"/material = "w"/' 's/theta_i_deg = 20.0/theta_i_deg = 
   rm -rf be; mkdir be; sed "$e" b/manifest.toml > be/manifest.toml
   for c in status run merge; do keep be/manifest.toml $G batch $c be; done
 done
-hostile='inj$(touch INJECTED)x "q'"'"
-$G batch plan plan.toml -o "$hostile" >/dev/null 2>&1
-cmd=$($G batch parallel "$hostile" --shards 2 2>/dev/null)
-if command -v parallel >/dev/null; then run bash -c "$cmd"; fi
-$G batch slurm "$hostile" --shards 1 >/dev/null 2>&1
-SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_COUNT=1 run bash "$hostile/units.sbatch"
+for hostile in 'inj$(touch INJECTED)x' 'inj$(touch INJECTED)x "q'"'"; do
+  $G batch plan plan.toml -o "$hostile" >/dev/null 2>&1
+  cmd=$($G batch parallel "$hostile" --shards 2 2>/dev/null)
+  if command -v parallel >/dev/null; then run bash -c "$cmd"; fi
+  $G batch slurm "$hostile" --shards 1 >/dev/null 2>&1
+  SLURM_ARRAY_TASK_ID=1 SLURM_ARRAY_TASK_COUNT=1 run bash "$hostile/units.sbatch"
+done
 [ -e INJECTED ] && { echo "BAD: a folder name ran as shell code"; bad=$((bad+1)); }
 run $G study /dev/null -o st; run $G merge good.gsa good.gsa -o m.gsa
 echo "$n runs, $bad bad, $slow still running after 30 s"
