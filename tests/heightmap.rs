@@ -996,3 +996,49 @@ fn signed_tiffs_load_and_unpadded_gsfs_are_named() {
     let e = load_in(&d, "heightmap = \"u.gsf\"").unwrap_err();
     assert!(e.contains("padding"), "{e}");
 }
+
+/// Found by fuzzing (issue 30): a `.npy` header of nested braces hung the header parser
+/// (it backtracks exponentially), and a dimension of 10^20 overflowed its product; both are
+/// refused by a check of the header before it is parsed, at once.
+#[test]
+fn npy_headers_are_checked_before_parsing() {
+    let d = scratch("npy-headers");
+    let npy = |header: &str| {
+        let mut h = header.to_string();
+        while (10 + h.len() + 1) % 64 != 0 {
+            h.push(' ');
+        }
+        h.push('\n');
+        let mut b = b"\x93NUMPY\x01\x00".to_vec();
+        b.extend((h.len() as u16).to_le_bytes());
+        b.extend(h.as_bytes());
+        b.extend([0u8; 64]);
+        b
+    };
+    let t0 = std::time::Instant::now();
+    for (name, header, want) in [
+        (
+            "nested.npy",
+            format!(
+                "{}'descr': '<f8', 'fortran_order': False, 'shape': (2, 2), }}",
+                "{".repeat(40)
+            ),
+            "one flat dict",
+        ),
+        (
+            "huge.npy",
+            "{'descr': '<f8', 'fortran_order': False, 'shape': (5, 66666666666666666666), }"
+                .to_string(),
+            "more than",
+        ),
+    ] {
+        std::fs::write(d.join(name), npy(&header)).unwrap();
+        let e = load_in(
+            &d,
+            &format!("heightmap = \"{name}\"\npixel_size = 0.01\nheight_scale = 0.001"),
+        )
+        .unwrap_err();
+        assert!(e.contains(want), "{name}: {e}");
+    }
+    assert!(t0.elapsed().as_secs_f64() < 5.0, "{:?}", t0.elapsed());
+}

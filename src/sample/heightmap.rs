@@ -677,9 +677,71 @@ pub fn read_x3p(bytes: &[u8]) -> Result<HeightMap, String> {
     })
 }
 
+/// Checks a `.npy` header before the `npyz` parser sees it (NEP 1: magic, version, header
+/// length, then a Python dict literal). A plain array's header is one flat dict with one
+/// shape tuple; anything nested is refused here, because the literal parser backtracks
+/// exponentially on nested brackets (30 braces hung it), and every dimension must be a
+/// count within the point limit (a dimension of 10^20 overflowed its product).
+fn npy_header_guard(bytes: &[u8]) -> Result<(), String> {
+    const MAGIC: &[u8] = b"\x93NUMPY";
+    if !bytes.starts_with(MAGIC) || bytes.len() < 10 {
+        return Err("not a .npy array (no \\x93NUMPY magic)".into());
+    }
+    let (len, at) = match bytes[6] {
+        1 => (usize::from(u16::from_le_bytes([bytes[8], bytes[9]])), 10),
+        2 | 3 if bytes.len() >= 12 => (
+            u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize,
+            12,
+        ),
+        v => return Err(format!("unknown .npy format version {v}")),
+    };
+    if len > 4096 {
+        return Err(format!(
+            "the .npy header is {len} bytes: a plain array's is under 4096"
+        ));
+    }
+    let header = bytes
+        .get(at..at + len)
+        .ok_or("the .npy header is cut (truncated file?)")?;
+    let count = |c: u8| header.iter().filter(|&&b| b == c).count();
+    if count(b'{') != 1
+        || count(b'}') != 1
+        || count(b'(') != 1
+        || count(b')') != 1
+        || count(b'[') != 0
+    {
+        return Err(
+            "the .npy header is not one flat dict with one shape tuple: only plain numeric arrays are height maps"
+                .into(),
+        );
+    }
+    let open = header.iter().position(|&b| b == b'(').unwrap_or(0);
+    let close = header.iter().position(|&b| b == b')').unwrap_or(0);
+    if close < open {
+        return Err("the .npy header's shape is malformed".into());
+    }
+    for dim in header[open + 1..close].split(|&b| b == b',') {
+        let t = std::str::from_utf8(dim).unwrap_or("?").trim();
+        if t.is_empty() {
+            continue;
+        }
+        match t.parse::<u64>() {
+            Ok(n) if n <= MAX_POINTS => {}
+            _ => {
+                let t: String = t.chars().take(24).collect();
+                return Err(format!(
+                    "the .npy array's dimension {t} is more than the {MAX_POINTS} points a height map may have"
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// A 2-D `.npy` array `[rows = y][columns = x]`, C order: (nx, ny, values).
 fn read_npy(bytes: &[u8]) -> Result<(usize, usize, Vec<f64>), String> {
     use npyz::{DType, TypeChar};
+    npy_header_guard(bytes)?;
     let npy = npyz::NpyFile::new(bytes).map_err(|e| format!("not a .npy array: {e}"))?;
     let shape = npy.shape().to_vec();
     let [ny, nx] = shape[..] else {
