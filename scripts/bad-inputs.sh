@@ -105,7 +105,7 @@ for _ in range(3): b[random.randrange(len(b))]^=1<<random.randrange(8)
 open('t.bin','wb').write(b)"; run $G info t.bin; run $G build t.bin -o x.gsb; run $G eval t.bin --theta-i 10 --theta-o 10; run $G render t.bin -o x.exr --width 4 --height 4; done
 done
 : > empty.obj; printf 'v 1e39 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n' > huge.obj; printf 'f 1 2 3\n' > noverts.obj; head -c 2000 /dev/urandom > rand.obj
-for m in empty huge noverts rand bom cmt cr w0 concave; do sed "s/MESH/$m.obj/" > mm.toml <<'T'
+cat > mesh.tpl <<'T'
 [sample]
 name = "m"
 unit = "um"
@@ -119,10 +119,22 @@ mesh = "MESH"
 front = "air"
 back = "glass"
 T
+for m in empty huge noverts rand bom cmt cr w0 concave; do sed "s/MESH/$m.obj/" mesh.tpl > mm.toml
 run $G check mm.toml; run $G simulate mm.toml --rays 10 -o x.gsa; done
 run $G check /dev/null; run $G check /nonexistent.toml; run $G check /tmp; run $G simulate /dev/urandom -o x.gsa
 # --- The surfaces of issue 30. ---
 R=$(realpath "$OLDPWD")
+# mutate SEED I OUT: the seed cut short (every third I) or with I bits flipped, seeded by I.
+mutate(){ python3 - "$1" "$2" "$3" <<'P'
+import random, sys
+seed, i, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+b = bytearray(open(seed, 'rb').read()); random.seed(i)
+if i % 3 == 0: b = b[:random.randrange(len(b))]
+else:
+    for _ in range(i): b[random.randrange(len(b))] ^= 1 << random.randrange(8)
+open(out, 'wb').write(b)
+P
+}
 # keep FILE CMD...: runs CMD, and counts it bad when it changed FILE (a user's file lost).
 keep(){ f=$1; shift; before=$(cksum < "$f"); run "$@"; if [ "$(cksum < "$f")" != "$before" ]; then echo "BAD (changed $f): $*"; bad=$((bad+1)); fi; }
 # Height maps: every fuzz seed, truncated and bit-flipped, behind a sample.
@@ -132,13 +144,7 @@ for fmt in x3p gsf npy exr png tiff; do
     scale=""; case $fmt in npy|exr|png|tiff) scale='pixel_size = 0.01
 height_scale = 0.001';; esac
     for i in $(seq 0 12); do
-      python3 -c "
-import random
-b=bytearray(open('$seed','rb').read()); random.seed($i)
-if $i % 3 == 0: b=b[:random.randrange(len(b))]
-else:
-  for _ in range($i): b[random.randrange(len(b))]^=1<<random.randrange(8)
-open('h.$ext','wb').write(b)"
+      mutate "$seed" "$i" "h.$ext"
       printf '[sample]\nname = "h"\nunit = "um"\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[[interface]]\nheightmap = "h.%s"\nmissing = "fill"\n%s\nfront = "air"\nback = "glass"\n' "$ext" "$scale" > hm.toml
       run $G check hm.toml
     done
@@ -172,32 +178,13 @@ done
 for seed in "$R"/fuzz/corpus/ply/* "$R"/fuzz/corpus/stl/*; do
   ext=${seed##*.}
   for i in $(seq 0 9); do
-    python3 -c "
-import random
-b=bytearray(open('$seed','rb').read()); random.seed($i)
-if $i % 3 == 0: b=b[:random.randrange(len(b))]
-else:
-  for _ in range($i): b[random.randrange(len(b))]^=1<<random.randrange(8)
-open('m.$ext','wb').write(b)"
-    sed "s/MESH/m.$ext/" > pm.toml <<'T'
-[sample]
-name = "m"
-unit = "um"
-tile = [4, 4]
-[media.air]
-n = 1.0
-[media.glass]
-n = 1.5
-[[interface]]
-mesh = "MESH"
-front = "air"
-back = "glass"
-T
+    mutate "$seed" "$i" "m.$ext"
+    sed "s/MESH/m.$ext/" mesh.tpl > pm.toml
     run $G check pm.toml
   done
 done
 printf 'ply\nformat ascii 1.0\nelement nothing 18446744073709551615\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n' > m.ply
-sed "s/MESH/m.ply/" pm.toml > /dev/null; sed -i 's/mesh = ".*"/mesh = "m.ply"/' pm.toml; run $G check pm.toml
+sed "s/MESH/m.ply/" mesh.tpl > pm.toml; run $G check pm.toml
 # Thick metal and thousands of layers in the analytic reference.
 printf '[sample]\nname = "t"\nunit = "nm"\ntile = [20, 20]\n[media.air]\nn = 1.0\n[media.m]\nn = 0.2\nk = 3.0\n[stack]\nambient = "air"\nlayers = [{ medium = "m", thickness = 10000.0 }]\nsubstrate = "air"\n' > thick.toml
 run $G analytic thick.toml --theta-i 30 --wavelengths 500 --monochromatic
