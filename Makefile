@@ -71,8 +71,10 @@ interop: deps
 	$(CARGO) build --release
 	./scripts/interop.sh $(BIN)
 
-## The Python package (python/: pyo3 + maturin): build the wheel, install it into
-## .venv-python with numpy, pytest and tmm, and run its tests against the CLI.
+## The Python package (python/: pyo3 + maturin): build the self-contained wheel (Embree and
+## TBB inside), install it into .venv-python with numpy, pytest and tmm, run its tests
+## against the CLI, then install it where the system's Embree and TBB are hidden.
 python: deps
 	$(CARGO) build --release
 	./scripts/python.sh $(BIN)
+	./scripts/wheel-isolated.sh

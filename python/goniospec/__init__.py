@@ -7,6 +7,6 @@ wavelengths in nanometres (``lambda_nm``), BRDF values in 1/sr.
     brdf = acc.build("table"); brdf.eval(30, 0, 30, 180)   # -> [n_lambda]
 """
 
-from ._goniospec import Accumulator, Brdf, Sample, analytic, load, load_brdf, simulate
+from ._goniospec import Accumulator, Brdf, Sample, analytic, backends, load, load_brdf, simulate
 
-__all__ = ["Accumulator", "Brdf", "Sample", "analytic", "load", "load_brdf", "simulate"]
+__all__ = ["Accumulator", "Brdf", "Sample", "analytic", "backends", "load", "load_brdf", "simulate"]

@@ -57,9 +57,12 @@ def simulate(
     max_rays: int = 1000000,
     no_path_sharing: bool = False,
     no_wavelength_sharing: bool = False,
-    progress: bool = False,
+    progress: bool | None = None,
 ) -> Accumulator:
     """goniospec simulate's flags as keywords: theta_i and phi_i in degrees, wavelengths in
-    nm as --wavelengths, coherence_radius_nm in nm, cutoff a fraction of launched power."""
+    nm as --wavelengths, coherence_radius_nm in nm, cutoff a fraction of launched power.
+    progress: a bar on sys.stderr when it is a terminal (None), always (True), never (False)."""
 def analytic(sample: Sample, theta_i: float, wavelengths: str = "380:780:10", monochromatic: bool = False) -> dict[str, npt.NDArray[np.float64]]:
     """Transfer-matrix lambda_nm, Rs, Rp, R, Ts, Tp, T of a [stack] sample; theta_i in degrees."""
+def backends() -> list[dict[str, object]]:
+    """The acceleration backends of this build: name, available, version, detail."""

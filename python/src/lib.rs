@@ -341,10 +341,11 @@ fn parse_coherence(s: &str) -> PyResult<goniospec::accumulate::Coherence> {
 /// `max_segments`; an adaptive budget to relative standard error `tolerance` with at most
 /// `max_rays` trees per direction; `no_path_sharing`; `no_wavelength_sharing`; `backend` ("embree" or "obvhs").
 /// Releases the GIL; Ctrl-C raises KeyboardInterrupt within 50 ms and returns nothing;
-/// `progress=True` prints the trees done to stderr; `threads=0` uses all cores and results
-/// do not depend on it.
+/// `progress`: a bar on `sys.stderr` (trees done, rate, time left) when it is a terminal and
+/// nothing otherwise (`None`, the default); `True` draws it always, `False` never;
+/// `threads=0` uses all cores and results do not depend on it.
 #[pyfunction]
-#[pyo3(signature = (sample, theta_i, wavelengths = "380:780:10", rays = 1024, seed = 1, coherence = "beamlet", coherence_radius_nm = 5000.0, cutoff = 1e-10, monochromatic = false, phi_i = 0.0, threads = 0, backend = None, theta_o_bins = 45, phi_o_bins = 36, max_depth = 64, max_segments = 20_000, tolerance = None, max_rays = 1_000_000, no_path_sharing = false, no_wavelength_sharing = false, progress = false))]
+#[pyo3(signature = (sample, theta_i, wavelengths = "380:780:10", rays = 1024, seed = 1, coherence = "beamlet", coherence_radius_nm = 5000.0, cutoff = 1e-10, monochromatic = false, phi_i = 0.0, threads = 0, backend = None, theta_o_bins = 45, phi_o_bins = 36, max_depth = 64, max_segments = 20_000, tolerance = None, max_rays = 1_000_000, no_path_sharing = false, no_wavelength_sharing = false, progress = None))]
 #[allow(clippy::too_many_arguments)]
 fn simulate(
     py: Python<'_>,
@@ -368,7 +369,7 @@ fn simulate(
     max_rays: u64,
     no_path_sharing: bool,
     no_wavelength_sharing: bool,
-    progress: bool,
+    progress: Option<bool>,
 ) -> PyResult<Accumulator> {
     let w = Wavelengths::parse(wavelengths, monochromatic).map_err(value_err)?;
     let backend = match backend {
@@ -415,6 +416,11 @@ fn simulate(
     let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     cfg.cancel = Some(cancel.clone());
     let done = std::sync::atomic::AtomicU64::new(0);
+    let mut bar = match progress {
+        Some(false) => None,
+        Some(true) => Some(Bar::new(total)),
+        None => stderr_is_terminal(py).then(|| Bar::new(total)),
+    };
     let (result, interrupt) = py.allow_threads(|| {
         std::thread::scope(|scope| {
             let run = scope.spawn(|| {
@@ -425,20 +431,19 @@ fn simulate(
                 })
             });
             let mut interrupt = None;
-            let mut shown = std::time::Instant::now();
             while !run.is_finished() {
                 std::thread::sleep(std::time::Duration::from_millis(50));
-                if progress && shown.elapsed().as_millis() >= 500 {
-                    shown = std::time::Instant::now();
-                    let n = done.load(std::sync::atomic::Ordering::Relaxed);
-                    eprint!("\rgoniospec: {n} of {total} trees");
-                }
-                if interrupt.is_none()
-                    && let Err(e) = Python::with_gil(|py| py.check_signals())
-                {
-                    cancel.store(true, std::sync::atomic::Ordering::Relaxed);
-                    interrupt = Some(e);
-                }
+                Python::with_gil(|py| {
+                    if let Some(bar) = bar.as_mut() {
+                        bar.draw(py, done.load(std::sync::atomic::Ordering::Relaxed), false);
+                    }
+                    if interrupt.is_none()
+                        && let Err(e) = py.check_signals()
+                    {
+                        cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+                        interrupt = Some(e);
+                    }
+                });
             }
             (
                 run.join().expect("the simulation thread does not panic"),
@@ -446,8 +451,9 @@ fn simulate(
             )
         })
     });
-    if progress {
-        eprintln!();
+    if let Some(bar) = bar.as_mut() {
+        let n = done.load(std::sync::atomic::Ordering::Relaxed);
+        bar.draw(py, n, true);
     }
     if let Some(e) = interrupt {
         return Err(e);
@@ -457,6 +463,101 @@ fn simulate(
         inner: acc,
         inputs: sample.inner.inputs.clone(),
     })
+}
+
+/// Whether `sys.stderr` is a terminal (False when it is missing, replaced or a pipe).
+fn stderr_is_terminal(py: Python<'_>) -> bool {
+    py.import("sys")
+        .and_then(|sys| sys.getattr("stderr"))
+        .and_then(|e| e.call_method0("isatty"))
+        .and_then(|t| t.extract::<bool>())
+        .unwrap_or(false)
+}
+
+/// A progress bar written to Python's `sys.stderr` (so it follows any redirection Python
+/// makes), redrawn in place with a carriage return at most every 200 ms.
+struct Bar {
+    total: u64,
+    start: std::time::Instant,
+    shown: Option<std::time::Instant>,
+}
+
+impl Bar {
+    fn new(total: u64) -> Bar {
+        Bar {
+            total: total.max(1),
+            start: std::time::Instant::now(),
+            shown: None,
+        }
+    }
+
+    /// Redraws the bar with `done` trees; `last` draws it whatever the time and ends the line.
+    fn draw(&mut self, py: Python<'_>, done: u64, last: bool) {
+        if !last && self.shown.is_some_and(|t| t.elapsed().as_millis() < 200) {
+            return;
+        }
+        self.shown = Some(std::time::Instant::now());
+        let line = bar_line(done, self.total, self.start.elapsed().as_secs_f64(), last);
+        // A stderr that cannot be written to (closed, or None under pythonw) shows no bar.
+        let _ = py.import("sys").and_then(|sys| {
+            let err = sys.getattr("stderr")?;
+            err.call_method1("write", (line,))?;
+            err.call_method0("flush")
+        });
+    }
+}
+
+/// One line of the bar: `goniospec  37% |#####-----| 1520/4096 trees, 812 trees/s, 3 s left`.
+fn bar_line(done: u64, total: u64, elapsed_s: f64, last: bool) -> String {
+    const WIDTH: usize = 24;
+    let frac = (done as f64 / total as f64).clamp(0.0, 1.0);
+    let filled = (frac * WIDTH as f64).round() as usize;
+    let rate = if elapsed_s > 0.0 {
+        done as f64 / elapsed_s
+    } else {
+        0.0
+    };
+    let tail = if last {
+        format!("{elapsed_s:.1} s\n")
+    } else if rate > 0.0 {
+        format!("{:.0} s left", (total.saturating_sub(done)) as f64 / rate)
+    } else {
+        String::from("starting")
+    };
+    format!(
+        "\rgoniospec {:3.0}% |{}{}| {done}/{total} trees, {rate:.0} trees/s, {tail}",
+        100.0 * frac,
+        "\u{2588}".repeat(filled),
+        " ".repeat(WIDTH - filled),
+    )
+}
+
+/// The acceleration backends of this build: a list of dicts with `name`, `available`,
+/// `version` (of the library behind it, read from a live device for Embree) and `detail`
+/// (how it is bound, or why it is missing).
+#[pyfunction]
+fn backends<'py>(py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+    let mut out = Vec::new();
+    for b in goniospec::accel::available_backends() {
+        let d = PyDict::new(py);
+        match b {
+            Ok(info) => {
+                d.set_item("name", info.backend.name())?;
+                d.set_item("available", true)?;
+                d.set_item("version", info.version)?;
+                d.set_item("detail", info.detail)?;
+            }
+            Err(why) => {
+                let name = why.split(':').next().unwrap_or("").to_string();
+                d.set_item("name", name)?;
+                d.set_item("available", false)?;
+                d.set_item("version", py.None())?;
+                d.set_item("detail", why)?;
+            }
+        }
+        out.push(d);
+    }
+    Ok(out)
 }
 
 /// The transfer-matrix reflectance and transmittance of a `[stack]` sample at `theta_i`
@@ -496,5 +597,6 @@ fn _goniospec(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load_brdf, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(analytic, m)?)?;
+    m.add_function(wrap_pyfunction!(backends, m)?)?;
     Ok(())
 }

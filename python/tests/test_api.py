@@ -211,3 +211,56 @@ def test_ctrl_c_is_prompt_on_trees_of_thousands_of_segments(tmp_path):
     timer.cancel()
     # From the signal (0.5 s after the start) to the return.
     assert stopped - t0 < 0.5 + 2.0, stopped - t0
+
+
+def _run_child(code, terminal):
+    """Runs `code` in a fresh interpreter, its stderr a pseudo-terminal or a pipe; returns
+    what it wrote to stderr."""
+    import pty
+    import subprocess
+    import sys
+
+    if terminal:
+        master, slave = pty.openpty()
+        p = subprocess.Popen([sys.executable, "-c", code], stderr=slave, stdout=subprocess.DEVNULL,
+                             cwd=ROOT)
+        os.close(slave)
+        chunks = []
+        while True:
+            try:
+                data = os.read(master, 4096)
+            except OSError:  # EIO: the child closed the terminal
+                break
+            if not data:
+                break
+            chunks.append(data)
+        os.close(master)
+        assert p.wait(timeout=120) == 0
+        return b"".join(chunks).decode("utf-8", "replace")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, cwd=ROOT, timeout=120)
+    assert p.returncode == 0, p.stderr
+    return p.stderr.decode()
+
+
+def test_progress_is_a_bar_on_a_terminal_and_nothing_in_a_pipe():
+    """Issue 29: a bar on a terminal, nothing when stderr is not one, progress=False silences
+    it and progress=True forces it."""
+    run = ("import goniospec as gs; s = gs.Sample.load('meshes/rough-gold.toml'); "
+           "gs.simulate(s, theta_i=[0, 30], wavelengths='500:600:50', rays=512{})")
+    tty = _run_child(run.format(""), terminal=True)
+    assert "goniospec 100% |" in tty and "1024/1024 trees" in tty, tty
+    assert "\u2588" * 24 in tty, tty
+    assert _run_child(run.format(""), terminal=False) == ""
+    assert _run_child(run.format(", progress=False"), terminal=True) == ""
+    forced = _run_child(run.format(", progress=True"), terminal=False)
+    assert "1024/1024 trees" in forced, forced
+
+
+def test_backends_name_the_library_behind_each():
+    b = {x["name"]: x for x in gs.backends()}
+    assert b["obvhs"]["available"] and b["obvhs"]["version"]
+    assert set(b) == {"embree", "obvhs"}
+    if b["embree"]["available"]:
+        # Debian 12 ships Embree 3.13.5; whatever the build found, a version is read from a
+        # live device.
+        assert b["embree"]["version"].count(".") == 2, b["embree"]
