@@ -3,7 +3,7 @@
 
 CARGO ?= cargo
 
-.PHONY: demo test deps bench lint study stress fuzz fuzz-smoke interop python
+.PHONY: demo test deps bench lint study stress fuzz fuzz-smoke interop python report
 
 OUT ?= out/demo
 
@@ -78,3 +78,10 @@ python: deps
 	$(CARGO) build --release
 	./scripts/python.sh $(BIN)
 	./scripts/wheel-isolated.sh
+
+## The batch report in a real browser: a three-material library, its page opened by headless
+## Chromium (Selenium, chromium-driver; installed when missing), strict HTML5 parse, colours
+## against colour-science; screenshot in out/report-browser/report.png.
+report: deps
+	$(CARGO) build --release
+	./scripts/report-browser.sh $(BIN)

@@ -21,6 +21,8 @@ pub enum OutputKind {
     Image,
     /// The JSON or glTF `goniospec fit` writes (its `fit` key, or `asset.generator`).
     FitJson,
+    /// The HTML page `goniospec batch report` writes (its first line).
+    Report,
 }
 
 /// Why an output was refused.
@@ -109,6 +111,10 @@ pub fn guard(
             "an image (PNG, OpenEXR or SVG)",
         ),
         OutputKind::FitJson => (is_fit_output(out), "a material written by goniospec fit"),
+        OutputKind::Report => (
+            head.starts_with(crate::batch::report::HTML_MARK.as_bytes()),
+            "a page written by goniospec batch report",
+        ),
     };
     if ok {
         Ok(())

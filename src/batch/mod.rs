@@ -15,7 +15,10 @@
 //! DIR/units/MATERIAL/NNN.gsa     one accumulator per unit, written atomically
 //! DIR/out/MATERIAL.gsa           merged accumulators
 //! DIR/out/MATERIAL-REPR.gsb      the representations the plan asks for
+//! DIR/report/index.html          `batch report`: a page to choose materials by ([`report`])
 //! ```
+
+pub mod report;
 
 use std::path::{Path, PathBuf};
 

@@ -30,6 +30,40 @@ pub(super) enum BatchCommand {
     /// Print a GNU parallel command that runs every shard, with --joblog and
     /// --resume-failed.
     Parallel(BatchParallelArgs),
+    /// Write one static HTML page over a merged library (after `merge`): per material its
+    /// sample and settings, the colour it reflects under D65 at a few incident angles, the
+    /// lobe plot, a small rendered sphere, the real-time fit with its error, and links to
+    /// its files; sortable by name and reflectance; works offline. The images and fits go
+    /// beside the page.
+    Report(BatchReportArgs),
+}
+
+#[derive(Args)]
+pub(super) struct BatchReportArgs {
+    /// The batch folder (merged).
+    dir: PathBuf,
+    /// The page (default DIR/report/index.html); its images go beside it.
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Side of each rendered sphere, pixels (a small budget keeps a large library quick).
+    #[arg(long, default_value_t = 160, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    sphere_size: u32,
+    /// Samples per pixel of each sphere.
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    spp: u32,
+    /// Incident angles whose colour is shown per material, at most (evenly picked, the
+    /// first and last included).
+    #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=90))]
+    colours: u32,
+    /// Do not fit real-time materials (the fit costs about a second per material).
+    #[arg(long)]
+    no_fit: bool,
+    /// Worker threads (0: all cores). The page and images do not depend on it.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Replace the page, images and fits even when they are not files of their kind.
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Args)]
@@ -249,6 +283,38 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
                 outln!("wrote {}", p.display());
             }
             outln!("submit with: bash {}", dir.join("submit.sh").display());
+            Ok(ExitCode::SUCCESS)
+        }
+        BatchCommand::Report(a) => {
+            use goniospec::batch::report::{ReportOptions, write_report};
+            let page = a
+                .output
+                .clone()
+                .unwrap_or_else(|| a.dir.join("report").join("index.html"));
+            let opts = ReportOptions {
+                sphere_px: a.sphere_size as usize,
+                spp: a.spp as usize,
+                colours: a.colours as usize,
+                fit: !a.no_fit,
+                ..ReportOptions::default()
+            };
+            let count = Manifest::read(&a.dir)
+                .map_err(anyhow::Error::msg)?
+                .materials
+                .len();
+            let pool = thread_pool(a.threads)?;
+            let bar = progress_bar(count as u64, "materials");
+            let t0 = std::time::Instant::now();
+            let entries = pool.install(|| {
+                write_report(&a.dir, &page, &opts, a.force, &|n| bar.set_position(n))
+            })?;
+            bar.finish_and_clear();
+            outln!(
+                "wrote {} ({} materials) in {:.2} s",
+                page.display(),
+                entries.len(),
+                t0.elapsed().as_secs_f64()
+            );
             Ok(ExitCode::SUCCESS)
         }
         BatchCommand::Parallel(a) => {
