@@ -128,6 +128,12 @@ enum Command {
     /// and Standard Surface. Example: goniospec fit film.gsa -o film  (writes film.json and
     /// film.gltf; prints the parameters, their residual and Delta E2000 per angle).
     Fit(FitArgs),
+    /// Mie scattering of one sphere in a host medium: extinction, scattering and
+    /// absorption efficiencies (Q = C / (pi r^2)), single-scattering albedo, asymmetry g,
+    /// and the amplitude functions S1, S2 at --mu (Bohren & Huffman's conventions).
+    ///
+    /// Example: goniospec mie --n 2.6 --host 1.5 --radius-nm 120 --wavelength-nm 550 --mu=-1,0,1
+    Mie(MieArgs),
     /// Batch BRDF generation: plan many materials, run the units in shards (Slurm job
     /// arrays or GNU parallel), resume, and merge bit for bit.
     ///
@@ -226,6 +232,7 @@ mod fit;
 mod generate;
 mod info;
 mod merge;
+mod mie;
 mod plot;
 mod reflectance;
 mod render;
@@ -243,6 +250,7 @@ use fit::*;
 use generate::*;
 use info::*;
 use merge::*;
+use mie::*;
 use plot::*;
 use reflectance::*;
 use render::*;
@@ -288,6 +296,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Study(a) => study(a),
         Command::Generate(a) => generate(a),
         Command::Fit(a) => fit(a),
+        Command::Mie(a) => mie(a),
         Command::Bench(BenchCommand::Trace(a)) => bench_trace(a),
         Command::Bench(BenchCommand::Simulate(a)) => bench_simulate(a),
         Command::Bench(BenchCommand::Eval(a)) => bench_eval(a),

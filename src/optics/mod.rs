@@ -8,6 +8,7 @@
 
 pub mod fresnel;
 pub mod local_film;
+pub mod mie;
 pub mod tmm;
 
 pub use num_complex::Complex64 as C64;
