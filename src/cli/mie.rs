@@ -33,13 +33,13 @@ pub(super) struct MieArgs {
 
 pub(super) fn mie(a: MieArgs) -> Result<ExitCode> {
     use goniospec::optics::{C64, mie::Mie};
-    if !(a.host > 0.0) {
+    if a.host <= 0.0 {
         bail!("--host must be a positive index, got {}", a.host);
     }
     let x = match (a.x, a.radius_nm, a.wavelength_nm) {
         (Some(x), _, _) => x,
         (None, Some(r), Some(l)) => {
-            if !(r > 0.0 && l > 0.0) {
+            if r <= 0.0 || l <= 0.0 {
                 bail!("--radius-nm and --wavelength-nm must be positive");
             }
             2.0 * std::f64::consts::PI * r * a.host / l
