@@ -9,6 +9,13 @@ pub struct Rng {
     state: u64,
 }
 
+impl Default for Rng {
+    /// Stream 0 of seed 0.
+    fn default() -> Rng {
+        Rng::new(0, 0)
+    }
+}
+
 impl Rng {
     /// A generator for `seed` and stream `stream`.
     pub fn new(seed: u64, stream: u64) -> Rng {

@@ -376,6 +376,10 @@ pub fn sample_hash(sample: &Sample) -> String {
     for m in &sample.media {
         bytes.extend_from_slice(m.name.as_bytes());
         m.model.canonical_bytes(&mut bytes);
+        // Scattering media only, so every other sample keeps its hash.
+        if let Some(sc) = &m.scattering {
+            sc.canonical_bytes(&mut bytes);
+        }
     }
     // Open samples only, so periodic samples keep their hash.
     if let Some(g) = sample.guard_nm {
@@ -551,7 +555,49 @@ impl<'a> Run<'a> {
     fn prepare(sample: &'a Sample, cfg: &'a SimConfig) -> Result<Run<'a>, SimError> {
         let mut scene = Scene::new(sample, cfg.backend)?;
         scene.set_coherence_length(cfg.rho_nm);
-        let dispersive = sample.media.iter().any(|m| m.model.is_dispersive());
+        // Particle media: properties change with the wavelength and free paths are random,
+        // so every wavelength is traced on its own; scattered light has random phases, so
+        // only the beamlet estimator (which pairs exits of one coherence group) applies.
+        let scattering = scene.scatters();
+        if scattering {
+            if cfg.coherence != Coherence::Beamlet {
+                return Err(SimError::Config(format!(
+                    "--coherence {} sums the fields of every path in a bucket, but light scattered by this sample's particle media has random phases; use --coherence beamlet (the default)",
+                    cfg.coherence
+                )));
+            }
+            if cfg.path_sharing == Some(true) {
+                return Err(SimError::Config(
+                    "path sharing needs wavelength-independent paths: this sample has scattering media, whose free paths and directions are drawn per wavelength".into(),
+                ));
+            }
+            let (lo, hi) = match &cfg.wavelengths {
+                Wavelengths::Bins(e) => (e[0], e[e.len() - 1]),
+                Wavelengths::Monochromatic(v) => (
+                    v.iter().copied().fold(f64::INFINITY, f64::min),
+                    v.iter().copied().fold(0.0, f64::max),
+                ),
+            };
+            for m in sample.media.iter().filter(|m| m.scattering.is_some()) {
+                for l in [lo, hi, 0.5 * (lo + hi)] {
+                    if let Ok((_, k)) = m.model.eval(l)
+                        && k != 0.0
+                    {
+                        return Err(SimError::Config(format!(
+                            "medium '{}' scatters but its host index absorbs (k = {k} at {l} nm): a scattering medium's own index must be lossless; put the absorption in its particles or in absorption_per_um",
+                            m.name
+                        )));
+                    }
+                }
+            }
+            for m in &sample.media {
+                if let Err(e) = m.model.eval(lo).and(m.model.eval(hi)) {
+                    return Err(SimError::Config(format!("medium '{}': {e}", m.name)));
+                }
+            }
+            scene.prepare_scattering(lo, hi)?;
+        }
+        let dispersive = sample.media.iter().any(|m| m.model.is_dispersive()) || scattering;
         // A coating's coefficients depend on the wavelength even with constant indices.
         let coated = sample.interfaces.iter().any(|i| !i.coating.is_empty());
         let sharing = cfg.path_sharing.unwrap_or(!dispersive && !coated);
@@ -649,7 +695,7 @@ impl<'a> Run<'a> {
             sharing,
             tracing: if sharing {
                 Tracing::Shared
-            } else if cfg.wavelength_sharing && nl > 1 {
+            } else if cfg.wavelength_sharing && nl > 1 && !scattering {
                 Tracing::Lanes
             } else {
                 Tracing::PerWavelength
@@ -889,6 +935,13 @@ impl<'a> Run<'a> {
                     }
                     Tracing::PerWavelength => {
                         indices_into(sample, lambda, &mut w.indices[0]);
+                        // Volume scattering's own stream for this tree and wavelength.
+                        w.stack.set_stream(
+                            cfg.seed ^ 0x5CA7_7E2E_D000_0000,
+                            (((cfg.first_direction + di as u64) << 40) | i)
+                                .wrapping_mul(0x1_0000)
+                                .wrapping_add(j as u64),
+                        );
                         count(self.scene.trace(
                             origin,
                             d,

@@ -270,7 +270,9 @@ impl Estimator {
         s.cand = candidates;
     }
 
-    /// The pairs `(j, l)`, `j < l`, of exits in one hemisphere that [`Estimator::prepare`]
+    /// The pairs `(j, l)`, `j < l`, of exits in one hemisphere and one coherence group
+    /// ([`crate::trace::Exit::group`]: light scattered by particles is incoherent with
+    /// every other path) that [`Estimator::prepare`]
     /// must look at, in the order of a double loop over `j` then `l`. The reference
     /// estimator and small trees take every pair. Otherwise only exits whose directions are
     /// close enough for the directional kernel to matter at the longest wavelength can pair:
@@ -300,7 +302,7 @@ impl Estimator {
         if self.reference || n <= 32 || !(cell > 0.0 && cell < 0.5) {
             for j in 0..n {
                 for l in j + 1..n {
-                    if ex[j].up == ex[l].up {
+                    if ex[j].up == ex[l].up && ex[j].group == ex[l].group {
                         out.push((j as u32, l as u32));
                     }
                 }
@@ -323,7 +325,7 @@ impl Estimator {
                                 break;
                             }
                             let l = l as usize;
-                            if l > j && ex[l].up == x.up {
+                            if l > j && ex[l].up == x.up && ex[l].group == x.group {
                                 let dw = x.dir - ex[l].dir;
                                 if dw.dot(dw) <= reach2 * (1.0 + 1e-9) {
                                     out.push((j as u32, l as u32));
@@ -367,6 +369,7 @@ impl Estimator {
         p.members.sort_unstable_by(|&a, &b| {
             let (a, b) = (&ex[a as usize], &ex[b as usize]);
             b.up.cmp(&a.up)
+                .then(a.group.cmp(&b.group))
                 .then(a.dir[0].total_cmp(&b.dir[0]))
                 .then(a.dir[1].total_cmp(&b.dir[1]))
                 .then(a.dir[2].total_cmp(&b.dir[2]))
@@ -377,7 +380,10 @@ impl Estimator {
             let mut end = start + 1;
             while end < p.members.len() {
                 let e = &ex[p.members[end] as usize];
-                if e.up != first.up || (e.dir - first.dir).dot(e.dir - first.dir).sqrt() > 1e-9 {
+                if e.up != first.up
+                    || e.group != first.group
+                    || (e.dir - first.dir).dot(e.dir - first.dir).sqrt() > 1e-9
+                {
                     break;
                 }
                 end += 1;

@@ -9,6 +9,7 @@
 pub mod fresnel;
 pub mod local_film;
 pub mod mie;
+pub mod particles;
 pub mod tmm;
 
 pub use num_complex::Complex64 as C64;

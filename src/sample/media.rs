@@ -180,11 +180,62 @@ impl IndexModel {
     }
 }
 
-/// A medium: a name and its index model.
+/// A medium: a name, its index model, and the volume scattering inside it, if any.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Medium {
     pub name: String,
+    /// The index of the medium itself (a particle medium's host).
     pub model: IndexModel,
+    pub scattering: Option<Scattering>,
+}
+
+/// Volume scattering inside a medium (`optics::particles` has the physics).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Scattering {
+    /// Mie spheres of another medium (an index into `Sample::media`) suspended in this one.
+    Particles {
+        medium: usize,
+        radius: crate::optics::particles::Radius,
+        volume_fraction: f64,
+    },
+    /// A prescribed Henyey-Greenstein phase function and coefficients (1/um), the same at
+    /// every wavelength.
+    HenyeyGreenstein {
+        g: f64,
+        scattering_per_um: f64,
+        absorption_per_um: f64,
+    },
+}
+
+impl Scattering {
+    /// Appends a canonical encoding (for the sample hash), like
+    /// [`IndexModel::canonical_bytes`].
+    pub fn canonical_bytes(&self, out: &mut Vec<u8>) {
+        use crate::optics::particles::Radius;
+        let v: Vec<f64> = match self {
+            Scattering::Particles {
+                medium,
+                radius,
+                volume_fraction,
+            } => match radius {
+                Radius::Fixed { radius_nm } => {
+                    vec![10.0, *medium as f64, *volume_fraction, *radius_nm]
+                }
+                Radius::LogNormal { median_nm, sigma } => {
+                    vec![11.0, *medium as f64, *volume_fraction, *median_nm, *sigma]
+                }
+            },
+            Scattering::HenyeyGreenstein {
+                g,
+                scattering_per_um,
+                absorption_per_um,
+            } => vec![12.0, *g, *scattering_per_um, *absorption_per_um],
+        };
+        out.extend_from_slice(&(v.len() as u64).to_le_bytes());
+        for x in v {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
 }
 
 impl Medium {
@@ -193,6 +244,7 @@ impl Medium {
         Medium {
             name: name.to_string(),
             model: IndexModel::Constant { n, k },
+            scattering: None,
         }
     }
 }
@@ -209,6 +261,38 @@ pub(crate) struct RawMedium {
     pub table: Option<String>,
     pub model: Option<String>,
     pub range_nm: Option<[f64; 2]>,
+    /// Mie particles suspended in the medium (a sample's media only).
+    pub particles: Option<RawParticles>,
+    /// A Henyey-Greenstein scattering medium (a sample's media only).
+    pub henyey_greenstein: Option<RawHenyeyGreenstein>,
+}
+
+/// `particles = { medium = "tio2", radius_nm = 120, volume_fraction = 0.1 }`, or with
+/// `log_normal = { median_radius_nm = 120, sigma = 0.3 }` instead of `radius_nm`.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawParticles {
+    pub medium: String,
+    pub radius_nm: Option<f64>,
+    pub log_normal: Option<RawLogNormal>,
+    pub volume_fraction: f64,
+}
+
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawLogNormal {
+    pub median_radius_nm: f64,
+    pub sigma: f64,
+}
+
+/// `henyey_greenstein = { g = 0.5, scattering_per_um = 2.0, absorption_per_um = 0.01 }`.
+#[derive(Deserialize, Debug, Clone)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct RawHenyeyGreenstein {
+    pub g: f64,
+    pub scattering_per_um: f64,
+    #[serde(default)]
+    pub absorption_per_um: f64,
 }
 
 #[derive(Deserialize, Debug)]
@@ -396,6 +480,12 @@ pub fn parse_model_file(path: &Path, text: &str) -> Result<IndexModel, MediumDef
         let line = e.span().map(|s| super::line_of(text, s.start));
         at(line, e.message().trim().to_string())
     })?;
+    if raw.particles.is_some() || raw.henyey_greenstein.is_some() {
+        return Err(at(
+            None,
+            "a model file holds an index model only; declare particles or henyey_greenstein on the sample's medium".into(),
+        ));
+    }
     let base = path.parent().unwrap_or(Path::new(""));
     build_model(&raw, base, false).map_err(|e| match e.file {
         Some(_) => e,

@@ -42,7 +42,7 @@ use toml::Spanned;
 use crate::accel::TriangleSoup;
 use generate::{Generated, GeneratorSpec};
 use media::RawMedium;
-pub use media::{IndexModel, Medium};
+pub use media::{IndexModel, Medium, Scattering};
 pub use mesh::Mesh;
 pub use obj::{MeshOptions, load_obj, parse_obj};
 
@@ -688,7 +688,111 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         media.push(Medium {
             name: name.clone(),
             model,
+            scattering: None,
         });
+    }
+    // Scattering: particles name another medium, so every medium exists first.
+    for (name, m) in &raw.media {
+        let raw_m = m.get_ref();
+        let bad = |message: String| {
+            at(
+                m.span(),
+                SampleErrorKind::BadMedium {
+                    name: name.clone(),
+                    message,
+                },
+            )
+        };
+        let scattering = match (&raw_m.particles, &raw_m.henyey_greenstein) {
+            (None, None) => continue,
+            (Some(_), Some(_)) => {
+                return Err(bad(
+                    "has both particles and henyey_greenstein; give one".into()
+                ));
+            }
+            (Some(p), None) => {
+                let Some(pm) = media.iter().position(|x| x.name == p.medium) else {
+                    return Err(bad(format!("particles of unknown medium '{}'", p.medium)));
+                };
+                if pm
+                    == media
+                        .iter()
+                        .position(|x| &x.name == name)
+                        .unwrap_or(usize::MAX)
+                {
+                    return Err(bad("particles cannot be of the medium they are in".into()));
+                }
+                if raw.media[&p.medium].get_ref().particles.is_some()
+                    || raw.media[&p.medium].get_ref().henyey_greenstein.is_some()
+                {
+                    return Err(bad(format!(
+                        "particles of '{}', itself a scattering medium: a particle is one homogeneous medium",
+                        p.medium
+                    )));
+                }
+                use crate::optics::particles::Radius;
+                let radius = match (p.radius_nm, &p.log_normal) {
+                    (Some(r), None) => {
+                        if !(r.is_finite() && r > 0.0 && r <= 1e6) {
+                            return Err(bad(format!(
+                                "particles: radius_nm must be between 0 and 1e6 nm, got {r}"
+                            )));
+                        }
+                        Radius::Fixed { radius_nm: r }
+                    }
+                    (None, Some(ln)) => {
+                        let (r, sg) = (ln.median_radius_nm, ln.sigma);
+                        if !(r.is_finite() && r > 0.0 && r <= 1e6) {
+                            return Err(bad(format!(
+                                "particles: median_radius_nm must be between 0 and 1e6 nm, got {r}"
+                            )));
+                        }
+                        if !(sg.is_finite() && sg > 0.0 && sg <= 1.0) {
+                            return Err(bad(format!(
+                                "particles: the log-normal sigma (of ln r) must lie in (0, 1], got {sg}"
+                            )));
+                        }
+                        Radius::LogNormal {
+                            median_nm: r,
+                            sigma: sg,
+                        }
+                    }
+                    _ => {
+                        return Err(bad(
+                            "particles need radius_nm or log_normal = { median_radius_nm, sigma }, not both"
+                                .into(),
+                        ));
+                    }
+                };
+                let f = p.volume_fraction;
+                if !(f.is_finite() && f > 0.0 && f < 0.74) {
+                    return Err(bad(format!(
+                        "particles: volume_fraction must lie in (0, 0.74), got {f}"
+                    )));
+                }
+                crate::sample::Scattering::Particles {
+                    medium: pm,
+                    radius,
+                    volume_fraction: f,
+                }
+            }
+            (None, Some(h)) => {
+                crate::optics::particles::ScatterModel::henyey_greenstein(
+                    h.g,
+                    h.scattering_per_um,
+                    h.absorption_per_um,
+                )
+                .map_err(|e| bad(format!("henyey_greenstein: {e}")))?;
+                crate::sample::Scattering::HenyeyGreenstein {
+                    g: h.g,
+                    scattering_per_um: h.scattering_per_um,
+                    absorption_per_um: h.absorption_per_um,
+                }
+            }
+        };
+        if let Some(m) = media.iter_mut().find(|x| &x.name == name) {
+            m.scattering = Some(scattering);
+        }
     }
     let known = || {
         if media.is_empty() {
@@ -753,6 +857,22 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         }
         Ok(layers)
     };
+    // A coating is a thin stack applied by transfer matrices: no volume to scatter in.
+    let coating_of = |raw: &Option<Vec<RawLayer>>| -> Result<Vec<(usize, f64)>, SampleError> {
+        let layers = layers_of(raw)?;
+        for (l, &(m, _)) in raw.iter().flatten().zip(&layers) {
+            if media[m].scattering.is_some() {
+                return Err(at(
+                    l.medium.span(),
+                    SampleErrorKind::Invalid(format!(
+                        "coating layer '{}' scatters (particles or henyey_greenstein), but a coating is a thin film applied by transfer matrices; make it a meshed layer",
+                        media[m].name
+                    )),
+                ));
+            }
+        }
+        Ok(layers)
+    };
 
     // [stack]: one coated flat interface (default), or flat meshed interfaces, top
     // (ambient side) first.
@@ -765,9 +885,19 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         // sample with bodies or other interfaces (a binder holding pigments) is meshed,
         // since those live inside its layers.
         let others = !raw.interface.is_empty() || !raw.body.is_empty();
+        // A scattering layer is a volume the tracer walks through: meshed.
+        let scattering = layers.iter().any(|&(m, _)| media[m].scattering.is_some());
         let meshed = match st.get_ref().mode.as_ref() {
-            None => others,
+            None => others || scattering,
             Some(m) => match m.get_ref().as_str() {
+                "coating" if scattering => {
+                    return Err(at(
+                        m.span(),
+                        SampleErrorKind::Invalid(
+                            "a [stack] with a scattering layer (particles or henyey_greenstein) cannot be an exact coating: remove mode or use mode = \"mesh\"".into(),
+                        ),
+                    ));
+                }
                 "coating" => false,
                 "mesh" => true,
                 other => {
@@ -936,7 +1066,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
                 (mesh, desc)
             }
         };
-        let coating = layers_of(&ri.coating)?;
+        let coating = coating_of(&ri.coating)?;
         interfaces.push(Interface {
             mesh,
             mesh_path: PathBuf::from(desc),
@@ -965,7 +1095,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
                         thickness: Spanned::new(span.clone(), x.thickness),
                     })
                     .collect();
-                (None, layers_of(&Some(spanned))?)
+                (None, coating_of(&Some(spanned))?)
             }
             None => (None, Vec::new()),
         };

@@ -22,7 +22,9 @@
 use crate::accel::{Accel, AccelError, Backend, Intersector, Ray};
 use crate::optics::C64;
 use crate::optics::fresnel::{self, Field, field_power};
+use crate::optics::particles::ScatterModel;
 use crate::optics::tmm;
+use crate::rng::Rng;
 use crate::sample::Sample;
 use glam::DVec3;
 
@@ -38,6 +40,10 @@ pub struct Exit {
     /// Exit point on the exit plane, unwrapped (nm).
     pub x: DVec3,
     pub up: bool,
+    /// Coherence group: 0 for light that has met no particle; each volume scattering
+    /// event starts a group of its own, incoherent with every other (the estimator pairs
+    /// exits of one group only).
+    pub group: u32,
 }
 
 /// Power dropped by the cutoff or a limit, lost to a leak, or escaped through an open side:
@@ -86,6 +92,8 @@ pub struct Tree {
     pub limited_power: f64,
     pub leaks: u32,
     pub segments: u32,
+    /// Volume scattering events (each started a coherence group, numbered from 1).
+    pub scatterings: u32,
     /// Scratch for coated interfaces (indices and thicknesses of one event's stack).
     n_buf: Vec<C64>,
     d_buf: Vec<f64>,
@@ -101,6 +109,7 @@ impl Tree {
         self.limited_power = 0.0;
         self.leaks = 0;
         self.segments = 0;
+        self.scatterings = 0;
     }
 
     /// Records the power of a field dropped at optical path `opl` (see [`Dropped`]).
@@ -198,6 +207,11 @@ pub struct Scene<'a> {
     /// The length over which the illumination is coherent, nm: the beamlet radius of a
     /// finite-radius estimator, else the tile's longer side (`set_coherence_length`).
     coherence_nm: f64,
+    /// Per medium: its volume scattering, once [`Scene::prepare_scattering`] has
+    /// tabulated it (`None` for a clear medium).
+    scatter: Vec<Option<ScatterModel>>,
+    /// Whether some medium scatters.
+    scatters: bool,
 }
 
 /// Why a scene cannot be traced.
@@ -251,6 +265,8 @@ impl<'a> Scene<'a> {
             ambient: 0,
             substrate: 0,
             coherence_nm: lx.max(ly),
+            scatter: Vec::new(),
+            scatters: sample.media.iter().any(|m| m.scattering.is_some()),
         };
         scene.ambient = scene.outer_medium(true)?;
         scene.substrate = scene.outer_medium(false)?;
@@ -265,6 +281,57 @@ impl<'a> Scene<'a> {
         if nm.is_finite() && nm > 0.0 {
             self.coherence_nm = nm;
         }
+    }
+
+    /// Tabulates every scattering medium for wavelengths in `[lo_nm, hi_nm]` (Mie
+    /// particles) or checks it (Henyey-Greenstein). Until then a ray inside a scattering
+    /// medium is dropped as cut by a limit, never traced as if the medium were clear.
+    pub fn prepare_scattering(&mut self, lo_nm: f64, hi_nm: f64) -> Result<(), SceneError> {
+        use crate::sample::Scattering;
+        let media = &self.sample.media;
+        let index = |m: usize, l: f64| -> C64 {
+            let (n, k) = media[m].model.eval(l).unwrap_or((f64::NAN, f64::NAN));
+            C64::new(n, k)
+        };
+        let mut out = Vec::with_capacity(media.len());
+        for (i, m) in media.iter().enumerate() {
+            let model = match &m.scattering {
+                None => None,
+                Some(Scattering::HenyeyGreenstein {
+                    g,
+                    scattering_per_um,
+                    absorption_per_um,
+                }) => Some(ScatterModel::henyey_greenstein(
+                    *g,
+                    *scattering_per_um,
+                    *absorption_per_um,
+                )),
+                Some(Scattering::Particles {
+                    medium,
+                    radius,
+                    volume_fraction,
+                }) => Some(ScatterModel::mie(
+                    *radius,
+                    *volume_fraction,
+                    lo_nm,
+                    hi_nm,
+                    &|l| index(i, l),
+                    &|l| index(*medium, l),
+                )),
+            };
+            out.push(
+                model
+                    .transpose()
+                    .map_err(|e| SceneError::Geometry(format!("medium '{}': {e}", m.name)))?,
+            );
+        }
+        self.scatter = out;
+        Ok(())
+    }
+
+    /// Whether some medium of the sample scatters light in its volume.
+    pub fn scatters(&self) -> bool {
+        self.scatters
     }
 
     /// The medium beyond the sample above (or below) it, from vertical probe rays; the
@@ -396,6 +463,7 @@ impl<'a> Scene<'a> {
             depth: 0,
             lane,
             at: at as u32,
+            group: 0,
         };
         // One lane, or an ambient medium that differs between them: a ray per lane.
         if lanes.len() == 1 || stack.varies[self.ambient] {
@@ -477,18 +545,33 @@ impl<'a> Scene<'a> {
                     tmax: t_lim.min(f64::from(f32::MAX)) as f32,
                 };
                 let hit = self.accel.closest_hit(&ray);
-                if hit.is_hit() && f64::from(hit.t) <= t_lim * (1.0 + 1e-6) {
-                    // Refine in f64 against the hit triangle's plane.
-                    let (v0, n) = self.plane[hit.prim as usize];
-                    let denom = n.dot(r.dir);
-                    let mut t = if denom != 0.0 {
-                        n.dot(v0 - r.pos) / denom
-                    } else {
-                        f64::from(hit.t)
-                    };
-                    if !(t.is_finite() && t >= 0.0) {
-                        t = f64::from(hit.t);
+                let surface =
+                    (hit.is_hit() && f64::from(hit.t) <= t_lim * (1.0 + 1e-6)).then(|| {
+                        // Refine in f64 against the hit triangle's plane.
+                        let (v0, n) = self.plane[hit.prim as usize];
+                        let denom = n.dot(r.dir);
+                        let mut t = if denom != 0.0 {
+                            n.dot(v0 - r.pos) / denom
+                        } else {
+                            f64::from(hit.t)
+                        };
+                        if !(t.is_finite() && t >= 0.0) {
+                            t = f64::from(hit.t);
+                        }
+                        (t, n)
+                    });
+                if self.scatters && self.sample.media[r.medium].scattering.is_some() {
+                    let t_next = surface.map_or(t_plane.min(t_side), |s| s.0);
+                    match self.volume_event(&mut r, t_next, n_med, lanes, limits, stack, trees) {
+                        Volume::Passes => {}
+                        Volume::Scattered => {
+                            wraps = 0;
+                            continue;
+                        }
+                        Volume::Ended => break,
                     }
+                }
+                if let Some((t, n)) = surface {
                     self.advance(&mut r, t, n_med, &stack.cur, first, trees);
                     self.interface_event(r, hit.prim, n, lanes, limits, stack, trees);
                     break;
@@ -513,6 +596,7 @@ impl<'a> Scene<'a> {
                                 dir: r.dir,
                                 x,
                                 up,
+                                group: r.group,
                             });
                         }
                     }
@@ -556,6 +640,71 @@ impl<'a> Scene<'a> {
             }
         }
         traced
+    }
+
+    /// Volume scattering along the next `t_next` nm of ray `r` in a scattering medium:
+    /// an exponential free path with the medium's extinction coefficient at the lane's
+    /// wavelength (`optics::particles`); if it ends first, the ray moves there, its power
+    /// is multiplied by the albedo (the rest is absorbed) and the event's weight, it turns
+    /// into the sampled direction and starts a coherence group of its own. The ray carries
+    /// one lane: the driver traces scattering samples a wavelength at a time.
+    #[allow(clippy::too_many_arguments)]
+    fn volume_event(
+        &self,
+        r: &mut RayState,
+        t_next: f64,
+        n_med: C64,
+        lanes: &[Lane],
+        limits: &TraceLimits,
+        stack: &mut TraceStack,
+        trees: &mut [Tree],
+    ) -> Volume {
+        let first = if r.lane == ALL { 0 } else { r.lane as usize };
+        let Some(model) = self.scatter.get(r.medium).and_then(|m| m.as_ref()) else {
+            // Not tabulated (prepare_scattering was not called): dropped, and said so.
+            drop_all(&stack.cur, first, r.opl, trees);
+            return Volume::Ended;
+        };
+        if r.lane == ALL || stack.cur.len() != 1 {
+            drop_all(&stack.cur, first, r.opl, trees);
+            return Volume::Ended;
+        }
+        let lambda = lanes[first].lambda_nm;
+        let (mu_ext, albedo) = model.coefficients(lambda);
+        let s = -(1.0 - stack.rng.uniform()).ln() / mu_ext;
+        if s >= t_next {
+            return Volume::Passes;
+        }
+        self.advance(r, s, n_med, &stack.cur, first, trees);
+        let tree = &mut trees[first];
+        let Some(mut e) = stack.cur[0] else {
+            return Volume::Ended;
+        };
+        if albedo < 1.0 {
+            tree.absorbing = true;
+        }
+        let d2 = model.scatter(lambda, r.dir, &mut e, &mut stack.rng);
+        tree.scatterings += 1;
+        r.group = tree.scatterings;
+        r.dir = d2;
+        r.n_re = d2 * n_med.re;
+        r.n_im = DVec3::ZERO;
+        let mut power = field_power(&e[0]).max(field_power(&e[1]));
+        if r.opl.im != 0.0 {
+            power *= (-4.0 * std::f64::consts::PI / lambda * r.opl.im).exp();
+        }
+        if power < limits.cutoff || power.is_nan() {
+            tree.drop_field(&e, r.opl, false);
+            stack.cur[0] = None;
+            return Volume::Ended;
+        }
+        if tree.segments >= limits.max_segments {
+            tree.drop_field(&e, r.opl, true);
+            stack.cur[0] = None;
+            return Volume::Ended;
+        }
+        stack.cur[0] = Some(e);
+        Volume::Scattered
     }
 
     /// Moves the ray by `t` nm, adding `N . dr` to its optical path (the phase and the
@@ -698,6 +847,7 @@ impl<'a> Scene<'a> {
                 depth,
                 lane,
                 at: at as u32,
+                group: r.group,
             }
         };
         // Transmitted children first so the reflected one is traced first (stack order
@@ -887,6 +1037,16 @@ struct LaneSplit {
     et: [Field; 2],
 }
 
+/// What a stretch of scattering medium did to a ray.
+enum Volume {
+    /// No particle before the next surface or plane.
+    Passes,
+    /// Scattered: trace on from the event in the new direction.
+    Scattered,
+    /// Dropped (below the cutoff, a limit, or an untabulated medium).
+    Ended,
+}
+
 /// `RayState::lane` of a ray that carries every lane.
 const ALL: u32 = u32::MAX;
 
@@ -901,9 +1061,18 @@ pub struct TraceStack {
     splits: Vec<LaneSplit>,
     /// Per medium: whether its index differs between the lanes.
     varies: Vec<bool>,
+    /// Free paths and scattering directions in particle media ([`TraceStack::set_stream`]).
+    rng: Rng,
 }
 
 impl TraceStack {
+    /// Seeds the random stream volume scattering draws from (the driver gives every tree
+    /// and wavelength its own, so results do not depend on scheduling). Tracing without
+    /// particle media draws nothing.
+    pub fn set_stream(&mut self, seed: u64, stream: u64) {
+        self.rng = Rng::new(seed, stream);
+    }
+
     fn clear(&mut self) {
         self.rays.clear();
         self.fields.clear();
@@ -933,6 +1102,8 @@ struct RayState {
     e: [Field; 2],
     /// A shared ray: where its fields (one pair per lane) start on the field stack.
     at: u32,
+    /// Coherence group ([`Exit::group`]).
+    group: u32,
 }
 
 /// The two launched fields for a wave travelling along `d` (unit): s (perpendicular to the
