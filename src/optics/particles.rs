@@ -148,7 +148,7 @@ impl ScatterModel {
             ("scattering_per_um", scattering_per_um),
             ("absorption_per_um", absorption_per_um),
         ] {
-            if !(v.is_finite() && v >= 0.0 && v <= 1e6) {
+            if !(v.is_finite() && (0.0..=1e6).contains(&v)) {
                 return Err(ParticleError::Invalid(format!(
                     "{name} must be between 0 and 1e6 per um, got {v}"
                 )));
