@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Interop with the renderers people use: exports RGL .bsdf files and checks them with an
 # independent reader and with Mitsuba 3 (tests/interop/rgl_mitsuba.py); and the Mie series
-# against the PyPI miepython package (tests/interop/mie_miepython.py).
+# against the PyPI miepython package (tests/interop/mie_miepython.py), and volume scattering
+# against iadpython's adding-doubling (tests/interop/rt_iadpython.py).
 #
 #   scripts/interop.sh [GONIOSPEC_BINARY]
 #
@@ -11,12 +12,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${1:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 venv=${INTEROP_VENV:-.venv-interop}
-if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython" 2>/dev/null; then
-  echo "== making $venv (numpy, mitsuba, miepython)"
+if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython, iadpython" 2>/dev/null; then
+  echo "== making $venv (numpy, mitsuba, miepython, iadpython)"
   python3 -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5"
 fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 "$venv/bin/python" tests/interop/rgl_mitsuba.py "$bin" "$work"
 "$venv/bin/python" tests/interop/mie_miepython.py "$bin"
+"$venv/bin/python" tests/interop/rt_iadpython.py "$bin" "$work/rt"
