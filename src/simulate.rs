@@ -981,7 +981,10 @@ impl<'a> Run<'a> {
                 cell.t.1 += t * t;
                 let absorbed = absorbed_power(tree, lambda, r, t, dropped, self.global);
                 cell.absorbed += absorbed;
-                if tree.absorbing && !self.global {
+                // A tree that met particles carries importance weights (optics::particles):
+                // its R + T may exceed 1 while the mean over trees conserves energy, which
+                // check_physical judges. Only deterministic ray series count as created.
+                if tree.absorbing && !self.global && tree.scatterings == 0 {
                     cell.created += (-absorbed).max(0.0);
                 }
                 cell.limited += tree.limited_power;

@@ -46,6 +46,10 @@ pub struct Mie {
     pub m: C64,
     pub a: Vec<C64>,
     pub b: Vec<C64>,
+    /// `(2n+1)/(n(n+1)) a_n` and `... b_n`, and `1/n`: the amplitude sums' factors, once.
+    fa: Vec<C64>,
+    fb: Vec<C64>,
+    inv_n: Vec<f64>,
 }
 
 /// The number of orders summed (Wiscombe 1980, eq. 4).
@@ -97,7 +101,22 @@ impl Mie {
             chi_prev = chi;
             chi = next;
         }
-        Ok(Mie { x, m, a, b })
+        let f = |i: usize| {
+            let n = (i + 1) as f64;
+            (2.0 * n + 1.0) / (n * (n + 1.0))
+        };
+        let fa = a.iter().enumerate().map(|(i, v)| v * f(i)).collect();
+        let fb = b.iter().enumerate().map(|(i, v)| v * f(i)).collect();
+        let inv_n = (0..a.len()).map(|i| 1.0 / (i + 1) as f64).collect();
+        Ok(Mie {
+            x,
+            m,
+            a,
+            b,
+            fa,
+            fb,
+            inv_n,
+        })
     }
 
     /// Extinction efficiency (BH eq. 4.62): `2/x^2 sum (2n+1) Re(a_n + b_n)`.
@@ -146,10 +165,10 @@ impl Mie {
         for i in 0..self.a.len() {
             let n = (i + 1) as f64;
             let tau = n * mu * pi - (n + 1.0) * pi_prev;
-            let f = (2.0 * n + 1.0) / (n * (n + 1.0));
-            s1 += f * (self.a[i] * pi + self.b[i] * tau);
-            s2 += f * (self.a[i] * tau + self.b[i] * pi);
-            let next = ((2.0 * n + 1.0) * mu * pi - (n + 1.0) * pi_prev) / n;
+            let (fa, fb) = (self.fa[i], self.fb[i]);
+            s1 += fa * pi + fb * tau;
+            s2 += fa * tau + fb * pi;
+            let next = ((2.0 * n + 1.0) * mu * pi - (n + 1.0) * pi_prev) * self.inv_n[i];
             pi_prev = pi;
             pi = next;
         }

@@ -16,12 +16,17 @@
 //!   about `f_v = 0.1`; denser suspensions scatter less than this predicts). With number
 //!   density `N = f_v / <V>`, `mu_ext = N <C_ext>` and `mu_sca = N <C_sca>` (BH eq. 3.40,
 //!   summed over sizes). A scattering event picks a radius with probability
-//!   `w_r C_sca,r / sum w C_sca`, then a direction; the fields transform as
-//!   `E' = [S2 (E . e_par) e_par' + S1 (E . e_perp) e_perp] / sqrt(k^2 C_sca,r q(Omega))`
-//!   (BH eq. 3.12 in the scattering-plane basis) where `q` is the density the direction was
-//!   drawn from: a tabulated approximation of the phase function, so the estimate is
-//!   unbiased whatever the table's resolution (only its variance depends on it), because
-//!   `integral |S E|^2 dOmega / k^2 = C_sca |E|^2` for a sphere and any polarisation.
+//!   `w_r C_sca,r / sum w C_sca`, then a direction from the density
+//!   `q(Omega) = sum_i |S E_i|^2 / (k^2 C_sca sum_i |E_i|^2)` of the two polarisation
+//!   fields `E_i` the ray carries (BH eq. 3.12: `S E = S2 (E . e_par) e_par' + S1 (E .
+//!   e_perp) e_perp` in the scattering-plane basis; `integral |S E|^2 dOmega = k^2 C_sca
+//!   |E|^2` for a sphere and any polarisation). Its marginal in theta is the unpolarised
+//!   phase function, drawn exactly by rejection under a tabulated envelope; given theta,
+//!   the azimuth's density is `(1 + c cos(2 phi - phi0)) / (2 pi)`, drawn by rejection too.
+//!   The fields become `E_i' = S E_i sqrt(omega sum_j |E_j|^2 / sum_j |S E_j|^2)`: the two
+//!   fields' summed power is multiplied by exactly the albedo at every event (no random
+//!   weights to pile up over hundreds of events), and every quantity the estimator forms
+//!   (`sum_i |L E_i'|^2` for whatever linear optics `L` follows) is unbiased.
 //! - **Henyey-Greenstein** (Astrophys. J. 93, 70, 1941): a prescribed `g`, `mu_sca` and
 //!   `mu_abs`, the same at every wavelength, sampled exactly by its inverse CDF; the fields
 //!   are carried into the new direction's scattering-plane basis unchanged in power (a
@@ -34,11 +39,11 @@
 use glam::DVec3;
 
 use super::C64;
-use super::fresnel::{Field, field_dot_real};
+use super::fresnel::{Field, field_dot_real, field_power};
 use super::mie::{Mie, MieError};
 use crate::rng::Rng;
 
-/// Intervals of the tabulated phase function over `theta` in `[0, pi]`.
+/// Intervals of the phase function's envelope over `theta` in `[0, pi]`, at least.
 pub const THETA_INTERVALS: usize = 256;
 /// Radius nodes of a log-normal distribution: trapezoidal quadrature of the normal
 /// density on `ln r` over +-3.5 standard deviations (the 5e-4 of the mass beyond is
@@ -98,11 +103,57 @@ pub enum ParticleError {
 #[derive(Clone, Debug)]
 struct SizeEntry {
     mie: Mie,
-    /// Scattering cross-section, nm^2.
-    c_sca_nm2: f64,
-    /// Cumulative mass of the tabulated phase function over the theta intervals
-    /// (`THETA_INTERVALS + 1` values from 0 to 1).
-    cdf: Vec<f64>,
+    /// The envelope of the unpolarised phase function's density in theta,
+    /// `f(theta) = (|S1|^2 + |S2|^2)/2 sin theta`: a constant bound per interval ...
+    bound: Vec<f64>,
+    /// ... and an alias table drawing an interval in proportion to its bound.
+    alias: Alias,
+}
+
+/// Walker's alias method (Vose's construction, IEEE TSE 17(9), 972, 1991): draws index `i`
+/// with probability `w_i / sum w` in constant time from one uniform number (one table
+/// entry read, where a binary search over a large cumulative table missed the cache at
+/// every step).
+#[derive(Clone, Debug)]
+struct Alias {
+    prob: Vec<f64>,
+    alias: Vec<u32>,
+}
+
+impl Alias {
+    fn new(w: &[f64]) -> Alias {
+        let n = w.len();
+        let total: f64 = w.iter().sum();
+        let mut scaled: Vec<f64> = w.iter().map(|x| x * n as f64 / total).collect();
+        let (mut small, mut large): (Vec<usize>, Vec<usize>) =
+            (0..n).partition(|&i| scaled[i] < 1.0);
+        let mut prob = vec![1.0; n];
+        let mut alias: Vec<u32> = (0..n as u32).collect();
+        while let (Some(&s), Some(&l)) = (small.last(), large.last()) {
+            small.pop();
+            prob[s] = scaled[s];
+            alias[s] = l as u32;
+            scaled[l] -= 1.0 - scaled[s];
+            if scaled[l] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        // What is left has probability 1 up to rounding.
+        Alias { prob, alias }
+    }
+
+    /// An index for the uniform number `u` in [0, 1).
+    #[inline]
+    fn draw(&self, u: f64) -> usize {
+        let x = u * self.prob.len() as f64;
+        let i = (x as usize).min(self.prob.len() - 1);
+        if x - i as f64 <= self.prob[i] {
+            i
+        } else {
+            self.alias[i] as usize
+        }
+    }
 }
 
 /// A particle medium at one wavelength.
@@ -110,15 +161,13 @@ struct SizeEntry {
 pub struct LambdaEntry {
     mu_ext_per_nm: f64,
     albedo: f64,
-    /// Wave number in the host, 1/nm.
-    k_host: f64,
     sizes: Vec<SizeEntry>,
     /// Cumulative probability of each size at a scattering event.
     size_cdf: Vec<f64>,
 }
 
 /// A scattering medium ready for the tracer.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub enum ScatterModel {
     HenyeyGreenstein {
         g: f64,
@@ -129,6 +178,9 @@ pub enum ScatterModel {
         /// Wavelength of `table[0]`, nm; one entry per whole nanometre.
         first_nm: i64,
         table: Vec<LambdaEntry>,
+        /// Draws where the phase function exceeded its envelope (the draw is then
+        /// biased): 0 in a correct table; the run reports it.
+        violations: std::sync::atomic::AtomicU64,
     },
 }
 
@@ -222,11 +274,9 @@ impl ScatterModel {
                 c_ext += w * ce;
                 c_sca += w * cs;
                 size_w.push(w * cs);
-                sizes.push(SizeEntry {
-                    cdf: phase_cdf(&mie),
-                    mie,
-                    c_sca_nm2: cs,
-                });
+                let bound = envelope(&mie);
+                let alias = Alias::new(&bound);
+                sizes.push(SizeEntry { bound, alias, mie });
             }
             let total: f64 = size_w.iter().sum();
             let mut acc = 0.0;
@@ -240,17 +290,32 @@ impl ScatterModel {
             table.push(LambdaEntry {
                 mu_ext_per_nm: density * c_ext,
                 albedo: (c_sca / c_ext).min(1.0),
-                k_host,
                 sizes,
                 size_cdf,
             });
         }
-        Ok(ScatterModel::Mie { first_nm, table })
+        Ok(ScatterModel::Mie {
+            first_nm,
+            table,
+            violations: std::sync::atomic::AtomicU64::new(0),
+        })
+    }
+
+    /// Draws that exceeded the envelope so far (see [`ScatterModel::Mie`]).
+    pub fn violations(&self) -> u64 {
+        match self {
+            ScatterModel::Mie { violations, .. } => {
+                violations.load(std::sync::atomic::Ordering::Relaxed)
+            }
+            ScatterModel::HenyeyGreenstein { .. } => 0,
+        }
     }
 
     fn entry(&self, lambda_nm: f64) -> Option<&LambdaEntry> {
         match self {
-            ScatterModel::Mie { first_nm, table } => {
+            ScatterModel::Mie {
+                first_nm, table, ..
+            } => {
                 let i = (lambda_nm.round() as i64 - first_nm).clamp(0, table.len() as i64 - 1);
                 table.get(i as usize)
             }
@@ -281,10 +346,10 @@ impl ScatterModel {
     /// multiplied by the albedo and by the event's importance weight.
     pub fn scatter(&self, lambda_nm: f64, d: DVec3, e: &mut [Field; 2], rng: &mut Rng) -> DVec3 {
         let (u, v) = frame(d);
-        let phi = std::f64::consts::TAU * rng.uniform();
-        let (sp, cp) = phi.sin_cos();
         match self {
             ScatterModel::HenyeyGreenstein { g, .. } => {
+                let phi = std::f64::consts::TAU * rng.uniform();
+                let (sp, cp) = phi.sin_cos();
                 let mu = sample_hg(*g, rng.uniform());
                 let s = (1.0 - mu * mu).max(0.0).sqrt();
                 let d2 = (d * mu + (u * cp + v * sp) * s).normalize();
@@ -298,7 +363,7 @@ impl ScatterModel {
                 }
                 d2
             }
-            ScatterModel::Mie { .. } => {
+            ScatterModel::Mie { violations, .. } => {
                 let t = self.entry(lambda_nm).expect("a tabulated wavelength");
                 let r = rng.uniform();
                 let k = t
@@ -306,32 +371,76 @@ impl ScatterModel {
                     .partition_point(|&c| c < r)
                     .min(t.sizes.len() - 1);
                 let size = &t.sizes[k];
-                // theta: an interval by its mass, then uniform inside it.
-                let r = rng.uniform();
-                let i = size
-                    .cdf
-                    .partition_point(|&c| c <= r)
-                    .clamp(1, THETA_INTERVALS)
-                    - 1;
-                let dtheta = std::f64::consts::PI / THETA_INTERVALS as f64;
-                let theta = (i as f64 + rng.uniform()) * dtheta;
-                let p_interval = size.cdf[i + 1] - size.cdf[i];
+                let n = size.bound.len();
+                let dtheta = std::f64::consts::PI / n as f64;
+                // theta from the unpolarised phase function, by rejection under the
+                // envelope: an interval by the envelope's mass, a point in it, accepted
+                // with probability f / bound.
+                let (theta, s1, s2) = loop {
+                    let i = size.alias.draw(rng.uniform());
+                    let theta = (i as f64 + rng.uniform()) * dtheta;
+                    let (s1, s2) = size.mie.s1_s2(theta.cos());
+                    let f = 0.5 * (s1.norm_sqr() + s2.norm_sqr()) * theta.sin();
+                    if f > size.bound[i] {
+                        violations.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    }
+                    if rng.uniform() * size.bound[i] <= f {
+                        break (theta, s1, s2);
+                    }
+                };
                 let (st, mu) = theta.sin_cos();
+                // phi given theta: density (1 + rho (p cos 2phi + q sin 2phi)) / (2 pi) with
+                // rho = (|S2|^2 - |S1|^2) / (|S2|^2 + |S1|^2), from the fields' components
+                // a_i (along u) and b_i (along v): p = (alpha - beta) / (alpha + beta),
+                // q = 2 Re sum a_i conj(b_i) / (alpha + beta). By rejection under 1 + |c|.
+                let (mut alpha, mut beta, mut gamma) = (0.0, 0.0, 0.0);
+                for f in e.iter() {
+                    let (a, b) = (field_dot_real(f, u), field_dot_real(f, v));
+                    alpha += a.norm_sqr();
+                    beta += b.norm_sqr();
+                    gamma += (a * b.conj()).re;
+                }
+                let (w1, w2) = (s1.norm_sqr(), s2.norm_sqr());
+                let rho = if w1 + w2 > 0.0 {
+                    (w2 - w1) / (w1 + w2)
+                } else {
+                    0.0
+                };
+                let total = (alpha + beta).max(f64::MIN_POSITIVE);
+                let (pc, qc) = (rho * (alpha - beta) / total, rho * 2.0 * gamma / total);
+                let amp = (pc * pc + qc * qc).sqrt();
+                // A uniform azimuth without trigonometry: a point uniform in the unit disc
+                // (by rejection from the square), whose angle is uniform.
+                let (sp, cp) = loop {
+                    let (x, y) = (2.0 * rng.uniform() - 1.0, 2.0 * rng.uniform() - 1.0);
+                    let r2 = x * x + y * y;
+                    if !(r2 > 1e-300 && r2 <= 1.0) {
+                        continue;
+                    }
+                    let (c2, s2p) = ((x * x - y * y) / r2, 2.0 * x * y / r2);
+                    if rng.uniform() * (1.0 + amp) <= 1.0 + pc * c2 + qc * s2p {
+                        let r = r2.sqrt();
+                        break (y / r, x / r);
+                    }
+                };
                 let d2 = (d * mu + (u * cp + v * sp) * st).normalize();
-                // Density over solid angle: p / dtheta / (2 pi sin theta).
-                let q = p_interval / (dtheta * std::f64::consts::TAU * st);
-                let (s1, s2) = size.mie.s1_s2(mu);
-                let norm = t.albedo.sqrt() / (t.k_host * t.k_host * size.c_sca_nm2 * q).sqrt();
                 let e_perp = v * cp - u * sp;
                 let (par_in, par_out) = (e_perp.cross(d), e_perp.cross(d2));
-                for f in e.iter_mut() {
+                let mut scattered = [[C64::new(0.0, 0.0); 3]; 2];
+                let (mut p_in, mut p_out) = (0.0, 0.0);
+                for (f, out) in e.iter().zip(scattered.iter_mut()) {
                     let (ep, es) = (field_dot_real(f, par_in), field_dot_real(f, e_perp));
-                    let (a, b) = (s2 * ep * norm, s1 * es * norm);
-                    *f = if st > 0.0 && q.is_finite() {
-                        combine(a, par_out, b, e_perp)
-                    } else {
-                        [C64::new(0.0, 0.0); 3]
-                    };
+                    *out = combine(s2 * ep, par_out, s1 * es, e_perp);
+                    p_in += field_power(f);
+                    p_out += field_power(out);
+                }
+                let norm = if p_out > 0.0 {
+                    (t.albedo * p_in / p_out).sqrt()
+                } else {
+                    0.0
+                };
+                for (f, out) in e.iter_mut().zip(scattered) {
+                    *f = out.map(|c| c * norm);
                 }
                 d2
             }
@@ -373,42 +482,38 @@ pub fn hg_density(g: f64, mu: f64) -> f64 {
     (1.0 - g * g) / (2.0 * (1.0 + g * g - 2.0 * g * mu).powf(1.5))
 }
 
-/// The cumulative mass of the unpolarised phase function `(|S1|^2 + |S2|^2)/2 sin theta`
-/// over `THETA_INTERVALS` equal intervals of theta (trapezoids), normalised to 1.
-fn phase_cdf(mie: &Mie) -> Vec<f64> {
-    let n = THETA_INTERVALS;
-    let f: Vec<f64> = (0..=n)
-        .map(|j| {
-            let theta = std::f64::consts::PI * j as f64 / n as f64;
-            let (s1, s2) = mie.s1_s2(theta.cos());
-            0.5 * (s1.norm_sqr() + s2.norm_sqr()) * theta.sin()
+/// The envelope of `f(theta) = (|S1|^2 + |S2|^2)/2 sin theta` for rejection sampling:
+/// `max(THETA_INTERVALS, 8 N)` equal intervals of theta (N the series' orders, so an
+/// interval is narrower than an eighth of the lobe's finest oscillation), in each the
+/// largest of nine evenly spaced values times 1.25, plus a floor of 1e-9 of the peak. The
+/// margin covers the variation between the probes of a band-limited function that
+/// smooth; a draw above the bound is counted ([`ScatterModel::violations`]), never hidden.
+/// Returns the per-interval bounds.
+fn envelope(mie: &Mie) -> Vec<f64> {
+    let n = THETA_INTERVALS.max(8 * mie.a.len());
+    let f = |theta: f64| {
+        let (s1, s2) = mie.s1_s2(theta.cos());
+        0.5 * (s1.norm_sqr() + s2.norm_sqr()) * theta.sin()
+    };
+    let h = std::f64::consts::PI / n as f64;
+    let mut bound: Vec<f64> = (0..n)
+        .map(|i| {
+            (0..=8)
+                .map(|k| f((i as f64 + k as f64 / 8.0) * h))
+                .fold(0.0, f64::max)
+                * 1.25
         })
         .collect();
-    let mut cdf = Vec::with_capacity(n + 1);
-    cdf.push(0.0);
-    let mut acc = 0.0;
-    for j in 0..n {
-        acc += 0.5 * (f[j] + f[j + 1]);
-        cdf.push(acc);
+    let peak = bound.iter().copied().fold(0.0, f64::max);
+    for b in bound.iter_mut() {
+        *b = b.max(1e-9 * peak);
     }
-    // Every interval keeps some mass, so every direction can be drawn.
-    let floor = 1e-12 * acc / n as f64;
-    let mut acc2 = 0.0;
-    for j in 0..n {
-        let m = (cdf[j + 1] - cdf[j]).max(floor);
-        acc2 += m;
-        cdf[j + 1] = acc2;
-    }
-    for c in cdf.iter_mut() {
-        *c /= acc2;
-    }
-    cdf
+    bound
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::optics::fresnel::field_power;
 
     fn unpolarised_pair(d: DVec3) -> [Field; 2] {
         let (u, v) = frame(d);
@@ -483,39 +588,113 @@ mod tests {
         }
     }
 
+    fn white_particles(r: f64, lambda: f64) -> ScatterModel {
+        ScatterModel::mie(
+            Radius::Fixed { radius_nm: r },
+            0.05,
+            lambda,
+            lambda,
+            &|_| C64::new(1.5, 0.0),
+            &|_| C64::new(2.6, 0.01),
+        )
+        .unwrap()
+    }
+
     #[test]
-    fn mie_directions_and_weights_follow_the_phase_function() {
+    fn mie_directions_follow_the_phase_function() {
         for (r, lambda) in [(150.0, 550.0), (40.0, 450.0), (1500.0, 600.0)] {
-            let m = ScatterModel::mie(
-                Radius::Fixed { radius_nm: r },
-                0.05,
-                lambda,
-                lambda,
-                &|_| C64::new(1.5, 0.0),
-                &|_| C64::new(2.6, 0.01),
-            )
-            .unwrap();
+            let m = white_particles(r, lambda);
             let ScatterModel::Mie { table, .. } = &m else {
                 unreachable!()
             };
-            let e = &table[0];
-            let size = &e.sizes[0];
-            let k = e.k_host;
+            let mie = &table[0].sizes[0].mie;
+            // k^2 C_sca = pi x^2 Q_sca.
+            let k2c = std::f64::consts::PI * mie.x * mie.x * mie.q_sca();
             let chi2 = chi_square(&m, lambda, &|lo, hi| {
                 let n = 4000;
                 let mass: f64 = (0..n)
                     .map(|i| {
                         let mu = lo + (i as f64 + 0.5) * (hi - lo) / n as f64;
-                        let (s1, s2) = size.mie.s1_s2(mu);
+                        let (s1, s2) = mie.s1_s2(mu);
                         0.5 * (s1.norm_sqr() + s2.norm_sqr())
                     })
                     .sum::<f64>()
                     * (hi - lo)
                     / n as f64;
                 // dOmega = 2 pi dmu; dC/dOmega = |S|^2 / k^2.
-                std::f64::consts::TAU * mass / (k * k * size.c_sca_nm2)
+                std::f64::consts::TAU * mass / k2c
             });
             assert!(chi2 < CHI2_40_P001, "r {r}: chi2 {chi2}");
+            assert_eq!(m.violations(), 0, "r {r}: the envelope was exceeded");
+        }
+    }
+
+    /// Light polarised along u: the azimuth follows (1 + rho cos 2 phi) / (2 pi) given
+    /// theta, so <cos 2 phi> = integral (|S2|^2 - |S1|^2)/4 sin theta dtheta / integral
+    /// (|S1|^2 + |S2|^2)/2 sin theta dtheta; and the fields' power is the albedo exactly.
+    #[test]
+    fn mie_azimuths_follow_the_polarisation_and_power_is_the_albedo() {
+        let (r, lambda) = (150.0, 550.0);
+        let m = white_particles(r, lambda);
+        let ScatterModel::Mie { table, .. } = &m else {
+            unreachable!()
+        };
+        let (mie, albedo) = (&table[0].sizes[0].mie, table[0].albedo);
+        let (mut num, mut den) = (0.0, 0.0);
+        let n = 20_000;
+        for i in 0..n {
+            let theta = (i as f64 + 0.5) * std::f64::consts::PI / n as f64;
+            let (s1, s2) = mie.s1_s2(theta.cos());
+            num += 0.25 * (s2.norm_sqr() - s1.norm_sqr()) * theta.sin();
+            den += 0.5 * (s1.norm_sqr() + s2.norm_sqr()) * theta.sin();
+        }
+        let want = num / den;
+        let d = DVec3::new(0.1, -0.2, -0.97).normalize();
+        let (u, _) = frame(d);
+        let mut rng = Rng::new(3, 9);
+        let draws = 200_000;
+        let (mut s, mut s2) = (0.0, 0.0);
+        for _ in 0..draws {
+            let f = [C64::new(u.x, 0.0), C64::new(u.y, 0.0), C64::new(u.z, 0.0)];
+            let mut e = [f, f];
+            let d2 = m.scatter(lambda, d, &mut e, &mut rng);
+            let p = field_power(&e[0]) + field_power(&e[1]);
+            assert!((p / 2.0 - albedo).abs() < 1e-12 * albedo, "{p}");
+            // phi measured from u around d.
+            let t = (d2 - d * d.dot(d2)).normalize();
+            let (cu, cv) = (t.dot(u), t.dot(d.cross(u)));
+            let c2 = cu * cu - cv * cv;
+            s += c2;
+            s2 += c2 * c2;
+        }
+        let mean = s / draws as f64;
+        let se = ((s2 / draws as f64 - mean * mean) / draws as f64).sqrt();
+        assert!(
+            (mean - want).abs() < 4.0 * se,
+            "<cos 2phi> {mean} +- {se}, want {want}"
+        );
+        assert!(
+            want.abs() > 10.0 * se,
+            "the check needs a polarised lobe: {want}"
+        );
+    }
+
+    #[test]
+    fn the_alias_table_draws_in_proportion() {
+        let w = [0.5, 3.0, 0.0, 1.5, 5.0, 1e-9];
+        let a = Alias::new(&w);
+        let n = 100_000;
+        let mut count = [0usize; 6];
+        for k in 0..n {
+            count[a.draw((k as f64 + 0.5) / n as f64)] += 1;
+        }
+        let total: f64 = w.iter().sum();
+        for (c, wi) in count.iter().zip(&w) {
+            // Evenly spaced u: each share is exact to a few draws.
+            assert!(
+                (*c as f64 - n as f64 * wi / total).abs() <= 3.0,
+                "{count:?}"
+            );
         }
     }
 
