@@ -887,6 +887,13 @@ impl<'a> Run<'a> {
                 c.segments.fetch_add(segments, Ordering::Relaxed);
                 c.traces.fetch_add(1, Ordering::Relaxed);
             };
+            // Random events' own stream (Russian roulette; particle media re-seed it per
+            // wavelength below), so results do not depend on scheduling.
+            let tree_stream = ((cfg.first_direction + di as u64) << 40) | i;
+            w.stack.set_stream(
+                cfg.seed ^ 0x5CA7_7E2E_D000_0000,
+                tree_stream.wrapping_mul(0x1_0000) | 0xFFFF,
+            );
             match self.tracing {
                 Tracing::Shared => count(self.scene.trace(
                     origin,
@@ -938,9 +945,7 @@ impl<'a> Run<'a> {
                         // Volume scattering's own stream for this tree and wavelength.
                         w.stack.set_stream(
                             cfg.seed ^ 0x5CA7_7E2E_D000_0000,
-                            (((cfg.first_direction + di as u64) << 40) | i)
-                                .wrapping_mul(0x1_0000)
-                                .wrapping_add(j as u64),
+                            tree_stream.wrapping_mul(0x1_0000).wrapping_add(j as u64),
                         );
                         count(self.scene.trace(
                             origin,
@@ -981,10 +986,10 @@ impl<'a> Run<'a> {
                 cell.t.1 += t * t;
                 let absorbed = absorbed_power(tree, lambda, r, t, dropped, self.global);
                 cell.absorbed += absorbed;
-                // A tree that met particles carries importance weights (optics::particles):
+                // A tree that met particles or Russian roulette carries importance weights:
                 // its R + T may exceed 1 while the mean over trees conserves energy, which
                 // check_physical judges. Only deterministic ray series count as created.
-                if tree.absorbing && !self.global && tree.scatterings == 0 {
+                if tree.absorbing && !self.global && tree.random_events == 0 {
                     cell.created += (-absorbed).max(0.0);
                 }
                 cell.limited += tree.limited_power;

@@ -92,8 +92,9 @@ pub struct Tree {
     pub limited_power: f64,
     pub leaks: u32,
     pub segments: u32,
-    /// Volume scattering events (each started a coherence group, numbered from 1).
-    pub scatterings: u32,
+    /// Random events: volume scattering and Russian roulette survivals (each started a
+    /// coherence group of its own). A tree with any carries importance weights.
+    pub random_events: u32,
     /// Scratch for coated interfaces (indices and thicknesses of one event's stack).
     n_buf: Vec<C64>,
     d_buf: Vec<f64>,
@@ -109,7 +110,7 @@ impl Tree {
         self.limited_power = 0.0;
         self.leaks = 0;
         self.segments = 0;
-        self.scatterings = 0;
+        self.random_events = 0;
     }
 
     /// Records the power of a field dropped at optical path `opl` (see [`Dropped`]).
@@ -464,6 +465,7 @@ impl<'a> Scene<'a> {
             lane,
             at: at as u32,
             group: 0,
+            killed: false,
         };
         // One lane, or an ambient medium that differs between them: a ray per lane.
         if lanes.len() == 1 || stack.varies[self.ambient] {
@@ -486,8 +488,11 @@ impl<'a> Scene<'a> {
             stack.cur.clear();
             if r.lane == ALL {
                 stack.cur.extend(stack.fields.drain(r.at as usize..));
-            } else {
+            } else if !r.killed {
                 stack.cur.push(Some(r.e));
+            }
+            if r.killed {
+                continue;
             }
             // `lane_of(k)`: the lane of the ray's k-th field.
             let first = if r.lane == ALL { 0 } else { r.lane as usize };
@@ -573,7 +578,11 @@ impl<'a> Scene<'a> {
                 }
                 if let Some((t, n)) = surface {
                     self.advance(&mut r, t, n_med, &stack.cur, first, trees);
+                    let before = stack.rays.len();
                     self.interface_event(r, hit.prim, n, lanes, limits, stack, trees);
+                    if trees[first].segments > ROULETTE_AFTER_SEGMENTS {
+                        roulette(before, lanes, stack, trees);
+                    }
                     break;
                 }
                 if t_plane <= t_side {
@@ -684,8 +693,9 @@ impl<'a> Scene<'a> {
             tree.absorbing = true;
         }
         let d2 = model.scatter(lambda, r.dir, &mut e, &mut stack.rng);
-        tree.scatterings += 1;
-        r.group = tree.scatterings;
+        tree.random_events += 1;
+        stack.groups += 1;
+        r.group = stack.groups;
         r.dir = d2;
         r.n_re = d2 * n_med.re;
         r.n_im = DVec3::ZERO;
@@ -848,6 +858,7 @@ impl<'a> Scene<'a> {
                 lane,
                 at: at as u32,
                 group: r.group,
+                killed: false,
             }
         };
         // Transmitted children first so the reflected one is traced first (stack order
@@ -1008,6 +1019,92 @@ pub fn recombination_weight(k_im: f64, lambda_nm: f64, coherence_nm: f64) -> f64
     (-0.5 * x * x).exp()
 }
 
+/// A tree past this many segments has stopped being a short coherent series (films,
+/// rough surfaces and coatings stay far below: their series end at the power cutoff within
+/// tens of segments) and has become a multiply scattering one (flakes and pigments in a
+/// binder), where every interface event doubling the rays makes it grow exponentially
+/// until `--max-segments` cuts it.
+pub const ROULETTE_AFTER_SEGMENTS: u32 = 2000;
+/// In such a tree, a child carrying less than this fraction of the launched power goes on
+/// with probability `q = P / ROULETTE_BELOW` and its fields scaled by `1 / sqrt(q)`
+/// (Russian roulette: Arvo & Kirk, SIGGRAPH 1990), so the power it carries is right on
+/// average and the tree's rays number about `1 / ROULETTE_BELOW` per generation at most.
+/// A survivor starts a coherence group of its own: its cross terms with the rest of the
+/// tree (at most `2 sqrt(P_a P_b)`, with `P` below 1e-3 here) are left out, as the
+/// estimator leaves out those of particle-scattered light.
+pub const ROULETTE_BELOW: f64 = 1e-3;
+
+/// Russian roulette on the rays `stack.rays[from..]` just pushed (see
+/// [`ROULETTE_AFTER_SEGMENTS`]): decided once per ray (for a ray carrying several lanes, on
+/// its strongest lane, and applied to all of them, which keeps every lane unbiased).
+fn roulette(from: usize, lanes: &[Lane], stack: &mut TraceStack, trees: &mut [Tree]) {
+    let TraceStack {
+        rays,
+        fields,
+        rng,
+        groups,
+        ..
+    } = stack;
+    for r in rays[from..].iter_mut() {
+        let att = |lane: usize| {
+            if r.opl.im != 0.0 {
+                (-4.0 * std::f64::consts::PI / lanes[lane].lambda_nm * r.opl.im).exp()
+            } else {
+                1.0
+            }
+        };
+        let power = |e: &[Field; 2]| 0.5 * (field_power(&e[0]) + field_power(&e[1]));
+        let p = if r.lane == ALL {
+            fields[r.at as usize..]
+                .iter()
+                .take(lanes.len())
+                .enumerate()
+                .filter_map(|(j, f)| f.as_ref().map(|e| power(e) * att(j)))
+                .fold(0.0, f64::max)
+        } else {
+            power(&r.e) * att(r.lane as usize)
+        };
+        if !(p < ROULETTE_BELOW) {
+            continue;
+        }
+        let q = p / ROULETTE_BELOW;
+        if rng.uniform() >= q {
+            r.killed = true;
+            if r.lane == ALL {
+                for f in fields[r.at as usize..].iter_mut().take(lanes.len()) {
+                    *f = None;
+                }
+            }
+            continue;
+        }
+        let scale = 1.0 / q.sqrt();
+        let grow = |e: &mut [Field; 2]| {
+            for f in e.iter_mut() {
+                for c in f.iter_mut() {
+                    *c *= scale;
+                }
+            }
+        };
+        if r.lane == ALL {
+            for (j, f) in fields[r.at as usize..]
+                .iter_mut()
+                .take(lanes.len())
+                .enumerate()
+            {
+                if let Some(e) = f {
+                    grow(e);
+                    trees[j].random_events += 1;
+                }
+            }
+        } else {
+            grow(&mut r.e);
+            trees[r.lane as usize].random_events += 1;
+        }
+        *groups += 1;
+        r.group = *groups;
+    }
+}
+
 /// Drops every field the ray carries (`cur`, lanes from `first`) by a limit or a leak.
 fn drop_all(cur: &[Option<[Field; 2]>], first: usize, opl: C64, trees: &mut [Tree]) {
     for (k, f) in cur.iter().enumerate() {
@@ -1061,8 +1158,11 @@ pub struct TraceStack {
     splits: Vec<LaneSplit>,
     /// Per medium: whether its index differs between the lanes.
     varies: Vec<bool>,
-    /// Free paths and scattering directions in particle media ([`TraceStack::set_stream`]).
+    /// Free paths and scattering directions in particle media, and Russian roulette
+    /// ([`TraceStack::set_stream`]).
     rng: Rng,
+    /// Coherence groups handed out in this tree (random events start one each).
+    groups: u32,
 }
 
 impl TraceStack {
@@ -1078,6 +1178,7 @@ impl TraceStack {
         self.fields.clear();
         self.cur.clear();
         self.varies.clear();
+        self.groups = 0;
     }
 }
 
@@ -1104,6 +1205,8 @@ struct RayState {
     at: u32,
     /// Coherence group ([`Exit::group`]).
     group: u32,
+    /// Ended by Russian roulette: popped and discarded.
+    killed: bool,
 }
 
 /// The two launched fields for a wave travelling along `d` (unit): s (perpendicular to the
