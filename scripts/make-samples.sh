@@ -23,11 +23,18 @@ $G generate gaussian --tile 20,20 --unit um -p rms=0.2 -p correlation_length=2 -
 # Aluminium V-grooves: 90 degree grooves, 10 per 20 um.
 $G generate v-grooves --tile 20,20 --unit um -p angle_deg=90 -p count=10 -o v-grooves-90.obj
 
-# Paint: TiO2 pigment spheres (radius 0.15 um, 5 % by volume) in a 3 um binder layer, 5 um tile.
-$G generate pigment-spheres --tile 5,5 --unit um -p radius=0.15 -p volume_fraction=0.05 -p layer=[0.1,2.9] \
-  -p subdivisions=1 -p seed=11 -o paint-tio2-spheres.obj
+# Paint: no mesh. Its TiO2 pigment is far below the size where geometric optics holds and is
+# a particle medium (Mie) in the binder (paint-pigments.toml).
 
 # Pearlescent paint: TiO2-coated mica flakes (8 um, 0.4 um thick, 0.12 um coating, 8 degree tilt
 # spread, 3 % by volume) in a 10 um binder layer, 40 um tile.
 $G generate flakes --tile 40,40 --unit um -p size=8 -p thickness=0.4 -p coating=0.12 -p tilt_sd_deg=8 \
   -p volume_fraction=0.03 -p layer=[0.2,9.8] -p seed=13 -o pearl-flakes.obj
+# The flakes are placed with room for the 0.12 um shell, but the sample applies the TiO2 layer
+# as an exact coating on the mica faces: the shell mesh is not used.
+rm -f pearl-flakes-coating.obj
+
+# Metallic paint: aluminium flakes (10 um, 0.3 um thick, 6 degree tilt spread, 4 % by volume)
+# in a 15 um binder layer, 40 um tile.
+$G generate flakes --tile 40,40 --unit um -p size=10 -p thickness=0.3 -p tilt_sd_deg=6 \
+  -p volume_fraction=0.04 -p layer=[0.5,14.5] -p seed=17 -o al-flakes.obj

@@ -15,7 +15,7 @@ class Sample:
     @property
     def name(self) -> str: ...
     def check(self) -> dict[str, list[str]]:
-        """`goniospec check`: {"facts": [...], "defects": [...]}."""
+        """`goniospec check`: {"facts": [...], "warnings": [...], "defects": [...]}."""
 
 class Brdf:
     def eval(self, theta_i_deg: _Angles, phi_i_deg: _Angles, theta_o_deg: _Angles, phi_o_deg: _Angles) -> npt.NDArray[np.float64]:

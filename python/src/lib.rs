@@ -38,7 +38,7 @@ impl Sample {
         self.inner.name.clone()
     }
 
-    /// `goniospec check`: a dict with `facts` and `defects` (lists of str).
+    /// `goniospec check`: a dict with `facts`, `warnings` and `defects` (lists of str).
     fn check<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let r = py
             .allow_threads(|| {
@@ -50,6 +50,7 @@ impl Sample {
             .map_err(value_err)?;
         let d = PyDict::new(py);
         d.set_item("facts", r.facts)?;
+        d.set_item("warnings", r.warnings)?;
         d.set_item("defects", r.defects)?;
         Ok(d)
     }

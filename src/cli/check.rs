@@ -46,6 +46,9 @@ pub(super) fn check(a: CheckArgs) -> Result<ExitCode> {
     for f in &report.facts {
         outln!("{f}");
     }
+    for w in &report.warnings {
+        outln!("WARNING: {w}");
+    }
     if report.defects.is_empty() {
         outln!("no defects found");
         Ok(ExitCode::SUCCESS)

@@ -53,7 +53,43 @@ pub struct LeakStats {
 pub struct CheckReport {
     pub facts: Vec<String>,
     pub defects: Vec<String>,
+    /// Where the sample asks more of ray optics than it gives (not defects of the mesh).
+    pub warnings: Vec<String>,
     pub leak: LeakStats,
+}
+
+/// Below this size parameter `x = 2 pi r n / lambda` of a body's equivalent-volume sphere
+/// (at 550 nm in the medium around it), ray optics does not describe its scattering: Mie
+/// resonances and diffraction dominate (van de Hulst, Light Scattering by Small Particles,
+/// 1957, §§ 10-12: the geometric limit needs x well above 10).
+pub const RAY_OPTICS_MIN_SIZE_PARAMETER: f64 = 10.0;
+
+/// The connected pieces of a mesh (triangles joined by shared vertices): each piece's
+/// enclosed volume, nm^3.
+fn piece_volumes(mesh: &super::Mesh) -> Vec<f64> {
+    let n = mesh.positions_nm.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn find(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    for t in &mesh.triangles {
+        let a = find(&mut parent, t[0] as usize);
+        for &v in &t[1..] {
+            let b = find(&mut parent, v as usize);
+            parent[b] = a;
+        }
+    }
+    let mut volume = std::collections::BTreeMap::<usize, f64>::new();
+    for t in &mesh.triangles {
+        let root = find(&mut parent, t[0] as usize);
+        let [a, b, c] = t.map(|i| mesh.positions_nm[i as usize]);
+        *volume.entry(root).or_default() += a.dot(b.cross(c)) / 6.0;
+    }
+    volume.into_values().collect()
 }
 
 /// Checks `sample`. Errors only when an accelerator cannot be built.
@@ -80,6 +116,9 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
             .push(format!("medium {:<14} {}", m.name, m.model.describe()));
     }
     let tol = 1e-6 * lx.max(ly);
+    // Per (outside, inside) media: bodies counted, radii of the small ones, outside index.
+    let mut small_bodies =
+        std::collections::BTreeMap::<(usize, usize), (usize, Vec<f64>, f64)>::new();
     for (i, itf) in sample.interfaces.iter().enumerate() {
         let (lo, hi) = itf.mesh.bounds().expect("loaded meshes are non-empty");
         let name = format!("interface {i} ({})", itf.mesh_path.display());
@@ -108,6 +147,24 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
                     "{name}: normals point inwards (enclosed volume {v:.3e} nm³ < 0); flip the triangles or swap inside/outside"
                 ));
             }
+            // Bodies small against the wavelength: ray optics does not hold for them.
+            let n_out = sample.media[itf.front]
+                .model
+                .eval(550.0)
+                .map_or(1.0, |(n, _)| n);
+            let sizes: Vec<f64> = piece_volumes(&itf.mesh)
+                .into_iter()
+                .filter(|v| *v > 0.0)
+                .map(|v| (3.0 * v / (4.0 * std::f64::consts::PI)).cbrt())
+                .collect();
+            let entry =
+                small_bodies
+                    .entry((itf.front, itf.back))
+                    .or_insert((0usize, Vec::new(), n_out));
+            entry.0 += sizes.len();
+            entry.1.extend(sizes.iter().copied().filter(|r| {
+                2.0 * std::f64::consts::PI * r * n_out / 550.0 < RAY_OPTICS_MIN_SIZE_PARAMETER
+            }));
             let w = watertightness(&itf.mesh);
             if w.open_edges + w.nonmanifold_edges + w.misoriented_edges > 0 {
                 r.defects.push(format!(
@@ -180,6 +237,22 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
                 }
             }
         }
+    }
+    for ((outside, inside), (count, mut small, n_out)) in small_bodies {
+        if small.is_empty() {
+            continue;
+        }
+        small.sort_by(f64::total_cmp);
+        let median = small[small.len() / 2];
+        r.warnings.push(format!(
+            "{} of {count} bodies of '{}' in '{}' are small against the wavelength (equivalent-sphere radius {median:.0} nm in the median, size parameter {:.1} at 550 nm; ray optics needs well above {RAY_OPTICS_MIN_SIZE_PARAMETER}): traced as geometric bodies they scatter wrongly. Describe them as a particle medium instead: particles = {{ medium = \"{}\", radius_nm = {median:.0}, volume_fraction = ... }} on '{}' (docs/physics.md, \"Particle media\")",
+            small.len(),
+            sample.media[inside].name,
+            sample.media[outside].name,
+            2.0 * std::f64::consts::PI * median * n_out / 550.0,
+            sample.media[inside].name,
+            sample.media[outside].name,
+        ));
     }
     let mut pairs: Vec<_> = crossings.into_iter().collect();
     pairs.sort();

@@ -1,0 +1,275 @@
+//! Particle media (issue 27): a medium holding Mie particles or a Henyey-Greenstein phase
+//! function, traced by volume scattering. The references written here: energy
+//! conservation in lossless media (R + T = 1), a thickness series that rises monotonically
+//! to its thick-layer limit, a substrate that shows through a thin layer and not a thick
+//! one, bytes independent of the thread count, and `check` pointing sub-wavelength bodies to
+//! particle media. Mie itself is checked against miepython and the transport against
+//! adding-doubling in `make interop` (tests/interop/).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::*;
+
+/// A sample of one particle layer `thickness_um` thick between air and `substrate`.
+fn paint(dir: &Path, name: &str, particles: &str, thickness_um: f64, substrate: &str) -> PathBuf {
+    let p = dir.join(format!("{name}.toml"));
+    let root = root().display().to_string();
+    std::fs::write(
+        &p,
+        format!(
+            "[sample]\nname = \"{name}\"\nunit = \"um\"\ntile = [5.0, 5.0]\n\
+             [media.air]\nn = 1.0\n[media.tio2]\ntable = \"{root}/data/tio2-sarkar.csv\"\n\
+             [media.white]\nn = 2.6\n\
+             [media.paint]\nn = 1.49\n{particles}\n\
+             [media.black]\nn = 1.49\nk = 1.0\n[media.silver]\ntable = \"{root}/data/ag-johnson.csv\"\n\
+             [media.glass]\nn = 1.49\n\
+             [stack]\nambient = \"air\"\nlayers = [{{ medium = \"paint\", thickness = {thickness_um} }}]\nsubstrate = \"{substrate}\"\n"
+        ),
+    )
+    .unwrap();
+    p
+}
+
+/// `(R, T, absorbed, dropped, R_stderr)` at 550 nm, normal incidence.
+fn run(sample: &Path, rays: u32, extra: &[&str]) -> (f64, f64, f64, f64, f64) {
+    let gsa = sample.with_extension("gsa");
+    let rays = rays.to_string();
+    let mut args = vec![
+        "simulate",
+        sample.to_str().unwrap(),
+        "--theta-i",
+        "0",
+        "--wavelengths",
+        "550",
+        "--monochromatic",
+        "--rays",
+        &rays,
+        "-o",
+        gsa.to_str().unwrap(),
+        "--force",
+    ];
+    args.extend_from_slice(extra);
+    let (code, _, err) = goniospec(&args);
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) = goniospec(&["reflectance", gsa.to_str().unwrap(), "--theta-i", "0"]);
+    assert_eq!(code, 0, "{err}");
+    let v: Vec<f64> = out
+        .lines()
+        .nth(1)
+        .unwrap()
+        .split(',')
+        .map(|x| x.parse().unwrap())
+        .collect();
+    (v[1], v[2], v[3], v[4], v[5])
+}
+
+const WHITE: &str = "particles = { medium = \"tio2\", radius_nm = 120.0, volume_fraction = 0.1 }";
+
+#[test]
+fn a_lossless_particle_medium_conserves_energy_tree_by_tree() {
+    // Lossless spheres (n = 2.6) in a lossless binder over clear glass: every event keeps
+    // the power (albedo 1), so R + T + dropped is 1 to rounding, not just on average.
+    let dir = scratch("pm-lossless");
+    let s = paint(
+        &dir,
+        "lossless",
+        "particles = { medium = \"white\", log_normal = { median_radius_nm = 120.0, sigma = 0.3 }, volume_fraction = 0.05 }",
+        3.0,
+        "glass",
+    );
+    let (r, t, a, d, se) = run(&s, 400, &[]);
+    assert!(
+        (r + t + d - 1.0).abs() < 1e-9,
+        "R {r} + T {t} + dropped {d}"
+    );
+    assert_eq!(a, 0.0);
+    assert!(
+        r > 10.0 * se && t > 0.1,
+        "a scattering layer: R {r} +- {se}, T {t}"
+    );
+}
+
+/// The white paint over black and over a silver mirror brackets its infinitely thick
+/// reflectance (a black substrate returns less than the layer below it would, a mirror
+/// more): as the layer thickens, over black R rises monotonically, and the two converge.
+/// Under a thin layer the substrate shows through.
+#[test]
+fn a_thickness_series_rises_to_the_thick_layer_limit_and_a_substrate_shows_through() {
+    let dir = scratch("pm-series");
+    let mut last = (0.0, 0.0);
+    let mut gaps = Vec::new();
+    for t in [1.0, 10.0, 30.0, 80.0] {
+        let s = paint(&dir, &format!("black-{t}"), WHITE, t, "black");
+        let (r, _, a, _, se) = run(&s, 600, &[]);
+        // Monotone within the standard errors (4 sigma of the difference).
+        assert!(
+            r > last.0 - 4.0 * (se * se + last.1 * last.1).sqrt(),
+            "R fell from {} to {r} at {t} um",
+            last.0
+        );
+        assert!(a > 0.0 && a < 1.0);
+        last = (r, se);
+        let m = paint(&dir, &format!("silver-{t}"), WHITE, t, "silver");
+        let (rm, _, _, _, sem) = run(&m, 600, &[]);
+        let sigma = (se * se + sem * sem).sqrt();
+        assert!(
+            rm > r - 4.0 * sigma,
+            "{t} um: over silver {rm}, over black {r}"
+        );
+        gaps.push((t, rm - r, sigma));
+    }
+    // Shows through at 1 um: the gap is far beyond the noise.
+    assert!(gaps[0].1 > 10.0 * gaps[0].2, "{gaps:?}");
+    // Converging: each gap smaller than the last (within 4 sigma), and at 80 um under a
+    // quarter of the 1 um gap.
+    for w in gaps.windows(2) {
+        assert!(w[1].1 < w[0].1 + 4.0 * w[1].2, "{gaps:?}");
+    }
+    assert!(gaps[3].1 < 0.25 * gaps[0].1, "{gaps:?}");
+}
+
+#[test]
+fn particle_runs_are_the_same_bytes_whatever_the_threads() {
+    let dir = scratch("pm-threads");
+    let s = paint(&dir, "w", WHITE, 2.0, "black");
+    let out = |threads: &str| {
+        let gsa = dir.join(format!("t{threads}.gsa"));
+        let (code, _, err) = goniospec(&[
+            "simulate",
+            s.to_str().unwrap(),
+            "--theta-i",
+            "0,40",
+            "--wavelengths",
+            "450:650:100",
+            "--rays",
+            "200",
+            "--threads",
+            threads,
+            "-o",
+            gsa.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        std::fs::read(gsa).unwrap()
+    };
+    assert!(out("1") == out("2"));
+}
+
+#[test]
+fn bad_particle_media_are_refused_with_reasons() {
+    let dir = scratch("pm-bad");
+    let cases = [
+        (
+            "particles = { medium = \"nothing\", radius_nm = 100.0, volume_fraction = 0.1 }",
+            "unknown medium",
+        ),
+        (
+            "particles = { medium = \"tio2\", volume_fraction = 0.1 }",
+            "radius_nm or log_normal",
+        ),
+        (
+            "particles = { medium = \"tio2\", radius_nm = 100.0, volume_fraction = 0.9 }",
+            "volume_fraction",
+        ),
+        (
+            "particles = { medium = \"tio2\", radius_nm = -5.0, volume_fraction = 0.1 }",
+            "radius_nm",
+        ),
+        (
+            "particles = { medium = \"paint\", radius_nm = 100.0, volume_fraction = 0.1 }",
+            "medium they are in",
+        ),
+        (
+            "particles = { medium = \"tio2\", log_normal = { median_radius_nm = 100.0, sigma = 3.0 }, volume_fraction = 0.1 }",
+            "sigma",
+        ),
+        (
+            "henyey_greenstein = { g = 1.0, scattering_per_um = 1.0 }",
+            "g must",
+        ),
+        (
+            "henyey_greenstein = { g = 0.5, scattering_per_um = 1.0 }\nparticles = { medium = \"tio2\", radius_nm = 100.0, volume_fraction = 0.1 }",
+            "give one",
+        ),
+    ];
+    for (k, (spec, want)) in cases.iter().enumerate() {
+        let s = paint(&dir, &format!("bad{k}"), spec, 2.0, "black");
+        let (code, _, err) = goniospec(&["check", s.to_str().unwrap()]);
+        assert_ne!(code, 0, "{spec}");
+        assert!(err.contains(want), "{spec}: {err}");
+    }
+    // Simulation-time refusals: a global-coherence run, and an absorbing host.
+    let s = paint(&dir, "ok", WHITE, 2.0, "black");
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        s.to_str().unwrap(),
+        "--theta-i",
+        "0",
+        "--rays",
+        "8",
+        "--coherence",
+        "global",
+        "-o",
+        dir.join("x.gsa").to_str().unwrap(),
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("random phases"), "{err}");
+    let text = std::fs::read_to_string(&s).unwrap().replace(
+        "[media.paint]\nn = 1.49",
+        "[media.paint]\nn = 1.49\nk = 0.01",
+    );
+    std::fs::write(&s, text).unwrap();
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        s.to_str().unwrap(),
+        "--theta-i",
+        "0",
+        "--rays",
+        "8",
+        "-o",
+        dir.join("y.gsa").to_str().unwrap(),
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("lossless"), "{err}");
+    assert!(!dir.join("x.gsa").exists() && !dir.join("y.gsa").exists());
+    // A scattering layer cannot be an exact coating.
+    let s = paint(&dir, "coat", WHITE, 2.0, "black");
+    let text = std::fs::read_to_string(&s)
+        .unwrap()
+        .replace("[stack]\n", "[stack]\nmode = \"coating\"\n");
+    std::fs::write(&s, text).unwrap();
+    let (code, _, err) = goniospec(&["check", s.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(err.contains("cannot be an exact coating"), "{err}");
+}
+
+#[test]
+fn check_points_sub_wavelength_bodies_to_particle_media() {
+    let dir = scratch("pm-check");
+    let spheres = dir.join("spheres.toml");
+    std::fs::write(
+        &spheres,
+        "[sample]\nname = \"meshed pigment\"\nunit = \"um\"\ntile = [3.0, 3.0]\n[media.air]\nn = 1.0\n\
+         [media.binder]\nn = 1.49\n[media.tio2]\nn = 2.6\n\
+         [media.glass]\nn = 1.5\n\
+         [stack]\nambient = \"air\"\nlayers = [{ medium = \"binder\", thickness = 2.0 }]\nsubstrate = \"glass\"\n\
+         [[body]]\ngenerator = { kind = \"pigment-spheres\", radius = 0.15, volume_fraction = 0.03, layer = [0.2, 1.8], subdivisions = 1 }\ninside = \"tio2\"\noutside = \"binder\"\n",
+    )
+    .unwrap();
+    // (The exit status also reflects the mesh's own checks, not asserted here.)
+    let (_, out, _) = goniospec(&["check", spheres.to_str().unwrap()]);
+    let warnings: Vec<&str> = out.lines().filter(|l| l.starts_with("WARNING")).collect();
+    assert_eq!(warnings.len(), 1, "one warning for all the spheres: {out}");
+    assert!(
+        warnings[0].contains("particle medium") && warnings[0].contains("size parameter 2.6"),
+        "{out}"
+    );
+    // Flakes are large against the wavelength: no warning.
+    let (code, out, err) = goniospec(&[
+        "check",
+        root().join("meshes/metallic-paint.toml").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!out.contains("WARNING"), "{out}");
+}
