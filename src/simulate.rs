@@ -302,6 +302,10 @@ pub struct SimStats {
     /// more than about 0.02 degrees at a 5 um beamlet, ridge tips). There R and T come from
     /// a model that conserves energy, not from exact amplitudes.
     pub limited: Vec<f64>,
+    /// Particle media: scattering angles drawn where the phase function exceeded its
+    /// tabulated envelope (`optics::particles`; each such draw is slightly biased). 0 in a
+    /// correct table.
+    pub envelope_violations: u64,
 }
 
 impl SimStats {
@@ -1037,6 +1041,7 @@ impl<'a> Run<'a> {
             limit_bound: lost.limit_bound,
             created: lost.created,
             limited: lost.limited,
+            envelope_violations: self.scene.scatter_violations(),
         };
         let header = Header {
             settings: self.settings,

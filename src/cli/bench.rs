@@ -29,6 +29,60 @@ pub(super) enum BenchCommand {
     ///
     /// Example: goniospec bench large --samples gold_1m --rays 20000
     Large(LargeBenchArgs),
+    /// The shipped paints (white: a TiO2 particle medium; pearlescent: coated mica flakes;
+    /// metallic: aluminium flakes) at default settings: wall time, trees/s and segments
+    /// per tree for --rays trees x 40 wavelength bins (380-780 nm) at one incident angle,
+    /// and R at 550 nm with its standard error. Goal (issue 27): at most 10 s each.
+    ///
+    /// Example: goniospec bench paints --rays 4096
+    Paints(PaintBenchArgs),
+}
+
+#[derive(Args)]
+pub(super) struct PaintBenchArgs {
+    /// Trees per run.
+    #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u64).range(1..))]
+    rays: u64,
+    /// Incident polar angle, degrees.
+    #[arg(long, value_parser = finite, default_value_t = 30.0)]
+    theta_i: f64,
+    /// Worker threads (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+}
+
+/// `bench paints`: each shipped paint simulated at default settings.
+pub(super) fn bench_paints(a: PaintBenchArgs) -> Result<ExitCode> {
+    let pool = thread_pool(a.threads)?;
+    outln!("threads: {} count", pool.current_num_threads());
+    for name in ["paint-pigments", "pearlescent-paint", "metallic-paint"] {
+        let path = goniospec::bench::shipped(std::path::Path::new(&format!("meshes/{name}.toml")));
+        let s = sample::load(&path, MeshOptions::default())?;
+        let edges: Vec<f64> = (0..=40).map(|i| 380.0 + 10.0 * f64::from(i)).collect();
+        let cfg = SimConfig::new(vec![a.theta_i], Wavelengths::Bins(edges), a.rays);
+        let t0 = std::time::Instant::now();
+        let (acc, stats) = pool
+            .install(|| goniospec::simulate::simulate(&s, &cfg, &|_| {}))
+            .with_context(|| format!("simulating {name}"))?;
+        let secs = t0.elapsed().as_secs_f64();
+        let key = name.replace('-', "_");
+        outln!("{key}_seconds: {secs:.2} s");
+        outln!("{key}_trees_per_s: {:.0} trees/s", a.rays as f64 / secs);
+        outln!(
+            "{key}_segments_per_tree: {:.0} segments",
+            stats.segments as f64 / (stats.traces.max(1)) as f64
+        );
+        let refl = acc
+            .reflectance(a.theta_i, None)
+            .map_err(anyhow::Error::msg)?;
+        if let Some(row) = refl.rows.iter().find(|r| (r.lambda_nm - 555.0).abs() < 5.1) {
+            outln!("{key}_R_{:.0}nm: {:.4} 1", row.lambda_nm, row.r);
+            if let Some(se) = row.r_stderr {
+                outln!("{key}_R_stderr_{:.0}nm: {se:.4} 1", row.lambda_nm);
+            }
+        }
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 #[derive(Args)]

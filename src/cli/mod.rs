@@ -301,6 +301,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Bench(BenchCommand::Simulate(a)) => bench_simulate(a),
         Command::Bench(BenchCommand::Eval(a)) => bench_eval(a),
         Command::Bench(BenchCommand::Large(a)) => bench_large(a),
+        Command::Bench(BenchCommand::Paints(a)) => bench_paints(a),
     }
 }
 

@@ -208,6 +208,12 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
             }
         );
     }
+    if stats.envelope_violations > 0 {
+        eprintln!(
+            "warning: {} particle scattering angles were drawn where the Mie phase function exceeded its tabulated envelope; those draws are slightly biased (please report the sample)",
+            stats.envelope_violations
+        );
+    }
     if stats.leaks > 0 {
         eprintln!(
             "warning: {} rays met an interface from the wrong medium (leaky geometry); their power is counted as dropped. Run goniospec check.",

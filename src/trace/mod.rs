@@ -330,6 +330,12 @@ impl<'a> Scene<'a> {
         Ok(())
     }
 
+    /// Scattering angles drawn above their envelope so far, over every particle medium
+    /// ([`ScatterModel::violations`]).
+    pub fn scatter_violations(&self) -> u64 {
+        self.scatter.iter().flatten().map(|m| m.violations()).sum()
+    }
+
     /// Whether some medium of the sample scatters light in its volume.
     pub fn scatters(&self) -> bool {
         self.scatters
@@ -1020,11 +1026,12 @@ pub fn recombination_weight(k_im: f64, lambda_nm: f64, coherence_nm: f64) -> f64
 }
 
 /// A tree past this many segments has stopped being a short coherent series (films,
-/// rough surfaces and coatings stay far below: their series end at the power cutoff within
-/// tens of segments) and has become a multiply scattering one (flakes and pigments in a
-/// binder), where every interface event doubling the rays makes it grow exponentially
-/// until `--max-segments` cuts it.
-pub const ROULETTE_AFTER_SEGMENTS: u32 = 2000;
+/// rough surfaces and coatings stay below: their series end at the power cutoff within
+/// tens of segments, and every shipped sample of that kind gives the same bytes with and
+/// without roulette) and has become a multiply scattering one (flakes in a binder, light
+/// walking through a particle medium), where every interface event doubling the rays makes
+/// it grow exponentially until `--max-segments` cuts it.
+pub const ROULETTE_AFTER_SEGMENTS: u32 = 256;
 /// In such a tree, a child carrying less than this fraction of the launched power goes on
 /// with probability `q = P / ROULETTE_BELOW` and its fields scaled by `1 / sqrt(q)`
 /// (Russian roulette: Arvo & Kirk, SIGGRAPH 1990), so the power it carries is right on
@@ -1064,7 +1071,7 @@ fn roulette(from: usize, lanes: &[Lane], stack: &mut TraceStack, trees: &mut [Tr
         } else {
             power(&r.e) * att(r.lane as usize)
         };
-        if !(p < ROULETTE_BELOW) {
+        if p >= ROULETTE_BELOW || p.is_nan() {
             continue;
         }
         let q = p / ROULETTE_BELOW;
