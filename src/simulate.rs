@@ -1095,7 +1095,10 @@ fn indices_into(sample: &Sample, lambda_nm: f64, out: &mut Vec<C64>) {
 /// entered an absorbing medium. Global mode has no per-tree coherent totals; there the
 /// incoherent exit power stands in for `R + T`.
 fn absorbed_power(tree: &Tree, lambda: f64, r: f64, t: f64, dropped: f64, global: bool) -> f64 {
-    if !tree.absorbing {
+    // A tree with random events (roulette, particle scattering) balances only on average:
+    // its residual is kept even without absorption, so the column sums to 1 and averages
+    // to the true absorption (0 for a lossless sample).
+    if !tree.absorbing && tree.random_events == 0 {
         return 0.0;
     }
     let out = if global {

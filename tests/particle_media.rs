@@ -273,3 +273,46 @@ fn check_points_sub_wavelength_bodies_to_particle_media() {
     assert_eq!(code, 0, "{err}");
     assert!(!out.contains("WARNING"), "{out}");
 }
+
+/// Every shipped paint runs at default settings and balances: R + T + absorbed + dropped =
+/// 1 per wavelength (to the CSV's 8 decimals), each a fraction in [0, 1].
+#[test]
+fn every_shipped_paint_runs_at_default_settings_and_balances() {
+    let dir = scratch("pm-shipped");
+    for name in ["paint-pigments", "pearlescent-paint", "metallic-paint"] {
+        let sample = root().join("meshes").join(format!("{name}.toml"));
+        let gsa = dir.join(format!("{name}.gsa"));
+        let (code, _, err) = goniospec(&[
+            "simulate",
+            sample.to_str().unwrap(),
+            "--theta-i",
+            "30",
+            "--wavelengths",
+            "450:650:100",
+            "--rays",
+            "64",
+            "-o",
+            gsa.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{name}: {err}");
+        let (code, out, err) =
+            goniospec(&["reflectance", gsa.to_str().unwrap(), "--theta-i", "30"]);
+        assert_eq!(code, 0, "{err}");
+        for line in out.lines().skip(1) {
+            let v: Vec<f64> = line
+                .split(',')
+                .take(5)
+                .map(|x| x.parse().unwrap())
+                .collect();
+            // R, T, absorbed printed to 8 decimals, dropped to 4 significant digits.
+            let sum = v[1] + v[2] + v[3] + v[4];
+            assert!((sum - 1.0).abs() < 2e-8 + 5e-4 * v[4], "{name}: {line}");
+            // And nothing cut by the limits: the default settings suffice.
+            assert!(v[4] < 1e-6, "{name}: dropped {line}");
+            assert!(
+                v[1..4].iter().all(|x| (0.0..=1.0).contains(x)),
+                "{name}: {line}"
+            );
+        }
+    }
+}

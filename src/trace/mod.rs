@@ -586,7 +586,9 @@ impl<'a> Scene<'a> {
                     self.advance(&mut r, t, n_med, &stack.cur, first, trees);
                     let before = stack.rays.len();
                     self.interface_event(r, hit.prim, n, lanes, limits, stack, trees);
-                    if trees[first].segments > ROULETTE_AFTER_SEGMENTS {
+                    // Any lane's tree past the threshold (a shared ray's first lane may
+                    // have dropped out while the others grow on).
+                    if trees.iter().any(|t| t.segments > ROULETTE_AFTER_SEGMENTS) {
                         roulette(before, lanes, stack, trees);
                     }
                     break;
@@ -1037,9 +1039,9 @@ pub const ROULETTE_AFTER_SEGMENTS: u32 = 256;
 /// (Russian roulette: Arvo & Kirk, SIGGRAPH 1990), so the power it carries is right on
 /// average and the tree's rays number about `1 / ROULETTE_BELOW` per generation at most.
 /// A survivor starts a coherence group of its own: its cross terms with the rest of the
-/// tree (at most `2 sqrt(P_a P_b)`, with `P` below 1e-3 here) are left out, as the
+/// tree (at most `2 sqrt(P_a P_b)`, with `P` below 1e-2 here) are left out, as the
 /// estimator leaves out those of particle-scattered light.
-pub const ROULETTE_BELOW: f64 = 1e-3;
+pub const ROULETTE_BELOW: f64 = 1e-2;
 
 /// Russian roulette on the rays `stack.rays[from..]` just pushed (see
 /// [`ROULETTE_AFTER_SEGMENTS`]): decided once per ray (for a ray carrying several lanes, on
