@@ -25,7 +25,7 @@ render oil-slick 64
 render rough-gold 1024
 render rough-glass 1024
 render v-grooves-aluminium 512
-render paint-pigments 1024
+render paint-pigments 4096
 render pearlescent-paint 1024
 render metallic-paint 1024
 ls -la "$OUT"
