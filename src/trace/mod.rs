@@ -213,6 +213,11 @@ pub struct Scene<'a> {
     scatter: Vec<Option<ScatterModel>>,
     /// Whether some medium scatters.
     scatters: bool,
+    /// Whether long trees play Russian roulette: samples with bodies (flakes, pigments) or
+    /// scattering media only. A meshed multilayer's long series is one coherent sum whose
+    /// deep terms matter (its cross terms are not small): it keeps every branch and is
+    /// refused when the limits cut it.
+    roulette: bool,
 }
 
 /// Why a scene cannot be traced.
@@ -268,6 +273,8 @@ impl<'a> Scene<'a> {
             coherence_nm: lx.max(ly),
             scatter: Vec::new(),
             scatters: sample.media.iter().any(|m| m.scattering.is_some()),
+            roulette: sample.media.iter().any(|m| m.scattering.is_some())
+                || sample.interfaces.iter().any(|i| i.closed),
         };
         scene.ambient = scene.outer_medium(true)?;
         scene.substrate = scene.outer_medium(false)?;
@@ -588,7 +595,7 @@ impl<'a> Scene<'a> {
                     self.interface_event(r, hit.prim, n, lanes, limits, stack, trees);
                     // Any lane's tree past the threshold (a shared ray's first lane may
                     // have dropped out while the others grow on).
-                    if trees.iter().any(|t| t.segments > ROULETTE_AFTER_SEGMENTS) {
+                    if self.roulette && trees.iter().any(|t| t.segments > ROULETTE_AFTER_SEGMENTS) {
                         roulette(before, lanes, stack, trees);
                     }
                     break;
@@ -1027,7 +1034,8 @@ pub fn recombination_weight(k_im: f64, lambda_nm: f64, coherence_nm: f64) -> f64
     (-0.5 * x * x).exp()
 }
 
-/// A tree past this many segments has stopped being a short coherent series (films,
+/// In a sample with bodies or scattering media (`Scene::roulette`), a tree past this many
+/// segments has stopped being a short coherent series (films,
 /// rough surfaces and coatings stay below: their series end at the power cutoff within
 /// tens of segments, and every shipped sample of that kind gives the same bytes with and
 /// without roulette) and has become a multiply scattering one (flakes in a binder, light
