@@ -25,6 +25,8 @@ with warnings.catch_warnings():
     # colour-science names the optional packages it runs without (SciPy, Matplotlib).
     warnings.simplefilter("ignore")
     import colour
+# It also says when it trims a 400-700 nm spectrum to its tables' shape: expected here.
+warnings.filterwarnings("ignore", category=colour.utilities.ColourRuntimeWarning)
 import html5lib
 import numpy as np
 from selenium import webdriver
