@@ -29,10 +29,11 @@ test: deps
 	$(CARGO) test --all-targets
 	./scripts/slurm-test.sh $(or $(CARGO_TARGET_DIR),target)/debug/goniospec
 
-## Formatting and lints, as CI applies them.
+## Formatting and lints, as CI applies them: the Embree build and the build without it.
 lint: deps
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --all-targets -- -D warnings
+	GONIOSPEC_NO_EMBREE=1 CARGO_TARGET_DIR=$(or $(CARGO_TARGET_DIR),target)/no-embree $(CARGO) clippy --all-targets -- -D warnings
 
 ## Install system packages when missing.
 deps:

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use crate::accel::workload::{Agreement, CHUNK, agreement, coherent_order, random_rays, trace_all};
+use crate::accel::workload::{Agreement, agreement, coherent_order, random_rays, trace_all};
 use crate::accel::{Accel, AccelError, Backend, Hit, Ray, TriangleSoup};
 use crate::rng::Rng;
 use crate::sample::Mesh;
@@ -103,6 +103,7 @@ pub fn trace_bench(
             let mut packet_hits = vec![Hit::MISS; rays.len()];
             for &(name, set) in &[("random", &rays), ("sorted", &sorted)] {
                 let t0 = Instant::now();
+                use crate::accel::workload::CHUNK;
                 for (r, h) in set.chunks(CHUNK).zip(packet_hits.chunks_mut(CHUNK)) {
                     scene.closest_hits_packet8(r, h);
                 }

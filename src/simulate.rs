@@ -143,7 +143,7 @@ pub struct SimConfig {
     /// slower; for tests.
     pub reference_estimator: bool,
     /// Where the sample's frame sits in the world, nm: exit points and launch points are
-    /// reported in world coordinates. The estimator must not depend on it (DESIGN.md §3).
+    /// reported in world coordinates. The estimator must not depend on it (docs/design.md §3).
     pub origin_nm: DVec3,
     /// Adaptive budget: launch batches of `rays` trees per incident direction until the
     /// relative standard error of the reflectance (total, and every populated bucket) is
@@ -1091,7 +1091,7 @@ fn indices_into(sample: &Sample, lambda_nm: f64, out: &mut Vec<C64>) {
 
 /// Absorbed power of one tree at one wavelength: what entered absorbing media and did not
 /// leave, `1 - R - T - dropped` with the tree's coherent totals (exact in the plane-wave
-/// limit, where the coherent sum is the exact field; DESIGN.md §3), or 0 when no power
+/// limit, where the coherent sum is the exact field; docs/design.md §3), or 0 when no power
 /// entered an absorbing medium. Global mode has no per-tree coherent totals; there the
 /// incoherent exit power stands in for `R + T`.
 fn absorbed_power(tree: &Tree, lambda: f64, r: f64, t: f64, dropped: f64, global: bool) -> f64 {
@@ -1113,7 +1113,7 @@ fn absorbed_power(tree: &Tree, lambda: f64, r: f64, t: f64, dropped: f64, global
 const NOISE_SIGMAS: f64 = 5.0;
 /// Rounding allowance on totals that are sums of many terms of order 1.
 const ROUNDING: f64 = 1e-9;
-/// Energy allowance of the finite-radius beamlet estimator (DESIGN.md §4): its Gaussian
+/// Energy allowance of the finite-radius beamlet estimator (docs/design.md §4): its Gaussian
 /// overlap weights interference partially, by design, so its reflected and transmitted
 /// cross terms need not cancel exactly. Measured on the shipped samples (2,000 trees, 0-60
 /// deg, 400-700 nm): at most 1.9e-3 (the seed's wavy film), 4.5e-5 on flat films, 0
@@ -1135,13 +1135,13 @@ pub const CREATED_WARN: f64 = 1e-3;
 /// is refused: a tenth of the light came out of a model that does not hold.
 pub const CREATED_REFUSED: f64 = 0.1;
 
-/// Refuses impossible and unconverged results (DESIGN.md §4, "never clamp silently"):
+/// Refuses impossible and unconverged results (docs/design.md §4, "never clamp silently"):
 /// non-finite totals, a cell that lost more than [`NOT_CONVERGED`] of its power to limits,
 /// and in every cell
 /// (incident direction, wavelength), a reflectance or transmittance above 1 or below 0, a
 /// negative absorbed power or `R + T + dropped > 1` (energy created). (A single bucket
 /// may end negative where a pair of one tree's exits straddles a bucket edge and their
-/// cross term is split between the two: DESIGN.md §4 has such buckets counted and reported,
+/// cross term is split between the two: docs/design.md §4 has such buckets counted and reported,
 /// which `goniospec reflectance` does, not refused.) Each allows rounding plus `NOISE_SIGMAS` standard errors of the
 /// per-tree spread (Monte Carlo noise of the cross terms is legitimate; a systematic
 /// excess is not), plus the largest coherent effect of the dropped amplitudes, `2 sqrt(D

@@ -3,7 +3,7 @@
 //! triangle is accepted only when the brute-force list of all hits shows it at the same
 //! distance.
 
-use goniospec::accel::{Accel, Backend, Hit, Intersector, Ray, TriangleSoup, brute, workload};
+use goniospec::accel::{Accel, Backend, Hit, Intersector, Ray, TriangleSoup, brute};
 use goniospec::rng::Rng;
 use goniospec::sample::generate;
 
@@ -337,6 +337,7 @@ fn rays_that_miss_everything_report_a_miss() {
 #[cfg(embree)]
 #[test]
 fn embree_and_obvhs_agree_on_a_large_height_field() {
+    use goniospec::accel::workload;
     let mesh = workload::default_surface(100_000, 42);
     let soup = mesh.to_soup();
     assert!(soup.triangles.len() >= 99_000);

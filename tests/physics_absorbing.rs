@@ -5,7 +5,7 @@
 //! References are written here or in tests/common (the recursive Airy TMM), never taken from
 //! the library. In the plane-wave limit (`rho = inf`) with a power cutoff of 1e-20 the
 //! coherent sum of a convergent ray series differs from the exact field by amplitudes of
-//! order sqrt(1e-20) = 1e-10, so the tolerances below (1e-6, 1e-5 as DESIGN.md §7 and the
+//! order sqrt(1e-20) = 1e-10, so the tolerances below (1e-6, 1e-5 as docs/design.md §7 and the
 //! issue state them) are loose against that and tight against any physics error: the old
 //! real-ray-length attenuation was off by 3e-4, the old geometric TIR at sin(theta) > Re(n)
 //! by 0.72 (5 nm gold at 60 degrees).

@@ -107,7 +107,7 @@ fn soap_film_matches_an_independent_tmm_and_conserves_energy() {
                 // partial waves leave from one point, every overlap is 1). At 45 degrees
                 // they leave 2 d tan(theta_t) = 0.7 um apart per round trip: the 5 um beamlet
                 // overlap exp(-dx^2 / (2 rho^2)) = 0.99 weakens the first fringe term, by
-                // 2 |r1 r2| (1 - 0.99) < 1e-3 in R (DESIGN.md §4).
+                // 2 |r1 r2| (1 - 0.99) < 1e-3 in R (docs/design.md §4).
                 let cell = acc.cell(i, j);
                 let dropped = cell.dropped / cell.trees as f64;
                 let tol = if rho.is_infinite() || *th == 0.0 {
@@ -163,7 +163,7 @@ fn quarter_wave_mgf2_and_an_absorbing_stack_match_tmm() {
     ] {
         // The default beamlet radius at 0 and 30 degrees, the plane-wave limit at 60 degrees:
         // at 60 degrees the partial waves of one tree leave up to ~0.5 um apart, and the 5 um
-        // beamlet kernel weakens their interference by up to ~2e-3 in R (DESIGN.md §4:
+        // beamlet kernel weakens their interference by up to ~2e-3 in R (docs/design.md §4:
         // partners in neighbouring trees are not paired).
         let mut cfg = config(
             &[0.0, 30.0],
@@ -247,7 +247,7 @@ fn jittered_bins_wash_out_the_fringes_of_a_thick_film() {
     let n = |_: f64| vec![c(1.0, 0.0), c(1.33, 0.0), c(1.0, 0.0)];
     // Normal incidence at the default radius (the exits of a tree coincide laterally), and
     // oblique incidence in the plane-wave limit (at 5 um the exits of a 5 um film at 20 deg
-    // are 2.5 um apart, and the beamlet kernel weakens what is left of the fringes: DESIGN.md
+    // are 2.5 um apart, and the beamlet kernel weakens what is left of the fringes: docs/design.md
     // §4; the study measures that).
     for (theta, rho) in [(0.0f64, 5000.0), (20.0, f64::INFINITY)] {
         let mut cfg = config(&[theta], Wavelengths::Bins(edges.clone()), 512);

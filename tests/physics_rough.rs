@@ -4,6 +4,7 @@
 mod common;
 
 use common::*;
+#[cfg(embree)]
 use goniospec::accel::Backend;
 use goniospec::accumulate::file::Accumulator;
 use goniospec::accumulate::{Buckets, Coherence};

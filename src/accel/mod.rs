@@ -2,7 +2,7 @@
 //! pure Rust, chosen at run time.
 //!
 //! The accelerator works in f32, as both libraries do. The tracer refines every hit in f64
-//! against the hit triangle's plane (DESIGN.md §1), so the accelerator only has to find the
+//! against the hit triangle's plane (docs/design.md §1), so the accelerator only has to find the
 //! right triangle; distances and barycentrics here are for that search, not for phase.
 //!
 //! Hot-path rules: [`Intersector::closest_hit`] and [`Intersector::closest_hits`] allocate
@@ -296,28 +296,27 @@ pub struct BackendInfo {
 /// The backends this build offers, Embree first when present. Embree's version is read
 /// from a live device, so a missing or broken shared library shows up here.
 pub fn available_backends() -> Vec<Result<BackendInfo, String>> {
-    let mut out = Vec::new();
     #[cfg(embree)]
-    out.push(
-        embree::Device::new("")
-            .map(|d| BackendInfo {
-                backend: Backend::Embree,
-                version: d.version().to_string(),
-                detail: format!(
-                    "FFI, bindings from {}",
-                    option_env!("GONIOSPEC_EMBREE_HEADER").unwrap_or("?")
-                ),
-            })
-            .map_err(|e| format!("embree: {e}")),
-    );
+    let embree = embree::Device::new("")
+        .map(|d| BackendInfo {
+            backend: Backend::Embree,
+            version: d.version().to_string(),
+            detail: format!(
+                "FFI, bindings from {}",
+                option_env!("GONIOSPEC_EMBREE_HEADER").unwrap_or("?")
+            ),
+        })
+        .map_err(|e| format!("embree: {e}"));
     #[cfg(not(embree))]
-    out.push(Err(
+    let embree = Err(
         "embree: not built in (headers not found at build time; apt-get install -y libembree-dev libclang-dev pkg-config, then rebuild)".to_string(),
-    ));
-    out.push(Ok(BackendInfo {
-        backend: Backend::Obvhs,
-        version: cwbvh::OBVHS_VERSION.to_string(),
-        detail: "pure Rust, CWBVH (Ylitie et al. 2017)".to_string(),
-    }));
-    out
+    );
+    vec![
+        embree,
+        Ok(BackendInfo {
+            backend: Backend::Obvhs,
+            version: cwbvh::OBVHS_VERSION.to_string(),
+            detail: "pure Rust, CWBVH (Ylitie et al. 2017)".to_string(),
+        }),
+    ]
 }

@@ -1,4 +1,4 @@
-//! Accumulation of ray trees into BRDF / BTDF buckets: the estimator of DESIGN.md §4.
+//! Accumulation of ray trees into BRDF / BTDF buckets: the estimator of docs/design.md §4.
 //!
 //! - `Beamlet` (default): each launched ray stands for a Gaussian beamlet of radius rho.
 //!   Within one tree every exit contribution j deposits `|a_j|^2` in the bucket of its
@@ -361,7 +361,7 @@ impl Estimator {
     /// interfere, fully. Such exits are grouped (sorted by hemisphere and direction,
     /// consecutive ones within 1e-9 of the group's first), and at each wavelength a group's
     /// amplitudes are summed coherently, `|sum_j a_j e^{i k delta_j}|^2`, which is the sum
-    /// of its exits' powers and all its pairs' cross terms `c_jl` (DESIGN.md §4) in O(n)
+    /// of its exits' powers and all its pairs' cross terms `c_jl` (docs/design.md §4) in O(n)
     /// rather than O(n^2): a flat stack's tree has all its exits in two groups.
     fn prepare_groups(&self, tree: &Tree, p: &mut Prepared) {
         let ex = &tree.exits;
@@ -598,7 +598,7 @@ pub fn add_fields(acc: &mut [Field; 2], a: &[Field; 2]) {
 }
 
 /// Sums for one (incident direction, wavelength) cell; plain sums so runs merge by
-/// addition (DESIGN.md §5).
+/// addition (docs/design.md §5).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Cell {
     pub trees: u64,

@@ -1,5 +1,5 @@
 //! BRDF representations built from accumulated buckets, all behind one query interface
-//! (DESIGN.md §5): the seed's 4-D spherical kd-tree, Gondek et al.'s adaptively subdivided
+//! (docs/design.md §5): the seed's 4-D spherical kd-tree, Gondek et al.'s adaptively subdivided
 //! hemisphere, and a dense table; plus the `.gsb` file that stores any of them.
 //!
 //! `eval(wi, wo)` returns the BRDF (1/sr) in every wavelength bin. Directions point away

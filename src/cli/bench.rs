@@ -32,7 +32,7 @@ pub(super) enum BenchCommand {
     /// The shipped paints (white: a TiO2 particle medium; pearlescent: coated mica flakes;
     /// metallic: aluminium flakes) at default settings: wall time, trees/s and segments
     /// per tree for --rays trees x 40 wavelength bins (380-780 nm) at one incident angle,
-    /// and R at 550 nm with its standard error. Goal (issue 27): at most 10 s each.
+    /// and R at 550 nm with its standard error. Goal: at most 10 s each on 2 cores.
     ///
     /// Example: goniospec bench paints --rays 4096
     Paints(PaintBenchArgs),

@@ -317,7 +317,6 @@ fn guard_output(
     Ok(goniospec::output::guard(out, inputs, kind, force)?)
 }
 
-/// The requested backend, or the default; refuses one this build lacks.
 /// The worker pool of a command: `threads` workers (0: one per core), at most
 /// [`MAX_THREADS`]; the one set-up every command uses.
 fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
@@ -342,6 +341,7 @@ fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
     bar
 }
 
+/// The requested backend, or the default; refuses one this build lacks.
 fn resolve_backend(b: Option<Backend>) -> Result<Backend> {
     let b = b.unwrap_or_else(Backend::default_available);
     if !b.is_available() {

@@ -11,7 +11,7 @@
 //! tracing in absorbing media", JQSRT 96 (2005) 327, eqs. 4-9). Its planes of constant
 //! amplitude are parallel to the interface it entered through. The geometric ray follows
 //! `N'` (the direction of constant phase); phase and attenuation from `a` to `b` are
-//! `exp(i k0 N . (b - a))` (DESIGN.md §3).
+//! `exp(i k0 N . (b - a))` (docs/design.md §3).
 //!
 //! **Coefficients.** With the conserved tangential index `kappa` and the normal indices
 //! `q1`, `q2` on either side (`cos_j = q_j / n_j`), the amplitude coefficients are

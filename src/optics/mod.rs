@@ -2,7 +2,7 @@
 //! interface, propagation through absorbing media, and the transfer-matrix method as an
 //! analytic reference for layered stacks.
 //!
-//! Conventions (DESIGN.md §3): lengths and wavelengths in nanometres; a complex index is
+//! Conventions (docs/design.md §3): lengths and wavelengths in nanometres; a complex index is
 //! `n + i k` with `k >= 0` absorbing; a field travelling a length `l` is multiplied by
 //! `exp(i 2 pi (n + i k) l / lambda)`.
 

@@ -6,7 +6,7 @@
 //! only), and leaks: random rays walk the sample (reflecting or passing at random at each
 //! crossing, wrapping around the tile's sides, or ending at a side of an open sample) while
 //! tracking the current medium, and every crossing whose source medium does not match is
-//! counted (DESIGN.md §2).
+//! counted (docs/design.md §2).
 
 use glam::DVec3;
 use std::collections::HashMap;

@@ -2,7 +2,7 @@
 //!
 //! Every model has a stated wavelength range; a wavelength outside it is an error, never an
 //! extrapolation. Wavelengths are in nanometres; indices are dimensionless with `k >= 0`
-//! absorbing (field `~ exp(i 2 pi (n + i k) l / lambda)`, DESIGN.md §3).
+//! absorbing (field `~ exp(i 2 pi (n + i k) l / lambda)`, docs/design.md §3).
 
 use std::path::{Path, PathBuf};
 
@@ -160,7 +160,7 @@ impl IndexModel {
     }
 
     /// Whether the index changes with wavelength (then geometry does too, and spectral
-    /// path sharing is off: DESIGN.md §3).
+    /// path sharing is off: docs/design.md §3).
     pub fn is_dispersive(&self) -> bool {
         !matches!(self, IndexModel::Constant { .. })
     }

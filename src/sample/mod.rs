@@ -1,4 +1,4 @@
-//! Samples: the TOML description of DESIGN.md §2 (tile, media, interfaces) and the meshes
+//! Samples: the TOML description of docs/design.md §2 (tile, media, interfaces) and the meshes
 //! it names, loaded into nanometres and checked.
 //!
 //! ```toml
@@ -486,7 +486,7 @@ pub const DEFAULT_GUARD_FRACTION: f64 = 0.1;
 /// The accelerators hold vertices in f32 (a 24-bit significand): at 1e8 nm neighbouring
 /// f32 values are 8 nm apart, already coarser than a thin film. Phases are formed in f64:
 /// over 1e8 nm at 380 nm, `k L` is 1.7e6 rad with a rounding error near 4e-10 rad
-/// (`../shared/DESIGN.md` §1). Microgeometry tiles are micrometres to millimetres.
+/// (docs/design.md §1). Microgeometry tiles are micrometres to millimetres.
 pub const MAX_LENGTH_NM: f64 = 1e8;
 
 /// Why a vertex cannot be scaled to nanometres.

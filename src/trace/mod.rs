@@ -1,4 +1,4 @@
-//! Coherent ray trees through a periodic sample (DESIGN.md §3).
+//! Coherent ray trees through a periodic sample (docs/design.md §3).
 //!
 //! A tree starts as one ray of a plane wave on the launch plane above the sample and splits
 //! at every interface into a reflected and a transmitted child, each carrying the complex
@@ -733,7 +733,7 @@ impl<'a> Scene<'a> {
     }
 
     /// Moves the ray by `t` nm, adding `N . dr` to its optical path (the phase and the
-    /// attenuation of its plane wave, DESIGN.md §3); the lanes it carries (`cur`, the
+    /// attenuation of its plane wave, docs/design.md §3); the lanes it carries (`cur`, the
     /// first being lane `first`) note power entering an absorbing medium.
     #[inline]
     fn advance(

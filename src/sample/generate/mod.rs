@@ -23,7 +23,7 @@ pub use height::{cosine_surface, flat, gaussian_heights, grid_mesh, height_field
 pub use microfacet::{Distribution, MIN_CELLS_PER_CORRELATION, microfacet_surface};
 
 /// The most triangles one generator makes: 2^26 (67 million), about 10 GB once the
-/// accelerators are built (`../shared/DESIGN.md` §2; the largest height field, resolution
+/// accelerators are built (docs/design.md §2; the largest height field, resolution
 /// 4096, makes 2 x 4096^2 = 33.5 million).
 pub const MAX_GENERATED_TRIANGLES: u64 = 1 << 26;
 
