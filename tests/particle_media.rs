@@ -201,38 +201,24 @@ fn bad_particle_media_are_refused_with_reasons() {
     }
     // Simulation-time refusals: a global-coherence run, and an absorbing host.
     let s = paint(&dir, "ok", WHITE, 2.0, "black");
-    let (code, _, err) = goniospec(&[
-        "simulate",
-        s.to_str().unwrap(),
-        "--theta-i",
-        "0",
-        "--rays",
-        "8",
-        "--coherence",
-        "global",
-        "-o",
-        dir.join("x.gsa").to_str().unwrap(),
-    ]);
-    assert_ne!(code, 0);
-    assert!(err.contains("random phases"), "{err}");
+    let refused = |out: &str, extra: &[&str], want: &str| {
+        let gsa = dir.join(out);
+        let mut args = vec![s.to_str().unwrap(), "--theta-i", "0", "--rays", "8"];
+        args.extend_from_slice(extra);
+        let gsa_s = gsa.to_str().unwrap().to_string();
+        let (code, _, err) =
+            goniospec(&[&["simulate"], &args[..], &["-o", gsa_s.as_str()]].concat());
+        assert_ne!(code, 0);
+        assert!(err.contains(want), "{err}");
+        assert!(!gsa.exists());
+    };
+    refused("x.gsa", &["--coherence", "global"], "random phases");
     let text = std::fs::read_to_string(&s).unwrap().replace(
         "[media.paint]\nn = 1.49",
         "[media.paint]\nn = 1.49\nk = 0.01",
     );
     std::fs::write(&s, text).unwrap();
-    let (code, _, err) = goniospec(&[
-        "simulate",
-        s.to_str().unwrap(),
-        "--theta-i",
-        "0",
-        "--rays",
-        "8",
-        "-o",
-        dir.join("y.gsa").to_str().unwrap(),
-    ]);
-    assert_ne!(code, 0);
-    assert!(err.contains("lossless"), "{err}");
-    assert!(!dir.join("x.gsa").exists() && !dir.join("y.gsa").exists());
+    refused("y.gsa", &[], "lossless");
     // A scattering layer cannot be an exact coating.
     let s = paint(&dir, "coat", WHITE, 2.0, "black");
     let text = std::fs::read_to_string(&s)

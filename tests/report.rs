@@ -224,26 +224,18 @@ fn the_report_is_the_same_bytes_whatever_the_threads() {
     };
     let one = b.join("one").join("index.html");
     let two = b.join("two").join("index.html");
-    ok(&[
-        "batch",
-        "report",
-        b.to_str().unwrap(),
-        "--no-fit",
-        "--threads",
-        "1",
-        "-o",
-        one.to_str().unwrap(),
-    ]);
-    ok(&[
-        "batch",
-        "report",
-        b.to_str().unwrap(),
-        "--no-fit",
-        "--threads",
-        "2",
-        "-o",
-        two.to_str().unwrap(),
-    ]);
+    for (threads, page) in [("1", &one), ("2", &two)] {
+        ok(&[
+            "batch",
+            "report",
+            b.to_str().unwrap(),
+            "--no-fit",
+            "--threads",
+            threads,
+            "-o",
+            page.to_str().unwrap(),
+        ]);
+    }
     let (a, c) = (files(one.parent().unwrap()), files(two.parent().unwrap()));
     assert_eq!(a.len(), 7, "a page, a lobe and a sphere per material");
     assert!(a == c, "the report differs between 1 and 2 threads");
