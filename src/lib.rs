@@ -20,5 +20,6 @@ pub mod render;
 pub mod rng;
 pub mod sample;
 pub mod simulate;
+pub mod spectrum;
 pub mod study;
 pub mod trace;

@@ -240,7 +240,7 @@ pub fn stack_indices(
 pub fn analytic(
     sample: &crate::sample::Sample,
     theta_i_deg: f64,
-    wavelengths: &crate::simulate::Wavelengths,
+    wavelengths: &crate::spectrum::Wavelengths,
 ) -> Result<Vec<(f64, Rt)>, String> {
     if !(theta_i_deg.is_finite() && (0.0..90.0).contains(&theta_i_deg)) {
         return Err(format!(
@@ -253,11 +253,11 @@ pub fn analytic(
     let th = theta_i_deg.to_radians();
     let stack_at = |l: f64| stack_indices(sample, l);
     let rows: Vec<(f64, Rt)> = match wavelengths {
-        crate::simulate::Wavelengths::Monochromatic(v) => v
+        crate::spectrum::Wavelengths::Monochromatic(v) => v
             .iter()
             .map(|&l| Ok((l, solve(&stack_at(l)?, l, th))))
             .collect::<Result<_, String>>()?,
-        crate::simulate::Wavelengths::Bins(e) => e
+        crate::spectrum::Wavelengths::Bins(e) => e
             .windows(2)
             .map(|w| {
                 stack_at(w[0])?;

@@ -113,7 +113,7 @@ pub struct SceneBudget {
     /// Target relative standard error of the reflectance per direction (positive).
     pub tolerance: f64,
     pub seed: u64,
-    pub wavelengths: crate::simulate::Wavelengths,
+    pub wavelengths: crate::spectrum::Wavelengths,
 }
 
 /// What a scene-driven simulation did: the plan, the accumulator of the needed angles, its
