@@ -1,6 +1,8 @@
 """goniospec from Python: simulate microgeometry into spectral BRDFs and evaluate them
-with numpy. Units are in every name: angles in degrees (``theta_i_deg``), lengths and
-wavelengths in nanometres (``lambda_nm``), BRDF values in 1/sr.
+with numpy. Angles are degrees, lengths and wavelengths nanometres, BRDF values 1/sr; the
+unit is in the name (``theta_i_deg``, ``lambda_nm``, ``coherence_radius_nm``) except for
+``simulate``'s ``theta_i`` and ``phi_i``, which mirror the CLI's ``--theta-i`` and
+``--phi-i`` flags and are degrees too.
 
     import goniospec as gs
     acc = gs.simulate(gs.Sample.load("meshes/thin-film-600nm.toml"), theta_i=[0, 30], rays=1024)
