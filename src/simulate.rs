@@ -35,6 +35,22 @@ const MIN_CHUNK_BLOCKS: u64 = 16;
 
 pub use crate::spectrum::Wavelengths;
 
+/// Every front end's defaults for a simulation (CLI flags, Python keywords, studies), in
+/// one place. The limits of a tree are `TraceLimits::default()`.
+pub mod defaults {
+    /// Trees per incident direction.
+    pub const RAYS: u64 = 4096;
+    /// The most trees per direction of an adaptive run (`--tolerance`).
+    pub const MAX_RAYS: u64 = 1_000_000;
+    /// Beamlet radius: the illumination's transverse coherence length, nm.
+    pub const COHERENCE_RADIUS_NM: f64 = 5000.0;
+    /// Outgoing buckets per hemisphere, in theta and in phi.
+    pub const THETA_O_BINS: u32 = 45;
+    pub const PHI_O_BINS: u32 = 36;
+    /// Random seed.
+    pub const SEED: u64 = 1;
+}
+
 /// The smallest `--tolerance`: a relative standard error of 1e-6 already needs about 1e12
 /// trees per direction for a reflectance near 1 with unit spread.
 pub const MIN_TOLERANCE: f64 = 1e-6;
@@ -100,13 +116,13 @@ impl SimConfig {
             rays,
             wavelengths,
             backend: Backend::default_available(),
-            seed: 1,
+            seed: defaults::SEED,
             coherence: Coherence::Beamlet,
-            rho_nm: 5000.0,
+            rho_nm: defaults::COHERENCE_RADIUS_NM,
             limits: TraceLimits::default(),
             buckets: Buckets {
-                theta_bins: 45,
-                phi_bins: 36,
+                theta_bins: defaults::THETA_O_BINS,
+                phi_bins: defaults::PHI_O_BINS,
             },
             path_sharing: None,
             wavelength_sharing: true,

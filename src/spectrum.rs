@@ -2,6 +2,9 @@
 //! wavelengths. At the bottom of the house: the optics, the tracer, the run and the file
 //! formats all use it, and it uses nothing of theirs.
 
+/// The default sampling: the visible, 380 to 780 nm in 10 nm bins.
+pub const DEFAULT_WAVELENGTHS: &str = "380:780:10";
+
 /// Wavelength sampling.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Wavelengths {

@@ -40,7 +40,7 @@ def simulate(
     sample: Sample,
     theta_i: Sequence[float],
     wavelengths: str = "380:780:10",
-    rays: int = 1024,
+    rays: int = 4096,
     seed: int = 1,
     coherence: Literal["beamlet", "bucket", "global"] = "beamlet",
     coherence_radius_nm: float = 5000.0,

@@ -10,7 +10,8 @@ use pyo3::types::PyDict;
 
 use goniospec::brdf::{Brdf as _, Kind, Representation};
 use goniospec::output::OutputKind;
-use goniospec::simulate::{SimConfig, Wavelengths};
+use goniospec::simulate::{SimConfig, Wavelengths, defaults};
+use goniospec::trace::TraceLimits;
 
 fn value_err(e: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(e.to_string())
@@ -346,7 +347,7 @@ fn parse_coherence(s: &str) -> PyResult<goniospec::accumulate::Coherence> {
 /// nothing otherwise (`None`, the default); `True` draws it always, `False` never;
 /// `threads=0` uses all cores and results do not depend on it.
 #[pyfunction]
-#[pyo3(signature = (sample, theta_i, wavelengths = "380:780:10", rays = 1024, seed = 1, coherence = "beamlet", coherence_radius_nm = 5000.0, cutoff = 1e-10, monochromatic = false, phi_i = 0.0, threads = 0, backend = None, theta_o_bins = 45, phi_o_bins = 36, max_depth = 64, max_segments = 20_000, tolerance = None, max_rays = 1_000_000, no_path_sharing = false, no_wavelength_sharing = false, progress = None))]
+#[pyo3(signature = (sample, theta_i, wavelengths = goniospec::spectrum::DEFAULT_WAVELENGTHS, rays = defaults::RAYS, seed = defaults::SEED, coherence = "beamlet", coherence_radius_nm = defaults::COHERENCE_RADIUS_NM, cutoff = TraceLimits::CUTOFF, monochromatic = false, phi_i = 0.0, threads = 0, backend = None, theta_o_bins = defaults::THETA_O_BINS, phi_o_bins = defaults::PHI_O_BINS, max_depth = TraceLimits::MAX_DEPTH, max_segments = TraceLimits::MAX_SEGMENTS, tolerance = None, max_rays = defaults::MAX_RAYS, no_path_sharing = false, no_wavelength_sharing = false, progress = None))]
 #[allow(clippy::too_many_arguments)]
 fn simulate(
     py: Python<'_>,

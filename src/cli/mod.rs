@@ -152,7 +152,7 @@ struct WavelengthArgs {
     /// Wavelengths, nm: A:B:STEP gives bins of width STEP from A to B (or, with
     /// --monochromatic, the wavelengths A, A+STEP, ..., B); a comma list gives bin edges
     /// (or exact wavelengths with --monochromatic).
-    #[arg(long, default_value = "380:780:10")]
+    #[arg(long, default_value = goniospec::spectrum::DEFAULT_WAVELENGTHS)]
     wavelengths: String,
     /// Use the exact wavelengths instead of jittered bins.
     #[arg(long)]

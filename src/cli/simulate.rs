@@ -16,7 +16,7 @@ pub(super) struct SimulateArgs {
     #[arg(long, value_parser = finite, default_value_t = 0.0)]
     phi_i: f64,
     /// Launched rays (trees) per incident direction; each covers every wavelength.
-    #[arg(long, default_value_t = 4096)]
+    #[arg(long, default_value_t = goniospec::simulate::defaults::RAYS)]
     rays: u64,
     #[command(flatten)]
     wavelengths: WavelengthArgs,
@@ -33,23 +33,23 @@ pub(super) struct SimulateArgs {
     #[arg(long, default_value = "beamlet", value_parser = parse_coherence)]
     coherence: Coherence,
     /// Beamlet radius in nm, or inf for the plane-wave limit.
-    #[arg(long, default_value = "5000", value_parser = parse_radius)]
+    #[arg(long, default_value_t = goniospec::simulate::defaults::COHERENCE_RADIUS_NM, value_parser = parse_radius)]
     coherence_radius_nm: f64,
     /// Polar bins of the outgoing hemispheres (equal in theta).
-    #[arg(long, default_value_t = 45)]
+    #[arg(long, default_value_t = goniospec::simulate::defaults::THETA_O_BINS)]
     theta_o_bins: u32,
     /// Azimuth bins of the outgoing hemispheres.
-    #[arg(long, default_value_t = 36)]
+    #[arg(long, default_value_t = goniospec::simulate::defaults::PHI_O_BINS)]
     phi_o_bins: u32,
     /// Children below this fraction of the launched power are dropped (and reported).
-    #[arg(long, value_parser = finite, default_value_t = 1e-10)]
+    #[arg(long, value_parser = finite, default_value_t = TraceLimits::CUTOFF)]
     cutoff: f64,
     /// Interface events along one path before it is dropped.
-    #[arg(long, default_value_t = 64)]
+    #[arg(long, default_value_t = TraceLimits::MAX_DEPTH)]
     max_depth: u32,
-    /// Segments of one tree before its remaining rays are dropped (multiply scattering
-    /// samples; raise --cutoff to 1e-4..1e-6 for pigments and flakes).
-    #[arg(long, default_value_t = 20_000)]
+    /// Segments of one tree before its remaining rays are dropped (samples with bodies or
+    /// particle media play Russian roulette from 256 segments, so they rarely reach it).
+    #[arg(long, default_value_t = TraceLimits::MAX_SEGMENTS)]
     max_segments: u32,
     /// Adaptive budget: launch batches of --rays per incident direction until the relative
     /// standard error of the reflectance (total and every populated bucket) is at most
@@ -57,7 +57,7 @@ pub(super) struct SimulateArgs {
     #[arg(long, value_parser = finite)]
     tolerance: Option<f64>,
     /// Largest number of rays per incident direction with --tolerance.
-    #[arg(long, default_value_t = 1_000_000)]
+    #[arg(long, default_value_t = goniospec::simulate::defaults::MAX_RAYS)]
     max_rays: u64,
     /// Trace every wavelength separately even when no medium is dispersive.
     #[arg(long)]

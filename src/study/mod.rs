@@ -173,7 +173,7 @@ fn default_coherence() -> Vec<String> {
     vec!["beamlet".into()]
 }
 fn default_radius() -> Vec<f64> {
-    vec![5000.0]
+    vec![crate::simulate::defaults::COHERENCE_RADIUS_NM]
 }
 fn default_backend() -> Vec<String> {
     vec![Backend::default_available().name().into()]

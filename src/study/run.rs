@@ -168,7 +168,7 @@ pub(super) fn reference(
             // the study sweeps: its error falls about as 1/N, far below the points'.
             let v = Variant {
                 coherence: Coherence::Beamlet,
-                radius: 5000.0,
+                radius: crate::simulate::defaults::COHERENCE_RADIUS_NM,
                 cutoff: TraceLimits::default().cutoff,
                 max_depth: TraceLimits::default().max_depth,
                 precision: PhasePrecision::F64,

@@ -177,13 +177,22 @@ pub struct TraceLimits {
     pub max_segments: u32,
 }
 
+impl TraceLimits {
+    /// The default power cutoff: a dropped child's amplitude (the square root) enters the
+    /// coherent sum, so 1e-10 keeps its effect on R near 1e-5.
+    pub const CUTOFF: f64 = 1e-10;
+    pub const MAX_DEPTH: u32 = 64;
+    pub const MAX_WRAPS: u32 = 10_000;
+    pub const MAX_SEGMENTS: u32 = 20_000;
+}
+
 impl Default for TraceLimits {
     fn default() -> Self {
         TraceLimits {
-            cutoff: 1e-10,
-            max_depth: 64,
-            max_wraps: 10_000,
-            max_segments: 20_000,
+            cutoff: Self::CUTOFF,
+            max_depth: Self::MAX_DEPTH,
+            max_wraps: Self::MAX_WRAPS,
+            max_segments: Self::MAX_SEGMENTS,
         }
     }
 }
