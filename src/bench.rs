@@ -333,7 +333,8 @@ pub fn analytic_brdf(wi: DVec3, wo: DVec3, lambda_nm: f64) -> f64 {
 /// (0..80 deg) and `tb x pb` outgoing buckets.
 pub fn analytic_buckets(ni: usize, tb: u32, pb: u32, lambdas: &[f64]) -> crate::brdf::BucketData {
     use crate::accumulate::Buckets;
-    use crate::brdf::{BucketData, BucketSample, Meta, dir};
+    use crate::brdf::{BucketData, BucketSample, Meta};
+    use crate::geom::from_spherical;
     let b = Buckets {
         theta_bins: tb,
         phi_bins: pb,
@@ -350,7 +351,7 @@ pub fn analytic_buckets(ni: usize, tb: u32, pb: u32, lambdas: &[f64]) -> crate::
                     let omega = b.projected_solid_angle(k);
                     let f: Vec<f64> = lambdas
                         .iter()
-                        .map(|&l| analytic_brdf(dir(ti, 0.0), dir(t, p), l))
+                        .map(|&l| analytic_brdf(from_spherical(ti, 0.0), from_spherical(t, p), l))
                         .collect();
                     BucketSample {
                         theta_i: ti,
@@ -419,20 +420,21 @@ pub fn eval_bench(
     rough: Option<(&crate::brdf::BucketData, &crate::brdf::BucketData)>,
     mut log: impl FnMut(&str),
 ) {
+    use crate::brdf::Brdf;
     use crate::brdf::kdtree::KdTreeBrdf;
     use crate::brdf::subdivided::SubdividedBrdf;
     use crate::brdf::table::TableBrdf;
-    use crate::brdf::{Brdf, dir};
+    use crate::geom::from_spherical;
     let lambdas = [450.0, 550.0, 650.0];
     let mut rng = Rng::new(3, 3);
     let queries: Vec<(DVec3, DVec3)> = (0..20_000)
         .map(|_| {
             (
-                dir(
+                from_spherical(
                     rng.range(0.0, 80f64.to_radians()),
                     rng.range(0.0, std::f64::consts::TAU),
                 ),
-                dir(
+                from_spherical(
                     rng.range(0.0, 85f64.to_radians()),
                     rng.range(0.0, std::f64::consts::TAU),
                 ),
@@ -488,9 +490,9 @@ pub fn eval_bench(
         let rotated: Vec<(DVec3, DVec3)> = queries
             .iter()
             .map(|&(wi, wo)| {
-                let (ti, pi) = crate::brdf::angles(wi);
-                let (to, po) = crate::brdf::angles(wo);
-                (dir(ti, 0.0), dir(to, po - pi))
+                let (ti, pi) = crate::geom::angles(wi);
+                let (to, po) = crate::geom::angles(wo);
+                (from_spherical(ti, 0.0), from_spherical(to, po - pi))
             })
             .collect();
         let queries = &rotated;
@@ -527,8 +529,8 @@ pub fn eval_bench(
             for &ti in &low.theta_i {
                 for t in 0..30 {
                     for p in 0..24 {
-                        let wi = dir(ti, 0.0);
-                        let wo = dir(
+                        let wi = from_spherical(ti, 0.0);
+                        let wo = from_spherical(
                             (t as f64 + 0.5) * 3f64.to_radians(),
                             (p as f64 + 0.5) * 15f64.to_radians(),
                         );

@@ -34,7 +34,7 @@
 use std::path::Path;
 
 use crate::accumulate::file::Accumulator;
-use crate::brdf::dir as from_spherical;
+use crate::geom::from_spherical;
 use crate::optics::C64;
 use crate::optics::tmm::{self, StackIndices};
 use crate::render::colour;

@@ -12,6 +12,7 @@ pub mod brdf;
 pub mod container;
 pub mod export;
 pub mod fit;
+pub mod geom;
 pub mod io;
 pub mod optics;
 pub mod output;

@@ -17,7 +17,8 @@ use std::path::Path;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use crate::brdf::{Brdf, dir};
+use crate::brdf::Brdf;
+use crate::geom::from_spherical;
 use crate::render::colour;
 
 /// Draws a chart into `path` atomically (`draw` renders to the temporary path it is given).
@@ -62,7 +63,7 @@ pub fn lobe(brdf: &(dyn Brdf + Sync), theta_i_deg: f64, phi_i_deg: f64, count: u
             .map(|k| (k as f64 * (nl - 1) as f64 / (count - 1).max(1) as f64).round() as usize)
             .collect()
     };
-    let wi = dir(theta_i_deg.to_radians(), phi_i_deg.to_radians());
+    let wi = from_spherical(theta_i_deg.to_radians(), phi_i_deg.to_radians());
     let theta_o_deg: Vec<f64> = (-89..=89).map(f64::from).collect();
     let values: Vec<Vec<f64>> = theta_o_deg
         .par_iter()
@@ -72,7 +73,7 @@ pub fn lobe(brdf: &(dyn Brdf + Sync), theta_i_deg: f64, phi_i_deg: f64, count: u
             } else {
                 phi_i_deg
             };
-            let wo = dir(t.abs().to_radians(), phi.to_radians());
+            let wo = from_spherical(t.abs().to_radians(), phi.to_radians());
             let mut out = vec![0.0; nl];
             brdf.eval(wi, wo, &mut out);
             out.iter().map(|v| v * wo.z).collect()
@@ -97,7 +98,7 @@ pub fn hemisphere_colours(
 ) -> Vec<Option<[f64; 3]>> {
     let lambdas = &brdf.meta().wavelengths_nm;
     let weights = colour::bin_weights(lambdas);
-    let wi = dir(theta_i_deg.to_radians(), phi_i_deg.to_radians());
+    let wi = from_spherical(theta_i_deg.to_radians(), phi_i_deg.to_radians());
     let forward = (phi_i_deg + 180.0).to_radians();
     (0..n * n)
         .into_par_iter()

@@ -15,7 +15,7 @@ use crate::accel::Backend;
 use crate::accumulate::block::{BlockCell, Dense, add_block};
 use crate::accumulate::file::{Accumulator, EntryPoints, Header, Settings, WavelengthMode};
 use crate::accumulate::{Buckets, Cell, Coherence, Estimator, PhasePrecision, Scratch};
-use crate::brdf::dir as from_spherical;
+use crate::geom::from_spherical;
 use crate::io::fnv1a;
 use crate::optics::C64;
 use crate::rng::Rng;

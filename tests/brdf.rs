@@ -12,7 +12,8 @@ use goniospec::accumulate::Buckets;
 use goniospec::brdf::kdtree::{KdTree, KdTreeBrdf};
 use goniospec::brdf::subdivided::SubdividedBrdf;
 use goniospec::brdf::table::TableBrdf;
-use goniospec::brdf::{Brdf, BucketData, Representation, dir, file};
+use goniospec::brdf::{Brdf, BucketData, Representation, file};
+use goniospec::geom::from_spherical;
 use goniospec::rng::Rng;
 use goniospec::simulate::Wavelengths;
 use rayon::prelude::*;
@@ -56,7 +57,7 @@ fn kdtree_nearest_neighbours_equal_brute_force() {
         .map(|_| {
             let (a, b) = special_angles(&mut r);
             let (c, d) = special_angles(&mut r);
-            (dir(a, b), dir(c, d))
+            (from_spherical(a, b), from_spherical(c, d))
         })
         .collect();
     let mismatches: Vec<String> = queries
@@ -108,14 +109,14 @@ fn kdtree_on_a_bucket_grid_equals_brute_force() {
         .map(|i| {
             let c = pts[(r.uniform() * pts.len() as f64) as usize];
             match i % 3 {
-                0 => (dir(c[0], c[1]), dir(c[2], c[3])),
+                0 => (from_spherical(c[0], c[1]), from_spherical(c[2], c[3])),
                 1 => (
-                    dir(c[0] + 4f64.to_radians(), 0.0),
-                    dir(c[2] + 1.5f64.to_radians(), c[3] + PI / 48.0),
+                    from_spherical(c[0] + 4f64.to_radians(), 0.0),
+                    from_spherical(c[2] + 1.5f64.to_radians(), c[3] + PI / 48.0),
                 ),
                 _ => (
-                    dir(r.range(0.0, FRAC_PI_2), 0.0),
-                    dir(r.range(0.0, FRAC_PI_2), r.range(0.0, TAU)),
+                    from_spherical(r.range(0.0, FRAC_PI_2), 0.0),
+                    from_spherical(r.range(0.0, FRAC_PI_2), r.range(0.0, TAU)),
                 ),
             }
         })
@@ -196,7 +197,7 @@ fn hemispherical(b: &dyn Brdf, wi: glam::DVec3, nl: usize) -> Vec<f64> {
         let w = th.cos() * th.sin() * (FRAC_PI_2 / nt as f64) * (TAU / np as f64);
         for p in 0..np {
             let ph = (p as f64 + 0.5) * TAU / np as f64;
-            b.eval(wi, dir(th, ph), &mut v);
+            b.eval(wi, from_spherical(th, ph), &mut v);
             for (a, x) in acc.iter_mut().zip(&v) {
                 *a += w * x;
             }
@@ -219,7 +220,7 @@ fn representations_agree_and_integrate_to_the_simulated_reflectance() {
     ];
     // The hemispherical integral reproduces `goniospec reflectance` within 1 %.
     for (i, &th) in [0.0f64, 15.0, 30.0, 45.0, 60.0, 75.0].iter().enumerate() {
-        let wi = dir(th.to_radians(), 0.0);
+        let wi = from_spherical(th.to_radians(), 0.0);
         for (name, b) in &reps {
             let h = hemispherical(b.as_ref(), wi, nl);
             for (j, hj) in h.iter().enumerate() {
@@ -241,12 +242,12 @@ fn representations_agree_and_integrate_to_the_simulated_reflectance() {
     let (mut n, mut bad) = (0, 0);
     for q in 0..2000 {
         let ti = [0.0f64, 15.0, 30.0, 45.0, 60.0][q % 5].to_radians();
-        let wi = dir(ti, rng.range(0.0, TAU));
+        let wi = from_spherical(ti, rng.range(0.0, TAU));
         let spec = [-wi[0], -wi[1], wi[2]];
         // Outgoing directions near the specular lobe (the sample's slopes are ~8 deg).
         let to = (spec[2].acos() + rng.range(-0.15, 0.15)).clamp(0.0, 65f64.to_radians());
         let po = spec[1].atan2(spec[0]) + rng.range(-0.3, 0.3);
-        let wo = dir(to, po);
+        let wo = from_spherical(to, po);
         for (k, (_, b)) in reps.iter().enumerate() {
             b.eval(wi, wo, &mut v[k]);
         }
@@ -284,8 +285,8 @@ fn reciprocal_kdtree_is_symmetric() {
     // close to the plain one in the lobe.
     let (mut p, mut q) = (vec![0.0; 2], vec![0.0; 2]);
     for th in [15.0f64, 30.0, 45.0] {
-        let wi = dir(th.to_radians(), 0.0);
-        let wo = dir((th + 5.0).to_radians(), PI);
+        let wi = from_spherical(th.to_radians(), 0.0);
+        let wo = from_spherical((th + 5.0).to_radians(), PI);
         b.eval(wi, wo, &mut p);
         plain.eval(wi, wo, &mut q);
         assert!(
@@ -296,8 +297,8 @@ fn reciprocal_kdtree_is_symmetric() {
     let mut rng = Rng::new(9, 9);
     let (mut x, mut y) = (vec![0.0; 2], vec![0.0; 2]);
     for _ in 0..500 {
-        let wi = dir(rng.range(0.0, 1.3), rng.range(0.0, TAU));
-        let wo = dir(rng.range(0.0, 1.3), rng.range(0.0, TAU));
+        let wi = from_spherical(rng.range(0.0, 1.3), rng.range(0.0, TAU));
+        let wo = from_spherical(rng.range(0.0, 1.3), rng.range(0.0, TAU));
         b.eval(wi, wo, &mut x);
         b.eval(wo, wi, &mut y);
         for j in 0..2 {
@@ -326,7 +327,7 @@ fn gsb_files_round_trip_and_refuse_damage() {
         file::write(r, &p).unwrap();
         let back = file::read(&p).unwrap();
         assert_eq!(file::to_bytes(&back), file::to_bytes(r));
-        let (wi, wo) = (dir(0.5, 0.0), dir(0.6, 3.0));
+        let (wi, wo) = (from_spherical(0.5, 0.0), from_spherical(0.6, 3.0));
         let (mut a, mut b) = (vec![0.0; 2], vec![0.0; 2]);
         r.eval(wi, wo, &mut a);
         back.eval(wi, wo, &mut b);

@@ -221,7 +221,8 @@ fn rgl_export_refuses_what_it_cannot_write() {
 /// (read back with npyz from the zip) equals the library's eval on the documented grid.
 #[test]
 fn npz_export_holds_the_brdf_on_its_grid() {
-    use goniospec::brdf::{Brdf, dir, file};
+    use goniospec::brdf::{Brdf, file};
+    use goniospec::geom::from_spherical;
     use std::io::Read;
     let d = scratch("export-npz");
     let gsb = built(&d, "meshes/rough-gold.toml", "gold");
@@ -261,8 +262,8 @@ fn npz_export_holds_the_brdf_on_its_grid() {
     for (i, ti) in [0.0f64, 30.0, 60.0].iter().enumerate() {
         for o in 0..6 {
             for q in 0..4 {
-                let wi = dir(ti.to_radians(), 0.0);
-                let wo = dir(
+                let wi = from_spherical(ti.to_radians(), 0.0);
+                let wo = from_spherical(
                     ((o as f64 + 0.5) * 15.0).to_radians(),
                     ((q as f64 + 0.5) * 90.0).to_radians(),
                 );

@@ -275,7 +275,7 @@ fn brdf_of_a_rough_dielectric_is_reciprocal() {
     let b = cfg.buckets;
     // f_r(wi = 25 deg, wo = 35 deg at phi 180..210) against f_r(wi = 35, wo = 25 deg, same).
     let bucket = |theta_deg: f64| {
-        let w = goniospec::brdf::dir(theta_deg.to_radians(), 195f64.to_radians());
+        let w = goniospec::geom::from_spherical(theta_deg.to_radians(), 195f64.to_radians());
         b.index(w)
     };
     let f = |i: usize, theta_o: f64| {

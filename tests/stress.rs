@@ -251,7 +251,7 @@ fn render_cfg(light: Light, env: Env) -> RenderConfig {
 fn render_plan_asks_for_the_angles_the_image_queries() {
     use goniospec::render::plan::plan;
     let grid: Vec<f64> = (0..18).map(|k| 5.0 * k as f64).collect();
-    let light = Light::Directional(goniospec::brdf::dir(30f64.to_radians(), 0.4));
+    let light = Light::Directional(goniospec::geom::from_spherical(30f64.to_radians(), 0.4));
     let p = plan(&Shape::Plane, &render_cfg(light, Env::None), &grid);
     assert!(p.object_pixels > 100);
     assert_eq!(p.needed(), vec![25.0, 30.0, 35.0]);
@@ -279,7 +279,7 @@ fn render_plan_asks_for_the_angles_the_image_queries() {
 #[test]
 fn scene_driven_simulation_runs_only_the_planned_angles() {
     use goniospec::render::plan::{SceneBudget, SceneError, simulate_scene};
-    let light = Light::Directional(goniospec::brdf::dir(30f64.to_radians(), 0.4));
+    let light = Light::Directional(goniospec::geom::from_spherical(30f64.to_radians(), 0.4));
     let cfg = render_cfg(light, Env::None);
     let budget = SceneBudget {
         theta_step_deg: 5.0,

@@ -218,7 +218,7 @@ impl Brdf {
                 )));
             }
         }
-        let dir = |t: f64, p: f64| goniospec::brdf::dir(t.to_radians(), p.to_radians());
+        let dir = |t: f64, p: f64| goniospec::geom::from_spherical(t.to_radians(), p.to_radians());
         let pairs: Vec<_> = (0..n)
             .map(|k| (dir(cols[0][k], cols[1][k]), dir(cols[2][k], cols[3][k])))
             .collect();

@@ -21,7 +21,8 @@
 
 use std::f64::consts::TAU;
 
-use super::{BucketData, Meta, arc, dir};
+use super::{BucketData, Meta, arc};
+use crate::geom::from_spherical;
 use glam::{DVec3, Vec4};
 
 /// Points per leaf.
@@ -186,7 +187,7 @@ impl KdTree {
         let all: Vec<[f64; 6]> = points
             .iter()
             .map(|c| {
-                let (a, b) = (dir(c[0], c[1]), dir(c[2], c[3]));
+                let (a, b) = (from_spherical(c[0], c[1]), from_spherical(c[2], c[3]));
                 [a.x, a.y, a.z, b.x, b.y, b.z]
             })
             .collect();
@@ -659,12 +660,12 @@ mod tests {
     fn pairs() -> impl Iterator<Item = (DVec3, DVec3)> {
         let mut r = crate::rng::Rng::new(5, 1);
         (0..200_000).map(move |i| {
-            let a = dir(r.range(0.0, PI), r.range(0.0, TAU));
+            let a = from_spherical(r.range(0.0, PI), r.range(0.0, TAU));
             let sep = [0.0, 1e-9, 1e-6, 1e-3, 0.1, 1.0, 3.0, PI - 1e-6][i % 8] * r.uniform();
             let b = if i % 9 == 0 {
                 a
             } else {
-                let t = dir(FRAC_PI_2, r.range(0.0, TAU));
+                let t = from_spherical(FRAC_PI_2, r.range(0.0, TAU));
                 let t = (t - a * a.dot(t)).normalize();
                 (a * sep.cos() + t * sep.sin()).normalize()
             };
@@ -720,8 +721,8 @@ mod tests {
             let node = Node::new([box_of(&chunk[..8]), box_of(&chunk[8..])], [none; 2]);
             for _ in 0..16 {
                 let (wi, wo) = (
-                    dir(r.range(0.0, PI), r.range(0.0, TAU)),
-                    dir(r.range(0.0, PI), r.range(0.0, TAU)),
+                    from_spherical(r.range(0.0, PI), r.range(0.0, TAU)),
+                    from_spherical(r.range(0.0, PI), r.range(0.0, TAU)),
                 );
                 let (fi, fo) = (wi.as_vec3(), wo.as_vec3());
                 let q = [0, 1, 2].map(|c| Vec4::new(fi[c], fo[c], fi[c], fo[c]));

@@ -235,7 +235,11 @@ pub fn hemispherical_reflectance(
         let th = (t as f64 + 0.5) * dt;
         let w = th.cos() * th.sin() * dt * dp;
         for p in 0..np {
-            b.eval(wi, dir(th, (p as f64 + 0.5) * dp), &mut v);
+            b.eval(
+                wi,
+                crate::geom::from_spherical(th, (p as f64 + 0.5) * dp),
+                &mut v,
+            );
             for (a, x) in acc.iter_mut().zip(&v) {
                 *a += w * x;
             }
@@ -248,21 +252,6 @@ pub fn hemispherical_reflectance(
 #[inline]
 pub fn arc(a: DVec3, b: DVec3) -> f64 {
     a.cross(b).length().atan2(a.dot(b))
-}
-
-/// `(theta, phi)` of a unit vector, phi in [0, 2 pi).
-#[inline]
-pub fn angles(w: DVec3) -> (f64, f64) {
-    (
-        w[2].clamp(-1.0, 1.0).acos(),
-        w[1].atan2(w[0]).rem_euclid(std::f64::consts::TAU),
-    )
-}
-
-/// The unit vector of spherical angles (`theta` from +z, `phi` from +x), radians.
-pub fn dir(theta: f64, phi: f64) -> DVec3 {
-    let s = theta.sin();
-    DVec3::new(s * phi.cos(), s * phi.sin(), theta.cos())
 }
 
 /// Any representation, dispatched by `match`.

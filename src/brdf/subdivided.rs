@@ -10,8 +10,9 @@
 
 use std::f64::consts::TAU;
 
-use super::{BucketData, Meta, angles};
+use super::{BucketData, Meta};
 use crate::accumulate::Buckets;
+use crate::geom::angles;
 use glam::DVec3;
 
 /// A quad-tree cell over bucket index ranges `[t0, t1) x [p0, p1)`.
@@ -219,7 +220,7 @@ impl super::Brdf for SubdividedBrdf {
         let (ti, pi) = angles(wi);
         let (to, po) = angles(wo);
         let phi = (po - pi + self.phi_i).rem_euclid(TAU);
-        let k = self.buckets.index(super::dir(to, phi));
+        let k = self.buckets.index(crate::geom::from_spherical(to, phi));
         let (t, p) = (
             k as u32 / self.buckets.phi_bins,
             k as u32 % self.buckets.phi_bins,

@@ -4,7 +4,8 @@
 
 use std::f64::consts::TAU;
 
-use super::{BucketData, Meta, angles};
+use super::{BucketData, Meta};
+use crate::geom::angles;
 use glam::DVec3;
 
 #[derive(Clone, Debug)]

@@ -31,7 +31,10 @@ pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {
         if !(0.0..=90.0).contains(&t) {
             bail!("polar angles must be in [0, 90] degrees, got {t}");
         }
-        Ok(brdf::dir(t.to_radians(), p.to_radians()))
+        Ok(goniospec::geom::from_spherical(
+            t.to_radians(),
+            p.to_radians(),
+        ))
     };
     let mut out = vec![0.0; lambdas.len()];
     match &a.pairs {

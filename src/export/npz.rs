@@ -15,7 +15,8 @@ use std::io::{Cursor, Write};
 use npyz::WriterBuilder;
 use rayon::prelude::*;
 
-use crate::brdf::{Brdf, Representation, dir};
+use crate::brdf::{Brdf, Representation};
+use crate::geom::from_spherical;
 
 /// The grid a `.npz` holds, degrees.
 #[derive(Clone, Debug, PartialEq)]
@@ -87,13 +88,13 @@ pub fn tabulate(r: &(dyn Brdf + Sync), grid: &Grid) -> Result<Vec<f64>, String> 
         .into_par_iter()
         .map(|k| {
             let (i, p, o) = (k / (np * no), k / no % np, k % no);
-            let wi = dir(
+            let wi = from_spherical(
                 grid.theta_i_deg[i].to_radians(),
                 grid.phi_i_deg[p].to_radians(),
             );
             let mut row = vec![0.0; nq * nl];
             for (q, out) in row.chunks_mut(nl).enumerate() {
-                let wo = dir(
+                let wo = from_spherical(
                     grid.theta_o_deg[o].to_radians(),
                     grid.phi_o_deg[q].to_radians(),
                 );

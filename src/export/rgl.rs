@@ -251,7 +251,7 @@ impl FacetDistribution {
                 u2theta(t as f64 / (n - 1) as f64),
                 u2phi(p as f64 / (n - 1) as f64),
             );
-            crate::brdf::dir(theta, phi)
+            crate::geom::from_spherical(theta, phi)
         };
         let mut values: Vec<f64> = (0..n * n)
             .into_par_iter()
@@ -297,7 +297,7 @@ impl FacetDistribution {
             for b in 0..Q {
                 let up = (b as f64 + 0.5) / Q as f64;
                 let phi = u2phi(up) + if relative { phi_i } else { 0.0 };
-                let m = crate::brdf::dir(theta, phi);
+                let m = crate::geom::from_spherical(theta, phi);
                 let c = m.dot(wi);
                 if c > 0.0 {
                     s += self.eval([ut, up]) * c * 2.0 * PI * PI * ut * theta.sin();
@@ -433,7 +433,7 @@ pub fn rgl_fields(
     let sigma: Vec<f64> = (0..n * n)
         .into_par_iter()
         .map(|k| {
-            let wi = crate::brdf::dir(u2theta(grid(k % n)), u2phi(grid(k / n)));
+            let wi = crate::geom::from_spherical(u2theta(grid(k % n)), u2phi(grid(k / n)));
             d.sigma(wi, isotropic)
         })
         .collect();
@@ -445,11 +445,11 @@ pub fn rgl_fields(
     let per_slice: Vec<Slice> = slices
         .par_iter()
         .map(|&(p, t)| -> Result<Slice, String> {
-            let wi = crate::brdf::dir(t, p);
+            let wi = crate::geom::from_spherical(t, p);
             let s_wi = bilinear(&sigma, n, n, [theta2u(t), phi2u(p)]);
             let m_of = |u: [f64; 2]| {
                 let phi = u2phi(u[1]) + if isotropic { p } else { 0.0 };
-                crate::brdf::dir(u2theta(u[0]), phi)
+                crate::geom::from_spherical(u2theta(u[0]), phi)
             };
             // The VNDF per unit square of u_m (the reader normalises it).
             let vndf: Vec<f64> = (0..n * n)

@@ -41,6 +41,7 @@ use glam::DVec3;
 use super::C64;
 use super::fresnel::{Field, field_dot_real, field_power};
 use super::mie::{Mie, MieError};
+use crate::geom::frame;
 use crate::rng::Rng;
 
 /// Intervals of the phase function's envelope over `theta` in `[0, pi]`, at least.
@@ -453,18 +454,6 @@ fn combine(a: C64, p: DVec3, b: C64, q: DVec3) -> Field {
     [a * p.x + b * q.x, a * p.y + b * q.y, a * p.z + b * q.z]
 }
 
-/// Two unit vectors completing `d` to a right-handed orthonormal frame `(u, v, d)`
-/// (Duff et al., "Building an orthonormal basis, revisited", JCGT 6(1), 2017).
-fn frame(d: DVec3) -> (DVec3, DVec3) {
-    let sign = 1f64.copysign(d.z);
-    let a = -1.0 / (sign + d.z);
-    let b = d.x * d.y * a;
-    (
-        DVec3::new(1.0 + sign * d.x * d.x * a, sign * b, -sign * d.x),
-        DVec3::new(b, sign + d.y * d.y * a, -d.y),
-    )
-}
-
 /// `cos theta` drawn from the Henyey-Greenstein phase function by its inverse CDF
 /// (e.g. Jacques & Wang, "Monte Carlo modeling of light transport in tissues", 1995, eq.
 /// 5.43): `mu = (1 + g^2 - ((1 - g^2) / (1 - g + 2 g xi))^2) / (2 g)`, uniform for g = 0.
@@ -521,21 +510,6 @@ mod tests {
         let (u, v) = frame(d);
         let f = |w: DVec3| [C64::new(w.x, 0.0), C64::new(w.y, 0.0), C64::new(w.z, 0.0)];
         [f(u), f(v)]
-    }
-
-    #[test]
-    fn frames_are_orthonormal() {
-        for d in [
-            DVec3::Z,
-            -DVec3::Z,
-            DVec3::new(0.3, -0.4, 0.866).normalize(),
-            DVec3::X,
-        ] {
-            let (u, v) = frame(d);
-            assert!((u.length() - 1.0).abs() < 1e-12 && (v.length() - 1.0).abs() < 1e-12);
-            assert!(u.dot(v).abs() < 1e-12 && u.dot(d).abs() < 1e-12);
-            assert!((u.cross(v) - d).length() < 1e-12);
-        }
     }
 
     /// The weighted histogram of scattered directions against the phase function's mass

@@ -56,7 +56,7 @@ impl Light {
             Ok(Light::None)
         } else if let Some(v) = s.strip_prefix("dir:") {
             let p = numbers(v, 2, "--light dir:THETA,PHI needs two angles in degrees")?;
-            Ok(Light::Directional(crate::brdf::dir(
+            Ok(Light::Directional(crate::geom::from_spherical(
                 p[0].to_radians(),
                 p[1].to_radians(),
             )))
@@ -282,7 +282,12 @@ pub fn albedo_table(brdf: &(dyn Brdf + Sync), n: usize) -> Vec<Vec<f64>> {
         .into_par_iter()
         .map(|k| {
             let to = (k as f64 + 0.5) / n as f64 * std::f64::consts::FRAC_PI_2;
-            crate::brdf::hemispherical_reflectance(brdf, crate::brdf::dir(to, 0.0), 48, 96)
+            crate::brdf::hemispherical_reflectance(
+                brdf,
+                crate::geom::from_spherical(to, 0.0),
+                48,
+                96,
+            )
         })
         .collect()
 }

@@ -12,7 +12,7 @@ use serde::Deserialize;
 use crate::accel::Backend;
 use crate::accumulate::file::Accumulator;
 use crate::accumulate::{Buckets, Coherence, PhasePrecision};
-use crate::brdf::{Brdf, BucketData, Representation, dir};
+use crate::brdf::{Brdf, BucketData, Representation};
 use crate::optics::tmm;
 use crate::sample::{self, MeshOptions, Sample};
 use crate::simulate::{SimConfig, Wavelengths, simulate};

@@ -2,6 +2,7 @@
 //! run), the sampled-area sweep, and the summaries (convergence slope, verdicts).
 
 use super::*;
+use crate::geom::from_spherical;
 
 /// One row of the sampled-area experiment.
 #[derive(Clone, Debug)]
@@ -238,7 +239,11 @@ pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String)
                 let m = 2000;
                 for k in 0..m {
                     let a = k as f64 / m as f64;
-                    rep.eval(dir(1.2 * a, 0.0), dir(1.3 * (1.0 - a), 3.0 + a), &mut out);
+                    rep.eval(
+                        from_spherical(1.2 * a, 0.0),
+                        from_spherical(1.3 * (1.0 - a), 3.0 + a),
+                        &mut out,
+                    );
                     std::hint::black_box(&out);
                 }
                 let query_ns = q0.elapsed().as_nanos() as f64 / m as f64;
@@ -246,7 +251,7 @@ pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String)
                 for (i, t) in st.theta_i.iter().enumerate() {
                     let h = crate::brdf::hemispherical_reflectance(
                         &rep,
-                        dir(t.to_radians(), 0.0),
+                        from_spherical(t.to_radians(), 0.0),
                         45,
                         72,
                     );
