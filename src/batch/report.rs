@@ -9,8 +9,8 @@
 //! the page, the style and the sorting script are inline, so the page works offline and
 //! from `file://`.
 //!
-//! The page holds no date, path of the machine or timing, so the same library gives the
-//! same bytes (images included) whatever the thread count.
+//! The page holds no date or timing, so the same library gives the same bytes (images
+//! included) whatever the thread count.
 
 use std::fmt::Write as _;
 use std::io::Write as _;

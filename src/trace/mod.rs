@@ -28,139 +28,12 @@ use crate::rng::Rng;
 use crate::sample::Sample;
 use glam::DVec3;
 
-/// A ray leaving the sample through the launch plane (up) or the bottom plane (down).
-#[derive(Clone, Copy, Debug)]
-pub struct Exit {
-    /// Field of each incident polarisation, without the propagation phase.
-    pub e: [Field; 2],
-    /// Complex optical path length from the launch plane, nm.
-    pub opl: C64,
-    /// Unit direction of travel.
-    pub dir: DVec3,
-    /// Exit point on the exit plane, unwrapped (nm).
-    pub x: DVec3,
-    pub up: bool,
-    /// Coherence group: 0 for light that has met no particle; each volume scattering
-    /// event starts a group of its own, incoherent with every other (the estimator pairs
-    /// exits of one group only).
-    pub group: u32,
-}
+mod random;
+mod tree;
 
-/// Power dropped by the cutoff or a limit, lost to a leak, or escaped through an open side:
-/// `power[p] * exp(-4 pi im / lambda)`.
-#[derive(Clone, Copy, Debug)]
-pub struct Dropped {
-    pub power: [f64; 2],
-    pub im: f64,
-    /// Dropped by a limit (depth, segments, wraps) or a leak rather than by the power
-    /// cutoff: such power says the ray series was cut before it converged, and its
-    /// coherent effect on the result is not bounded by the cutoff.
-    pub limit: bool,
-    /// Left an open sample through a side (`Sample::guard_nm`): escaped, not cut.
-    pub escaped: bool,
-}
-
-/// A tree's dropped power at one wavelength (see [`Tree::dropped`]), as fractions of the
-/// launched power.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct DroppedPower {
-    /// Everything dropped, escaped included.
-    pub all: f64,
-    /// The part dropped by limits and leaks ([`Dropped::limit`]).
-    pub limit: f64,
-    /// The part that left through the sides of an open sample ([`Dropped::escaped`]).
-    pub escaped: f64,
-}
-
-/// Everything one tree produced.
-#[derive(Clone, Debug, Default)]
-pub struct Tree {
-    pub exits: Vec<Exit>,
-    pub dropped: Vec<Dropped>,
-    /// Some power entered an absorbing medium (so the tree's absorbed power is the launched
-    /// power less what left and what was dropped; zero otherwise).
-    pub absorbing: bool,
-    /// Interface events arriving from a lossless medium whose `|r|^2 + T` missed 1 by more
-    /// than 1e-9 (an arithmetic or branch fault; always 0 in a correct build).
-    pub energy_faults: u32,
-    /// Events whose energy was limited because their partial waves recombine only in
-    /// part (`fresnel::limit_excess`).
-    pub limited: u32,
-    /// The incident power (fraction of launched, attenuated along its path) of those
-    /// events, each weighted by `1 - w`: how much light went through events that are
-    /// energy-limited rather than exact (`SimStats::limited`).
-    pub limited_power: f64,
-    pub leaks: u32,
-    pub segments: u32,
-    /// Random events: volume scattering and Russian roulette survivals (each started a
-    /// coherence group of its own). A tree with any carries importance weights.
-    pub random_events: u32,
-    /// Scratch for coated interfaces (indices and thicknesses of one event's stack).
-    n_buf: Vec<C64>,
-    d_buf: Vec<f64>,
-}
-
-impl Tree {
-    pub fn clear(&mut self) {
-        self.exits.clear();
-        self.dropped.clear();
-        self.absorbing = false;
-        self.energy_faults = 0;
-        self.limited = 0;
-        self.limited_power = 0.0;
-        self.leaks = 0;
-        self.segments = 0;
-        self.random_events = 0;
-    }
-
-    /// Records the power of a field dropped at optical path `opl` (see [`Dropped`]).
-    fn drop_field(&mut self, e: &[Field; 2], opl: C64, limit: bool) {
-        self.dropped.push(Dropped {
-            power: [field_power(&e[0]), field_power(&e[1])],
-            im: opl.im,
-            limit,
-            escaped: false,
-        });
-    }
-
-    /// Records the power of a field that left an open sample through a side.
-    fn escape_field(&mut self, e: &[Field; 2], opl: C64) {
-        self.dropped.push(Dropped {
-            power: [field_power(&e[0]), field_power(&e[1])],
-            im: opl.im,
-            limit: false,
-            escaped: true,
-        });
-    }
-
-    /// Incoherent power of the exits at `lambda_nm` (the sum of `|a_j|^2`, both
-    /// polarisations averaged).
-    pub fn exit_power(&self, lambda_nm: f64) -> f64 {
-        let a = -4.0 * std::f64::consts::PI / lambda_nm;
-        self.exits
-            .iter()
-            .map(|x| 0.5 * (field_power(&x.e[0]) + field_power(&x.e[1])) * (a * x.opl.im).exp())
-            .sum()
-    }
-
-    /// Dropped power at `lambda_nm`, averaged over the two polarisations: all of it, the
-    /// part dropped by limits and leaks, and the part that escaped through the sides.
-    pub fn dropped(&self, lambda_nm: f64) -> DroppedPower {
-        let a = -4.0 * std::f64::consts::PI / lambda_nm;
-        let mut out = DroppedPower::default();
-        for d in &self.dropped {
-            let p = 0.5 * (d.power[0] + d.power[1]) * (a * d.im).exp();
-            out.all += p;
-            if d.limit {
-                out.limit += p;
-            }
-            if d.escaped {
-                out.escaped += p;
-            }
-        }
-        out
-    }
-}
+pub use random::{ROULETTE_AFTER_SEGMENTS, ROULETTE_BELOW};
+use random::{Volume, roulette};
+pub use tree::{Dropped, DroppedPower, Exit, Tree};
 
 /// Limits of a tree.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -298,63 +171,6 @@ impl<'a> Scene<'a> {
         if nm.is_finite() && nm > 0.0 {
             self.coherence_nm = nm;
         }
-    }
-
-    /// Tabulates every scattering medium for wavelengths in `[lo_nm, hi_nm]` (Mie
-    /// particles) or checks it (Henyey-Greenstein). Until then a ray inside a scattering
-    /// medium is dropped as cut by a limit, never traced as if the medium were clear.
-    pub fn prepare_scattering(&mut self, lo_nm: f64, hi_nm: f64) -> Result<(), SceneError> {
-        use crate::sample::Scattering;
-        let media = &self.sample.media;
-        let index = |m: usize, l: f64| -> C64 {
-            let (n, k) = media[m].model.eval(l).unwrap_or((f64::NAN, f64::NAN));
-            C64::new(n, k)
-        };
-        let mut out = Vec::with_capacity(media.len());
-        for (i, m) in media.iter().enumerate() {
-            let model = match &m.scattering {
-                None => None,
-                Some(Scattering::HenyeyGreenstein {
-                    g,
-                    scattering_per_um,
-                    absorption_per_um,
-                }) => Some(ScatterModel::henyey_greenstein(
-                    *g,
-                    *scattering_per_um,
-                    *absorption_per_um,
-                )),
-                Some(Scattering::Particles {
-                    medium,
-                    radius,
-                    volume_fraction,
-                }) => Some(ScatterModel::mie(
-                    *radius,
-                    *volume_fraction,
-                    lo_nm,
-                    hi_nm,
-                    &|l| index(i, l),
-                    &|l| index(*medium, l),
-                )),
-            };
-            out.push(
-                model
-                    .transpose()
-                    .map_err(|e| SceneError::Geometry(format!("medium '{}': {e}", m.name)))?,
-            );
-        }
-        self.scatter = out;
-        Ok(())
-    }
-
-    /// Scattering angles drawn above their envelope so far, over every particle medium
-    /// ([`ScatterModel::violations`]).
-    pub fn scatter_violations(&self) -> u64 {
-        self.scatter.iter().flatten().map(|m| m.violations()).sum()
-    }
-
-    /// Whether some medium of the sample scatters light in its volume.
-    pub fn scatters(&self) -> bool {
-        self.scatters
     }
 
     /// The medium beyond the sample above (or below) it, from vertical probe rays; the
@@ -675,72 +491,6 @@ impl<'a> Scene<'a> {
         traced
     }
 
-    /// Volume scattering along the next `t_next` nm of ray `r` in a scattering medium:
-    /// an exponential free path with the medium's extinction coefficient at the lane's
-    /// wavelength (`optics::particles`); if it ends first, the ray moves there, its power
-    /// is multiplied by the albedo (the rest is absorbed) and the event's weight, it turns
-    /// into the sampled direction and starts a coherence group of its own. The ray carries
-    /// one lane: the driver traces scattering samples a wavelength at a time.
-    #[allow(clippy::too_many_arguments)]
-    fn volume_event(
-        &self,
-        r: &mut RayState,
-        t_next: f64,
-        n_med: C64,
-        lanes: &[Lane],
-        limits: &TraceLimits,
-        stack: &mut TraceStack,
-        trees: &mut [Tree],
-    ) -> Volume {
-        let first = if r.lane == ALL { 0 } else { r.lane as usize };
-        let Some(model) = self.scatter.get(r.medium).and_then(|m| m.as_ref()) else {
-            // Not tabulated (prepare_scattering was not called): dropped, and said so.
-            drop_all(&stack.cur, first, r.opl, trees);
-            return Volume::Ended;
-        };
-        if r.lane == ALL || stack.cur.len() != 1 {
-            drop_all(&stack.cur, first, r.opl, trees);
-            return Volume::Ended;
-        }
-        let lambda = lanes[first].lambda_nm;
-        let (mu_ext, albedo) = model.coefficients(lambda);
-        let s = -(1.0 - stack.rng.uniform()).ln() / mu_ext;
-        if s >= t_next {
-            return Volume::Passes;
-        }
-        self.advance(r, s, n_med, &stack.cur, first, trees);
-        let tree = &mut trees[first];
-        let Some(mut e) = stack.cur[0] else {
-            return Volume::Ended;
-        };
-        if albedo < 1.0 {
-            tree.absorbing = true;
-        }
-        let d2 = model.scatter(lambda, r.dir, &mut e, &mut stack.rng);
-        tree.random_events += 1;
-        stack.groups += 1;
-        r.group = stack.groups;
-        r.dir = d2;
-        r.n_re = d2 * n_med.re;
-        r.n_im = DVec3::ZERO;
-        let mut power = field_power(&e[0]).max(field_power(&e[1]));
-        if r.opl.im != 0.0 {
-            power *= (-4.0 * std::f64::consts::PI / lambda * r.opl.im).exp();
-        }
-        if power < limits.cutoff || power.is_nan() {
-            tree.drop_field(&e, r.opl, false);
-            stack.cur[0] = None;
-            return Volume::Ended;
-        }
-        if tree.segments >= limits.max_segments {
-            tree.drop_field(&e, r.opl, true);
-            stack.cur[0] = None;
-            return Volume::Ended;
-        }
-        stack.cur[0] = Some(e);
-        Volume::Scattered
-    }
-
     /// Moves the ray by `t` nm, adding `N . dr` to its optical path (the phase and the
     /// attenuation of its plane wave, docs/design.md §3); the lanes it carries (`cur`, the
     /// first being lane `first`) note power entering an absorbing medium.
@@ -1043,94 +793,6 @@ pub fn recombination_weight(k_im: f64, lambda_nm: f64, coherence_nm: f64) -> f64
     (-0.5 * x * x).exp()
 }
 
-/// In a sample with bodies or scattering media (`Scene::roulette`), a tree past this many
-/// segments has stopped being a short coherent series (films,
-/// rough surfaces and coatings stay below: their series end at the power cutoff within
-/// tens of segments, and every shipped sample of that kind gives the same bytes with and
-/// without roulette) and has become a multiply scattering one (flakes in a binder, light
-/// walking through a particle medium), where every interface event doubling the rays makes
-/// it grow exponentially until `--max-segments` cuts it.
-pub const ROULETTE_AFTER_SEGMENTS: u32 = 256;
-/// In such a tree, a child carrying less than this fraction of the launched power goes on
-/// with probability `q = P / ROULETTE_BELOW` and its fields scaled by `1 / sqrt(q)`
-/// (Russian roulette: Arvo & Kirk, SIGGRAPH 1990), so the power it carries is right on
-/// average and the tree's rays number about `1 / ROULETTE_BELOW` per generation at most.
-/// A survivor starts a coherence group of its own: its cross terms with the rest of the
-/// tree (at most `2 sqrt(P_a P_b)`, with `P` below 1e-2 here) are left out, as the
-/// estimator leaves out those of particle-scattered light.
-pub const ROULETTE_BELOW: f64 = 1e-2;
-
-/// Russian roulette on the rays `stack.rays[from..]` just pushed (see
-/// [`ROULETTE_AFTER_SEGMENTS`]): decided once per ray (for a ray carrying several lanes, on
-/// its strongest lane, and applied to all of them, which keeps every lane unbiased).
-fn roulette(from: usize, lanes: &[Lane], stack: &mut TraceStack, trees: &mut [Tree]) {
-    let TraceStack {
-        rays,
-        fields,
-        rng,
-        groups,
-        ..
-    } = stack;
-    for r in rays[from..].iter_mut() {
-        let att = |lane: usize| {
-            if r.opl.im != 0.0 {
-                (-4.0 * std::f64::consts::PI / lanes[lane].lambda_nm * r.opl.im).exp()
-            } else {
-                1.0
-            }
-        };
-        let power = |e: &[Field; 2]| 0.5 * (field_power(&e[0]) + field_power(&e[1]));
-        let p = if r.lane == ALL {
-            fields[r.at as usize..]
-                .iter()
-                .take(lanes.len())
-                .enumerate()
-                .filter_map(|(j, f)| f.as_ref().map(|e| power(e) * att(j)))
-                .fold(0.0, f64::max)
-        } else {
-            power(&r.e) * att(r.lane as usize)
-        };
-        if p >= ROULETTE_BELOW || p.is_nan() {
-            continue;
-        }
-        let q = p / ROULETTE_BELOW;
-        if rng.uniform() >= q {
-            r.killed = true;
-            if r.lane == ALL {
-                for f in fields[r.at as usize..].iter_mut().take(lanes.len()) {
-                    *f = None;
-                }
-            }
-            continue;
-        }
-        let scale = 1.0 / q.sqrt();
-        let grow = |e: &mut [Field; 2]| {
-            for f in e.iter_mut() {
-                for c in f.iter_mut() {
-                    *c *= scale;
-                }
-            }
-        };
-        if r.lane == ALL {
-            for (j, f) in fields[r.at as usize..]
-                .iter_mut()
-                .take(lanes.len())
-                .enumerate()
-            {
-                if let Some(e) = f {
-                    grow(e);
-                    trees[j].random_events += 1;
-                }
-            }
-        } else {
-            grow(&mut r.e);
-            trees[r.lane as usize].random_events += 1;
-        }
-        *groups += 1;
-        r.group = *groups;
-    }
-}
-
 /// Drops every field the ray carries (`cur`, lanes from `first`) by a limit or a leak.
 fn drop_all(cur: &[Option<[Field; 2]>], first: usize, opl: C64, trees: &mut [Tree]) {
     for (k, f) in cur.iter().enumerate() {
@@ -1158,16 +820,6 @@ struct LaneSplit {
     n_t: (DVec3, DVec3),
     er: [Field; 2],
     et: [Field; 2],
-}
-
-/// What a stretch of scattering medium did to a ray.
-enum Volume {
-    /// No particle before the next surface or plane.
-    Passes,
-    /// Scattered: trace on from the event in the new direction.
-    Scattered,
-    /// Dropped (below the cutoff, a limit, or an untabulated medium).
-    Ended,
 }
 
 /// `RayState::lane` of a ray that carries every lane.

@@ -1,0 +1,139 @@
+//! What one traced tree produced: its exits, the power it dropped, and its counters.
+
+use crate::optics::C64;
+use crate::optics::fresnel::{Field, field_power};
+use glam::DVec3;
+
+/// A ray leaving the sample through the launch plane (up) or the bottom plane (down).
+#[derive(Clone, Copy, Debug)]
+pub struct Exit {
+    /// Field of each incident polarisation, without the propagation phase.
+    pub e: [Field; 2],
+    /// Complex optical path length from the launch plane, nm.
+    pub opl: C64,
+    /// Unit direction of travel.
+    pub dir: DVec3,
+    /// Exit point on the exit plane, unwrapped (nm).
+    pub x: DVec3,
+    pub up: bool,
+    /// Coherence group: 0 for light that has met no particle; each volume scattering
+    /// event starts a group of its own, incoherent with every other (the estimator pairs
+    /// exits of one group only).
+    pub group: u32,
+}
+
+/// Power dropped by the cutoff or a limit, lost to a leak, or escaped through an open side:
+/// `power[p] * exp(-4 pi im / lambda)`.
+#[derive(Clone, Copy, Debug)]
+pub struct Dropped {
+    pub power: [f64; 2],
+    pub im: f64,
+    /// Dropped by a limit (depth, segments, wraps) or a leak rather than by the power
+    /// cutoff: such power says the ray series was cut before it converged, and its
+    /// coherent effect on the result is not bounded by the cutoff.
+    pub limit: bool,
+    /// Left an open sample through a side (`Sample::guard_nm`): escaped, not cut.
+    pub escaped: bool,
+}
+
+/// A tree's dropped power at one wavelength (see [`Tree::dropped`]), as fractions of the
+/// launched power.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DroppedPower {
+    /// Everything dropped, escaped included.
+    pub all: f64,
+    /// The part dropped by limits and leaks ([`Dropped::limit`]).
+    pub limit: f64,
+    /// The part that left through the sides of an open sample ([`Dropped::escaped`]).
+    pub escaped: f64,
+}
+
+/// Everything one tree produced.
+#[derive(Clone, Debug, Default)]
+pub struct Tree {
+    pub exits: Vec<Exit>,
+    pub dropped: Vec<Dropped>,
+    /// Some power entered an absorbing medium (so the tree's absorbed power is the launched
+    /// power less what left and what was dropped; zero otherwise).
+    pub absorbing: bool,
+    /// Interface events arriving from a lossless medium whose `|r|^2 + T` missed 1 by more
+    /// than 1e-9 (an arithmetic or branch fault; always 0 in a correct build).
+    pub energy_faults: u32,
+    /// Events whose energy was limited because their partial waves recombine only in
+    /// part (`fresnel::limit_excess`).
+    pub limited: u32,
+    /// The incident power (fraction of launched, attenuated along its path) of those
+    /// events, each weighted by `1 - w`: how much light went through events that are
+    /// energy-limited rather than exact (`SimStats::limited`).
+    pub limited_power: f64,
+    pub leaks: u32,
+    pub segments: u32,
+    /// Random events: volume scattering and Russian roulette survivals (each started a
+    /// coherence group of its own). A tree with any carries importance weights.
+    pub random_events: u32,
+    /// Scratch for coated interfaces (indices and thicknesses of one event's stack).
+    pub(super) n_buf: Vec<C64>,
+    pub(super) d_buf: Vec<f64>,
+}
+
+impl Tree {
+    pub fn clear(&mut self) {
+        self.exits.clear();
+        self.dropped.clear();
+        self.absorbing = false;
+        self.energy_faults = 0;
+        self.limited = 0;
+        self.limited_power = 0.0;
+        self.leaks = 0;
+        self.segments = 0;
+        self.random_events = 0;
+    }
+
+    /// Records the power of a field dropped at optical path `opl` (see [`Dropped`]).
+    pub(super) fn drop_field(&mut self, e: &[Field; 2], opl: C64, limit: bool) {
+        self.dropped.push(Dropped {
+            power: [field_power(&e[0]), field_power(&e[1])],
+            im: opl.im,
+            limit,
+            escaped: false,
+        });
+    }
+
+    /// Records the power of a field that left an open sample through a side.
+    pub(super) fn escape_field(&mut self, e: &[Field; 2], opl: C64) {
+        self.dropped.push(Dropped {
+            power: [field_power(&e[0]), field_power(&e[1])],
+            im: opl.im,
+            limit: false,
+            escaped: true,
+        });
+    }
+
+    /// Incoherent power of the exits at `lambda_nm` (the sum of `|a_j|^2`, both
+    /// polarisations averaged).
+    pub fn exit_power(&self, lambda_nm: f64) -> f64 {
+        let a = -4.0 * std::f64::consts::PI / lambda_nm;
+        self.exits
+            .iter()
+            .map(|x| 0.5 * (field_power(&x.e[0]) + field_power(&x.e[1])) * (a * x.opl.im).exp())
+            .sum()
+    }
+
+    /// Dropped power at `lambda_nm`, averaged over the two polarisations: all of it, the
+    /// part dropped by limits and leaks, and the part that escaped through the sides.
+    pub fn dropped(&self, lambda_nm: f64) -> DroppedPower {
+        let a = -4.0 * std::f64::consts::PI / lambda_nm;
+        let mut out = DroppedPower::default();
+        for d in &self.dropped {
+            let p = 0.5 * (d.power[0] + d.power[1]) * (a * d.im).exp();
+            out.all += p;
+            if d.limit {
+                out.limit += p;
+            }
+            if d.escaped {
+                out.escaped += p;
+            }
+        }
+        out
+    }
+}
