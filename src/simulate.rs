@@ -511,31 +511,6 @@ impl<'a> Run<'a> {
                     "path sharing needs wavelength-independent paths: this sample has scattering media, whose free paths and directions are drawn per wavelength".into(),
                 ));
             }
-            let (lo, hi) = match &cfg.wavelengths {
-                Wavelengths::Bins(e) => (e[0], e[e.len() - 1]),
-                Wavelengths::Monochromatic(v) => (
-                    v.iter().copied().fold(f64::INFINITY, f64::min),
-                    v.iter().copied().fold(0.0, f64::max),
-                ),
-            };
-            for m in sample.media.iter().filter(|m| m.scattering.is_some()) {
-                for l in [lo, hi, 0.5 * (lo + hi)] {
-                    if let Ok((_, k)) = m.model.eval(l)
-                        && k != 0.0
-                    {
-                        return Err(SimError::Config(format!(
-                            "medium '{}' scatters but its host index absorbs (k = {k} at {l} nm): a scattering medium's own index must be lossless; put the absorption in its particles or in absorption_per_um",
-                            m.name
-                        )));
-                    }
-                }
-            }
-            for m in &sample.media {
-                if let Err(e) = m.model.eval(lo).and(m.model.eval(hi)) {
-                    return Err(SimError::Config(format!("medium '{}': {e}", m.name)));
-                }
-            }
-            scene.prepare_scattering(lo, hi)?;
         }
         let dispersive = sample.media.iter().any(|m| m.model.is_dispersive()) || scattering;
         // A coating's coefficients depend on the wavelength even with constant indices.
@@ -560,10 +535,24 @@ impl<'a> Run<'a> {
         };
         for m in &sample.media {
             for &l in &lambdas {
-                m.model
+                let (_, k) = m
+                    .model
                     .eval(l)
                     .map_err(|e| SimError::Config(format!("medium '{}': {e}", m.name)))?;
+                if m.scattering.is_some() && k != 0.0 {
+                    return Err(SimError::Config(format!(
+                        "medium '{}' scatters but its host index absorbs (k = {k} at {l} nm): a scattering medium's own index must be lossless; put the absorption in its particles or in absorption_per_um",
+                        m.name
+                    )));
+                }
             }
+        }
+        // Particle media tabulated over the run's wavelengths (each whole nm between the
+        // extremes; a Mie table refuses an absorbing host at any of them too).
+        if scattering {
+            let lo = lambdas.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = lambdas.iter().copied().fold(0.0, f64::max);
+            scene.prepare_scattering(lo, hi)?;
         }
         let index_at = |l: f64| -> Vec<C64> {
             let mut v = Vec::new();
