@@ -14,7 +14,9 @@ use rayon::prelude::*;
 use crate::accel::Backend;
 use crate::accumulate::block::{BlockCell, Dense, add_block};
 use crate::accumulate::file::{Accumulator, EntryPoints, Header, Settings, WavelengthMode};
-use crate::accumulate::{Buckets, Cell, Coherence, Estimator, PhasePrecision, Scratch};
+use crate::accumulate::{
+    Buckets, Cell, Coherence, Estimator, PhasePrecision, Scratch, diffraction,
+};
 use crate::geom::from_spherical;
 use crate::io::fnv1a;
 use crate::optics::C64;
@@ -200,6 +202,47 @@ pub fn achieved_error(cells: &[Cell], di: usize, nl: usize, mode: Coherence) -> 
     Some(worst)
 }
 
+/// One cell of the diffraction method: what the rays gave and what the transform kept in
+/// propagating orders before its orders were scaled to the rays' totals.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DiffractionCell {
+    /// The beamlet estimator's R and T on the same trees (the cell's totals).
+    pub rays_r: f64,
+    pub rays_t: f64,
+    /// The propagating orders' R and T as transformed (Parseval: equal to the rays' where
+    /// the ray field is sampled finely enough and puts no power beyond the horizon).
+    pub r: f64,
+    pub t: f64,
+    /// Propagating orders with power.
+    pub orders: usize,
+    /// Tubes shaped by their tracked cross-section (no neighbouring tree had the same
+    /// exit), and tubes that passed a line focus.
+    pub fallback_tubes: usize,
+    pub flipped_tubes: usize,
+}
+
+impl DiffractionCell {
+    /// The transform's total against the rays', `(R + T)_orders / (R + T)_rays` (1 when
+    /// Parseval holds; NaN for an empty cell).
+    pub fn ratio(&self) -> f64 {
+        (self.r + self.t) / (self.rays_r + self.rays_t)
+    }
+}
+
+/// The diffraction method's orders hold this fraction of the ray field's power or more
+/// (and at most its inverse) without comment. Sinusoidal gratings of slope 17 deg at
+/// period / wavelength 9 keep 0.990 at 0 deg and 0.969 at 30 deg (tests/diffraction.rs):
+/// the rest is the transform's tail beyond the horizon and the exit plane's near field.
+/// Outside, `simulate` warns.
+pub const DIFFRACTION_RATIO_WARN: f64 = 0.95;
+/// The most memory the diffraction method's kept exits may take, bytes.
+pub const DIFFRACTION_MAX_BYTES: f64 = 8e9;
+
+/// Below this (or above its inverse) the ray field is too coarse or too far from a plane
+/// wave per tube for the transform (sub-wavelength structure, rays too sparse), and the
+/// run is refused.
+pub const DIFFRACTION_RATIO_REFUSED: f64 = 0.8;
+
 /// Run statistics.
 #[derive(Clone, Debug, Default)]
 pub struct SimStats {
@@ -238,6 +281,9 @@ pub struct SimStats {
     /// more than about 0.02 degrees at a 5 um beamlet, ridge tips). There R and T come from
     /// a model that conserves energy, not from exact amplitudes.
     pub limited: Vec<f64>,
+    /// The diffraction method, per cell: the ray method's totals beside the diffracted
+    /// ones (empty cells for other methods).
+    pub diffraction: Vec<DiffractionCell>,
     /// Particle media: scattering angles drawn where the phase function exceeded its
     /// tabulated envelope (`optics::particles`; each such draw is slightly biased). 0 in a
     /// correct table.
@@ -360,6 +406,27 @@ fn entry_point(i: u64, shift: [f64; 2], tile: [f64; 2], guard: f64) -> [f64; 2] 
     [0, 1].map(|k| guard + f(k) * (tile[k] - 2.0 * guard))
 }
 
+/// The diffraction method's entry points: an `nx x ny` lattice over the tile with about
+/// `rays` points and cells as square as the tile allows (`nx / ny` near `Lx / Ly`). Its
+/// tubes' footprints tile the exit plane with a near-constant overlap, so the Gaussian
+/// patches of `accumulate::diffraction` sum to a uniform field (on a lattice of spacing d,
+/// patches of 0.6 d ripple by `2 exp(-2 pi^2 0.36) = 1.6e-3`; an R2 set ripples by
+/// percents and scatters that much power into spurious orders).
+pub fn diffraction_lattice(rays: u64, tile_nm: [f64; 2]) -> [u64; 2] {
+    let nx = ((rays as f64 * tile_nm[0] / tile_nm[1]).sqrt().round() as u64).max(1);
+    let ny = ((rays as f64 / nx as f64).round() as u64).max(1);
+    [nx, ny]
+}
+
+/// Point `i` of the lattice `n` (see [`diffraction_lattice`]), shifted by `shift` cells.
+fn lattice_point(i: u64, n: [u64; 2], shift: [f64; 2], tile: [f64; 2]) -> [f64; 2] {
+    let (ix, iy) = (i % n[0], i / n[0]);
+    [
+        (ix as f64 + shift[0]) / n[0] as f64 * tile[0],
+        (iy as f64 + shift[1]) / n[1] as f64 * tile[1],
+    ]
+}
+
 /// Runs the simulation. `progress` receives the number of trees finished so far.
 ///
 /// Three stages: [`Run::prepare`] (scene, media, estimator, the header's settings),
@@ -372,8 +439,23 @@ pub fn simulate(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Accumulator, SimStats), SimError> {
     validate(cfg)?;
+    // The diffraction method launches on a lattice (`diffraction_lattice`): the run traces
+    // its `nx * ny` trees per direction.
+    let lattice_cfg;
+    let lattice = diffraction_lattice(cfg.rays, sample.tile_nm);
+    let cfg = if cfg.coherence == Coherence::Diffraction {
+        let [nx, ny] = lattice;
+        lattice_cfg = SimConfig {
+            rays: nx * ny,
+            ..cfg.clone()
+        };
+        &lattice_cfg
+    } else {
+        cfg
+    };
     let start_time = Instant::now();
     let mut run = Run::prepare(sample, cfg)?;
+    run.lattice = lattice;
     run.setup_seconds = start_time.elapsed().as_secs_f64();
     let mut cells: Vec<Cell> = (0..cfg.theta_i_deg.len() * run.nl)
         .map(|_| Cell::new(&cfg.buckets, run.global))
@@ -383,12 +465,14 @@ pub fn simulate(
     let mut limit_bound = vec![0.0; cells.len()];
     let mut created = vec![0.0; cells.len()];
     let mut limited = vec![0.0; cells.len()];
+    let mut diffraction = vec![DiffractionCell::default(); cells.len()];
     let directions = cfg
         .theta_i_deg
         .iter()
         .enumerate()
         .map(|(di, &theta_deg)| {
             let lost = Lost {
+                diffraction: &mut diffraction,
                 limit_dropped: &mut limit_dropped,
                 escaped: &mut escaped,
                 limit_bound: &mut limit_bound,
@@ -397,7 +481,7 @@ pub fn simulate(
             };
             run.direction(di, theta_deg, &mut cells, lost, progress)
         })
-        .collect();
+        .collect::<Result<Vec<_>, SimError>>()?;
     if cfg
         .cancel
         .as_ref()
@@ -406,6 +490,7 @@ pub fn simulate(
         return Err(SimError::Cancelled);
     }
     let lost = LostSums {
+        diffraction,
         limit_dropped,
         escaped,
         limit_bound,
@@ -418,6 +503,7 @@ pub fn simulate(
 /// Per-cell sums of what the run lost or could not trust (see [`SimStats`]), filled
 /// direction by direction.
 struct Lost<'a> {
+    diffraction: &'a mut [DiffractionCell],
     limit_dropped: &'a mut [f64],
     escaped: &'a mut [f64],
     limit_bound: &'a mut [f64],
@@ -427,6 +513,7 @@ struct Lost<'a> {
 
 /// The finished sums of [`Lost`].
 struct LostSums {
+    diffraction: Vec<DiffractionCell>,
     limit_dropped: Vec<f64>,
     escaped: Vec<f64>,
     limit_bound: Vec<f64>,
@@ -480,6 +567,10 @@ struct Run<'a> {
     sharing: bool,
     tracing: Tracing,
     global: bool,
+    /// `Coherence::Diffraction`: exits are kept for the far-field transform, and trees
+    /// launch on this lattice (`diffraction_lattice`).
+    diffraction: bool,
+    lattice: [u64; 2],
     nl: usize,
     lambda_max: f64,
     /// Media indices at the longest wavelength (the shared geometry's).
@@ -509,6 +600,24 @@ impl<'a> Run<'a> {
             if cfg.path_sharing == Some(true) {
                 return Err(SimError::Config(
                     "path sharing needs wavelength-independent paths: this sample has scattering media, whose free paths and directions are drawn per wavelength".into(),
+                ));
+            }
+        }
+        let diffraction = cfg.coherence == Coherence::Diffraction;
+        if diffraction {
+            if sample.guard_nm.is_some() {
+                return Err(SimError::Config(
+                    "--coherence diffraction takes the far field of a periodic tile, but this sample's sides are open (a guard band): give the height map periodic edges, or use --coherence beamlet".into(),
+                ));
+            }
+            if sample.interfaces.iter().any(|i| i.closed) {
+                return Err(SimError::Config(
+                    "--coherence diffraction sums deterministic ray fields, but this sample has closed bodies (pigments, flakes) whose long trees end by Russian roulette with random weights; use --coherence beamlet, and a particle medium for sub-wavelength particles".into(),
+                ));
+            }
+            if cfg.tolerance.is_some() {
+                return Err(SimError::Config(
+                    "--coherence diffraction sums all trees of a direction at once, so it has no per-tree error to stop on: give a fixed --rays instead of --tolerance".into(),
                 ));
             }
         }
@@ -562,7 +671,13 @@ impl<'a> Run<'a> {
         let nl = cfg.wavelengths.count();
         let lambda_max = cfg.wavelengths.max();
         let est = Estimator {
-            mode: cfg.coherence,
+            // The diffraction method keeps the beamlet estimator's totals as the ray
+            // method's, which its own are checked against.
+            mode: if diffraction {
+                Coherence::Beamlet
+            } else {
+                cfg.coherence
+            },
             rho_nm: cfg.rho_nm,
             buckets: cfg.buckets,
             n_up: index_at(lambda_max)[scene.ambient].re,
@@ -586,6 +701,36 @@ impl<'a> Run<'a> {
             return Err(SimError::Config(
                 "the medium above the sample is dispersive; use a constant index for the ambient medium".into(),
             ));
+        }
+        if diffraction {
+            // Every exit of a direction is kept (about 160 bytes each, two per tree as a
+            // guide) and each wavelength's grid must fit.
+            let bytes = 2.0 * 160.0 * cfg.rays as f64 * nl as f64;
+            if bytes > DIFFRACTION_MAX_BYTES || cfg.rays > u64::from(u32::MAX) {
+                return Err(SimError::Config(format!(
+                    "--coherence diffraction keeps every exit of an incident direction in memory: {} trees x {nl} wavelengths needs about {:.1} GB (at most {:.0} GB): use fewer rays or fewer wavelengths per run (batch plans split a spectrum into units)",
+                    cfg.rays,
+                    bytes / 1e9,
+                    DIFFRACTION_MAX_BYTES / 1e9
+                )));
+            }
+            for &l in &lambdas {
+                let n_sub = index_at(l)[scene.substrate];
+                for n_out in [Some(est.n_up), (n_sub.im == 0.0).then_some(n_sub.re)]
+                    .into_iter()
+                    .flatten()
+                {
+                    let [mx, my] = diffraction::grid_cells(sample.tile_nm, l, n_out, est.n_up);
+                    if mx.saturating_mul(my) > diffraction::MAX_GRID_CELLS {
+                        return Err(SimError::Config(format!(
+                            "--coherence diffraction needs a {mx} x {my} grid over the {:.0} x {:.0} nm tile at {l} nm (at most {} cells): use a smaller tile (a period, or a few correlation lengths); features this large against the wavelength are where rays alone hold",
+                            sample.tile_nm[0],
+                            sample.tile_nm[1],
+                            diffraction::MAX_GRID_CELLS
+                        )));
+                    }
+                }
+            }
         }
         let settings = Settings {
             sample_name: sample.name.clone(),
@@ -630,6 +775,8 @@ impl<'a> Run<'a> {
                 Tracing::PerWavelength
             },
             global: cfg.coherence == Coherence::Global,
+            diffraction,
+            lattice: [cfg.rays, 1],
             nl,
             lambda_max,
             fixed_indices: index_at(lambda_max),
@@ -662,7 +809,7 @@ impl<'a> Run<'a> {
         cells: &mut [Cell],
         lost: Lost,
         progress: &(dyn Fn(u64) + Sync),
-    ) -> DirectionStats {
+    ) -> Result<DirectionStats, SimError> {
         let (cfg, nl) = (self.cfg, self.nl);
         let wi = from_spherical(theta_deg.to_radians(), cfg.phi_i_deg.to_radians());
         let mut shift_rng = Rng::new(cfg.seed, 0x5817_0000 + cfg.first_direction + di as u64);
@@ -681,6 +828,8 @@ impl<'a> Run<'a> {
             cfg.rays
         };
         let mut start = 0u64;
+        // The diffraction method's contributions per wavelength, in block order.
+        let mut contribs: Vec<Vec<diffraction::Contribution>> = vec![Vec::new(); nl];
         loop {
             let end = (start + batch).min(target);
             let nblocks = (end - start).div_ceil(BLOCK);
@@ -695,12 +844,12 @@ impl<'a> Run<'a> {
                     .is_some_and(|c| c.load(Ordering::Relaxed))
                 {
                     // The caller gets SimError::Cancelled: these sums are never used.
-                    return DirectionStats {
+                    return Ok(DirectionStats {
                         theta_i_deg: theta_deg,
                         rays: start,
                         achieved: None,
                         converged: false,
-                    };
+                    });
                 }
                 let chunk = (CHUNK_BLOCKS_PER_THREAD * rayon::current_num_threads() as u64)
                     .max(MIN_CHUNK_BLOCKS);
@@ -721,9 +870,10 @@ impl<'a> Run<'a> {
                     )
                     .collect();
                 // Combine blocks in block order: the sums do not depend on scheduling.
-                for block in &blocks {
-                    for (j, bc) in block.iter().enumerate() {
-                        add_block(&mut cells[di * nl + j], bc);
+                for block in blocks {
+                    for (j, bc) in block.into_iter().enumerate() {
+                        add_block(&mut cells[di * nl + j], &bc);
+                        contribs[j].extend(bc.diffraction);
                         let k = di * nl + j;
                         lost.limit_dropped[k] += bc.dropped_limit;
                         lost.escaped[k] += bc.escaped;
@@ -738,13 +888,113 @@ impl<'a> Run<'a> {
             let achieved = achieved_error(cells, di, nl, cfg.coherence);
             let converged = adaptive && achieved.is_some_and(|a| a <= cfg.tolerance.unwrap_or(0.0));
             if !adaptive || converged || start >= target {
-                return DirectionStats {
+                if self.diffraction {
+                    self.diffract(
+                        wi,
+                        contribs,
+                        &mut cells[di * nl..(di + 1) * nl],
+                        &mut lost.diffraction[di * nl..(di + 1) * nl],
+                    )?;
+                }
+                return Ok(DirectionStats {
                     theta_i_deg: theta_deg,
                     rays: start,
                     achieved,
                     converged,
-                };
+                });
             }
+        }
+    }
+
+    /// The diffraction method for one incident direction (towards the light `wi`): each
+    /// wavelength's contributions transformed into Floquet orders (`diffraction::diffract`),
+    /// which replace the cell's bucket sums and totals; the beamlet estimator's totals are
+    /// kept in `out` for the energy check.
+    fn diffract(
+        &self,
+        wi: DVec3,
+        contribs: Vec<Vec<diffraction::Contribution>>,
+        cells: &mut [Cell],
+        out: &mut [DiffractionCell],
+    ) -> Result<(), SimError> {
+        let d = -wi;
+        let results: Vec<Result<_, String>> = contribs
+            .into_par_iter()
+            .enumerate()
+            .map(|(j, list)| {
+                let lambda = self.lambda_centre(j);
+                let k = 2.0 * std::f64::consts::PI / lambda;
+                let mut idx = Vec::new();
+                indices_into(self.sample, lambda, &mut idx);
+                let n_sub = idx[self.scene.substrate];
+                let h = diffraction::Hemisphere {
+                    tile_nm: self.sample.tile_nm,
+                    lambda_nm: lambda,
+                    n_out: self.est.n_up,
+                    n_in: self.est.n_up,
+                    k_in: [k * self.est.n_up * d.x, k * self.est.n_up * d.y],
+                    cos_i: -d.z,
+                    lattice: self.lattice,
+                    rho_nm: self.cfg.rho_nm,
+                    down: false,
+                };
+                let up = diffraction::diffract(&h, &list, &self.cfg.buckets)?;
+                // An absorbing substrate transmits nothing (no exit leaves downwards).
+                let down = if n_sub.im == 0.0 && list.iter().any(|c| c.down) {
+                    let h = diffraction::Hemisphere {
+                        n_out: n_sub.re,
+                        down: true,
+                        ..h
+                    };
+                    diffraction::diffract(&h, &list, &self.cfg.buckets)?
+                } else {
+                    diffraction::Pattern::default()
+                };
+                Ok((up, down))
+            })
+            .collect();
+        for (j, res) in results.into_iter().enumerate() {
+            let (up, down) = res.map_err(SimError::Config)?;
+            let cell = &mut cells[j];
+            let n = cell.trees as f64;
+            let (r_ray, t_ray) = (cell.r_sum / n, cell.t_sum / n);
+            cell.sum.fill(0.0);
+            cell.sumsq.fill(0.0);
+            cell.count.fill(0);
+            // Energy is the ray field's: each hemisphere's orders are scaled to the ray
+            // method's total there. The transform's own total (what it kept in propagating
+            // orders) is reported and judged in `finish` (DIFFRACTION_RATIO_*).
+            let scale = |rays: f64, total: f64| if total > 0.0 { rays / total } else { 0.0 };
+            let (su, sd) = (scale(r_ray, up.total), scale(t_ray, down.total));
+            for (&(kk, p), s) in up
+                .per_key
+                .iter()
+                .map(|e| (e, su))
+                .chain(down.per_key.iter().map(|e| (e, sd)))
+            {
+                let p = p * s;
+                cell.sum[kk as usize] = p * n;
+                cell.sumsq[kk as usize] = p * p * n;
+                cell.count[kk as usize] = cell.trees;
+            }
+            out[j] = DiffractionCell {
+                rays_r: r_ray,
+                rays_t: t_ray,
+                r: up.total,
+                t: down.total,
+                orders: up.orders + down.orders,
+                fallback_tubes: up.fallback_tubes + down.fallback_tubes,
+                flipped_tubes: up.flipped_tubes + down.flipped_tubes,
+            };
+        }
+        Ok(())
+    }
+
+    /// The wavelength every tree of bin or line `j` takes in the diffraction method, nm.
+    fn lambda_centre(&self, j: usize) -> f64 {
+        match &self.cfg.wavelengths {
+            Wavelengths::Bins(e) => 0.5 * (e[j] + e[j + 1]),
+            Wavelengths::Monochromatic(v) => v[j],
         }
     }
 
@@ -776,7 +1026,9 @@ impl<'a> Run<'a> {
             let mut rng = Rng::new(cfg.seed, (cfg.first_direction + di as u64) << 40 | i);
             // Open samples launch in the interior, the guard band from every side.
             let g = sample.guard_nm.unwrap_or(0.0);
-            let xy = if cfg.random_entry {
+            let xy = if self.diffraction {
+                lattice_point(i, self.lattice, shift, sample.tile_nm)
+            } else if cfg.random_entry {
                 [
                     rng.range(g, sample.tile_nm[0] - g),
                     rng.range(g, sample.tile_nm[1] - g),
@@ -790,7 +1042,11 @@ impl<'a> Run<'a> {
                 Wavelengths::Bins(e) => {
                     // Adaptive runs do not know N: a golden-ratio sequence
                     // (low-discrepancy for every prefix) replaces the strata.
-                    let frac = if adaptive {
+                    // The diffraction method sums trees coherently, so they share one
+                    // wavelength: the bin's centre.
+                    let frac = if self.diffraction {
+                        0.5
+                    } else if adaptive {
                         (i as f64 * 0.618_033_988_749_894_9 + u).fract()
                     } else {
                         (i as f64 + u) / cfg.rays as f64
@@ -903,6 +1159,20 @@ impl<'a> Run<'a> {
                     &mut w.glob,
                 );
                 let (r, t) = w.dense.add_tree(j, &w.deps, &w.glob);
+                if self.diffraction {
+                    let k_in = k * est.n_up;
+                    let k_in = [k_in * d.x, k_in * d.y];
+                    for (slot, x) in tree.exits.iter().enumerate() {
+                        cell.diffraction.push(diffraction::contribution(
+                            x,
+                            i as u32,
+                            slot as u32,
+                            k,
+                            entry_phase,
+                            k_in,
+                        ));
+                    }
+                }
                 let DroppedPower {
                     all: dropped,
                     limit: dropped_limit,
@@ -966,6 +1236,7 @@ impl<'a> Run<'a> {
             limit_bound: lost.limit_bound,
             created: lost.created,
             limited: lost.limited,
+            diffraction: lost.diffraction,
             envelope_violations: self.scene.scatter_violations(),
         };
         let header = Header {
@@ -984,6 +1255,27 @@ impl<'a> Run<'a> {
             leaks: stats.leaks,
         };
         let acc = Accumulator { header, cells };
+        if self.diffraction
+            && let Some((k, d)) = stats
+                .diffraction
+                .iter()
+                .enumerate()
+                .filter(|(_, d)| d.rays_r + d.rays_t > 0.0)
+                .find(|(_, d)| {
+                    !(d.ratio() >= DIFFRACTION_RATIO_REFUSED
+                        && d.ratio() <= 1.0 / DIFFRACTION_RATIO_REFUSED)
+                })
+        {
+            let nl = self.nl;
+            return Err(SimError::Unphysical(format!(
+                "sample '{}', theta_i {} deg, wavelength {} nm: the diffraction transform holds {:.3} of the ray field's power in propagating orders (outside [{DIFFRACTION_RATIO_REFUSED}, {:.2}]): the rays sample the field too coarsely for it (raise --rays), or the sample has structure near or below the wavelength, where neither rays nor physical optics hold (use a rigorous solver: RCWA, FDTD)",
+                self.sample.name,
+                cfg.theta_i_deg.get(k / nl).copied().unwrap_or(f64::NAN),
+                acc.header.settings.wavelength(k % nl),
+                d.ratio(),
+                1.0 / DIFFRACTION_RATIO_REFUSED
+            )));
+        }
         if !cfg.allow_unphysical {
             check_physical(&acc, &self.sample.name, Some(&stats.limit_dropped))?;
             let (created, cell) = stats.worst_created(&acc);

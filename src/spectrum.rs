@@ -78,6 +78,14 @@ impl Wavelengths {
             Wavelengths::Monochromatic(v) => v.len(),
         }
     }
+    /// The shortest wavelength sampled (the first edge of the first bin), nm.
+    pub fn min(&self) -> f64 {
+        match self {
+            Wavelengths::Bins(e) | Wavelengths::Monochromatic(e) => {
+                e.iter().copied().fold(f64::INFINITY, f64::min)
+            }
+        }
+    }
     /// The longest wavelength sampled (the last edge of the last bin), nm.
     pub fn max(&self) -> f64 {
         match self {

@@ -28,6 +28,9 @@ pub(crate) struct BlockCell {
     pub(crate) created: f64,
     /// Sum over trees of `Tree::limited_power`.
     pub(crate) limited: f64,
+    /// The diffraction method: every exit's contribution, tree by tree
+    /// (`diffraction::contribution`).
+    pub(crate) diffraction: Vec<super::diffraction::Contribution>,
 }
 
 /// Per-thread dense accumulators with touched lists: no allocation and no hashing per

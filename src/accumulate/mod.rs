@@ -15,12 +15,18 @@
 //!   answer depends on the bucket grid and on where the origin sits.
 //! - `Global` (the seed's final method): all contributions of all trees in a bucket are
 //!   averaged as amplitudes relative to the whole incident beam, and the average squared.
+//! - `Diffraction`: every tree's exits into a lossless half-space add as fields over the
+//!   whole tile (physical optics on the ray field, `diffraction.rs`): Floquet orders of the
+//!   periodic tile, spread by the illumination's partial coherence (radius rho). The
+//!   beamlet estimator still runs on the same trees: its totals are the ray method's, which
+//!   the diffracted totals are checked against (energy, Parseval).
 //!
 //! Trees add incoherently, each carrying 1/N of the flux through the tile; the two incident
 //! polarisations are averaged.
 
 pub(crate) mod block;
 pub mod buckets;
+pub mod diffraction;
 pub mod file;
 pub mod phase;
 
@@ -41,6 +47,7 @@ pub enum Coherence {
     Beamlet,
     Bucket,
     Global,
+    Diffraction,
 }
 
 impl Coherence {
@@ -49,6 +56,7 @@ impl Coherence {
             Coherence::Beamlet => "beamlet",
             Coherence::Bucket => "bucket",
             Coherence::Global => "global",
+            Coherence::Diffraction => "diffraction",
         }
     }
     pub fn parse(s: &str) -> Option<Coherence> {
@@ -56,6 +64,7 @@ impl Coherence {
             "beamlet" => Some(Coherence::Beamlet),
             "bucket" => Some(Coherence::Bucket),
             "global" => Some(Coherence::Global),
+            "diffraction" => Some(Coherence::Diffraction),
             _ => None,
         }
     }
@@ -496,7 +505,7 @@ impl Estimator {
             s.amp.push([x.e[0].map(|c| c * f), x.e[1].map(|c| c * f)]);
         }
         match self.mode {
-            Coherence::Beamlet => unreachable!("handled above"),
+            Coherence::Beamlet | Coherence::Diffraction => unreachable!("handled above"),
             Coherence::Bucket => {
                 // Gondek et al. / the seed: phases relative to a plane through the global
                 // origin perpendicular to each exit direction, `exp(-i k n0 w . x)` with
@@ -679,9 +688,10 @@ impl Cell {
     }
 
     /// Standard error of the fraction in bucket key `kk` from the per-tree spread
-    /// (not defined for global mode: returns `None`).
+    /// (not defined for global or diffraction mode, whose buckets sum over all trees at
+    /// once: returns `None`).
     pub fn fraction_stderr(&self, kk: usize, mode: Coherence) -> Option<f64> {
-        (mode != Coherence::Global && self.trees > 1)
+        (!matches!(mode, Coherence::Global | Coherence::Diffraction) && self.trees > 1)
             .then(|| stderr(self.sum[kk], self.sumsq[kk], self.trees))
     }
 

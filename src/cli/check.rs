@@ -24,6 +24,16 @@ pub(super) struct CheckArgs {
     /// Seed of the leak test.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Wavelength the validity warnings judge the sample at, nm (features against the
+    /// wavelength: gratings, smooth roughness, sub-wavelength structure and bodies).
+    #[arg(long, default_value_t = 550.0, value_parser = positive)]
+    lambda_nm: f64,
+    /// Most oblique incidence the validity warnings assume, degrees.
+    #[arg(long, default_value_t = 0.0, value_parser = finite)]
+    theta_max_deg: f64,
+    /// Illumination coherence radius the validity warnings assume, nm (or inf).
+    #[arg(long, default_value_t = goniospec::simulate::defaults::COHERENCE_RADIUS_NM, value_parser = parse_radius)]
+    coherence_radius_nm: f64,
 }
 
 pub(super) fn check(a: CheckArgs) -> Result<ExitCode> {
@@ -35,11 +45,26 @@ pub(super) fn check(a: CheckArgs) -> Result<ExitCode> {
             sample::cache::CachePolicy::Large
         },
     };
+    if !(0.0..90.0).contains(&a.theta_max_deg) {
+        bail!(
+            "--theta-max-deg must be in [0, 90) degrees, got {}",
+            a.theta_max_deg
+        );
+    }
     let s = sample::load(&a.sample, opts)?;
     let copts = sample::check::CheckOptions {
         backend: resolve_backend(a.backend)?,
         leak_rays: a.leak_rays,
         seed: a.seed,
+        validity: Some(sample::validity::Context {
+            lambda_min_nm: a.lambda_nm,
+            lambda_max_nm: a.lambda_nm,
+            theta_max_deg: a.theta_max_deg,
+            rho_nm: a.coherence_radius_nm,
+            bucket_rad: std::f64::consts::FRAC_PI_2
+                / f64::from(goniospec::simulate::defaults::THETA_O_BINS),
+            method: sample::validity::Method::Rays,
+        }),
         ..Default::default()
     };
     let report = sample::check::check(&s, &copts)?;

@@ -180,7 +180,7 @@ fn parse_radius(s: &str) -> Result<f64, String> {
 
 fn parse_coherence(s: &str) -> Result<Coherence, String> {
     Coherence::parse(s)
-        .ok_or_else(|| format!("unknown coherence '{s}' (beamlet, bucket or global)"))
+        .ok_or_else(|| format!("unknown coherence '{s}' (beamlet, bucket, global or diffraction)"))
 }
 
 /// A finite number: every floating-point flag goes through this, so NaN and infinity are

@@ -130,6 +130,25 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     } else {
         a.rays
     } * a.theta_i.len() as u64;
+    // Where the method asked for does not hold for this sample: said once, before the run.
+    let ctx = sample::validity::Context {
+        lambda_min_nm: cfg.wavelengths.min(),
+        lambda_max_nm: cfg.wavelengths.max(),
+        theta_max_deg: cfg.theta_i_deg.iter().copied().fold(0.0, f64::max),
+        rho_nm: cfg.rho_nm,
+        bucket_rad: std::f64::consts::FRAC_PI_2 / f64::from(cfg.buckets.theta_bins),
+        method: if cfg.coherence == Coherence::Diffraction {
+            sample::validity::Method::Diffraction
+        } else {
+            sample::validity::Method::Rays
+        },
+    };
+    for f in sample::validity::assess(&s, &ctx)
+        .into_iter()
+        .chain(sample::validity::small_bodies(&s, ctx.lambda_min_nm))
+    {
+        eprintln!("warning: {}", f.message);
+    }
     let pool = thread_pool(a.threads)?;
     let bar = progress_bar(total, "trees");
     let (acc, stats) =
@@ -146,7 +165,7 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     eprintln!(
         "{} trees ({} per direction x {} directions), {} traced trees, {} segments in {:.2} s (set-up {:.2} s): {:.0} trees/s, {:.2} M segments/s; path sharing {}; peak memory {}",
         stats.trees,
-        a.rays,
+        stats.trees / a.theta_i.len().max(1) as u64,
         a.theta_i.len(),
         stats.traces,
         stats.segments,
@@ -167,6 +186,9 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         for d in &stats.directions {
             eprintln!("{d}");
         }
+    }
+    if a.coherence == Coherence::Diffraction {
+        diffraction_summary(&stats, &s, &acc, a.rays);
     }
     let cut = stats.worst_limit_dropped(&acc);
     if cut > 1e-6 {
@@ -222,4 +244,55 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     }
     outln!("wrote {}", a.output.display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// What the diffraction method did: the launch lattice, the orders, and how much of the
+/// ray field's power its transform kept in propagating orders (warned outside
+/// `DIFFRACTION_RATIO_WARN`).
+fn diffraction_summary(
+    stats: &goniospec::simulate::SimStats,
+    s: &goniospec::sample::Sample,
+    acc: &goniospec::accumulate::file::Accumulator,
+    rays: u64,
+) {
+    use goniospec::simulate::{DIFFRACTION_RATIO_WARN, diffraction_lattice};
+    let [nx, ny] = diffraction_lattice(rays, s.tile_nm);
+    let cells: Vec<_> = stats
+        .diffraction
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.rays_r + d.rays_t > 0.0)
+        .collect();
+    let Some(&(worst_cell, worst)) = cells.iter().max_by(|a, b| {
+        (a.1.ratio() - 1.0)
+            .abs()
+            .total_cmp(&(b.1.ratio() - 1.0).abs())
+    }) else {
+        return;
+    };
+    let orders = cells.iter().map(|(_, d)| d.orders).max().unwrap_or(0);
+    let fallback: usize = cells.iter().map(|(_, d)| d.fallback_tubes).sum();
+    let nl = acc.header.settings.wavelength_count().max(1);
+    let theta = acc.header.settings.theta_i_deg[worst_cell / nl];
+    let lambda = acc.header.settings.wavelength(worst_cell % nl);
+    eprintln!(
+        "diffraction: trees on a {nx} x {ny} lattice over the {:.0} x {:.0} nm tile; up to {orders} propagating orders per cell; the transform kept {:.4} of the ray field's power in propagating orders at worst (theta_i {theta} deg, {lambda} nm), and each cell's orders carry the rays' R and T{}",
+        s.tile_nm[0],
+        s.tile_nm[1],
+        worst.ratio(),
+        if fallback > 0 {
+            format!(
+                "; {fallback} tubes had no neighbouring tree with the same exit and took their tracked cross-section"
+            )
+        } else {
+            String::new()
+        }
+    );
+    let r = worst.ratio();
+    if !(DIFFRACTION_RATIO_WARN..=1.0 / DIFFRACTION_RATIO_WARN).contains(&r) {
+        eprintln!(
+            "warning: the diffraction transform kept {r:.3} of the ray field's power (theta_i {theta} deg, {lambda} nm); the rest fell beyond the horizon or was not resolved, so the angular distribution is uncertain by about {:.2}: raise --rays, or check the sample against a rigorous solver where its structure nears the wavelength (docs/physics.md, \"Diffraction\")",
+            (1.0 - r).abs()
+        );
+    }
 }

@@ -24,6 +24,9 @@ pub struct CheckOptions {
     /// Crossings per walk before it is abandoned.
     pub max_events: usize,
     pub seed: u64,
+    /// Where the methods hold ([`super::validity`]): the run to judge the sample for, or
+    /// `None` for no such warnings.
+    pub validity: Option<super::validity::Context>,
 }
 
 impl Default for CheckOptions {
@@ -33,6 +36,7 @@ impl Default for CheckOptions {
             leak_rays: 20_000,
             max_events: 64,
             seed: 1,
+            validity: None,
         }
     }
 }
@@ -66,7 +70,7 @@ pub const RAY_OPTICS_MIN_SIZE_PARAMETER: f64 = 10.0;
 
 /// The connected pieces of a mesh (triangles joined by shared vertices): each piece's
 /// enclosed volume, nm^3.
-fn piece_volumes(mesh: &super::Mesh) -> Vec<f64> {
+pub(crate) fn piece_volumes(mesh: &super::Mesh) -> Vec<f64> {
     let n = mesh.positions_nm.len();
     let mut parent: Vec<usize> = (0..n).collect();
     fn find(p: &mut [usize], mut i: usize) -> usize {
@@ -116,9 +120,6 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
             .push(format!("medium {:<14} {}", m.name, m.model.describe()));
     }
     let tol = 1e-6 * lx.max(ly);
-    // Per (outside, inside) media: bodies counted, radii of the small ones, outside index.
-    let mut small_bodies =
-        std::collections::BTreeMap::<(usize, usize), (usize, Vec<f64>, f64)>::new();
     for (i, itf) in sample.interfaces.iter().enumerate() {
         let (lo, hi) = itf.mesh.bounds().expect("loaded meshes are non-empty");
         let name = format!("interface {i} ({})", itf.mesh_path.display());
@@ -147,24 +148,6 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
                     "{name}: normals point inwards (enclosed volume {v:.3e} nm³ < 0); flip the triangles or swap inside/outside"
                 ));
             }
-            // Bodies small against the wavelength: ray optics does not hold for them.
-            let n_out = sample.media[itf.front]
-                .model
-                .eval(550.0)
-                .map_or(1.0, |(n, _)| n);
-            let sizes: Vec<f64> = piece_volumes(&itf.mesh)
-                .into_iter()
-                .filter(|v| *v > 0.0)
-                .map(|v| (3.0 * v / (4.0 * std::f64::consts::PI)).cbrt())
-                .collect();
-            let entry =
-                small_bodies
-                    .entry((itf.front, itf.back))
-                    .or_insert((0usize, Vec::new(), n_out));
-            entry.0 += sizes.len();
-            entry.1.extend(sizes.iter().copied().filter(|r| {
-                2.0 * std::f64::consts::PI * r * n_out / 550.0 < RAY_OPTICS_MIN_SIZE_PARAMETER
-            }));
             let w = watertightness(&itf.mesh);
             if w.open_edges + w.nonmanifold_edges + w.misoriented_edges > 0 {
                 r.defects.push(format!(
@@ -187,6 +170,18 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
                 r.defects.push(format!(
                     "{name}: normals point down on average, so its front medium '{}' lies below it; swap front and back or flip the mesh",
                     sample.media[itf.front].name
+                ));
+            }
+            let sc = super::validity::scales(&itf.mesh, sample.tile_nm);
+            if sc.lateral_nm.is_finite() {
+                r.facts.push(format!(
+                    "{name}: RMS height {:.1} nm, RMS slope {:.3}, lateral scale 2 pi sigma / slope {:.0} nm, strongest axis mode period {:.0} nm ({:.0} % of the height variance), curvature radius {:.0} nm (docs/validity.md)",
+                    sc.rms_height_nm,
+                    sc.rms_slope,
+                    sc.lateral_nm,
+                    sc.period_nm,
+                    100.0 * sc.period_share,
+                    sc.curvature_radius_nm
                 ));
             }
             let p = periodicity(&itf.mesh, sample.tile_nm, tol);
@@ -238,21 +233,18 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
             }
         }
     }
-    for ((outside, inside), (count, mut small, n_out)) in small_bodies {
-        if small.is_empty() {
-            continue;
-        }
-        small.sort_by(f64::total_cmp);
-        let median = small[small.len() / 2];
-        r.warnings.push(format!(
-            "{} of {count} bodies of '{}' in '{}' are small against the wavelength (equivalent-sphere radius {median:.0} nm in the median, size parameter {:.1} at 550 nm; ray optics needs well above {RAY_OPTICS_MIN_SIZE_PARAMETER}): traced as geometric bodies they scatter wrongly. Describe them as a particle medium instead: particles = {{ medium = \"{}\", radius_nm = {median:.0}, volume_fraction = ... }} on '{}' (docs/physics.md, \"Particle media\")",
-            small.len(),
-            sample.media[inside].name,
-            sample.media[outside].name,
-            2.0 * std::f64::consts::PI * median * n_out / 550.0,
-            sample.media[inside].name,
-            sample.media[outside].name,
-        ));
+    // Bodies small against the wavelength: ray optics does not hold for them.
+    r.warnings.extend(
+        super::validity::small_bodies(sample, 550.0)
+            .into_iter()
+            .map(|f| f.message),
+    );
+    if let Some(ctx) = &opts.validity {
+        r.warnings.extend(
+            super::validity::assess(sample, ctx)
+                .into_iter()
+                .map(|f| f.message),
+        );
     }
     let mut pairs: Vec<_> = crossings.into_iter().collect();
     pairs.sort();

@@ -31,6 +31,7 @@ pub mod media;
 pub mod mesh;
 pub mod obj;
 pub mod plystl;
+pub mod validity;
 
 use std::collections::BTreeMap;
 use std::fmt;

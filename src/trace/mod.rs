@@ -303,6 +303,8 @@ impl<'a> Scene<'a> {
             lane,
             at: at as u32,
             group: 0,
+            tube: 1.0,
+            path: PATH_START,
             killed: false,
         };
         // One lane, or an ambient medium that differs between them: a ray per lane.
@@ -446,6 +448,8 @@ impl<'a> Scene<'a> {
                                 x,
                                 up,
                                 group: r.group,
+                                tube: r.tube,
+                                path: r.path,
                             });
                         }
                     }
@@ -632,6 +636,15 @@ impl<'a> Scene<'a> {
                 lane,
                 at: at as u32,
                 group: r.group,
+                // A plane interface shares the footprint of the tube on either side, so a
+                // refracted tube's cross-section scales by cos(theta_t) / cos(theta_i).
+                tube: if side < 0.0 {
+                    r.tube * dir.dot(nf).abs() / r.dir.dot(nf).abs().max(1e-300)
+                } else {
+                    r.tube
+                },
+                path: (r.path ^ (u64::from(prim) << 1 | u64::from(side < 0.0)))
+                    .wrapping_mul(0x0000_0100_0000_01B3),
                 killed: false,
             }
         };
@@ -860,6 +873,10 @@ impl TraceStack {
     }
 }
 
+/// [`Exit::path`] of a launched ray (the FNV-1a offset basis; each event is mixed in as
+/// FNV-1a mixes a byte, `(h ^ x) * 0x100000001b3`).
+const PATH_START: u64 = 0xCBF2_9CE4_8422_2325;
+
 /// A ray in flight.
 #[derive(Clone, Copy, Debug)]
 struct RayState {
@@ -883,6 +900,10 @@ struct RayState {
     at: u32,
     /// Coherence group ([`Exit::group`]).
     group: u32,
+    /// Cross-section of the ray's tube relative to the launched one ([`Exit::tube`]).
+    tube: f64,
+    /// The facets it met and how (reflected or transmitted), hashed ([`Exit::path`]).
+    path: u64,
     /// Ended by Russian roulette: popped and discarded.
     killed: bool,
 }

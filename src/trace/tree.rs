@@ -20,6 +20,15 @@ pub struct Exit {
     /// event starts a group of its own, incoherent with every other (the estimator pairs
     /// exits of one group only).
     pub group: u32,
+    /// Cross-section of the exit's ray tube relative to the launched tube's (the product
+    /// of `cos(theta_t) / cos(theta_i)` over its refractions at plane facets; reflection
+    /// keeps it). The diffraction method needs it for each tube's footprint on the exit
+    /// plane; the power-normalised field `e` already accounts for it in power.
+    pub tube: f64,
+    /// A hash of the facets the ray met and whether it was reflected or transmitted at
+    /// each: exits of neighbouring trees with the same path left the same flat facets
+    /// alike, so their points give the tube's exact shape (the diffraction method).
+    pub path: u64,
 }
 
 /// Power dropped by the cutoff or a limit, lost to a leak, or escaped through an open side:

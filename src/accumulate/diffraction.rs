@@ -1,0 +1,478 @@
+//! The diffraction method: physical optics on the ray field (docs/physics.md,
+//! "Diffraction: physical optics on the ray field").
+//!
+//! The rays of every tree of one incident direction that leave into a lossless half-space
+//! add as fields, not intensities. Each exit `j` stands for a ray tube whose field on the
+//! exit plane is a local plane wave `a_j exp(i (psi_j + k_j . (x - x_j)))` over its
+//! footprint, `psi_j` its phase at the exit point (incident phase at the launch point plus
+//! `k Re OPL`). Under plane-wave illumination the field of a periodic tile is
+//! pseudo-periodic, `u(x + L) = u(x) exp(i k_in . L)`, so the far field is a set of Floquet
+//! orders `kappa_m = k_in + G_m`, `G_m = 2 pi (m_x / L_x, m_y / L_y)`, with amplitudes
+//! `U_m = (1 / A) integral u(x) exp(-i kappa_m . x) dx` over the tile (the angular spectrum of
+//! the exit-plane field: Goodman, Introduction to Fourier Optics, 3rd ed., §3.10; as in the
+//! shooting-and-bouncing-rays method of Ling, Chou & Lee, IEEE TAP 37 (1989) 194, which
+//! integrates physical-optics currents over each ray tube's footprint).
+//!
+//! Normalisation (derived in docs/physics.md): with power-normalised exit fields
+//! (`|e_j|^2` is the tree's power fraction) and `N` trees spread uniformly over the tile,
+//! a tube whose cross-section is `s_j` times the launched one has the footprint
+//! `(A / N) s_j cos(theta_i) / cos(theta_j)` on the exit plane, so
+//! `U_m = (1 / N) sum_j e_j sqrt(s_j) (cos theta_i / cos theta_j) exp(i (psi_j - kappa_m .
+//! x_j)) S(kappa_m - k_j)` and the order carries the fraction `|U_m,perp|^2 cos(theta_m) /
+//! cos(theta_i)` of the incident power. `S` is the footprint's transform: each tube is a
+//! Gaussian patch (0.8 launch steps mapped by the tube's Jacobian, so neighbouring
+//! patches sum to a uniform field to 6e-6). The sum is evaluated on a grid over the tile (the
+//! patches splatted, then one FFT per field component): a non-uniform FFT of type 1 by
+//! Gaussian gridding (Greengard & Lee, SIAM Review 46 (2004) 443), with the grid spacing
+//! `lambda / (4 (n_out + n_in))` so no propagating order is aliased.
+//!
+//! Partial coherence: the illumination's transverse coherence is Gaussian with the coherence
+//! radius `rho` (`|mu(dx)| = exp(-|dx|^2 / (2 rho^2))`), which is an incoherent spread of
+//! plane waves whose transverse wave vectors have standard deviation `1 / rho` (Mandel &
+//! Wolf, Optical Coherence and Quantum Optics, 1995, §5.6.4). Every order moves with the
+//! incident wave vector (the grating equation), so the pattern is the coherent one
+//! convolved with that spread; it is deposited through a 5 x 5 Gauss-Hermite rule over the
+//! spread. `rho = inf` deposits each order in the bucket of its direction.
+
+use super::{Buckets, key};
+use crate::optics::C64;
+use crate::optics::fresnel::{Field, field_power};
+use crate::trace::Exit;
+use rustfft::FftPlanner;
+use std::f64::consts::PI;
+
+/// One exit's contribution at one wavelength: its tree, point, direction, and the field of
+/// both incident polarisations with its phase.
+#[derive(Clone, Copy, Debug)]
+pub struct Contribution {
+    /// The tree (its index on the launch lattice) and the exit's place in the tree's list:
+    /// the same exit of the neighbouring trees gives the tube's shape.
+    pub tree: u32,
+    pub slot: u32,
+    /// Exit point on the exit plane, nm (world frame, not wrapped).
+    pub x: [f64; 2],
+    /// Transverse components of the unit direction of travel.
+    pub w: [f64; 2],
+    /// `e_j exp(i (psi_j - k_in . x_j)) exp(-k Im OPL_j)`: the power-normalised field with
+    /// its phase at the exit point, less the incident wave's transverse phase.
+    pub a: [Field; 2],
+    /// The tube's cross-section relative to the launched one, tracked through its
+    /// refractions ([`Exit::tube`]); used where no neighbouring tree has the same exit.
+    pub tube: f64,
+    /// The facets the ray met ([`Exit::path`]).
+    pub path: u64,
+    /// Left through the bottom plane (transmission).
+    pub down: bool,
+}
+
+/// The largest grid (cells) one hemisphere's field may use at one wavelength: 2^24 cells
+/// of 16 bytes, 256 MiB, per field component.
+pub const MAX_GRID_CELLS: usize = 1 << 24;
+
+/// Grid cells `[x, y]` over the tile for one hemisphere at `lambda_nm` (see [`spacing`]).
+pub fn grid_cells(tile_nm: [f64; 2], lambda_nm: f64, n_out: f64, n_in: f64) -> [usize; 2] {
+    let dx = spacing(lambda_nm, n_out, n_in);
+    [
+        (tile_nm[0] / dx).ceil().max(1.0) as usize,
+        (tile_nm[1] / dx).ceil().max(1.0) as usize,
+    ]
+}
+
+/// Grid spacing, nm: transverse wave vectors relative to the incident one reach
+/// `k (n_out + n_in)`; a spacing of `lambda / (4 (n_out + n_in))` puts the grid's Nyquist
+/// frequency at twice that, so aliased patch spectra (down by `exp(-pi^2 / 2)` in
+/// amplitude at a patch of one cell) do not fold onto propagating orders.
+fn spacing(lambda_nm: f64, n_out: f64, n_in: f64) -> f64 {
+    lambda_nm / (4.0 * (n_out + n_in))
+}
+
+/// The contribution of exit `slot` of tree `tree` at wave number `k` (1/nm, vacuum), for an
+/// incident wave whose phase at the tree's launch point is `entry_phase` and whose
+/// transverse wave vector is `k_in` (1/nm).
+pub fn contribution(
+    exit: &Exit,
+    tree: u32,
+    slot: u32,
+    k: f64,
+    entry_phase: f64,
+    k_in: [f64; 2],
+) -> Contribution {
+    let psi = entry_phase + k * exit.opl.re - (k_in[0] * exit.x.x + k_in[1] * exit.x.y);
+    let f = C64::from_polar((-k * exit.opl.im).exp(), psi);
+    Contribution {
+        tree,
+        slot,
+        x: [exit.x.x, exit.x.y],
+        w: [exit.dir.x, exit.dir.y],
+        a: [exit.e[0].map(|c| c * f), exit.e[1].map(|c| c * f)],
+        tube: exit.tube,
+        path: exit.path,
+        down: !exit.up,
+    }
+}
+
+/// What one hemisphere of one wavelength diffracted into.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Pattern {
+    /// Power fraction per bucket key of this hemisphere (`key(b, down)`), every bucket.
+    pub per_key: Vec<(u32, f64)>,
+    /// Sum over propagating orders: the hemisphere's diffracted reflectance or
+    /// transmittance.
+    pub total: f64,
+    /// Propagating orders with any power.
+    pub orders: usize,
+    /// Tubes whose shape came from the tracked cross-section because no neighbouring tree
+    /// had the same exit, and tubes that passed a line focus.
+    pub fallback_tubes: usize,
+    pub flipped_tubes: usize,
+}
+
+/// The settings of one hemisphere's transform.
+#[derive(Clone, Copy, Debug)]
+pub struct Hemisphere {
+    pub tile_nm: [f64; 2],
+    pub lambda_nm: f64,
+    /// Real index of the half-space the light leaves into.
+    pub n_out: f64,
+    /// Real index of the ambient medium the light came from.
+    pub n_in: f64,
+    /// Transverse incident wave vector, 1/nm.
+    pub k_in: [f64; 2],
+    pub cos_i: f64,
+    /// The launch lattice, `[nx, ny]` trees (`simulate::diffraction_lattice`); tree `i` sits
+    /// at cell `(i mod nx, i div nx)`.
+    pub lattice: [u64; 2],
+    /// Transverse coherence radius, nm (`inf`: plane-wave illumination).
+    pub rho_nm: f64,
+    pub down: bool,
+}
+
+/// Probabilists' Gauss-Hermite rule of 5 points for a standard normal variable (nodes
+/// `0, +-sqrt(5 - sqrt 10), +-sqrt(5 + sqrt 10)`; Abramowitz & Stegun 25.4.46 rescaled).
+const GH5: [(f64, f64); 5] = [
+    (-2.856_970_013_872_805_6, 0.011_257_411_327_720_69),
+    (-1.355_626_179_974_266, 0.222_075_922_005_612_6),
+    (0.0, 0.533_333_333_333_333_3),
+    (1.355_626_179_974_266, 0.222_075_922_005_612_6),
+    (2.856_970_013_872_805_6, 0.011_257_411_327_720_69),
+];
+
+/// The orders of one hemisphere from its contributions (in tree order: the sums are the
+/// same bits whatever produced them), deposited into `buckets`.
+pub fn diffract(
+    h: &Hemisphere,
+    contribs: &[Contribution],
+    buckets: &Buckets,
+) -> Result<Pattern, String> {
+    let [mx, my] = grid_cells(h.tile_nm, h.lambda_nm, h.n_out, h.n_in);
+    if mx.saturating_mul(my) > MAX_GRID_CELLS {
+        return Err(format!(
+            "the diffraction method needs a {mx} x {my} grid over the {:.0} x {:.0} nm tile at {} nm (more than {MAX_GRID_CELLS} cells): use a smaller tile (a period or a few correlation lengths; features this large against the wavelength are where rays alone hold)",
+            h.tile_nm[0], h.tile_nm[1], h.lambda_nm
+        ));
+    }
+    let (dx, dy) = (h.tile_nm[0] / mx as f64, h.tile_nm[1] / my as f64);
+    let k = 2.0 * PI / h.lambda_nm;
+    let kn = k * h.n_out;
+    let [nx, ny] = h.lattice;
+    let n_trees = (nx * ny) as usize;
+    // Launch steps, nm; each tube starts as a Gaussian of 0.8 steps and is mapped to the
+    // exit plane by its Jacobian. A lattice of such patches is uniform to `2 exp(-2 pi^2
+    // 0.8^2) = 6e-6` (Poisson summation), so a flat sample's spurious orders carry 4e-11
+    // of its power.
+    let step = [h.tile_nm[0] / nx as f64, h.tile_nm[1] / ny as f64];
+    let sig0 = [0.8 * step[0], 0.8 * step[1]];
+    // Where each tree's exits start in `contribs` (which is in tree order, slot order).
+    let mut first = vec![0usize; n_trees + 1];
+    for c in contribs {
+        first[c.tree as usize + 1] += 1;
+    }
+    for i in 0..n_trees {
+        first[i + 1] += first[i];
+    }
+    let exit_of = |tree: u64, slot: u32| -> Option<&Contribution> {
+        let (a, b) = (first[tree as usize], first[tree as usize + 1]);
+        contribs[a..b].get(slot as usize).filter(|c| c.slot == slot)
+    };
+    let family = |tree: u64, path: u64| -> Option<&Contribution> {
+        let (a, b) = (first[tree as usize], first[tree as usize + 1]);
+        contribs[a..b].iter().find(|c| c.path == path)
+    };
+    let zero = C64::new(0.0, 0.0);
+    let mut grids: Vec<Vec<C64>> = vec![vec![zero; mx * my]; 6];
+    let mut patch: Vec<(usize, C64)> = Vec::new();
+    let (mut fallback, mut flipped) = (0usize, 0usize);
+    for c in contribs.iter().filter(|c| c.down == h.down) {
+        let cos_j = (1.0 - c.w[0] * c.w[0] - c.w[1] * c.w[1]).max(1e-12).sqrt();
+        let jac = match (
+            tube_column(c, 0, h, step, cos_j, &exit_of, &family),
+            tube_column(c, 1, h, step, cos_j, &exit_of, &family),
+        ) {
+            (Some(a), Some(b)) => [[a[0], b[0]], [a[1], b[1]]],
+            _ => {
+                // No neighbour with this exit: the tube as tracked through plane facets.
+                fallback += 1;
+                let f = (c.tube * h.cos_i / cos_j).sqrt();
+                [[f, 0.0], [0.0, f]]
+            }
+        };
+        let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
+        // Exit-plane area per launch area (a tube reflected an even number of times by
+        // crossed facets comes out mirrored, det < 0: counted, not a focus).
+        if det < 0.0 {
+            flipped += 1;
+        }
+        let f = det.abs().max(1e-12);
+        let amp = (f * h.cos_i / cos_j).sqrt();
+        // Covariance of the mapped patch, J diag(sig0^2) J^T, at least half a cell.
+        let floor = 0.25 * dx.max(dy).powi(2);
+        let (s0, s1) = (sig0[0].powi(2), sig0[1].powi(2));
+        let cxx = jac[0][0].powi(2) * s0 + jac[0][1].powi(2) * s1 + floor;
+        let cyy = jac[1][0].powi(2) * s0 + jac[1][1].powi(2) * s1 + floor;
+        let cxy = jac[0][0] * jac[1][0] * s0 + jac[0][1] * jac[1][1] * s1;
+        let cdet = cxx * cyy - cxy * cxy;
+        let (ixx, iyy, ixy) = (cyy / cdet, cxx / cdet, -cxy / cdet);
+        let q = [kn * c.w[0] - h.k_in[0], kn * c.w[1] - h.k_in[1]];
+        let xw = [
+            c.x[0].rem_euclid(h.tile_nm[0]),
+            c.x[1].rem_euclid(h.tile_nm[1]),
+        ];
+        let (hx, hy) = (4.0 * cxx.sqrt(), 4.0 * cyy.sqrt());
+        let (x0, x1) = (
+            ((xw[0] - hx) / dx).ceil() as i64,
+            ((xw[0] + hx) / dx).floor() as i64,
+        );
+        let (y0, y1) = (
+            ((xw[1] - hy) / dy).ceil() as i64,
+            ((xw[1] + hy) / dy).floor() as i64,
+        );
+        patch.clear();
+        let mut sum = 0.0;
+        for iy in y0..=y1 {
+            let ddy = iy as f64 * dy - xw[1];
+            let row = iy.rem_euclid(my as i64) as usize * mx;
+            for ix in x0..=x1 {
+                let ddx = ix as f64 * dx - xw[0];
+                let quad = ixx * ddx * ddx + 2.0 * ixy * ddx * ddy + iyy * ddy * ddy;
+                if quad > 16.0 {
+                    continue;
+                }
+                let g = (-0.5 * quad).exp();
+                sum += g;
+                let cell = row + ix.rem_euclid(mx as i64) as usize;
+                patch.push((cell, C64::from_polar(g, q[0] * ddx + q[1] * ddy)));
+            }
+        }
+        // Normalised by its discrete sum, so the tube's own direction gets exactly its
+        // field (neither truncation nor the grid's sampling of the Gaussian enters).
+        let scale = amp / (n_trees as f64 * sum);
+        let a = [c.a[0].map(|v| v * scale), c.a[1].map(|v| v * scale)];
+        for &(cell, wgt) in &patch {
+            for p in 0..2 {
+                for comp in 0..3 {
+                    grids[p * 3 + comp][cell] += a[p][comp] * wgt;
+                }
+            }
+        }
+    }
+    // One 2-D forward FFT per component: V_m = sum_g v(x_g) exp(-i G_m . x_g).
+    let mut planner = FftPlanner::<f64>::new();
+    let fx = planner.plan_fft_forward(mx);
+    let fy = planner.plan_fft_forward(my);
+    let mut col = vec![zero; my];
+    for g in &mut grids {
+        for row in g.chunks_exact_mut(mx) {
+            fx.process(row);
+        }
+        for ix in 0..mx {
+            for (iy, v) in col.iter_mut().enumerate() {
+                *v = g[iy * mx + ix];
+            }
+            fy.process(&mut col);
+            for (iy, v) in col.iter().enumerate() {
+                g[iy * mx + ix] = *v;
+            }
+        }
+    }
+    let signed = |i: usize, m: usize| -> f64 {
+        if i <= m / 2 {
+            i as f64
+        } else {
+            i as f64 - m as f64
+        }
+    };
+    let sigma_s = if h.rho_nm.is_finite() {
+        1.0 / (kn * h.rho_nm)
+    } else {
+        0.0
+    };
+    let mut per_bucket = vec![0.0; buckets.len()];
+    let mut total = 0.0;
+    let mut orders = 0;
+    for iy in 0..my {
+        let ky = h.k_in[1] + 2.0 * PI * signed(iy, my) / h.tile_nm[1];
+        for ix in 0..mx {
+            let kx = h.k_in[0] + 2.0 * PI * signed(ix, mx) / h.tile_nm[0];
+            let s = [kx / kn, ky / kn];
+            let s2 = s[0] * s[0] + s[1] * s[1];
+            if s2 >= 1.0 {
+                continue; // evanescent: no power leaves
+            }
+            let cz = (1.0 - s2).sqrt();
+            let w = [s[0], s[1], if h.down { -cz } else { cz }];
+            let cell = iy * mx + ix;
+            let mut p = 0.0;
+            for pol in 0..2 {
+                let u = [
+                    grids[pol * 3][cell],
+                    grids[pol * 3 + 1][cell],
+                    grids[pol * 3 + 2][cell],
+                ];
+                let along = u[0] * w[0] + u[1] * w[1] + u[2] * w[2];
+                let perp: Field = [
+                    u[0] - along * w[0],
+                    u[1] - along * w[1],
+                    u[2] - along * w[2],
+                ];
+                p += 0.5 * field_power(&perp);
+            }
+            let p = p * cz / h.cos_i;
+            if p <= 0.0 {
+                continue;
+            }
+            orders += 1;
+            total += p;
+            spread(buckets, s, sigma_s, p, h.down, &mut per_bucket);
+        }
+    }
+    let per_key = per_bucket
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| **v != 0.0)
+        .map(|(b, v)| (key(b, h.down), *v))
+        .collect();
+    Ok(Pattern {
+        per_key,
+        total,
+        orders,
+        fallback_tubes: fallback,
+        flipped_tubes: flipped,
+    })
+}
+
+/// One column of a tube's Jacobian `d(exit point) / d(launch point)` along lattice axis
+/// `axis`, from the neighbouring trees' exit on the same path (the same facets met alike:
+/// the same affine map, so their points give the tube's exact shape), or else their exit
+/// in the same place of the tree with nearly the same direction (a curved surface sampled
+/// by about one ray per facet, mapped smoothly): central differences, or one-sided where
+/// one neighbour is missing or only the other is on the same path.
+#[allow(clippy::too_many_arguments)]
+fn tube_column<'c>(
+    c: &Contribution,
+    axis: usize,
+    h: &Hemisphere,
+    step: [f64; 2],
+    cos_j: f64,
+    exit_of: &dyn Fn(u64, u32) -> Option<&'c Contribution>,
+    family: &dyn Fn(u64, u64) -> Option<&'c Contribution>,
+) -> Option<[f64; 2]> {
+    let [nx, ny] = h.lattice;
+    if (axis == 0 && nx == 1) || (axis == 1 && ny == 1) {
+        return None;
+    }
+    let (ix, iy) = (u64::from(c.tree) % nx, u64::from(c.tree) / nx);
+    let along = |dir: i64| -> Option<([f64; 2], bool)> {
+        let (mut jx, mut jy) = (ix as i64, iy as i64);
+        let mut wrap = [0.0; 2];
+        if axis == 0 {
+            jx += dir;
+            if jx < 0 || jx >= nx as i64 {
+                wrap[0] = -dir as f64 * h.tile_nm[0];
+                jx = jx.rem_euclid(nx as i64);
+            }
+        } else {
+            jy += dir;
+            if jy < 0 || jy >= ny as i64 {
+                wrap[1] = -dir as f64 * h.tile_nm[1];
+                jy = jy.rem_euclid(ny as i64);
+            }
+        }
+        let tree = jy as u64 * nx + jx as u64;
+        let reach = 16.0 * step[axis] / cos_j;
+        let column = |o: &Contribution| {
+            let d = [o.x[0] - wrap[0] - c.x[0], o.x[1] - wrap[1] - c.x[1]];
+            (d[0].hypot(d[1]) < reach).then(|| {
+                [
+                    dir as f64 * d[0] / step[axis],
+                    dir as f64 * d[1] / step[axis],
+                ]
+            })
+        };
+        // The same path: the same affine map from launch to exit, exactly.
+        if let Some(v) = family(tree, c.path).and_then(column) {
+            return Some((v, true));
+        }
+        // Otherwise the same place in the tree, nearly the same direction: a curved
+        // surface sampled by about one ray per facet, mapped smoothly.
+        let o = exit_of(tree, c.slot)?;
+        let dw2 = (o.w[0] - c.w[0]).powi(2) + (o.w[1] - c.w[1]).powi(2);
+        if o.down != c.down || dw2 >= 0.0625 {
+            return None;
+        }
+        column(o).map(|v| (v, false))
+    };
+    match (along(1), along(-1)) {
+        (Some((a, sa)), Some((b, sb))) => {
+            let diff = (a[0] - b[0]).hypot(a[1] - b[1]);
+            if diff <= 0.25 * (a[0].hypot(a[1]) + b[0].hypot(b[1])) {
+                // The two sides agree: a smooth map, sampled either side.
+                Some([0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])])
+            } else if sa != sb {
+                // An edge on one side: the side on the same path.
+                Some(if sa { a } else { b })
+            } else {
+                // An edge the paths do not tell apart: the side without the jump.
+                Some(if a[0].hypot(a[1]) <= b[0].hypot(b[1]) {
+                    a
+                } else {
+                    b
+                })
+            }
+        }
+        (a, b) => a.or(b).map(|x| x.0),
+    }
+}
+
+/// Deposits power `p` of the order at transverse direction `s` spread by the illumination's
+/// angular spread `sigma_s` (standard deviation of each transverse component), through the
+/// 5 x 5 Gauss-Hermite rule; nodes beyond the horizon are left out and the rest renormalised.
+fn spread(buckets: &Buckets, s: [f64; 2], sigma_s: f64, p: f64, down: bool, out: &mut [f64]) {
+    let dir = |t: [f64; 2]| {
+        let cz = (1.0 - t[0] * t[0] - t[1] * t[1]).max(0.0).sqrt();
+        glam::DVec3::new(t[0], t[1], if down { -cz } else { cz })
+    };
+    if sigma_s == 0.0 {
+        out[buckets.index(dir(s))] += p;
+        return;
+    }
+    let mut nodes = [(0usize, 0.0f64); 25];
+    let mut n = 0;
+    let mut wsum = 0.0;
+    for &(a, wa) in &GH5 {
+        for &(b, wb) in &GH5 {
+            let t = [s[0] + sigma_s * a, s[1] + sigma_s * b];
+            if t[0] * t[0] + t[1] * t[1] < 1.0 {
+                nodes[n] = (buckets.index(dir(t)), wa * wb);
+                wsum += wa * wb;
+                n += 1;
+            }
+        }
+    }
+    if n == 0 {
+        out[buckets.index(dir(s))] += p;
+        return;
+    }
+    for &(b, w) in &nodes[..n] {
+        out[b] += p * w / wsum;
+    }
+}

@@ -1,0 +1,383 @@
+//! Where each method holds: the sample's feature scales against the wavelengths asked for
+//! (docs/validity.md). Cheap (no tracing), so `check` and `simulate` both run it.
+//!
+//! Per sheet interface, from its triangles (area-weighted over the tile):
+//! - RMS height `sigma` (about the mean) and RMS slope `s` (`|grad h|`, from each facet's
+//!   normal), and the period-equivalent lateral scale `Lambda = 2 pi sigma / s` (the period
+//!   of a sinusoid; 0.91 of a triangle wave's; 4.4 correlation lengths of a Gaussian
+//!   surface);
+//! - its strongest axis-aligned Fourier mode of the height: a surface whose one mode holds
+//!   half the height variance or more is a grating of that period;
+//! - RMS principal curvature from the turn of the normal between neighbouring facets,
+//!   and its radius `r_c = 1 / kappa_rms`.
+//!
+//! The measured limits (tests/diffraction.rs, docs/validity.md):
+//! - Rays miss what only interference makes: the coherent specular order of a smooth
+//!   surface, `exp(-g)` of the power with Rayleigh's `g = (4 pi sigma cos theta /
+//!   lambda)^2` (Beckmann & Spizzichino 1963, ch. 5), and the orders of a grating whose
+//!   period is coherent across (`Lambda < 4 rho`) and resolved by the buckets.
+//! - Physical optics (the diffraction method, and the tangent-plane model it reproduces)
+//!   needs curvature radii and periods of a few wavelengths: `k r_c cos^3 theta >> 1`
+//!   (Ogilvy, Theory of Wave Scattering from Random Rough Surfaces, 1991, §4.2).
+//!   Below a period of 3 wavelengths, or a curvature radius of half a wavelength, nothing
+//!   here holds and a rigorous solver (RCWA, FDTD) is the tool.
+//! - Bodies: below a size parameter of 10, ray optics does not describe a particle
+//!   (van de Hulst 1957, §§ 10-12); a particle medium (Mie) does.
+
+use super::Sample;
+
+/// Which method the warnings are for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Rays with the beamlet, bucket or global estimator.
+    Rays,
+    /// `--coherence diffraction`.
+    Diffraction,
+}
+
+/// What the run asks of the sample.
+#[derive(Clone, Copy, Debug)]
+pub struct Context {
+    /// Shortest and longest vacuum wavelength of the run, nm.
+    pub lambda_min_nm: f64,
+    pub lambda_max_nm: f64,
+    /// Most oblique incidence, degrees (0 when unknown).
+    pub theta_max_deg: f64,
+    /// Transverse coherence radius, nm (`inf`: plane wave).
+    pub rho_nm: f64,
+    /// Polar width of one outgoing bucket, radians.
+    pub bucket_rad: f64,
+    pub method: Method,
+}
+
+/// Below this Rayleigh parameter `g` the coherent specular order (`exp(-g)` of the power,
+/// 1.8 % here) is one the ray method does not produce.
+pub const RAYLEIGH_MIN_FOR_RAYS: f64 = 4.0;
+/// Below this many wavelengths of period (or period-equivalent scale) neither rays nor
+/// physical optics hold (the RCWA table: 14 % R error at 1.8 wavelengths).
+pub const MIN_PERIOD_WAVELENGTHS: f64 = 3.0;
+/// Below this curvature radius, in wavelengths, the tangent plane fails (`k r_c = pi`).
+pub const MIN_CURVATURE_WAVELENGTHS: f64 = 0.5;
+/// Above this RMS height over curvature radius, the diffraction method's exit plane is far
+/// from the surface against the scale over which its tubes bend (sinusoids of slope 17 deg
+/// at 9 wavelengths: 0.05, power kept 0.97-0.99; the shipped rough gold: 0.34, kept 0.9-1.8).
+pub const MAX_DEPTH_OVER_CURVATURE: f64 = 0.1;
+/// A grating's orders are distinct in the result when fewer than this many fall into one
+/// bucket.
+pub const ORDERS_PER_BUCKET: f64 = 4.0;
+/// A grating's facets interfere when the period is under this many coherence radii (the
+/// mutual coherence at half a period is above `exp(-2)`).
+pub const COHERENT_PERIODS: f64 = 4.0;
+
+/// The feature scales of one sheet interface, nm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scales {
+    pub rms_height_nm: f64,
+    pub rms_slope: f64,
+    /// `2 pi sigma / s` (infinite for a flat sheet).
+    pub lateral_nm: f64,
+    /// The strongest axis-aligned mode: its period, nm, and its share of the variance.
+    pub period_nm: f64,
+    pub period_share: f64,
+    /// `1 / kappa_rms` (infinite for a flat or faceted-plane sheet).
+    pub curvature_radius_nm: f64,
+}
+
+/// Measures one sheet's scales over `tile_nm`.
+pub fn scales(mesh: &super::Mesh, tile_nm: [f64; 2]) -> Scales {
+    let p = &mesh.positions_nm;
+    let (mut area, mut zsum) = (0.0, 0.0);
+    let mut cents = Vec::with_capacity(mesh.triangles.len());
+    for (k, t) in mesh.triangles.iter().enumerate() {
+        let a = mesh.area_vector(k).z.abs();
+        let c = (p[t[0] as usize] + p[t[1] as usize] + p[t[2] as usize]) / 3.0;
+        area += a;
+        zsum += a * c.z;
+        cents.push((a, c));
+    }
+    let flat = Scales {
+        rms_height_nm: 0.0,
+        rms_slope: 0.0,
+        lateral_nm: f64::INFINITY,
+        period_nm: f64::INFINITY,
+        period_share: 0.0,
+        curvature_radius_nm: f64::INFINITY,
+    };
+    if area <= 0.0 {
+        return flat;
+    }
+    let mean = zsum / area;
+    // Exact mean of (z - mean)^2 over each triangle (a linear function: the average of
+    // its corners' squares and pairwise products, over 6).
+    let (mut var, mut slope2) = (0.0, 0.0);
+    for (k, t) in mesh.triangles.iter().enumerate() {
+        let a = mesh.area_vector(k);
+        let w = a.z.abs();
+        let z = t.map(|i| p[i as usize].z - mean);
+        var += w
+            * (z[0] * z[0] + z[1] * z[1] + z[2] * z[2] + z[0] * z[1] + z[1] * z[2] + z[2] * z[0])
+            / 6.0;
+        if a.z.abs() > 0.0 {
+            slope2 += w * (a.x * a.x + a.y * a.y) / (a.z * a.z);
+        }
+    }
+    let sigma = (var / area).max(0.0).sqrt();
+    let s = (slope2 / area).sqrt();
+    if sigma < 1e-9 * tile_nm[0].max(tile_nm[1]) {
+        return flat;
+    }
+    // Axis-aligned modes of the height: H_m = (1/A) int (z - mean) exp(-i q_m x) dA, each
+    // facet cut into n x n pieces (its extent along the axis times q_max under 2 rad) and
+    // integrated by the centroid rule, `exp(-i q_m x)` by recurrence over m; a mode of a
+    // real surface holds 2 |H_m|^2 of the variance. Periods down to 100 nm (at most 128 per
+    // tile side) are scanned, over at most about 20,000 facets taken evenly through the list.
+    let stride = (mesh.triangles.len() / 20_000).max(1);
+    let mut best = (f64::INFINITY, 0.0);
+    for (axis, &l) in tile_nm.iter().enumerate() {
+        let mmax = ((l / 100.0).floor() as usize).clamp(1, 128);
+        let q1 = 2.0 * std::f64::consts::PI / l;
+        let mut acc = vec![(0.0f64, 0.0f64); mmax + 1];
+        let mut sampled = 0.0;
+        let mut add = |a: f64, x: f64, z: f64| {
+            sampled += a;
+            let (sn, cs) = (q1 * x).sin_cos();
+            let (mut re, mut im) = (cs, -sn);
+            for e in acc.iter_mut().skip(1) {
+                e.0 += a * z * re;
+                e.1 += a * z * im;
+                (re, im) = (re * cs + im * sn, im * cs - re * sn);
+            }
+        };
+        for t in mesh.triangles.iter().step_by(stride) {
+            let v = t.map(|i| p[i as usize]);
+            let coord = |w: glam::DVec3| if axis == 0 { w.x } else { w.y };
+            let lo = v.iter().map(|w| coord(*w)).fold(f64::INFINITY, f64::min);
+            let hi = v
+                .iter()
+                .map(|w| coord(*w))
+                .fold(f64::NEG_INFINITY, f64::max);
+            let n = ((q1 * mmax as f64 * (hi - lo) / 2.0).ceil() as usize).clamp(1, 64);
+            // The n^2 pieces of a regular subdivision: n(n+1)/2 upright, n(n-1)/2 inverted.
+            let at = |i: f64, j: f64| {
+                v[0] + (v[1] - v[0]) * (i / n as f64) + (v[2] - v[0]) * (j / n as f64)
+            };
+            let a_piece = 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).z.abs() / (n * n) as f64;
+            for i in 0..n {
+                for j in 0..n - i {
+                    let (fi, fj) = (i as f64, j as f64);
+                    let c = (at(fi, fj) + at(fi + 1.0, fj) + at(fi, fj + 1.0)) / 3.0;
+                    add(a_piece, coord(c), c.z - mean);
+                    if i + j + 1 < n {
+                        let c =
+                            (at(fi + 1.0, fj) + at(fi, fj + 1.0) + at(fi + 1.0, fj + 1.0)) / 3.0;
+                        add(a_piece, coord(c), c.z - mean);
+                    }
+                }
+            }
+        }
+        for (m, &(re, im)) in acc.iter().enumerate().skip(1) {
+            let share = 2.0 * (re * re + im * im) / (sampled * sampled) / (sigma * sigma);
+            if share > best.1 {
+                best = (l / m as f64, share);
+            }
+        }
+    }
+    // RMS curvature: across each interior edge, the turn of the normal over the mean of
+    // the two facets' altitudes onto the edge; each facet keeps the
+    // largest of its edges (the principal curvature, whatever the facets' orientation),
+    // averaged over the area.
+    let mut edges = std::collections::HashMap::<(u32, u32), usize>::new();
+    let mut kmax = vec![0.0f64; mesh.triangles.len()];
+    for (k, t) in mesh.triangles.iter().enumerate() {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            let key = (a.min(b), a.max(b));
+            let Some(&o) = edges.get(&key) else {
+                edges.insert(key, k);
+                continue;
+            };
+            let (n1, n2) = (mesh.area_vector(k), mesh.area_vector(o));
+            if n1.length() == 0.0 || n2.length() == 0.0 {
+                continue;
+            }
+            let turn = n1.normalize().angle_between(n2.normalize());
+            // Half the sum of the two facets' altitudes onto the edge (a regular grid's
+            // cell width, where the curvature is sampled).
+            let len = (p[b as usize] - p[a as usize]).length();
+            let d = if len > 0.0 {
+                (n1.length() + n2.length()) / (2.0 * len)
+            } else {
+                0.0
+            };
+            if d > 0.0 {
+                let kappa2 = (turn / d).powi(2);
+                kmax[k] = kmax[k].max(kappa2);
+                kmax[o] = kmax[o].max(kappa2);
+            }
+        }
+    }
+    let kappa = (cents
+        .iter()
+        .zip(&kmax)
+        .map(|((a, _), k2)| a * k2)
+        .sum::<f64>()
+        / area)
+        .sqrt();
+    Scales {
+        rms_height_nm: sigma,
+        rms_slope: s,
+        lateral_nm: if s > 0.0 {
+            2.0 * std::f64::consts::PI * sigma / s
+        } else {
+            f64::INFINITY
+        },
+        period_nm: best.0,
+        period_share: best.1,
+        curvature_radius_nm: if kappa > 0.0 {
+            1.0 / kappa
+        } else {
+            f64::INFINITY
+        },
+    }
+}
+
+/// One finding: the feature, its scale, and what to use instead.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Finding {
+    pub message: String,
+}
+
+/// The sample's findings for a run (each at most once).
+pub fn assess(sample: &Sample, ctx: &Context) -> Vec<Finding> {
+    let mut out = Vec::new();
+    let lambda = ctx.lambda_min_nm;
+    let cos = ctx.theta_max_deg.to_radians().cos().max(0.05);
+    for (i, itf) in sample.interfaces.iter().enumerate() {
+        if itf.closed {
+            continue;
+        }
+        let sc = scales(&itf.mesh, sample.tile_nm);
+        if !sc.lateral_nm.is_finite() {
+            continue;
+        }
+        // The wavelength in the denser of the two media.
+        let n = [itf.front, itf.back]
+            .iter()
+            .map(|&m| sample.media[m].model.eval(lambda).map_or(1.0, |(n, _)| n))
+            .fold(1.0, f64::max);
+        let lam = lambda / n;
+        let name = format!("interface {i} ({})", itf.mesh_path.display());
+        let grating = sc.period_share >= 0.5;
+        let scale = if grating { sc.period_nm } else { sc.lateral_nm };
+        let what = if grating {
+            format!("a grating of period {:.0} nm", sc.period_nm)
+        } else {
+            format!(
+                "roughness of lateral scale {:.0} nm (RMS height {:.1} nm, RMS slope {:.2})",
+                sc.lateral_nm, sc.rms_height_nm, sc.rms_slope
+            )
+        };
+        if scale < MIN_PERIOD_WAVELENGTHS * lam
+            || sc.curvature_radius_nm < MIN_CURVATURE_WAVELENGTHS * lam
+        {
+            out.push(Finding {
+                message: format!(
+                    "{name} has {what} and curvature radius {:.0} nm, near or below the wavelength ({lambda:.0} nm, {lam:.0} nm in the denser medium): neither rays nor physical optics (--coherence diffraction) hold below {MIN_PERIOD_WAVELENGTHS} wavelengths of period or {MIN_CURVATURE_WAVELENGTHS} of curvature radius; use a rigorous solver (RCWA, FDTD) for this structure (docs/validity.md)",
+                    sc.curvature_radius_nm
+                ),
+            });
+            continue;
+        }
+        if ctx.method == Method::Diffraction {
+            let depth = sc.rms_height_nm / sc.curvature_radius_nm;
+            if depth > MAX_DEPTH_OVER_CURVATURE {
+                out.push(Finding {
+                    message: format!(
+                        "{name} has {what} and curvature radius {:.0} nm: deep against its curvature (RMS height / curvature radius {depth:.2}, above {MAX_DEPTH_OVER_CURVATURE}). The diffraction method adds the ray tubes on the exit plane above the sample, where tubes from neighbouring facets of such a surface overlap or part as they do not at the surface; its angular distribution is uncertain (the run reports how much power the transform kept). Use rays (--coherence beamlet), which hold for such rough surfaces when the Rayleigh g is large (docs/validity.md)",
+                        sc.curvature_radius_nm
+                    ),
+                });
+            }
+            continue;
+        }
+        let g = (4.0 * std::f64::consts::PI * sc.rms_height_nm * cos / ctx.lambda_max_nm).powi(2);
+        if grating {
+            let coherent = sc.period_nm < COHERENT_PERIODS * ctx.rho_nm;
+            let resolved = ctx.lambda_max_nm / sc.period_nm > ctx.bucket_rad / ORDERS_PER_BUCKET;
+            if coherent && resolved {
+                out.push(Finding {
+                    message: format!(
+                        "{name} is {what}: its diffraction orders are {:.3} apart in sin(theta) at {:.0} nm, which the buckets resolve and the coherence radius ({}) spans, but rays give only their envelope (the issue's RCWA comparison: nearly disjoint angular distributions up to a period of ~18 wavelengths); use --coherence diffraction (docs/validity.md)",
+                        ctx.lambda_max_nm / sc.period_nm,
+                        ctx.lambda_max_nm,
+                        if ctx.rho_nm.is_finite() {
+                            format!("{:.0} nm", ctx.rho_nm)
+                        } else {
+                            "plane wave".into()
+                        }
+                    ),
+                });
+                continue;
+            }
+        }
+        if g < RAYLEIGH_MIN_FOR_RAYS {
+            out.push(Finding {
+                message: format!(
+                    "{name} has {what}: smooth against the wavelength (Rayleigh g = {g:.2} at {:.0} nm and {:.0} deg), so a coherent specular order holds about exp(-g) = {:.2} of the reflected power, which rays spread over the slope lobe instead; use --coherence diffraction (docs/validity.md)",
+                    ctx.lambda_max_nm,
+                    ctx.theta_max_deg,
+                    (-g).exp()
+                ),
+            });
+        }
+    }
+    out
+}
+
+/// Bodies small against `lambda_nm` (vacuum): below a size parameter `x = 2 pi r n /
+/// lambda` of [`super::check::RAY_OPTICS_MIN_SIZE_PARAMETER`] for their equivalent-volume
+/// sphere in the medium around them, traced as geometric bodies they scatter wrongly; one
+/// finding per (outside, inside) pair of media, naming the particle medium to use.
+pub fn small_bodies(sample: &Sample, lambda_nm: f64) -> Vec<Finding> {
+    use super::check::{RAY_OPTICS_MIN_SIZE_PARAMETER as X_MIN, piece_volumes};
+    let two_pi = 2.0 * std::f64::consts::PI;
+    // Per (outside, inside) media: bodies counted, radii of the small ones, outside index.
+    let mut small = std::collections::BTreeMap::<(usize, usize), (usize, Vec<f64>, f64)>::new();
+    for itf in sample.interfaces.iter().filter(|i| i.closed) {
+        let n_out = sample.media[itf.front]
+            .model
+            .eval(lambda_nm)
+            .map_or(1.0, |(n, _)| n);
+        let sizes: Vec<f64> = piece_volumes(&itf.mesh)
+            .into_iter()
+            .filter(|v| *v > 0.0)
+            .map(|v| (3.0 * v / (2.0 * two_pi)).cbrt())
+            .collect();
+        let e = small
+            .entry((itf.front, itf.back))
+            .or_insert((0, Vec::new(), n_out));
+        e.0 += sizes.len();
+        e.1.extend(
+            sizes
+                .iter()
+                .copied()
+                .filter(|r| two_pi * r * n_out / lambda_nm < X_MIN),
+        );
+    }
+    let mut out = Vec::new();
+    for ((outside, inside), (count, mut radii, n_out)) in small {
+        if radii.is_empty() {
+            continue;
+        }
+        radii.sort_by(f64::total_cmp);
+        let median = radii[radii.len() / 2];
+        let (inner, outer) = (&sample.media[inside].name, &sample.media[outside].name);
+        out.push(Finding {
+            message: format!(
+                "{} of {count} bodies of '{inner}' in '{outer}' are small against the wavelength (equivalent-sphere radius {median:.0} nm in the median, size parameter {:.1} at {lambda_nm:.0} nm; ray optics needs well above {X_MIN}): traced as geometric bodies they scatter wrongly. Describe them as a particle medium instead: particles = {{ medium = \"{inner}\", radius_nm = {median:.0}, volume_fraction = ... }} on '{outer}' (docs/physics.md, \"Particle media\")",
+                radii.len(),
+                two_pi * median * n_out / lambda_nm,
+            ),
+        });
+    }
+    out
+}

@@ -1,0 +1,193 @@
+//! The validity map (issue 26): feature scales measured from meshes against closed forms,
+//! and the warnings `check` and `simulate` give where a method stops holding.
+
+mod common;
+
+use common::*;
+use goniospec::sample::validity::{self, Context, Method};
+use std::f64::consts::PI;
+
+/// A cosine grating `z = A cos(2 pi x / period)` over a tile one period long and `ly`
+/// wide, between air and glass (the `cosine` generator), at `resolution` facets per side.
+fn cosine(tag: &str, period: f64, amp: f64, resolution: usize) -> goniospec::sample::Sample {
+    let ly = period / 8.0;
+    sample_from(
+        tag,
+        &format!(
+            "[sample]\nname = \"cosine grating\"\nunit = \"nm\"\ntile = [{period:?}, {ly:?}]\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[[interface]]\ngenerator = {{ kind = \"cosine\", amplitude = {amp:?}, resolution = {resolution} }}\nfront = \"air\"\nback = \"glass\"\n"
+        ),
+    )
+}
+
+/// The run's context at 550 nm and the simulate defaults (5 um coherence radius, 45 polar
+/// buckets).
+fn ctx(method: Method) -> Context {
+    Context {
+        lambda_min_nm: 550.0,
+        lambda_max_nm: 550.0,
+        theta_max_deg: 0.0,
+        rho_nm: goniospec::simulate::defaults::COHERENCE_RADIUS_NM,
+        bucket_rad: PI / 2.0 / f64::from(goniospec::simulate::defaults::THETA_O_BINS),
+        method,
+    }
+}
+
+/// A sinusoid's scales in closed form: RMS height `A / sqrt 2`, RMS slope `2 pi A /
+/// (period sqrt 2)`, so `2 pi sigma / s` is the period; all its variance in one mode; the
+/// RMS of the curve's curvature `h'' / (1 + h'^2)^(3/2)`. Within 2 % at 256 facets per
+/// period.
+#[test]
+fn a_sinusoid_measures_as_its_closed_forms() {
+    let (period, amp) = (5000.0, 250.0);
+    let s = cosine("validity-sine", period, amp, 256);
+    let sc = validity::scales(&s.interfaces[0].mesh, s.tile_nm);
+    let close = |a: f64, b: f64, what: &str| {
+        assert!((a / b - 1.0).abs() < 0.02, "{what}: {a} against {b}");
+    };
+    close(sc.rms_height_nm, amp / 2f64.sqrt(), "RMS height");
+    close(
+        sc.rms_slope,
+        2.0 * PI * amp / (period * 2f64.sqrt()),
+        "RMS slope",
+    );
+    close(sc.lateral_nm, period, "lateral scale");
+    close(sc.period_nm, period, "period");
+    assert!(sc.period_share > 0.98, "share {}", sc.period_share);
+    // The curve's curvature `h'' / (1 + h'^2)^(3/2)`, RMS over a period (midpoint rule).
+    let q = 2.0 * PI / period;
+    let m = 10_000;
+    let k2 = (0..m)
+        .map(|i| {
+            let x = (i as f64 + 0.5) / m as f64 * period;
+            let (d1, d2) = (-amp * q * (q * x).sin(), -amp * q * q * (q * x).cos());
+            d2 * d2 / (1.0 + d1 * d1).powi(3)
+        })
+        .sum::<f64>()
+        / m as f64;
+    close(sc.curvature_radius_nm, 1.0 / k2.sqrt(), "curvature radius");
+}
+
+/// The issue's cases: a 1 um grating (1.8 wavelengths) is beyond rays and physical optics;
+/// a 5 um grating's orders are missed by rays (and not by the diffraction method); a 200 um
+/// grating needs no warning (orders 0.003 apart, a dozen per bucket); slightly rough glass
+/// (RMS 20 nm) has a coherent specular order rays miss; TiO2 spheres of radius 150 nm
+/// traced as bodies are flagged with the particle medium to use.
+#[test]
+fn warnings_fire_where_the_methods_stop() {
+    let one = validity::assess(
+        &cosine("validity-1um", 1000.0, 50.0, 128),
+        &ctx(Method::Rays),
+    );
+    assert_eq!(one.len(), 1, "{one:?}");
+    assert!(
+        one[0].message.contains("rigorous solver"),
+        "{}",
+        one[0].message
+    );
+    assert!(
+        one[0].message.contains("period 1000 nm"),
+        "{}",
+        one[0].message
+    );
+
+    let five = cosine("validity-5um", 5000.0, 250.0, 256);
+    let w = validity::assess(&five, &ctx(Method::Rays));
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].message.contains("--coherence diffraction"),
+        "{}",
+        w[0].message
+    );
+    assert!(
+        w[0].message.contains("orders are 0.110 apart"),
+        "{}",
+        w[0].message
+    );
+    assert!(validity::assess(&five, &ctx(Method::Diffraction)).is_empty());
+
+    let wide = cosine("validity-200um", 200_000.0, 10_000.0, 256);
+    let w = validity::assess(&wide, &ctx(Method::Rays));
+    assert!(w.is_empty(), "{w:?}");
+
+    let rough = sample_from(
+        "validity-rough",
+        "[sample]\nname = \"slightly rough glass\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[[interface]]\ngenerator = { kind = \"gaussian\", rms = 20.0, correlation_length = 2000.0, resolution = 128 }\nfront = \"air\"\nback = \"glass\"\n",
+    );
+    let w = validity::assess(&rough, &ctx(Method::Rays));
+    assert_eq!(w.len(), 1, "{w:?}");
+    // g = (4 pi 20 / 550)^2 = 0.209: exp(-g) = 0.81.
+    assert!(w[0].message.contains("exp(-g) = 0.81"), "{}", w[0].message);
+
+    let spheres = sample_from(
+        "validity-spheres",
+        "[sample]\nname = \"TiO2 spheres\"\nunit = \"nm\"\ntile = [2000.0, 2000.0]\n[media.air]\nn = 1.0\n[media.binder]\nn = 1.5\n[media.tio2]\nn = 2.6\n[[interface]]\ngenerator = { kind = \"flat\", z = 900.0 }\nfront = \"air\"\nback = \"binder\"\n[[body]]\ngenerator = { kind = \"pigment-spheres\", radius = 150.0, volume_fraction = 0.05, layer = [100.0, 800.0], subdivisions = 2 }\ninside = \"tio2\"\noutside = \"binder\"\n",
+    );
+    let w = validity::small_bodies(&spheres, 550.0);
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].message.contains("particles = { medium = \"tio2\""),
+        "{}",
+        w[0].message
+    );
+    // Size parameter of r = 150 nm in n = 1.5 at 550 nm: 2.57.
+    assert!(
+        w[0].message.contains("size parameter 2.6"),
+        "{}",
+        w[0].message
+    );
+}
+
+/// `simulate` says it once, before the run, and `check` lists it with the scales.
+#[test]
+fn simulate_and_check_print_the_warnings() {
+    let d = scratch("validity-cli");
+    std::fs::write(
+        d.join("grating.toml"),
+        "[sample]\nname = \"5 um grating\"\nunit = \"nm\"\ntile = [5000.0, 625.0]\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[[interface]]\ngenerator = { kind = \"cosine\", amplitude = 250.0, resolution = 128 }\nfront = \"air\"\nback = \"glass\"\n",
+    )
+    .unwrap();
+    let sample = d.join("grating.toml");
+    let out = d.join("g.gsa");
+    let (rc, _, err) = goniospec(&[
+        "simulate",
+        sample.to_str().unwrap(),
+        "--theta-i",
+        "0",
+        "--wavelengths",
+        "550",
+        "--monochromatic",
+        "--rays",
+        "256",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(rc, 0, "{err}");
+    assert_eq!(err.matches("--coherence diffraction").count(), 1, "{err}");
+    let (rc, out_text, err) = goniospec(&["check", sample.to_str().unwrap()]);
+    assert_eq!(rc, 0, "{err}");
+    assert!(
+        out_text.contains("strongest axis mode period 5000 nm"),
+        "{out_text}"
+    );
+    assert!(out_text.contains("WARNING: interface 0"), "{out_text}");
+    // The diffraction method itself: no ray warning, and its own summary.
+    let out2 = d.join("d.gsa");
+    let (rc, _, err) = goniospec(&[
+        "simulate",
+        sample.to_str().unwrap(),
+        "--theta-i",
+        "0",
+        "--wavelengths",
+        "550",
+        "--monochromatic",
+        "--rays",
+        "4096",
+        "--coherence",
+        "diffraction",
+        "-o",
+        out2.to_str().unwrap(),
+    ]);
+    assert_eq!(rc, 0, "{err}");
+    assert!(!err.contains("warning"), "{err}");
+    assert!(err.contains("diffraction: trees on a"), "{err}");
+}
