@@ -1374,7 +1374,10 @@ pub fn check_physical(
     let mode = s.coherence_mode();
     let buckets = s.buckets();
     let nl = s.wavelength_count();
-    let slack = if mode == Coherence::Beamlet && s.coherence_radius_nm.is_finite() {
+    // The diffraction method's totals are the beamlet estimator's on the same trees.
+    let slack = if matches!(mode, Coherence::Beamlet | Coherence::Diffraction)
+        && s.coherence_radius_nm.is_finite()
+    {
         BEAMLET_ENERGY_SLACK
     } else {
         0.0

@@ -11,8 +11,9 @@ pub(super) enum BenchCommand {
     /// Example: goniospec bench trace --triangles 1000000 --rays 1000000
     Trace(TraceArgs),
     /// End-to-end simulation speed: launched rays/s and traced segments/s against the
-    /// raw intersector, path sharing on against off, Embree against obvhs; and the wall
-    /// time and TMM error of a flat film at 40 bins x 10 incident angles.
+    /// raw intersector, path sharing on against off, Embree against obvhs; the diffraction
+    /// method's wall time against rays on the same sample (at most 16,384 trees); and the
+    /// wall time and TMM error of a flat film at 40 bins x 10 incident angles.
     Simulate(SimBenchArgs),
     /// BRDF representations: query time (median, p99), memory and build time at 10^4,
     /// 10^5 and 10^6 buckets of a smooth analytic BRDF with its accuracy; the kd-tree

@@ -29,10 +29,17 @@ pub(super) struct SimulateArgs {
     /// Worker threads (0: all cores). Results do not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Estimator: beamlet (default), or the failing comparison modes bucket and global.
+    /// How contributions interfere. beamlet (default): each tree is coherent within
+    /// itself (films, coatings) and incoherent with the others: the ray method.
+    /// diffraction: every tree's exits add as fields over the periodic tile (physical
+    /// optics on the ray field: grating orders, the coherent specular order of slightly
+    /// rough surfaces); trees launch on a lattice, R and T stay the rays', and the power
+    /// its transform kept is reported (docs/physics.md, "Diffraction"; where each holds:
+    /// docs/validity.md). bucket and global: the failing comparison modes of the seed.
     #[arg(long, default_value = "beamlet", value_parser = parse_coherence)]
     coherence: Coherence,
-    /// Beamlet radius in nm, or inf for the plane-wave limit.
+    /// The illumination's transverse coherence radius in nm (the beamlet radius), or inf
+    /// for the plane-wave limit.
     #[arg(long, default_value_t = goniospec::simulate::defaults::COHERENCE_RADIUS_NM, value_parser = parse_radius)]
     coherence_radius_nm: f64,
     /// Polar bins of the outgoing hemispheres (equal in theta).

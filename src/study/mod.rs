@@ -416,8 +416,8 @@ pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
     let mut variants = Vec::new();
     for &backend in &backend {
         for &coherence in &coherence {
-            // The beamlet radius only enters the beamlet estimator.
-            let radii = if coherence == Coherence::Beamlet {
+            // The coherence radius enters the beamlet estimator and the diffraction method.
+            let radii = if matches!(coherence, Coherence::Beamlet | Coherence::Diffraction) {
                 &sw.coherence_radius_nm[..]
             } else {
                 &sw.coherence_radius_nm[..1]
