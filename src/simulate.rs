@@ -1469,7 +1469,10 @@ pub fn check_physical(
     Ok(())
 }
 
-fn validate(cfg: &SimConfig) -> Result<(), SimError> {
+/// Refuses a configuration no run can take (angles, counts, radii, limits), before any
+/// work; [`simulate`] calls it first, and front ends that judge a run beforehand (the
+/// validity warnings) call it before that.
+pub fn validate(cfg: &SimConfig) -> Result<(), SimError> {
     let bad = |m: String| Err(SimError::Config(m));
     if cfg.theta_i_deg.is_empty() {
         return bad("no incident directions (--theta-i)".into());

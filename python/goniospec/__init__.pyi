@@ -42,7 +42,7 @@ def simulate(
     wavelengths: str = "380:780:10",
     rays: int = 4096,
     seed: int = 1,
-    coherence: Literal["beamlet", "bucket", "global"] = "beamlet",
+    coherence: Literal["beamlet", "diffraction", "bucket", "global"] = "beamlet",
     coherence_radius_nm: float = 5000.0,
     cutoff: float = 1e-10,
     monochromatic: bool = False,

@@ -264,3 +264,25 @@ def test_backends_name_the_library_behind_each():
         # Debian 12 ships Embree 3.13.5; whatever the build found, a version is read from a
         # live device.
         assert b["embree"]["version"].count(".") == 2, b["embree"]
+
+
+def test_validity_warnings_and_the_diffraction_method():
+    """A 5 um grating: rays warn (UserWarning) that they miss its orders; the diffraction
+    method does not, keeps R, and check() lists the warning beside the grating's scales."""
+    s = gs.Sample.load(os.path.join(ROOT, "studies", "samples", "grating-5um.toml"))
+    with pytest.warns(UserWarning, match="--coherence diffraction"):
+        rays = gs.simulate(s, theta_i=[0], wavelengths="550", monochromatic=True, rays=1024)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        diff = gs.simulate(s, theta_i=[0], wavelengths="550", monochromatic=True, rays=4096,
+                           coherence="diffraction")
+    # The diffraction method's R is the ray field's (at the same entry points it would be
+    # the same bits; here the lattice and the R2 set differ by their sampling noise).
+    r_rays = rays.reflectance(0)["R"][0]
+    r_diff = diff.reflectance(0)["R"][0]
+    assert abs(r_diff - r_rays) < 2e-3, (r_diff, r_rays)
+    c = s.check()
+    assert any("period 5000 nm" in f for f in c["facts"])
+    assert any("--coherence diffraction" in w for w in c["warnings"])

@@ -137,7 +137,9 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     } else {
         a.rays
     } * a.theta_i.len() as u64;
-    // Where the method asked for does not hold for this sample: said once, before the run.
+    // Where the method asked for does not hold for this sample: said once, before the run
+    // (and after the settings are known to be valid).
+    goniospec::simulate::validate(&cfg)?;
     let ctx = sample::validity::Context {
         lambda_min_nm: cfg.wavelengths.min(),
         lambda_max_nm: cfg.wavelengths.max(),
