@@ -404,38 +404,22 @@ fn diffraction_is_deterministic_across_threads() {
 /// What the method cannot take is refused before any tracing, with what to do.
 #[test]
 fn diffraction_refuses_what_it_cannot_take() {
+    let b = Buckets {
+        theta_bins: 45,
+        phi_bins: 36,
+    };
+    let refusal = |s: &goniospec::sample::Sample, c: &SimConfig| {
+        simulate(s, c, &|_| {}).unwrap_err().to_string()
+    };
     let s = grating("diffr-refuse", 5000.0, 250.0, 1.5, 0.0, 64);
     let adaptive = SimConfig {
         tolerance: Some(0.01),
         max_rays: 10_000,
-        ..cfg(
-            0.0,
-            550.0,
-            1024,
-            Buckets {
-                theta_bins: 45,
-                phi_bins: 36,
-            },
-        )
+        ..cfg(0.0, 550.0, 1024, b)
     };
-    let e = simulate(&s, &adaptive, &|_| {}).unwrap_err().to_string();
+    let e = refusal(&s, &adaptive);
     assert!(e.contains("--tolerance"), "{e}");
-    let paint = shipped("metallic-paint.toml");
-    let e = simulate(
-        &paint,
-        &cfg(
-            0.0,
-            550.0,
-            64,
-            Buckets {
-                theta_bins: 45,
-                phi_bins: 36,
-            },
-        ),
-        &|_| {},
-    )
-    .unwrap_err()
-    .to_string();
+    let e = refusal(&shipped("metallic-paint.toml"), &cfg(0.0, 550.0, 64, b));
     assert!(
         e.contains("Russian roulette") || e.contains("random phases"),
         "{e}"
@@ -444,21 +428,7 @@ fn diffraction_refuses_what_it_cannot_take() {
         "diffr-big",
         "[sample]\nname = \"big\"\nunit = \"nm\"\ntile = [2000000.0, 2000000.0]\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[[interface]]\ngenerator = { kind = \"flat\" }\nfront = \"air\"\nback = \"glass\"\n",
     );
-    let e = simulate(
-        &big,
-        &cfg(
-            0.0,
-            550.0,
-            64,
-            Buckets {
-                theta_bins: 45,
-                phi_bins: 36,
-            },
-        ),
-        &|_| {},
-    )
-    .unwrap_err()
-    .to_string();
+    let e = refusal(&big, &cfg(0.0, 550.0, 64, b));
     assert!(e.contains("smaller tile"), "{e}");
 }
 

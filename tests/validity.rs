@@ -147,20 +147,25 @@ fn simulate_and_check_print_the_warnings() {
     )
     .unwrap();
     let sample = d.join("grating.toml");
-    let out = d.join("g.gsa");
-    let (rc, _, err) = goniospec(&[
-        "simulate",
-        sample.to_str().unwrap(),
-        "--theta-i",
-        "0",
-        "--wavelengths",
-        "550",
-        "--monochromatic",
-        "--rays",
-        "256",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let simulate = |rays: &str, out: &str, extra: &[&str]| {
+        let out = d.join(out);
+        let mut args = vec![
+            "simulate",
+            sample.to_str().unwrap(),
+            "--theta-i",
+            "0",
+            "--wavelengths",
+            "550",
+            "--monochromatic",
+            "--rays",
+            rays,
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        goniospec(&args)
+    };
+    let (rc, _, err) = simulate("256", "g.gsa", &[]);
     assert_eq!(rc, 0, "{err}");
     assert_eq!(err.matches("--coherence diffraction").count(), 1, "{err}");
     let (rc, out_text, err) = goniospec(&["check", sample.to_str().unwrap()]);
@@ -171,22 +176,7 @@ fn simulate_and_check_print_the_warnings() {
     );
     assert!(out_text.contains("WARNING: interface 0"), "{out_text}");
     // The diffraction method itself: no ray warning, and its own summary.
-    let out2 = d.join("d.gsa");
-    let (rc, _, err) = goniospec(&[
-        "simulate",
-        sample.to_str().unwrap(),
-        "--theta-i",
-        "0",
-        "--wavelengths",
-        "550",
-        "--monochromatic",
-        "--rays",
-        "4096",
-        "--coherence",
-        "diffraction",
-        "-o",
-        out2.to_str().unwrap(),
-    ]);
+    let (rc, _, err) = simulate("4096", "d.gsa", &["--coherence", "diffraction"]);
     assert_eq!(rc, 0, "{err}");
     assert!(!err.contains("warning"), "{err}");
     assert!(err.contains("diffraction: trees on a"), "{err}");
