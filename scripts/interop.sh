@@ -2,7 +2,9 @@
 # Interop with the renderers people use: exports RGL .bsdf files and checks them with an
 # independent reader and with Mitsuba 3 (tests/interop/rgl_mitsuba.py); and the Mie series
 # against the PyPI miepython package (tests/interop/mie_miepython.py), and volume scattering
-# against iadpython's adding-doubling (tests/interop/rt_iadpython.py).
+# against iadpython's adding-doubling (tests/interop/rt_iadpython.py); and the diffraction
+# method against RCWA (PyPI meent: tests/interop/grating_meent.py writes the orders, the
+# `against_rcwa` test of tests/diffraction.rs compares).
 #
 #   scripts/interop.sh [GONIOSPEC_BINARY]
 #
@@ -12,13 +14,15 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${1:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 venv=${INTEROP_VENV:-.venv-interop}
-if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython, iadpython" 2>/dev/null; then
-  echo "== making $venv (numpy, mitsuba, miepython, iadpython)"
+if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython, iadpython, meent, scipy" 2>/dev/null; then
+  echo "== making $venv (numpy, mitsuba, miepython, iadpython, meent, scipy)"
   python3 -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5" "meent==0.13.2" "scipy>=1.10"
 fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 "$venv/bin/python" tests/interop/rgl_mitsuba.py "$bin" "$work"
 "$venv/bin/python" tests/interop/mie_miepython.py "$bin"
 "$venv/bin/python" tests/interop/rt_iadpython.py "$bin" "$work/rt"
+"$venv/bin/python" tests/interop/grating_meent.py "$work/rcwa.json"
+GONIOSPEC_RCWA_JSON="$work/rcwa.json" cargo test --release --test diffraction against_rcwa -- --ignored --nocapture
