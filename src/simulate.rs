@@ -202,6 +202,41 @@ pub fn achieved_error(cells: &[Cell], di: usize, nl: usize, mode: Coherence) -> 
     Some(worst)
 }
 
+/// The validity warnings' view of a run (`sample::validity`): its wavelength range, most
+/// oblique incidence, coherence radius, bucket width and method.
+pub fn validity_context(cfg: &SimConfig) -> crate::sample::validity::Context {
+    use crate::sample::validity::{Context, Method};
+    Context {
+        lambda_min_nm: cfg.wavelengths.min(),
+        lambda_max_nm: cfg.wavelengths.max(),
+        theta_max_deg: cfg.theta_i_deg.iter().copied().fold(0.0, f64::max),
+        rho_nm: cfg.rho_nm,
+        bucket_rad: std::f64::consts::FRAC_PI_2 / f64::from(cfg.buckets.theta_bins),
+        method: if cfg.coherence == Coherence::Diffraction {
+            Method::Diffraction
+        } else {
+            Method::Rays
+        },
+    }
+}
+
+/// The validity warnings `check` gives (no run to judge): one wavelength, normal incidence
+/// up to `theta_max_deg`, coherence radius `rho_nm`, the default buckets, rays.
+pub fn check_validity_context(
+    lambda_nm: f64,
+    theta_max_deg: f64,
+    rho_nm: f64,
+) -> crate::sample::validity::Context {
+    crate::sample::validity::Context {
+        lambda_min_nm: lambda_nm,
+        lambda_max_nm: lambda_nm,
+        theta_max_deg,
+        rho_nm,
+        bucket_rad: std::f64::consts::FRAC_PI_2 / f64::from(defaults::THETA_O_BINS),
+        method: crate::sample::validity::Method::Rays,
+    }
+}
+
 /// One cell of the diffraction method: what the rays gave and what the transform kept in
 /// propagating orders before its orders were scaled to the rays' totals.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -922,7 +957,8 @@ impl<'a> Run<'a> {
             .into_par_iter()
             .enumerate()
             .map(|(j, list)| {
-                let lambda = self.lambda_centre(j);
+                // Every tree of the bin took its centre (`block`).
+                let lambda = self.settings.wavelength(j);
                 let k = 2.0 * std::f64::consts::PI / lambda;
                 let mut idx = Vec::new();
                 indices_into(self.sample, lambda, &mut idx);
@@ -988,14 +1024,6 @@ impl<'a> Run<'a> {
             };
         }
         Ok(())
-    }
-
-    /// The wavelength every tree of bin or line `j` takes in the diffraction method, nm.
-    fn lambda_centre(&self, j: usize) -> f64 {
-        match &self.cfg.wavelengths {
-            Wavelengths::Bins(e) => 0.5 * (e[j] + e[j + 1]),
-            Wavelengths::Monochromatic(v) => v[j],
-        }
     }
 
     /// The trees `trees` of direction `di` (towards the light `wi`): one `BlockCell` per

@@ -72,37 +72,25 @@ fn a_sinusoid_measures_as_its_closed_forms() {
 /// grating needs no warning (orders 0.003 apart, a dozen per bucket); slightly rough glass
 /// (RMS 20 nm) has a coherent specular order rays miss; TiO2 spheres of radius 150 nm
 /// traced as bodies are flagged with the particle medium to use.
+/// Exactly one finding, saying each of `texts`.
+fn says_once(findings: &[validity::Finding], texts: &[&str]) {
+    assert_eq!(findings.len(), 1, "{findings:?}");
+    for t in texts {
+        assert!(findings[0].message.contains(t), "{}", findings[0].message);
+    }
+}
+
 #[test]
 fn warnings_fire_where_the_methods_stop() {
     let one = validity::assess(
         &cosine("validity-1um", 1000.0, 50.0, 128),
         &ctx(Method::Rays),
     );
-    assert_eq!(one.len(), 1, "{one:?}");
-    assert!(
-        one[0].message.contains("rigorous solver"),
-        "{}",
-        one[0].message
-    );
-    assert!(
-        one[0].message.contains("period 1000 nm"),
-        "{}",
-        one[0].message
-    );
+    says_once(&one, &["rigorous solver", "period 1000 nm"]);
 
     let five = cosine("validity-5um", 5000.0, 250.0, 256);
     let w = validity::assess(&five, &ctx(Method::Rays));
-    assert_eq!(w.len(), 1, "{w:?}");
-    assert!(
-        w[0].message.contains("--coherence diffraction"),
-        "{}",
-        w[0].message
-    );
-    assert!(
-        w[0].message.contains("orders are 0.110 apart"),
-        "{}",
-        w[0].message
-    );
+    says_once(&w, &["--coherence diffraction", "orders are 0.110 apart"]);
     assert!(validity::assess(&five, &ctx(Method::Diffraction)).is_empty());
 
     let wide = cosine("validity-200um", 200_000.0, 10_000.0, 256);
@@ -114,26 +102,18 @@ fn warnings_fire_where_the_methods_stop() {
         "[sample]\nname = \"slightly rough glass\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[[interface]]\ngenerator = { kind = \"gaussian\", rms = 20.0, correlation_length = 2000.0, resolution = 128 }\nfront = \"air\"\nback = \"glass\"\n",
     );
     let w = validity::assess(&rough, &ctx(Method::Rays));
-    assert_eq!(w.len(), 1, "{w:?}");
     // g = (4 pi 20 / 550)^2 = 0.209: exp(-g) = 0.81.
-    assert!(w[0].message.contains("exp(-g) = 0.81"), "{}", w[0].message);
+    says_once(&w, &["exp(-g) = 0.81"]);
 
     let spheres = sample_from(
         "validity-spheres",
         "[sample]\nname = \"TiO2 spheres\"\nunit = \"nm\"\ntile = [2000.0, 2000.0]\n[media.air]\nn = 1.0\n[media.binder]\nn = 1.5\n[media.tio2]\nn = 2.6\n[[interface]]\ngenerator = { kind = \"flat\", z = 900.0 }\nfront = \"air\"\nback = \"binder\"\n[[body]]\ngenerator = { kind = \"pigment-spheres\", radius = 150.0, volume_fraction = 0.05, layer = [100.0, 800.0], subdivisions = 2 }\ninside = \"tio2\"\noutside = \"binder\"\n",
     );
     let w = validity::small_bodies(&spheres, 550.0);
-    assert_eq!(w.len(), 1, "{w:?}");
-    assert!(
-        w[0].message.contains("particles = { medium = \"tio2\""),
-        "{}",
-        w[0].message
-    );
     // Size parameter of r = 150 nm in n = 1.5 at 550 nm: 2.57.
-    assert!(
-        w[0].message.contains("size parameter 2.6"),
-        "{}",
-        w[0].message
+    says_once(
+        &w,
+        &["particles = { medium = \"tio2\"", "size parameter 2.6"],
     );
 }
 

@@ -46,17 +46,12 @@ impl Sample {
                 goniospec::sample::check::check(
                     &self.inner,
                     &goniospec::sample::check::CheckOptions {
-                        // The validity warnings as `goniospec check` gives them: 550 nm,
-                        // normal incidence, the default coherence radius and buckets.
-                        validity: Some(goniospec::sample::validity::Context {
-                            lambda_min_nm: 550.0,
-                            lambda_max_nm: 550.0,
-                            theta_max_deg: 0.0,
-                            rho_nm: defaults::COHERENCE_RADIUS_NM,
-                            bucket_rad: std::f64::consts::FRAC_PI_2
-                                / f64::from(defaults::THETA_O_BINS),
-                            method: goniospec::sample::validity::Method::Rays,
-                        }),
+                        // The validity warnings as `goniospec check` gives them by default.
+                        validity: Some(goniospec::simulate::check_validity_context(
+                            550.0,
+                            0.0,
+                            defaults::COHERENCE_RADIUS_NM,
+                        )),
                         ..Default::default()
                     },
                 )
@@ -425,25 +420,8 @@ fn simulate(
     // Where the method asked for does not hold for this sample: a UserWarning each, before
     // the run (the CLI's `simulate` prints the same lines), for settings known to be valid.
     goniospec::simulate::validate(&cfg).map_err(|e| value_err(e.to_string()))?;
-    let ctx = goniospec::sample::validity::Context {
-        lambda_min_nm: cfg.wavelengths.min(),
-        lambda_max_nm: cfg.wavelengths.max(),
-        theta_max_deg: cfg.theta_i_deg.iter().copied().fold(0.0, f64::max),
-        rho_nm: cfg.rho_nm,
-        bucket_rad: std::f64::consts::FRAC_PI_2 / f64::from(cfg.buckets.theta_bins),
-        method: if cfg.coherence == goniospec::accumulate::Coherence::Diffraction {
-            goniospec::sample::validity::Method::Diffraction
-        } else {
-            goniospec::sample::validity::Method::Rays
-        },
-    };
-    for f in goniospec::sample::validity::assess(&sample.inner, &ctx)
-        .into_iter()
-        .chain(goniospec::sample::validity::small_bodies(
-            &sample.inner,
-            ctx.lambda_min_nm,
-        ))
-    {
+    let ctx = goniospec::simulate::validity_context(&cfg);
+    for f in goniospec::sample::validity::findings(&sample.inner, &ctx) {
         let msg = std::ffi::CString::new(f.message).map_err(value_err)?;
         PyErr::warn(
             py,

@@ -56,15 +56,11 @@ pub(super) fn check(a: CheckArgs) -> Result<ExitCode> {
         backend: resolve_backend(a.backend)?,
         leak_rays: a.leak_rays,
         seed: a.seed,
-        validity: Some(sample::validity::Context {
-            lambda_min_nm: a.lambda_nm,
-            lambda_max_nm: a.lambda_nm,
-            theta_max_deg: a.theta_max_deg,
-            rho_nm: a.coherence_radius_nm,
-            bucket_rad: std::f64::consts::FRAC_PI_2
-                / f64::from(goniospec::simulate::defaults::THETA_O_BINS),
-            method: sample::validity::Method::Rays,
-        }),
+        validity: Some(goniospec::simulate::check_validity_context(
+            a.lambda_nm,
+            a.theta_max_deg,
+            a.coherence_radius_nm,
+        )),
         ..Default::default()
     };
     let report = sample::check::check(&s, &copts)?;

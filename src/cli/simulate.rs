@@ -140,22 +140,7 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     // Where the method asked for does not hold for this sample: said once, before the run
     // (and after the settings are known to be valid).
     goniospec::simulate::validate(&cfg)?;
-    let ctx = sample::validity::Context {
-        lambda_min_nm: cfg.wavelengths.min(),
-        lambda_max_nm: cfg.wavelengths.max(),
-        theta_max_deg: cfg.theta_i_deg.iter().copied().fold(0.0, f64::max),
-        rho_nm: cfg.rho_nm,
-        bucket_rad: std::f64::consts::FRAC_PI_2 / f64::from(cfg.buckets.theta_bins),
-        method: if cfg.coherence == Coherence::Diffraction {
-            sample::validity::Method::Diffraction
-        } else {
-            sample::validity::Method::Rays
-        },
-    };
-    for f in sample::validity::assess(&s, &ctx)
-        .into_iter()
-        .chain(sample::validity::small_bodies(&s, ctx.lambda_min_nm))
-    {
+    for f in sample::validity::findings(&s, &goniospec::simulate::validity_context(&cfg)) {
         eprintln!("warning: {}", f.message);
     }
     let pool = thread_pool(a.threads)?;

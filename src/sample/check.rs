@@ -120,6 +120,8 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
             .push(format!("medium {:<14} {}", m.name, m.model.describe()));
     }
     let tol = 1e-6 * lx.max(ly);
+    // Every sheet's feature scales, measured once for the facts and the validity warnings.
+    let sheets = super::validity::sheet_scales(sample);
     for (i, itf) in sample.interfaces.iter().enumerate() {
         let (lo, hi) = itf.mesh.bounds().expect("loaded meshes are non-empty");
         let name = format!("interface {i} ({})", itf.mesh_path.display());
@@ -172,8 +174,7 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
                     sample.media[itf.front].name
                 ));
             }
-            let sc = super::validity::scales(&itf.mesh, sample.tile_nm);
-            if sc.lateral_nm.is_finite() {
+            if let Some(sc) = sheets[i].filter(|sc| sc.lateral_nm.is_finite()) {
                 r.facts.push(format!(
                     "{name}: RMS height {:.1} nm, RMS slope {:.3}, lateral scale 2 pi sigma / slope {:.0} nm, strongest axis mode period {:.0} nm ({:.0} % of the height variance), curvature radius {:.0} nm (docs/validity.md)",
                     sc.rms_height_nm,
@@ -241,7 +242,7 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
     );
     if let Some(ctx) = &opts.validity {
         r.warnings.extend(
-            super::validity::assess(sample, ctx)
+            super::validity::assess_scales(sample, &sheets, ctx)
                 .into_iter()
                 .map(|f| f.message),
         );

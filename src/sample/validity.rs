@@ -248,14 +248,27 @@ pub struct Finding {
 
 /// The sample's findings for a run (each at most once).
 pub fn assess(sample: &Sample, ctx: &Context) -> Vec<Finding> {
+    assess_scales(sample, &sheet_scales(sample), ctx)
+}
+
+/// [`scales`] of every interface of `sample` (`None` for closed bodies).
+pub fn sheet_scales(sample: &Sample) -> Vec<Option<Scales>> {
+    sample
+        .interfaces
+        .iter()
+        .map(|itf| (!itf.closed).then(|| scales(&itf.mesh, sample.tile_nm)))
+        .collect()
+}
+
+/// [`assess`] with the interfaces' scales already measured ([`sheet_scales`]).
+pub fn assess_scales(sample: &Sample, sheets: &[Option<Scales>], ctx: &Context) -> Vec<Finding> {
     let mut out = Vec::new();
     let lambda = ctx.lambda_min_nm;
     let cos = ctx.theta_max_deg.to_radians().cos().max(0.05);
-    for (i, itf) in sample.interfaces.iter().enumerate() {
-        if itf.closed {
+    for (i, (itf, sc)) in sample.interfaces.iter().zip(sheets).enumerate() {
+        let Some(sc) = *sc else {
             continue;
-        }
-        let sc = scales(&itf.mesh, sample.tile_nm);
+        };
         if !sc.lateral_nm.is_finite() {
             continue;
         }
@@ -330,6 +343,14 @@ pub fn assess(sample: &Sample, ctx: &Context) -> Vec<Finding> {
             });
         }
     }
+    out
+}
+
+/// Everything a run should be told before it starts: [`assess`] and [`small_bodies`] at
+/// the run's shortest wavelength.
+pub fn findings(sample: &Sample, ctx: &Context) -> Vec<Finding> {
+    let mut out = assess(sample, ctx);
+    out.extend(small_bodies(sample, ctx.lambda_min_nm));
     out
 }
 
