@@ -314,7 +314,7 @@ pub fn simulate_bench(
     let thetas: Vec<f64> = (0..10).map(|i| 8.0 * i as f64).collect();
     let edges: Vec<f64> = (0..=40).map(|i| 380.0 + 10.0 * i as f64).collect();
     let stack_at = |l: f64| {
-        crate::optics::tmm::stack_indices(flat, l).expect("the flat film is a [stack] within range")
+        crate::reference::stack_indices(flat, l).expect("the flat film is a [stack] within range")
     };
     let reference: Vec<Vec<f64>> = thetas
         .iter()

@@ -1,8 +1,73 @@
-//! Directions and frames: spherical angles to unit vectors and back, and orthonormal bases.
+//! Directions and frames: spherical angles to unit vectors and back, and orthonormal bases;
+//! and triangles as the accelerators take them ([`TriangleSoup`]).
 //! Conventions (docs/design.md §1): z up, `theta` from +z, `phi` from +x towards +y, angles
 //! in radians.
 
 use glam::DVec3;
+
+/// Triangles as the accelerators take them: f32 vertex positions (nanometres, sample
+/// frame) and counter-clockwise index triples. The front side of a triangle is the side
+/// `(v1 - v0) x (v2 - v0)` points to.
+#[derive(Clone, Debug, Default)]
+pub struct TriangleSoup {
+    pub vertices: Vec<[f32; 3]>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriangleSoup {
+    /// The three corners of triangle `prim`.
+    #[inline]
+    pub fn corners(&self, prim: usize) -> [[f32; 3]; 3] {
+        let [a, b, c] = self.triangles[prim];
+        [
+            self.vertices[a as usize],
+            self.vertices[b as usize],
+            self.vertices[c as usize],
+        ]
+    }
+
+    /// Checks what every backend relies on: indices in range and finite coordinates.
+    pub fn validate(&self) -> Result<(), SoupError> {
+        if let Some(i) = self
+            .vertices
+            .iter()
+            .position(|v| v.iter().any(|c| !c.is_finite()))
+        {
+            return Err(SoupError::NonFinite {
+                vertex: i,
+                coords: self.vertices[i],
+            });
+        }
+        let n = self.vertices.len() as u64;
+        if let Some(t) = self
+            .triangles
+            .iter()
+            .position(|t| t.iter().any(|&i| u64::from(i) >= n))
+        {
+            return Err(SoupError::IndexOutOfRange {
+                triangle: t,
+                indices: self.triangles[t],
+                vertices: n,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// A triangle soup no accelerator can take.
+#[derive(Debug, thiserror::Error)]
+pub enum SoupError {
+    #[error("vertex {vertex} has a non-finite coordinate {coords:?}")]
+    NonFinite { vertex: usize, coords: [f32; 3] },
+    #[error(
+        "triangle {triangle} indexes vertex {indices:?} but there are only {vertices} vertices"
+    )]
+    IndexOutOfRange {
+        triangle: usize,
+        indices: [u32; 3],
+        vertices: u64,
+    },
+}
 
 /// The unit vector of spherical angles `theta_rad` (from +z) and `phi_rad` (from +x).
 #[inline]

@@ -5,6 +5,9 @@
 
 use std::path::Path;
 
+/// The first line of every page `batch report` writes; the output policy recognises it.
+pub const HTML_MARK: &str = "<!DOCTYPE html>\n<!-- goniospec batch report -->";
+
 /// What kind of file an output may replace without `force`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OutputKind {
@@ -23,6 +26,9 @@ pub enum OutputKind {
     FitJson,
     /// The HTML page `goniospec batch report` writes (its first line).
     Report,
+    /// The JSON figures of a run (`simulate --report-json`): an object with
+    /// `traced_trees` and `segments_per_second`.
+    RunReport,
 }
 
 /// Why an output was refused.
@@ -112,8 +118,12 @@ pub fn guard(
         ),
         OutputKind::FitJson => (is_fit_output(out), "a material written by goniospec fit"),
         OutputKind::Report => (
-            head.starts_with(crate::batch::report::HTML_MARK.as_bytes()),
+            head.starts_with(HTML_MARK.as_bytes()),
             "a page written by goniospec batch report",
+        ),
+        OutputKind::RunReport => (
+            json_object_with(out, &["traced_trees", "segments_per_second"]),
+            "a run report written by goniospec simulate --report-json",
         ),
     };
     if ok {
@@ -121,6 +131,16 @@ pub fn guard(
     } else {
         Err(OutputError::Foreign { out: name(), what })
     }
+}
+
+/// Whether `path` is a JSON object holding every key of `keys` (files over 64 MiB are not
+/// read).
+fn json_object_with(path: &Path, keys: &[&str]) -> bool {
+    let Ok(text) = crate::io::read_input(path, 64 << 20) else {
+        return false;
+    };
+    serde_json::from_slice::<serde_json::Value>(&text)
+        .is_ok_and(|v| keys.iter().all(|k| v.get(k).is_some()))
 }
 
 /// Whether `path` is a JSON or glTF file `goniospec fit` wrote: a JSON object with a `fit`

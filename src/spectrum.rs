@@ -19,54 +19,72 @@ pub enum Wavelengths {
 /// direction's accumulator, and 10,000 already resolve 0.04 nm over the visible.
 pub const MAX_WAVELENGTHS: usize = 10_000;
 
+/// A wavelength list that cannot be parsed (the setting it came from is the caller's to
+/// name: `--wavelengths`, a plan's `wavelengths`, Python's keyword).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SpectrumError {
+    #[error("'{0}' is not a number")]
+    NotANumber(String),
+    #[error("'{0}': expected A:B:STEP or a comma list")]
+    NotARange(String),
+    #[error("{0}: need finite A < B and STEP > 0")]
+    BadRange(String),
+    #[error("{0}: more than {MAX_WAVELENGTHS} wavelengths; choose a coarser STEP")]
+    TooMany(String),
+    #[error("{0}: (B - A) must be a whole number of STEPs")]
+    NotWholeSteps(String),
+    #[error("every wavelength must be positive and finite")]
+    NotPositive,
+    #[error("bins need at least two edges (or monochromatic wavelengths)")]
+    TooFewEdges,
+    #[error("bin edges must increase")]
+    NotIncreasing,
+}
+
 impl Wavelengths {
     /// Parses `--wavelengths` (nm): `A:B:STEP` gives bins of width STEP from A to B (or,
     /// when `monochromatic`, the wavelengths A, A+STEP, ..., B); a comma list gives bin
-    /// edges (or exact wavelengths). The message names the flag.
-    pub fn parse(spec: &str, monochromatic: bool) -> Result<Wavelengths, String> {
+    /// edges (or exact wavelengths). The error names no flag: the caller knows where the
+    /// text came from.
+    pub fn parse(spec: &str, monochromatic: bool) -> Result<Wavelengths, SpectrumError> {
+        use SpectrumError as E;
         let w = spec.trim();
         let num = |v: &str| {
             v.trim()
                 .parse::<f64>()
-                .map_err(|_| format!("--wavelengths: '{}' is not a number", v.trim()))
+                .map_err(|_| E::NotANumber(v.trim().to_string()))
         };
         let values: Vec<f64> = if let Some((a, rest)) = w.split_once(':') {
             let (b, step) = rest
                 .split_once(':')
-                .ok_or_else(|| format!("--wavelengths '{w}': expected A:B:STEP"))?;
+                .ok_or_else(|| E::NotARange(w.to_string()))?;
             let (a, b, step) = (num(a)?, num(b)?, num(step)?);
             if !(a.is_finite() && b.is_finite() && step.is_finite() && step > 0.0 && b > a) {
-                return Err(format!("--wavelengths {w}: need finite A < B and STEP > 0"));
+                return Err(E::BadRange(w.to_string()));
             }
             if (b - a) / step > MAX_WAVELENGTHS as f64 {
-                return Err(format!(
-                    "--wavelengths {w}: more than {MAX_WAVELENGTHS} wavelengths; choose a coarser STEP"
-                ));
+                return Err(E::TooMany(w.to_string()));
             }
             let n = ((b - a) / step).round() as usize;
             if ((a + n as f64 * step) - b).abs() > 1e-9 * b {
-                return Err(format!(
-                    "--wavelengths {w}: (B - A) must be a whole number of STEPs"
-                ));
+                return Err(E::NotWholeSteps(w.to_string()));
             }
             (0..=n).map(|i| a + i as f64 * step).collect()
         } else {
             w.split(',').map(num).collect::<Result<_, _>>()?
         };
         if values.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-            return Err("--wavelengths: every wavelength must be positive and finite".into());
+            return Err(E::NotPositive);
         }
         if values.len() > MAX_WAVELENGTHS + 1 {
-            return Err(format!(
-                "--wavelengths: more than {MAX_WAVELENGTHS} wavelengths"
-            ));
+            return Err(E::TooMany(w.to_string()));
         }
         if monochromatic {
             Ok(Wavelengths::Monochromatic(values))
         } else if values.len() < 2 {
-            Err("--wavelengths: bins need at least two edges (or pass --monochromatic)".into())
+            Err(E::TooFewEdges)
         } else if values.windows(2).any(|p| p[1] <= p[0]) {
-            Err("--wavelengths: bin edges must increase".into())
+            Err(E::NotIncreasing)
         } else {
             Ok(Wavelengths::Bins(values))
         }

@@ -30,7 +30,8 @@ fn one_process(plan: &Path, dir: &Path) {
     ok(&["batch", "merge", dir.to_str().unwrap()]);
 }
 
-/// A plan of two materials (4 + 2 directions, two representations) beside `dir`.
+/// A plan of two materials (4 + 2 directions, two representations) beside `dir`; the
+/// second sets knobs of `simulate` (a plan can set every one).
 fn plan(dir: &Path, rays: u64) -> PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     let root = root().display().to_string();
@@ -38,7 +39,7 @@ fn plan(dir: &Path, rays: u64) -> PathBuf {
     std::fs::write(
         &p,
         format!(
-            "[defaults]\ntheta_i = [0, 20, 40, 60]\nwavelengths = \"400:700:50\"\nrays = {rays}\nrepresentations = [\"table\", \"kdtree\"]\n\n[[material]]\nsample = \"{root}/meshes/rough-gold.toml\"\nname = \"gold\"\n\n[[material]]\nsample = \"{root}/meshes/thin-film-600nm.toml\"\ntheta_i = [10, 30]\nseed = 7\n"
+            "[defaults]\ntheta_i = [0, 20, 40, 60]\nwavelengths = \"400:700:50\"\nrays = {rays}\nrepresentations = [\"table\", \"kdtree\"]\n\n[[material]]\nsample = \"{root}/meshes/rough-gold.toml\"\nname = \"gold\"\n\n[[material]]\nsample = \"{root}/meshes/thin-film-600nm.toml\"\ntheta_i = [10, 30]\nseed = 7\ncoherence_radius_nm = 2000.0\ntheta_o_bins = 30\n"
         ),
     )
     .unwrap();
@@ -122,6 +123,10 @@ fn shards_merge_to_the_bytes_of_one_run() {
         "128",
         "--seed",
         "7",
+        "--coherence-radius-nm",
+        "2000",
+        "--theta-o-bins",
+        "30",
         "-o",
         direct.to_str().unwrap(),
     ]);
@@ -306,14 +311,25 @@ fn bad_plans_fail_at_plan_time() {
             "[defaults]\ntheta_i = [0]\n[[material]]\nsample = \"nowhere.toml\"\n",
             "nowhere.toml",
         ),
-        ("[[material]]\nsample = \"SAMPLE\"\n", "no theta_i"),
+        (
+            "[defaults]\ntheta_i = []\n[[material]]\nsample = \"SAMPLE\"\n",
+            "no incident directions",
+        ),
+        (
+            "[defaults]\ncoherence_radius_nm = -1.0\n[[material]]\nsample = \"SAMPLE\"\n",
+            "coherence_radius_nm: must be positive",
+        ),
+        (
+            "[defaults]\ncoherence = \"laser\"\n[[material]]\nsample = \"SAMPLE\"\n",
+            "unknown coherence 'laser'",
+        ),
         (
             "[defaults]\ntheta_i = [95]\n[[material]]\nsample = \"SAMPLE\"\n",
             "[0, 90)",
         ),
         (
             "[defaults]\ntheta_i = [0]\nrays = 0\n[[material]]\nsample = \"SAMPLE\"\n",
-            "rays must be",
+            "rays: must be at least 1",
         ),
         (
             "[defaults]\ntheta_i = [0]\nrepresentations = [\"cube\"]\n[[material]]\nsample = \"SAMPLE\"\n",
@@ -389,9 +405,9 @@ fn an_edited_manifest_is_refused_not_trusted() {
         // A unit's angle edited: its data would be filed under 45 degrees.
         ("unit-angle", "theta_i_deg = 20.0", "theta_i_deg = 45.0"),
         // A material's list edited 0 -> 1: 0-degree data labelled 1 degree.
-        ("list", "theta_i_deg = [0.0,", "theta_i_deg = [1.0,"),
+        ("list", "theta_i = [0.0,", "theta_i = [1.0,"),
         // An empty list (wrote a .gsa that info rejects).
-        ("empty", "theta_i_deg = [10.0, 30.0]", "theta_i_deg = []"),
+        ("empty", "theta_i = [10.0, 30.0]", "theta_i = []"),
         // A unit's output sent over the manifest.
         (
             "output",

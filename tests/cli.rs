@@ -291,6 +291,53 @@ fn simulate_output_does_not_depend_on_threads() {
     assert!(run("1", "one.gsa") == run("2", "two.gsa"));
 }
 
+/// `--report-json` writes the run's figures as numbers: trees as launched, the directions
+/// asked for, a finite rate; it never overwrites a foreign file or the accumulator.
+#[test]
+fn simulate_writes_a_machine_readable_report() {
+    let d = std::env::temp_dir().join(format!("goniospec-report-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let (gsa, json) = (d.join("r.gsa"), d.join("r.json"));
+    let args = |report: &std::path::Path| {
+        vec![
+            "simulate".to_string(),
+            "meshes/flat-soap-film.toml".into(),
+            "--theta-i".into(),
+            "0,40".into(),
+            "--wavelengths".into(),
+            "500:600:50".into(),
+            "--rays".into(),
+            "64".into(),
+            "-o".into(),
+            gsa.to_str().unwrap().into(),
+            "--report-json".into(),
+            report.to_str().unwrap().into(),
+        ]
+    };
+    let run = |a: Vec<String>| goniospec(&a.iter().map(|s| s.as_str()).collect::<Vec<_>>());
+    let (code, _, err) = run(args(&json));
+    assert_eq!(code, 0, "{err}");
+    let r: goniospec::simulate::RunReport =
+        serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(r.trees, 128);
+    let angles: Vec<f64> = r.directions.iter().map(|x| x.theta_i_deg).collect();
+    assert_eq!(angles, [0.0, 40.0]);
+    assert!(r.directions.iter().all(|x| x.trees == 64));
+    assert!(r.segments >= r.trees && r.trees_per_second.is_finite() && r.trees_per_second > 0.0);
+    // A flat lossless film: nothing cut, created or limited.
+    assert_eq!((r.worst_created, r.worst_limited), (0.0, 0.0));
+    // Rerunning over its own report is fine; over a foreign file or the accumulator is not.
+    assert_eq!(run(args(&json)).0, 0);
+    let foreign = d.join("notes.json");
+    std::fs::write(&foreign, "{\"mine\": 1}").unwrap();
+    let (code, _, err) = run(args(&foreign));
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("refusing to overwrite"), "{err}");
+    assert_eq!(std::fs::read_to_string(&foreign).unwrap(), "{\"mine\": 1}");
+    let (code, _, err) = run(args(&gsa));
+    assert_eq!(code, 1, "{err}");
+}
+
 #[test]
 fn build_eval_and_info() {
     let d = std::env::temp_dir().join(format!("goniospec-brdf-{}", std::process::id()));

@@ -737,18 +737,18 @@ fn guard_band_edges_keep_the_patch_and_open_the_sides() {
     assert!((g - 0.1 * lx.min(ly)).abs() < 1e-9, "{g}");
     // `check` walks end at an open side: no seam, no leak. The same patch with periodic
     // sides would not tile, and walks wrapping across the seam would report leaks.
-    let opts = sample::check::CheckOptions {
+    let opts = goniospec::check::CheckOptions {
         leak_rays: 4000,
         ..Default::default()
     };
-    let report = sample::check::check(&s, &opts).unwrap();
+    let report = goniospec::check::check(&s, &opts).unwrap();
     assert!(report.defects.is_empty(), "{:?}", report.defects);
     assert!(report.leak.crossings > 3000, "{:?}", report.leak);
     let periodic = Sample {
         guard_nm: None,
         ..s.clone()
     };
-    let report = sample::check::check(&periodic, &opts).unwrap();
+    let report = goniospec::check::check(&periodic, &opts).unwrap();
     assert!(
         report.defects.iter().any(|d| d.contains("does not tile")) && report.leak.leaks > 0,
         "{:?} {:?}",

@@ -8,7 +8,7 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use common::{root, scratch};
-use goniospec::sample::check::{CheckOptions, check, periodicity, watertightness};
+use goniospec::check::{CheckOptions, check, periodicity, watertightness};
 use goniospec::sample::generate::{self, Distribution, enclosed_volume};
 use goniospec::sample::media::{IndexModel, load_table};
 use goniospec::sample::{self, Mesh, MeshOptions};

@@ -84,7 +84,7 @@ fn local_film_reference_of_a_wedge_matches_an_independent_average() {
     };
     let edges = [500.0, 520.0, 600.0];
     for theta_deg in [0.0f64, 40.0] {
-        let lib = goniospec::optics::local_film::reflectance(&s, theta_deg, &edges, 40).unwrap();
+        let lib = goniospec::reference::local_film::reflectance(&s, theta_deg, &edges, 40).unwrap();
         let th = theta_deg.to_radians();
         let n = 400;
         let mut sum = [0.0; 2];
@@ -357,14 +357,26 @@ fn non_finite_incidence_and_origin_are_refused() {
     let s = shipped("rough-gold.toml");
     let mut cfg = config(&[0.0], Wavelengths::Monochromatic(vec![550.0]), 16);
     cfg.phi_i_deg = f64::INFINITY;
-    let e = goniospec::simulate::simulate(&s, &cfg, &|_| {})
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("--phi-i must be finite"), "{e}");
+    // Typed: the error names the setting, whatever front end words it.
+    let e = goniospec::simulate::simulate(&s, &cfg, &|_| {}).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            goniospec::simulate::SimError::Setting { key: "phi_i", .. }
+        ),
+        "{e}"
+    );
     cfg.phi_i_deg = 0.0;
     cfg.origin_nm = glam::DVec3::new(f64::NAN, 0.0, 0.0);
-    let e = goniospec::simulate::simulate(&s, &cfg, &|_| {})
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("origin must be finite"), "{e}");
+    let e = goniospec::simulate::simulate(&s, &cfg, &|_| {}).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            goniospec::simulate::SimError::Setting {
+                key: "origin_nm",
+                ..
+            }
+        ),
+        "{e}"
+    );
 }

@@ -26,7 +26,7 @@ fn flat_film_errors_match_an_independent_tmm_within_their_error_bars() {
         for w in st.edges.windows(2) {
             let lib = goniospec::optics::tmm::solve_band(
                 |l| {
-                    goniospec::optics::tmm::stack_indices(
+                    goniospec::reference::stack_indices(
                         &goniospec::sample::load(&st.sample_path, Default::default()).unwrap(),
                         l,
                     )

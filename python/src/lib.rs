@@ -10,8 +10,7 @@ use pyo3::types::PyDict;
 
 use goniospec::brdf::{Brdf as _, Kind, Representation};
 use goniospec::output::OutputKind;
-use goniospec::simulate::{SimConfig, Wavelengths, defaults};
-use goniospec::trace::TraceLimits;
+use goniospec::simulate::defaults;
 
 fn value_err(e: impl std::fmt::Display) -> PyErr {
     PyValueError::new_err(e.to_string())
@@ -43,9 +42,9 @@ impl Sample {
     fn check<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let r = py
             .allow_threads(|| {
-                goniospec::sample::check::check(
+                goniospec::check::check(
                     &self.inner,
-                    &goniospec::sample::check::CheckOptions {
+                    &goniospec::check::CheckOptions {
                         // The validity warnings as `goniospec check` gives them by default.
                         validity: Some(goniospec::simulate::check_validity_context(
                             550.0,
@@ -334,92 +333,64 @@ fn load_brdf(path: PathBuf) -> PyResult<Brdf> {
         .map_err(value_err)
 }
 
-fn parse_coherence(s: &str) -> PyResult<goniospec::accumulate::Coherence> {
-    goniospec::accumulate::Coherence::parse(s).ok_or_else(|| {
-        value_err(format!(
-            "unknown coherence '{s}' (beamlet, diffraction, bucket or global)"
-        ))
-    })
-}
-
 /// Simulates the virtual goniospectrometer (`goniospec simulate`, with its flags as
-/// keywords of the same names): `rays` coherent ray trees per incident direction
-/// `theta_i` (degrees) at azimuth `phi_i` (degrees); `wavelengths` as `--wavelengths` (nm:
-/// "A:B:STEP" bins, or a comma list of edges; exact wavelengths with `monochromatic=True`);
-/// the estimator `coherence` with `coherence_radius_nm` (float("inf"): the plane-wave
-/// limit); `theta_o_bins` x `phi_o_bins` outgoing buckets; power `cutoff`, `max_depth`,
-/// `max_segments`; an adaptive budget to relative standard error `tolerance` with at most
-/// `max_rays` trees per direction; `no_path_sharing`; `no_wavelength_sharing`; `backend` ("embree" or "obvhs").
+/// keywords of the same names, `_` for `-`, and the same defaults): `rays` coherent ray
+/// trees per incident direction `theta_i` (degrees) at azimuth `phi_i` (degrees);
+/// `wavelengths` as `--wavelengths` (nm: "A:B:STEP" bins, or a comma list of edges; exact
+/// wavelengths with `monochromatic=True`); the estimator `coherence` with
+/// `coherence_radius_nm` (float("inf"): the plane-wave limit); `theta_o_bins` x
+/// `phi_o_bins` outgoing buckets; power `cutoff`, `max_depth`, `max_segments`; an adaptive
+/// budget to relative standard error `tolerance` with at most `max_rays` trees per
+/// direction; `no_path_sharing`; `no_wavelength_sharing`; `backend` ("embree" or
+/// "obvhs"); `seed`. An unknown keyword is a ValueError naming the known ones.
 /// Releases the GIL; Ctrl-C raises KeyboardInterrupt within 50 ms and returns nothing;
 /// `progress`: a bar on `sys.stderr` (trees done, rate, time left) when it is a terminal and
 /// nothing otherwise (`None`, the default); `True` draws it always, `False` never;
 /// `threads=0` uses all cores and results do not depend on it.
 #[pyfunction]
-#[pyo3(signature = (sample, theta_i, wavelengths = goniospec::spectrum::DEFAULT_WAVELENGTHS, rays = defaults::RAYS, seed = defaults::SEED, coherence = "beamlet", coherence_radius_nm = defaults::COHERENCE_RADIUS_NM, cutoff = TraceLimits::CUTOFF, monochromatic = false, phi_i = 0.0, threads = 0, backend = None, theta_o_bins = defaults::THETA_O_BINS, phi_o_bins = defaults::PHI_O_BINS, max_depth = TraceLimits::MAX_DEPTH, max_segments = TraceLimits::MAX_SEGMENTS, tolerance = None, max_rays = defaults::MAX_RAYS, no_path_sharing = false, no_wavelength_sharing = false, progress = None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (sample, theta_i, wavelengths = None, rays = None, threads = 0, progress = None, **settings))]
 fn simulate(
     py: Python<'_>,
     sample: &Sample,
     theta_i: Vec<f64>,
-    wavelengths: &str,
-    rays: u64,
-    seed: u64,
-    coherence: &str,
-    coherence_radius_nm: f64,
-    cutoff: f64,
-    monochromatic: bool,
-    phi_i: f64,
+    wavelengths: Option<&str>,
+    rays: Option<u64>,
     threads: usize,
-    backend: Option<&str>,
-    theta_o_bins: u32,
-    phi_o_bins: u32,
-    max_depth: u32,
-    max_segments: u32,
-    tolerance: Option<f64>,
-    max_rays: u64,
-    no_path_sharing: bool,
-    no_wavelength_sharing: bool,
     progress: Option<bool>,
+    settings: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Accumulator> {
-    let w = Wavelengths::parse(wavelengths, monochromatic).map_err(value_err)?;
-    let backend = match backend {
-        Some(b) => b.parse::<goniospec::accel::Backend>().map_err(value_err)?,
-        None => goniospec::accel::Backend::default_available(),
-    };
-    if !backend.is_available() {
-        return Err(value_err(goniospec::accel::AccelError::EmbreeUnavailable));
+    // The keywords become the CLI's settings (`SimSettings`, deserialised with its
+    // defaults and its checks), resolved into the run's configuration in one place.
+    let mut table = toml::Table::new();
+    table.insert(
+        "theta_i".into(),
+        toml::Value::Array(theta_i.into_iter().map(toml::Value::Float).collect()),
+    );
+    if let Some(w) = wavelengths {
+        table.insert("wavelengths".into(), toml::Value::String(w.into()));
     }
-    let total = if tolerance.is_some() { max_rays } else { rays } * theta_i.len() as u64;
-    let mut cfg = SimConfig {
-        seed,
-        backend,
-        coherence: parse_coherence(coherence)?,
-        rho_nm: coherence_radius_nm,
-        phi_i_deg: phi_i,
-        limits: goniospec::trace::TraceLimits {
-            cutoff,
-            max_depth,
-            max_segments,
-            ..Default::default()
-        },
-        buckets: goniospec::accumulate::Buckets {
-            theta_bins: theta_o_bins,
-            phi_bins: phi_o_bins,
-        },
-        path_sharing: no_path_sharing.then_some(false),
-        wavelength_sharing: !no_wavelength_sharing,
-        tolerance,
-        max_rays,
-        ..SimConfig::new(theta_i, w, rays)
-    };
-    if threads > 1024 {
-        return Err(value_err(format!(
-            "threads must be at most 1024, got {threads}"
-        )));
+    if let Some(r) = rays {
+        table.insert(
+            "rays".into(),
+            toml::Value::Integer(
+                i64::try_from(r).map_err(|_| value_err(format!("rays: {r} is out of range")))?,
+            ),
+        );
     }
+    if let Some(kw) = settings {
+        for (k, v) in kw.iter() {
+            if !v.is_none() {
+                table.insert(k.extract::<String>()?, to_toml(&v)?);
+            }
+        }
+    }
+    let settings: goniospec::simulate::SimSettings = toml::Value::Table(table)
+        .try_into()
+        .map_err(|e: toml::de::Error| value_err(format!("simulate(): {}", e.message())))?;
+    let mut cfg = settings.resolve().map_err(value_err)?;
+    let total = settings.budget();
     // Where the method asked for does not hold for this sample: a UserWarning each, before
     // the run (the CLI's `simulate` prints the same lines), for settings known to be valid.
-    goniospec::simulate::validate(&cfg).map_err(|e| value_err(e.to_string()))?;
     let ctx = goniospec::simulate::validity_context(&cfg);
     for f in goniospec::sample::validity::findings(&sample.inner, &ctx) {
         let msg = std::ffi::CString::new(f.message).map_err(value_err)?;
@@ -430,10 +401,7 @@ fn simulate(
             1,
         )?;
     }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(value_err)?;
+    let pool = goniospec::simulate::thread_pool(threads).map_err(value_err)?;
     // The run goes on a worker thread without the GIL; this thread wakes every 50 ms to
     // let Python handle signals, and Ctrl-C (KeyboardInterrupt) cancels the run.
     let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
@@ -485,6 +453,34 @@ fn simulate(
     Ok(Accumulator {
         inner: acc,
         inputs: sample.inner.inputs.clone(),
+    })
+}
+
+/// A Python keyword's value as TOML (bool, int, float, str, or a list of them), for
+/// deserialising settings.
+fn to_toml(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    use pyo3::types::{PyBool, PyFloat, PyInt, PyList, PyString, PyTuple};
+    Ok(if v.is_instance_of::<PyBool>() {
+        toml::Value::Boolean(v.extract()?)
+    } else if v.is_instance_of::<PyInt>() {
+        toml::Value::Integer(
+            v.extract()
+                .map_err(|_| value_err(format!("{v} is out of range")))?,
+        )
+    } else if v.is_instance_of::<PyFloat>() {
+        toml::Value::Float(v.extract()?)
+    } else if v.is_instance_of::<PyString>() {
+        toml::Value::String(v.extract()?)
+    } else if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
+        toml::Value::Array(
+            v.try_iter()?
+                .map(|x| to_toml(&x?))
+                .collect::<PyResult<Vec<_>>>()?,
+        )
+    } else {
+        return Err(value_err(format!(
+            "{v}: a setting is a bool, int, float, str or a list of them"
+        )));
     })
 }
 
@@ -587,7 +583,7 @@ fn backends<'py>(py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
 /// (degrees): a dict of numpy arrays `lambda_nm`, `Rs`, `Rp`, `R`, `Ts`, `Tp`, `T`
 /// (`goniospec analytic`).
 #[pyfunction]
-#[pyo3(signature = (sample, theta_i, wavelengths = "380:780:10", monochromatic = false))]
+#[pyo3(signature = (sample, theta_i, wavelengths = goniospec::spectrum::DEFAULT_WAVELENGTHS, monochromatic = false))]
 fn analytic<'py>(
     py: Python<'py>,
     sample: &Sample,
@@ -595,8 +591,9 @@ fn analytic<'py>(
     wavelengths: &str,
     monochromatic: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let w = Wavelengths::parse(wavelengths, monochromatic).map_err(value_err)?;
-    let rows = goniospec::optics::tmm::analytic(&sample.inner, theta_i, &w).map_err(value_err)?;
+    let w = goniospec::spectrum::Wavelengths::parse(wavelengths, monochromatic)
+        .map_err(|e| value_err(format!("wavelengths: {e}")))?;
+    let rows = goniospec::reference::analytic(&sample.inner, theta_i, &w).map_err(value_err)?;
     let col = |f: &dyn Fn(&(f64, goniospec::optics::tmm::Rt)) -> f64| {
         rows.iter().map(f).collect::<Vec<f64>>().into_pyarray(py)
     };

@@ -109,7 +109,8 @@ def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
         gs.simulate(s, theta_i=[0], wavelengths="700:400:10")
     for bad in [dict(rays=0), dict(theta_i=[95]), dict(phi_i=float("inf")), dict(cutoff=float("nan")),
                 dict(coherence_radius_nm=-1.0), dict(tolerance=-1.0), dict(theta_o_bins=0),
-                dict(max_depth=0), dict(threads=100000), dict(coherence_radius_nm=float("nan"))]:
+                dict(max_depth=0), dict(threads=100000), dict(coherence_radius_nm=float("nan")),
+                dict(colour=1), dict(seed="one")]:
         kw = dict(theta_i=[0], rays=16, wavelengths="500:600:50")
         kw.update(bad)
         with pytest.raises(ValueError):

@@ -23,53 +23,7 @@ use std::str::FromStr;
 /// Primitive id of a miss.
 pub const INVALID_PRIM: u32 = u32::MAX;
 
-/// Triangles as the accelerators take them: f32 vertex positions (nanometres, sample
-/// frame) and counter-clockwise index triples. The front side of a triangle is the side
-/// `(v1 - v0) x (v2 - v0)` points to.
-#[derive(Clone, Debug, Default)]
-pub struct TriangleSoup {
-    pub vertices: Vec<[f32; 3]>,
-    pub triangles: Vec<[u32; 3]>,
-}
-
-impl TriangleSoup {
-    /// The three corners of triangle `prim`.
-    #[inline]
-    pub fn corners(&self, prim: usize) -> [[f32; 3]; 3] {
-        let [a, b, c] = self.triangles[prim];
-        [
-            self.vertices[a as usize],
-            self.vertices[b as usize],
-            self.vertices[c as usize],
-        ]
-    }
-
-    /// Checks what every backend relies on: indices in range and finite coordinates.
-    pub fn validate(&self) -> Result<(), AccelError> {
-        if let Some(i) = self
-            .vertices
-            .iter()
-            .position(|v| v.iter().any(|c| !c.is_finite()))
-        {
-            return Err(AccelError::InvalidInput(format!(
-                "vertex {i} has a non-finite coordinate {:?}",
-                self.vertices[i]
-            )));
-        }
-        let n = self.vertices.len() as u64;
-        if let Some(t) = self
-            .triangles
-            .iter()
-            .position(|t| t.iter().any(|&i| u64::from(i) >= n))
-        {
-            return Err(AccelError::InvalidInput(format!(
-                "triangle {t} indexes vertex {:?} but there are only {n} vertices",
-                self.triangles[t]
-            )));
-        }
-        Ok(())
-    }
-}
+pub use crate::geom::{SoupError, TriangleSoup};
 
 /// A ray segment `origin + t * dir` for `t` in `[tmin, tmax]`. `dir` need not be unit
 /// length; `t` is measured in multiples of it. Laid out like the first half of Embree's
@@ -234,7 +188,8 @@ pub enum Accel {
 impl Accel {
     /// Builds the chosen backend over `soup`.
     pub fn build(backend: Backend, soup: &TriangleSoup) -> Result<Accel, AccelError> {
-        soup.validate()?;
+        soup.validate()
+            .map_err(|e| AccelError::InvalidInput(e.to_string()))?;
         if soup.triangles.is_empty() {
             return Err(AccelError::Empty);
         }

@@ -26,37 +26,23 @@ use serde::{Deserialize, Serialize};
 
 use crate::accumulate::file::Accumulator;
 use crate::sample::{self, MeshOptions};
-use crate::simulate::{SimConfig, Wavelengths, sample_hash};
+use crate::simulate::{SimConfig, SimSettings, sample_hash};
 
-/// A plan as written: defaults and a list of materials.
+/// A plan as written: `[defaults]` and a list of `[[material]]` tables. Each material's
+/// keys override the defaults'; besides `sample`, `name` and `representations` they are
+/// the settings of `goniospec simulate` ([`SimSettings`], keys of the flags' names), with
+/// its defaults where neither gives them.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawPlan {
     #[serde(default)]
-    defaults: RawSettings,
+    defaults: toml::Table,
     #[serde(rename = "material")]
-    materials: Vec<RawMaterial>,
+    materials: Vec<toml::Table>,
 }
 
-#[derive(Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawSettings {
-    theta_i: Option<Vec<f64>>,
-    wavelengths: Option<String>,
-    monochromatic: Option<bool>,
-    rays: Option<u64>,
-    seed: Option<u64>,
-    representations: Option<Vec<String>>,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawMaterial {
-    sample: PathBuf,
-    name: Option<String>,
-    #[serde(flatten)]
-    settings: RawSettings,
-}
+/// The representations a material gets when the plan names none.
+const DEFAULT_REPRESENTATIONS: &[&str] = &["table"];
 
 /// One material of a resolved plan.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -66,12 +52,9 @@ pub struct Material {
     /// Absolute path of the sample TOML.
     pub sample: PathBuf,
     pub sample_hash: String,
-    pub theta_i_deg: Vec<f64>,
-    pub wavelengths: String,
-    pub monochromatic: bool,
-    pub rays: u64,
-    pub seed: u64,
     pub representations: Vec<crate::brdf::Kind>,
+    /// Every setting of the material's simulation, resolved (defaults filled in).
+    pub settings: SimSettings,
 }
 
 /// One work unit: a material at one incident direction.
@@ -129,10 +112,10 @@ fn plan_hash(materials: &[Material]) -> Result<String, String> {
 fn units_of(materials: &[Material]) -> Result<Vec<Unit>, String> {
     let mut units = Vec::new();
     for m in materials {
-        if m.theta_i_deg.is_empty() {
+        if m.settings.theta_i_deg.is_empty() {
             return Err(format!("material '{}' has no incident angle", m.name));
         }
-        for (k, &t) in m.theta_i_deg.iter().enumerate() {
+        for (k, &t) in m.settings.theta_i_deg.iter().enumerate() {
             units.push(Unit {
                 id: units.len(),
                 material: m.name.clone(),
@@ -148,11 +131,6 @@ fn units_of(materials: &[Material]) -> Result<Vec<Unit>, String> {
         }
     }
     Ok(units)
-}
-
-/// The material's own setting, else the default.
-fn pick<T: Clone>(own: &Option<T>, default: &Option<T>) -> Option<T> {
-    own.clone().or_else(|| default.clone())
 }
 
 impl Manifest {
@@ -177,47 +155,53 @@ impl Manifest {
         }
         let base = plan_path.parent().unwrap_or(Path::new("."));
         let mut materials = Vec::new();
-        for (i, m) in raw.materials.iter().enumerate() {
+        for (i, own) in raw.materials.iter().enumerate() {
+            let shown = own
+                .get("sample")
+                .and_then(|v| v.as_str())
+                .unwrap_or("no sample");
             let at = |msg: String| {
                 format!(
-                    "{}: material {} ({}): {msg}",
+                    "{}: material {} ({shown}): {msg}",
                     plan_path.display(),
                     i + 1,
-                    m.sample.display()
                 )
             };
-            let s = &m.settings;
-            let d = &raw.defaults;
-            let theta: Vec<f64> = pick(&s.theta_i, &d.theta_i)
-                .ok_or_else(|| at("no theta_i (give it in [defaults] or the material)".into()))?;
-            if theta.is_empty()
-                || theta
+            // The material's keys over the defaults'.
+            let mut merged = raw.defaults.clone();
+            merged.extend(own.clone());
+            let take_str = |t: &mut toml::Table, key: &str| -> Result<Option<String>, String> {
+                match t.remove(key) {
+                    None => Ok(None),
+                    Some(toml::Value::String(s)) => Ok(Some(s)),
+                    Some(v) => Err(at(format!("{key} must be a string, got {v}"))),
+                }
+            };
+            if raw.defaults.contains_key("sample") || raw.defaults.contains_key("name") {
+                return Err(at(
+                    "sample and name belong to a [[material]], not to [defaults]".into(),
+                ));
+            }
+            let sample_key = take_str(&mut merged, "sample")?
+                .ok_or_else(|| at("no sample (give its TOML path)".into()))?;
+            let name = take_str(&mut merged, "name")?;
+            let representations = match merged.remove("representations") {
+                None => DEFAULT_REPRESENTATIONS
                     .iter()
-                    .any(|t| !(t.is_finite() && (0.0..90.0).contains(t)))
-            {
-                return Err(at(format!(
-                    "theta_i must be angles in [0, 90) degrees, got {theta:?}"
-                )));
+                    .map(|s| s.to_string())
+                    .collect(),
+                Some(v) => Vec::<String>::deserialize(v)
+                    .map_err(|e| at(format!("representations: {}", e.message())))?,
             }
-            let wavelengths: String =
-                pick(&s.wavelengths, &d.wavelengths).unwrap_or_else(|| "380:780:10".into());
-            let monochromatic = pick(&s.monochromatic, &d.monochromatic).unwrap_or(false);
-            Wavelengths::parse(&wavelengths, monochromatic).map_err(at)?;
-            let rays = pick(&s.rays, &d.rays).unwrap_or(1024);
-            if rays == 0 || rays > crate::simulate::MAX_RAYS {
-                return Err(at(format!(
-                    "rays must be 1..={}, got {rays}",
-                    crate::simulate::MAX_RAYS
-                )));
-            }
-            let seed = pick(&s.seed, &d.seed).unwrap_or(1);
-            let representations = pick(&s.representations, &d.representations)
-                .unwrap_or_else(|| vec!["table".into()])
-                .iter()
-                .map(|r| crate::brdf::Kind::parse(r))
-                .collect::<Result<Vec<_>, _>>()
-                .map_err(at)?;
-            let path = base.join(&m.sample);
+            .iter()
+            .map(|r| crate::brdf::Kind::parse(r))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(at)?;
+            let settings = SimSettings::deserialize(toml::Value::Table(merged))
+                .map_err(|e| at(e.message().trim().to_string()))?;
+            // Checked as `simulate` checks them.
+            settings.resolve().map_err(|e| at(e.to_string()))?;
+            let path = base.join(&sample_key);
             let path = std::fs::canonicalize(&path).map_err(|e| at(format!("{e}")))?;
             if path.to_str().is_none() {
                 return Err(at(format!(
@@ -227,8 +211,8 @@ impl Manifest {
             }
             let sample =
                 sample::load(&path, MeshOptions::default()).map_err(|e| at(e.to_string()))?;
-            let name = match &m.name {
-                Some(n) => n.clone(),
+            let name = match name {
+                Some(n) => n,
                 None => path
                     .file_stem()
                     .unwrap_or_default()
@@ -245,12 +229,8 @@ impl Manifest {
                 name,
                 sample: path,
                 sample_hash: sample_hash(&sample),
-                theta_i_deg: theta,
-                wavelengths,
-                monochromatic,
-                rays,
-                seed,
                 representations,
+                settings,
             });
         }
         let units = units_of(&materials)?;
@@ -326,14 +306,11 @@ impl Manifest {
     /// The simulation of a unit.
     pub fn unit_config(&self, u: &Unit) -> Result<SimConfig, String> {
         let m = self.material(&u.material);
+        let whole = m.settings.resolve().map_err(|e| e.to_string())?;
         Ok(SimConfig {
-            seed: m.seed,
+            theta_i_deg: vec![u.theta_i_deg],
             first_direction: u.direction as u64,
-            ..SimConfig::new(
-                vec![u.theta_i_deg],
-                Wavelengths::parse(&m.wavelengths, m.monochromatic)?,
-                m.rays,
-            )
+            ..whole
         })
     }
 
@@ -355,8 +332,8 @@ impl Manifest {
         if s.sample_hash != m.sample_hash
             || s.theta_i_deg != [u.theta_i_deg]
             || s.first_direction != u.direction as u64
-            || acc.header.seeds != [m.seed]
-            || acc.header.rays_per_direction != [m.rays]
+            || acc.header.seeds != [m.settings.seed]
+            || acc.header.rays_per_direction != [m.settings.rays]
         {
             return Err("from another plan or sample (its header does not match the unit)".into());
         }
@@ -413,7 +390,7 @@ impl Manifest {
             ));
         }
         let mut header = first.clone();
-        header.settings.theta_i_deg = m.theta_i_deg.clone();
+        header.settings.theta_i_deg = m.settings.theta_i_deg.clone();
         header.settings.first_direction = 0;
         header.rays_per_direction = parts
             .iter()

@@ -23,8 +23,7 @@ use crate::render::{self, Env, Light, RenderConfig, Shape, colour};
 
 use super::Manifest;
 
-/// The first line of every page `batch report` writes; the output policy recognises it.
-pub const HTML_MARK: &str = "<!DOCTYPE html>\n<!-- goniospec batch report -->";
+use crate::output::HTML_MARK;
 
 /// What the report spends on each material.
 #[derive(Clone, Debug)]
@@ -337,15 +336,15 @@ fn material_entry(
                 .map(|t| format!("{t}"))
                 .collect::<Vec<_>>()
                 .join(", "),
-            mat.wavelengths,
+            mat.settings.wavelengths,
             centres.len(),
-            if mat.monochromatic {
+            if mat.settings.monochromatic {
                 ", monochromatic"
             } else {
                 ""
             },
-            mat.rays,
-            mat.seed,
+            mat.settings.rays,
+            mat.settings.seed,
             s.coherence_mode()
         ),
         swatches,

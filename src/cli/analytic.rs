@@ -15,7 +15,7 @@ pub(super) struct AnalyticArgs {
 
 pub(super) fn analytic(a: AnalyticArgs) -> Result<ExitCode> {
     let s = sample::load(&a.sample, MeshOptions::default())?;
-    let rows = goniospec::optics::tmm::analytic(&s, a.theta_i, &a.wavelengths.parse()?)
+    let rows = goniospec::reference::analytic(&s, a.theta_i, &a.wavelengths.parse()?)
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.sample.display()))?;
     outln!("lambda_nm,Rs,Rp,R,Ts,Tp,T");
     for (l, rt) in rows {

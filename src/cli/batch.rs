@@ -146,11 +146,7 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
             }
             let m = Manifest::plan(&a.plan).map_err(anyhow::Error::msg)?;
             m.write(&a.output).map_err(anyhow::Error::msg)?;
-            let trees: u64 = m
-                .materials
-                .iter()
-                .map(|x| x.rays * x.theta_i_deg.len() as u64)
-                .sum();
+            let trees: u64 = m.materials.iter().map(|x| x.settings.budget()).sum();
             outln!(
                 "planned {} units ({} materials, {trees} trees) in {}",
                 m.units.len(),

@@ -225,6 +225,7 @@ pub(super) fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
     std::fs::create_dir_all(&dir)?;
     let mut peaks = Vec::new();
     for rays in [a.rays, 10 * a.rays] {
+        let report = dir.join("bench.json");
         let out = std::process::Command::new(std::env::current_exe()?)
             .arg("simulate")
             .arg(&sample_path)
@@ -237,24 +238,27 @@ pub(super) fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
             .args(["--threads", &a.threads.to_string()])
             .arg("-o")
             .arg(dir.join("bench.gsa"))
+            .arg("--report-json")
+            .arg(&report)
             .output()?;
-        let err = String::from_utf8_lossy(&out.stderr);
         if !out.status.success() {
-            bail!("bench simulate: the memory run at {rays} rays failed: {err}");
+            bail!(
+                "bench simulate: the memory run at {rays} rays failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
         }
-        let mb = peak_memory_of(&err).context("the simulate summary has no peak memory")?;
+        // The run's figures as numbers (`simulate --report-json`), not read from prose.
+        let figures: goniospec::simulate::RunReport =
+            serde_json::from_slice(&std::fs::read(&report)?)?;
+        let mb = figures
+            .peak_memory_mb
+            .context("this platform does not report peak memory")?;
         outln!("peak_rss_{rays}_rays: {mb:.1} MB");
         peaks.push(mb);
     }
     let _ = std::fs::remove_dir_all(&dir);
     outln!("peak_rss_growth_10x_rays: {:.1} MB", peaks[1] - peaks[0]);
     Ok(ExitCode::SUCCESS)
-}
-
-/// The "peak memory N MB" figure of a `simulate` summary line.
-pub(super) fn peak_memory_of(summary: &str) -> Option<f64> {
-    let rest = &summary[summary.find("peak memory ")? + "peak memory ".len()..];
-    rest.split_whitespace().next()?.parse().ok()
 }
 
 pub(super) fn bench_trace(a: TraceArgs) -> Result<ExitCode> {

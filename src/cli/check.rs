@@ -52,7 +52,7 @@ pub(super) fn check(a: CheckArgs) -> Result<ExitCode> {
         );
     }
     let s = sample::load(&a.sample, opts)?;
-    let copts = sample::check::CheckOptions {
+    let copts = goniospec::check::CheckOptions {
         backend: resolve_backend(a.backend)?,
         leak_rays: a.leak_rays,
         seed: a.seed,
@@ -63,7 +63,7 @@ pub(super) fn check(a: CheckArgs) -> Result<ExitCode> {
         )),
         ..Default::default()
     };
-    let report = sample::check::check(&s, &copts)?;
+    let report = goniospec::check::check(&s, &copts)?;
     for f in &report.facts {
         outln!("{f}");
     }

@@ -12,7 +12,6 @@ use goniospec::accumulate::file::Accumulator;
 use goniospec::accumulate::{Buckets, Coherence};
 use goniospec::sample::{self, MeshOptions};
 use goniospec::simulate::{SimConfig, Wavelengths};
-use goniospec::trace::TraceLimits;
 
 /// A virtual goniospectrometer: trace a microgeometry sample (thin films, coatings,
 /// pigments, flakes, rough surfaces) with coherent spectral ray optics and turn it into a
@@ -159,56 +158,25 @@ struct WavelengthArgs {
     monochromatic: bool,
 }
 
-/// Most worker threads a command may ask for (each holds its own scratch buffers).
-const MAX_THREADS: usize = 1024;
-
 impl WavelengthArgs {
     fn parse(&self) -> Result<Wavelengths> {
-        Wavelengths::parse(&self.wavelengths, self.monochromatic).map_err(anyhow::Error::msg)
+        Wavelengths::parse(&self.wavelengths, self.monochromatic)
+            .map_err(|e| anyhow::anyhow!("--wavelengths: {e}"))
     }
 }
 
-fn parse_radius(s: &str) -> Result<f64, String> {
-    if s.eq_ignore_ascii_case("inf") {
-        return Ok(f64::INFINITY);
-    }
-    match s.parse::<f64>() {
-        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
-        _ => Err(format!("'{s}' is not a positive radius in nm (or inf)")),
-    }
-}
-
-fn parse_coherence(s: &str) -> Result<Coherence, String> {
-    Coherence::parse(s)
-        .ok_or_else(|| format!("unknown coherence '{s}' (beamlet, bucket, global or diffraction)"))
-}
-
-/// A finite number: every floating-point flag goes through this, so NaN and infinity are
-/// refused before any work starts, with the flag's name (clap's usage error, exit 2).
-fn finite(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("'{s}' is not a number"))?;
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(format!("{s} is not a finite number"))
-    }
-}
+// The value parsers of settings live with the settings (`goniospec::simulate`), so every
+// front end refuses the same values with the same words.
+use goniospec::simulate::{backend as parse_backend, finite, radius as parse_radius};
 
 /// A finite, strictly positive number (for tolerances and scales).
 fn positive(s: &str) -> Result<f64, String> {
-    let v = finite(s)?;
+    let v = finite(s).map_err(|e| e.to_string())?;
     if v > 0.0 {
         Ok(v)
     } else {
         Err(format!("{v} must be positive"))
     }
-}
-
-fn parse_backend(s: &str) -> Result<Backend, String> {
-    s.parse::<Backend>().map_err(|e| e.to_string())
 }
 
 /// `println!` that returns an error instead of panicking when standard output fails (a full
@@ -320,12 +288,18 @@ fn guard_output(
 /// The worker pool of a command: `threads` workers (0: one per core), at most
 /// [`MAX_THREADS`]; the one set-up every command uses.
 fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
-    if threads > MAX_THREADS {
-        bail!("--threads {threads} is more than {MAX_THREADS}; 0 uses every core");
+    goniospec::simulate::thread_pool(threads).map_err(flag_error)
+}
+
+/// A simulation error for the command line: a setting's error names its flag
+/// (`theta_o_bins` is `--theta-o-bins`).
+fn flag_error(e: goniospec::simulate::SimError) -> anyhow::Error {
+    match e {
+        goniospec::simulate::SimError::Setting { key, message } => {
+            anyhow::anyhow!("--{}: {message}", key.replace('_', "-"))
+        }
+        e => e.into(),
     }
-    Ok(rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()?)
 }
 
 /// The progress bar of a long run: `len` units of `what` (trees, rows), with rate and

@@ -1,6 +1,7 @@
 //! `goniospec simulate`: trace a sample and write its accumulator.
 
 use super::*;
+use goniospec::simulate::SimSettings;
 
 #[derive(Args)]
 pub(super) struct SimulateArgs {
@@ -9,72 +10,11 @@ pub(super) struct SimulateArgs {
     /// Output accumulator (.gsa), written atomically.
     #[arg(short, long)]
     output: PathBuf,
-    /// Incident polar angles, degrees, comma-separated.
-    #[arg(long, value_parser = finite, value_delimiter = ',', default_value = "0,15,30,45,60,75")]
-    theta_i: Vec<f64>,
-    /// Incident azimuth, degrees.
-    #[arg(long, value_parser = finite, default_value_t = 0.0)]
-    phi_i: f64,
-    /// Launched rays (trees) per incident direction; each covers every wavelength.
-    #[arg(long, default_value_t = goniospec::simulate::defaults::RAYS)]
-    rays: u64,
     #[command(flatten)]
-    wavelengths: WavelengthArgs,
-    /// Accelerator: embree or obvhs (default: embree where available).
-    #[arg(long, value_parser = parse_backend)]
-    backend: Option<Backend>,
-    /// Seed of entry points and wavelength jitter.
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
+    settings: SimSettings,
     /// Worker threads (0: all cores). Results do not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// How contributions interfere. beamlet (default): each tree is coherent within
-    /// itself (films, coatings) and incoherent with the others: the ray method.
-    /// diffraction: every tree's exits add as fields over the periodic tile (physical
-    /// optics on the ray field: grating orders, the coherent specular order of slightly
-    /// rough surfaces); trees launch on a lattice, R and T stay the rays', and the power
-    /// its transform kept is reported (docs/physics.md, "Diffraction"; where each holds:
-    /// docs/validity.md). bucket and global: the failing comparison modes of the seed.
-    #[arg(long, default_value = "beamlet", value_parser = parse_coherence)]
-    coherence: Coherence,
-    /// The illumination's transverse coherence radius in nm (the beamlet radius), or inf
-    /// for the plane-wave limit.
-    #[arg(long, default_value_t = goniospec::simulate::defaults::COHERENCE_RADIUS_NM, value_parser = parse_radius)]
-    coherence_radius_nm: f64,
-    /// Polar bins of the outgoing hemispheres (equal in theta).
-    #[arg(long, default_value_t = goniospec::simulate::defaults::THETA_O_BINS)]
-    theta_o_bins: u32,
-    /// Azimuth bins of the outgoing hemispheres.
-    #[arg(long, default_value_t = goniospec::simulate::defaults::PHI_O_BINS)]
-    phi_o_bins: u32,
-    /// Children below this fraction of the launched power are dropped (and reported).
-    #[arg(long, value_parser = finite, default_value_t = TraceLimits::CUTOFF)]
-    cutoff: f64,
-    /// Interface events along one path before it is dropped.
-    #[arg(long, default_value_t = TraceLimits::MAX_DEPTH)]
-    max_depth: u32,
-    /// Segments of one tree before its remaining rays are dropped (samples with bodies or
-    /// particle media play Russian roulette from 256 segments, so they rarely reach it).
-    #[arg(long, default_value_t = TraceLimits::MAX_SEGMENTS)]
-    max_segments: u32,
-    /// Adaptive budget: launch batches of --rays per incident direction until the relative
-    /// standard error of the reflectance (total and every populated bucket) is at most
-    /// this, e.g. 0.01; reports per direction whether it converged or ran out of budget.
-    #[arg(long, value_parser = finite)]
-    tolerance: Option<f64>,
-    /// Largest number of rays per incident direction with --tolerance.
-    #[arg(long, default_value_t = goniospec::simulate::defaults::MAX_RAYS)]
-    max_rays: u64,
-    /// Trace every wavelength separately even when no medium is dispersive.
-    #[arg(long)]
-    no_path_sharing: bool,
-    /// Trace each wavelength of a tree on its own instead of all at once. By default,
-    /// without path sharing, a tree's wavelengths are traced together and each ray is
-    /// shared until it refracts into a dispersive medium; both give the same bits, this
-    /// only makes the run slower (for checking).
-    #[arg(long)]
-    no_wavelength_sharing: bool,
     /// Drop degenerate triangles instead of refusing the mesh.
     #[arg(long)]
     drop_degenerate: bool,
@@ -83,11 +23,11 @@ pub(super) struct SimulateArgs {
     /// and write none.
     #[arg(long)]
     no_mesh_cache: bool,
-    /// Debugging only: write results that are physically impossible (R > 1, negative
-    /// power, energy created) instead of refusing them with exit status 1. The run still
-    /// prints what failed.
-    #[arg(long)]
-    allow_unphysical: bool,
+    /// Also write the run's figures as JSON (trees, segments, times, peak memory, each
+    /// direction's error, the worst lost and untrusted power), for scripts and benchmarks,
+    /// atomically.
+    #[arg(long, value_name = "FILE")]
+    report_json: Option<PathBuf>,
     /// Overwrite an existing output that is not a goniospec accumulator.
     #[arg(long)]
     force: bool,
@@ -108,47 +48,26 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     {
         let inputs: Vec<&std::path::Path> = s.inputs.iter().map(|p| p.as_path()).collect();
         guard_output(&a.output, &inputs, OutputKind::Gsa, a.force)?;
+        if let Some(r) = &a.report_json {
+            if r == &a.output {
+                bail!("--report-json and -o name the same file");
+            }
+            guard_output(r, &inputs, OutputKind::RunReport, a.force)?;
+        }
     }
-    let cfg = SimConfig {
-        phi_i_deg: a.phi_i,
-        backend: resolve_backend(a.backend)?,
-        seed: a.seed,
-        coherence: a.coherence,
-        rho_nm: a.coherence_radius_nm,
-        limits: TraceLimits {
-            cutoff: a.cutoff,
-            max_depth: a.max_depth,
-            max_segments: a.max_segments,
-            ..Default::default()
-        },
-        buckets: Buckets {
-            theta_bins: a.theta_o_bins,
-            phi_bins: a.phi_o_bins,
-        },
-        path_sharing: a.no_path_sharing.then_some(false),
-        wavelength_sharing: !a.no_wavelength_sharing,
-        allow_unphysical: a.allow_unphysical,
-        tolerance: a.tolerance,
-        max_rays: a.max_rays,
-        ..SimConfig::new(a.theta_i.clone(), a.wavelengths.parse()?, a.rays)
-    };
-    let total = if a.tolerance.is_some() {
-        a.max_rays
-    } else {
-        a.rays
-    } * a.theta_i.len() as u64;
     // Where the method asked for does not hold for this sample: said once, before the run
     // (and after the settings are known to be valid).
-    goniospec::simulate::validate(&cfg)?;
+    let cfg = a.settings.resolve().map_err(flag_error)?;
     for f in sample::validity::findings(&s, &goniospec::simulate::validity_context(&cfg)) {
         eprintln!("warning: {}", f.message);
     }
+    let total = a.settings.budget();
     let pool = thread_pool(a.threads)?;
     let bar = progress_bar(total, "trees");
     let (acc, stats) =
         pool.install(|| goniospec::simulate::simulate(&s, &cfg, &|n| bar.set_position(n)))?;
     bar.finish_and_clear();
-    if a.allow_unphysical
+    if a.settings.allow_unphysical
         && let Err(e) =
             goniospec::simulate::check_physical(&acc, &s.name, Some(&stats.limit_dropped))
     {
@@ -156,11 +75,17 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     }
     acc.write(&a.output)
         .with_context(|| format!("writing {}", a.output.display()))?;
+    if let Some(r) = &a.report_json {
+        let report = goniospec::simulate::RunReport::new(&stats, &acc);
+        let text = serde_json::to_string_pretty(&report)?;
+        goniospec::io::write_atomic(r, |w| std::io::Write::write_all(w, text.as_bytes()))
+            .with_context(|| format!("writing {}", r.display()))?;
+    }
     eprintln!(
         "{} trees ({} per direction x {} directions), {} traced trees, {} segments in {:.2} s (set-up {:.2} s): {:.0} trees/s, {:.2} M segments/s; path sharing {}; peak memory {}",
         stats.trees,
-        stats.trees / a.theta_i.len().max(1) as u64,
-        a.theta_i.len(),
+        stats.trees / cfg.theta_i_deg.len().max(1) as u64,
+        cfg.theta_i_deg.len(),
         stats.traces,
         stats.segments,
         stats.seconds,
@@ -176,13 +101,13 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         },
         goniospec::io::peak_rss_mb().map_or_else(|| "unknown".into(), |m| format!("{m:.0} MB"))
     );
-    if a.tolerance.is_some() {
+    if cfg.tolerance.is_some() {
         for d in &stats.directions {
             eprintln!("{d}");
         }
     }
-    if a.coherence == Coherence::Diffraction {
-        diffraction_summary(&stats, &s, &acc, a.rays);
+    if cfg.coherence == Coherence::Diffraction {
+        diffraction_summary(&stats, &s, &acc, a.settings.rays);
     }
     let cut = stats.worst_limit_dropped(&acc);
     if cut > 1e-6 {

@@ -7,7 +7,6 @@
 //! `exp(i 2 pi (n + i k) l / lambda)`.
 
 pub mod fresnel;
-pub mod local_film;
 pub mod mie;
 pub mod particles;
 pub mod tmm;

@@ -38,10 +38,10 @@ pub fn stack_image(
         })
         .collect();
     for &l in &[edges[0], edges[nl]] {
-        crate::optics::tmm::stack_indices(s, l).map_err(|e| anyhow::anyhow!(e))?;
+        crate::reference::stack_indices(s, l).map_err(|e| anyhow::anyhow!(e))?;
     }
     let stack_at =
-        |l: f64| crate::optics::tmm::stack_indices(s, l).expect("checked at the band edges");
+        |l: f64| crate::reference::stack_indices(s, l).expect("checked at the band edges");
     // R(theta_o) per bin on a fine angle table.
     let n_t = 180;
     let table: Vec<Vec<f64>> = (0..n_t)

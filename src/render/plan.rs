@@ -198,16 +198,17 @@ pub fn simulate_scene(
     if needed_deg.is_empty() {
         return Err(SceneError::NothingNeeded);
     }
-    let sim = crate::simulate::SimConfig {
+    // Render's planner asks for its needed angles, adaptively, with the simulation's
+    // defaults for everything else.
+    let sim = crate::simulate::SimSettings {
+        theta_i_deg: needed_deg.clone(),
+        rays: budget.rays,
         seed: budget.seed,
         tolerance: Some(budget.tolerance),
         max_rays: budget.max_rays,
-        ..crate::simulate::SimConfig::new(
-            needed_deg.clone(),
-            budget.wavelengths.clone(),
-            budget.rays,
-        )
-    };
+        ..Default::default()
+    }
+    .config(budget.wavelengths.clone());
     let (acc, stats) = crate::simulate::simulate(sample, &sim, progress)?;
     let brdf = Representation::Table(TableBrdf::build(&BucketData::from_accumulator(&acc)));
     Ok(SceneRun {

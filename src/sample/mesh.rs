@@ -3,7 +3,7 @@
 use std::io::Write;
 use std::path::Path;
 
-use crate::accel::TriangleSoup;
+use crate::geom::TriangleSoup;
 use glam::DVec3;
 
 /// An indexed triangle mesh. Positions in nanometres in the sample frame (z up); the

@@ -24,7 +24,6 @@
 //! Every error names the file, and the line where there is one.
 
 pub mod cache;
-pub mod check;
 pub mod generate;
 pub mod heightmap;
 pub mod media;
@@ -40,7 +39,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::Spanned;
 
-use crate::accel::TriangleSoup;
+use crate::geom::TriangleSoup;
 use generate::{Generated, GeneratorSpec};
 use media::RawMedium;
 pub use media::{IndexModel, Medium, Scattering};

@@ -355,11 +355,11 @@ pub fn findings(sample: &Sample, ctx: &Context) -> Vec<Finding> {
 }
 
 /// Bodies small against `lambda_nm` (vacuum): below a size parameter `x = 2 pi r n /
-/// lambda` of [`super::check::RAY_OPTICS_MIN_SIZE_PARAMETER`] for their equivalent-volume
+/// lambda` of [`RAY_OPTICS_MIN_SIZE_PARAMETER`] for their equivalent-volume
 /// sphere in the medium around them, traced as geometric bodies they scatter wrongly; one
 /// finding per (outside, inside) pair of media, naming the particle medium to use.
 pub fn small_bodies(sample: &Sample, lambda_nm: f64) -> Vec<Finding> {
-    use super::check::{RAY_OPTICS_MIN_SIZE_PARAMETER as X_MIN, piece_volumes};
+    use RAY_OPTICS_MIN_SIZE_PARAMETER as X_MIN;
     let two_pi = 2.0 * std::f64::consts::PI;
     // Per (outside, inside) media: bodies counted, radii of the small ones, outside index.
     let mut small = std::collections::BTreeMap::<(usize, usize), (usize, Vec<f64>, f64)>::new();
@@ -401,4 +401,38 @@ pub fn small_bodies(sample: &Sample, lambda_nm: f64) -> Vec<Finding> {
         });
     }
     out
+}
+
+/// Below this size parameter `x = 2 pi r n / lambda` of a body's equivalent-volume sphere
+/// (at 550 nm in the medium around it), ray optics does not describe its scattering: Mie
+/// resonances and diffraction dominate (van de Hulst, Light Scattering by Small Particles,
+/// 1957, §§ 10-12: the geometric limit needs x well above 10).
+pub const RAY_OPTICS_MIN_SIZE_PARAMETER: f64 = 10.0;
+
+/// The connected pieces of a mesh (triangles joined by shared vertices): each piece's
+/// enclosed volume, nm^3.
+pub(crate) fn piece_volumes(mesh: &super::Mesh) -> Vec<f64> {
+    let n = mesh.positions_nm.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn find(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    for t in &mesh.triangles {
+        let a = find(&mut parent, t[0] as usize);
+        for &v in &t[1..] {
+            let b = find(&mut parent, v as usize);
+            parent[b] = a;
+        }
+    }
+    let mut volume = std::collections::BTreeMap::<usize, f64>::new();
+    for t in &mesh.triangles {
+        let root = find(&mut parent, t[0] as usize);
+        let [a, b, c] = t.map(|i| mesh.positions_nm[i as usize]);
+        *volume.entry(root).or_default() += a.dot(b.cross(c)) / 6.0;
+    }
+    volume.into_values().collect()
 }

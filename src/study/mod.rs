@@ -11,7 +11,7 @@ use serde::Deserialize;
 
 use crate::accel::Backend;
 use crate::accumulate::file::Accumulator;
-use crate::accumulate::{Buckets, Coherence, PhasePrecision};
+use crate::accumulate::{Coherence, PhasePrecision};
 use crate::brdf::{Brdf, BucketData, Representation};
 use crate::optics::tmm;
 use crate::sample::{self, MeshOptions, Sample};
@@ -208,7 +208,7 @@ pub struct Study {
 pub enum ReferenceKind {
     /// The analytic TMM for `[stack]` samples, else a high-budget run.
     Auto,
-    /// [`crate::optics::local_film`].
+    /// [`crate::reference::local_film`].
     LocalFilm,
     /// A high-budget beamlet run with the default settings.
     Run,
@@ -402,10 +402,7 @@ pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
         Ok(Wavelengths::Bins(e)) => e,
         Ok(Wavelengths::Monochromatic(_)) => unreachable!("bins requested"),
         Err(e) => {
-            return bad(format!(
-                "[study] {}",
-                e.replace("--wavelengths", "wavelengths")
-            ));
+            return bad(format!("[study] wavelengths: {e}"));
         }
     };
     let random_entry = match raw.study.sampling.as_str() {

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::geom::from_spherical;
+use crate::simulate::SimSettings;
 
 /// One row of the sampled-area experiment.
 #[derive(Clone, Debug)]
@@ -70,31 +71,29 @@ pub(super) fn peak_mem_mb() -> f64 {
 }
 
 pub(super) fn config(st: &Study, rays: u64, v: &Variant, seed: u64) -> SimConfig {
-    SimConfig {
-        backend: v.backend,
+    let settings = SimSettings {
+        theta_i_deg: st.theta_i.clone(),
+        rays,
+        backend: Some(v.backend),
         seed,
         coherence: v.coherence,
-        rho_nm: v.radius,
-        limits: TraceLimits {
-            cutoff: v.cutoff,
-            max_depth: v.max_depth,
-            ..TraceLimits::default()
-        },
-        buckets: Buckets {
-            theta_bins: v.theta_o_bins,
-            phi_bins: 36,
-        },
-        origin_nm: glam::DVec3::new(v.origin_nm, v.origin_nm, 0.0),
-        random_entry: st.random_entry,
-        precision: v.precision,
+        coherence_radius_nm: v.radius,
+        cutoff: v.cutoff,
+        max_depth: v.max_depth,
+        theta_o_bins: v.theta_o_bins,
         // The study compares methods, some of them known to fail (bucket, global, f32):
         // an impossible result is recorded as a failure of the point, not an abort.
         allow_unphysical: true,
-        ..SimConfig::new(
-            st.theta_i.clone(),
-            Wavelengths::Bins(st.edges.clone()),
-            rays,
-        )
+        ..SimSettings::default()
+    };
+    // The study's own experiments, beyond a user's settings: bin edges as parsed, the
+    // sample moved in the world, uniform entry points and f32 phases. Its variants were
+    // validated when the study was read.
+    SimConfig {
+        origin_nm: glam::DVec3::new(v.origin_nm, v.origin_nm, 0.0),
+        random_entry: st.random_entry,
+        precision: v.precision,
+        ..settings.config(Wavelengths::Bins(st.edges.clone()))
     }
 }
 
@@ -124,7 +123,7 @@ pub(super) fn reference(
     match kind {
         "tmm" => {
             for &l in [st.edges[0], st.edges[st.edges.len() - 1]].iter() {
-                tmm::stack_indices(sample, l)?;
+                crate::reference::stack_indices(sample, l)?;
             }
             let r = st
                 .theta_i
@@ -134,7 +133,10 @@ pub(super) fn reference(
                         .windows(2)
                         .map(|w| {
                             tmm::solve_band(
-                                |l| tmm::stack_indices(sample, l).expect("range checked"),
+                                |l| {
+                                    crate::reference::stack_indices(sample, l)
+                                        .expect("range checked")
+                                },
                                 w[0],
                                 w[1],
                                 t.to_radians(),
@@ -151,7 +153,7 @@ pub(super) fn reference(
             let r = st
                 .theta_i
                 .iter()
-                .map(|&t| crate::optics::local_film::reflectance(sample, t, &st.edges, entries))
+                .map(|&t| crate::reference::local_film::reflectance(sample, t, &st.edges, entries))
                 .collect::<Result<Vec<_>, _>>()?;
             Ok((
                 r,

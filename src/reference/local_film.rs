@@ -13,8 +13,8 @@
 //! angles, and blind to shadowing, to inter-reflection between facets and to the lateral
 //! walk-off of the partial waves. It shares no code with the tracer or the estimator.
 
-use super::C64;
-use super::tmm::{self, StackIndices};
+use crate::optics::C64;
+use crate::optics::tmm::{self, StackIndices};
 use crate::sample::Sample;
 use glam::DVec3;
 

@@ -11,9 +11,9 @@
 use glam::DVec3;
 use std::collections::HashMap;
 
-use super::{Sample, generate::enclosed_volume};
 use crate::accel::{Accel, AccelError, Backend, Hit, Intersector, Ray};
 use crate::rng::Rng;
+use crate::sample::{Sample, generate::enclosed_volume};
 
 /// Settings of the leak test.
 #[derive(Clone, Copy, Debug)]
@@ -24,9 +24,9 @@ pub struct CheckOptions {
     /// Crossings per walk before it is abandoned.
     pub max_events: usize,
     pub seed: u64,
-    /// Where the methods hold ([`super::validity`]): the run to judge the sample for, or
+    /// Where the methods hold ([`crate::sample::validity`]): the run to judge the sample for, or
     /// `None` for no such warnings.
-    pub validity: Option<super::validity::Context>,
+    pub validity: Option<crate::sample::validity::Context>,
 }
 
 impl Default for CheckOptions {
@@ -62,40 +62,6 @@ pub struct CheckReport {
     pub leak: LeakStats,
 }
 
-/// Below this size parameter `x = 2 pi r n / lambda` of a body's equivalent-volume sphere
-/// (at 550 nm in the medium around it), ray optics does not describe its scattering: Mie
-/// resonances and diffraction dominate (van de Hulst, Light Scattering by Small Particles,
-/// 1957, §§ 10-12: the geometric limit needs x well above 10).
-pub const RAY_OPTICS_MIN_SIZE_PARAMETER: f64 = 10.0;
-
-/// The connected pieces of a mesh (triangles joined by shared vertices): each piece's
-/// enclosed volume, nm^3.
-pub(crate) fn piece_volumes(mesh: &super::Mesh) -> Vec<f64> {
-    let n = mesh.positions_nm.len();
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn find(p: &mut [usize], mut i: usize) -> usize {
-        while p[i] != i {
-            p[i] = p[p[i]];
-            i = p[i];
-        }
-        i
-    }
-    for t in &mesh.triangles {
-        let a = find(&mut parent, t[0] as usize);
-        for &v in &t[1..] {
-            let b = find(&mut parent, v as usize);
-            parent[b] = a;
-        }
-    }
-    let mut volume = std::collections::BTreeMap::<usize, f64>::new();
-    for t in &mesh.triangles {
-        let root = find(&mut parent, t[0] as usize);
-        let [a, b, c] = t.map(|i| mesh.positions_nm[i as usize]);
-        *volume.entry(root).or_default() += a.dot(b.cross(c)) / 6.0;
-    }
-    volume.into_values().collect()
-}
-
 /// Checks `sample`. Errors only when an accelerator cannot be built.
 pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelError> {
     let mut r = CheckReport::default();
@@ -121,7 +87,7 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
     }
     let tol = 1e-6 * lx.max(ly);
     // Every sheet's feature scales, measured once for the facts and the validity warnings.
-    let sheets = super::validity::sheet_scales(sample);
+    let sheets = crate::sample::validity::sheet_scales(sample);
     for (i, itf) in sample.interfaces.iter().enumerate() {
         let (lo, hi) = itf.mesh.bounds().expect("loaded meshes are non-empty");
         let name = format!("interface {i} ({})", itf.mesh_path.display());
@@ -236,13 +202,13 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
     }
     // Bodies small against the wavelength: ray optics does not hold for them.
     r.warnings.extend(
-        super::validity::small_bodies(sample, 550.0)
+        crate::sample::validity::small_bodies(sample, 550.0)
             .into_iter()
             .map(|f| f.message),
     );
     if let Some(ctx) = &opts.validity {
         r.warnings.extend(
-            super::validity::assess_scales(sample, &sheets, ctx)
+            crate::sample::validity::assess_scales(sample, &sheets, ctx)
                 .into_iter()
                 .map(|f| f.message),
         );
@@ -301,7 +267,7 @@ pub struct Watertightness {
 /// Every edge of a closed, consistently oriented mesh is used by exactly two triangles,
 /// once in each direction. Vertices are identified by position, so duplicated vertices
 /// do not count as cracks.
-pub fn watertightness(mesh: &super::Mesh) -> Watertightness {
+pub fn watertightness(mesh: &crate::sample::Mesh) -> Watertightness {
     let key = |i: u32| mesh.positions_nm[i as usize].to_array().map(f64::to_bits);
     let mut edges: HashMap<([u64; 3], [u64; 3]), (u32, u32)> = HashMap::new();
     for t in &mesh.triangles {
@@ -347,7 +313,7 @@ pub struct Periodicity {
 /// edge on x = 0 meets its partner on x = Lx; at the tile's corners up to four images
 /// meet). Boundaries are counted mod 2, so saddle edges where four walls meet are
 /// interior. Positions match within `tol` nm.
-pub fn periodicity(mesh: &super::Mesh, tile_nm: [f64; 2], tol: f64) -> Periodicity {
+pub fn periodicity(mesh: &crate::sample::Mesh, tile_nm: [f64; 2], tol: f64) -> Periodicity {
     let q = |v: f64| (v / tol).round() as i64;
     let (lx, ly) = (q(tile_nm[0]), q(tile_nm[1]));
     // Edges by quantised position (vertices may be duplicated at equal positions).

@@ -1,0 +1,283 @@
+//! One block of trees: entry points, wavelengths, tracing and the estimator's tally per
+//! wavelength. Tree `i` draws from its own random stream, so blocks are independent and
+//! their sums do not depend on which worker ran them.
+
+use std::sync::atomic::Ordering;
+
+use glam::DVec3;
+
+use super::launch::{entry_point, lattice_point};
+use super::run::{Run, Tracing, Worker, absorbed_power, indices_into};
+use crate::accumulate::block::BlockCell;
+use crate::accumulate::{Scratch, diffraction};
+use crate::optics::fresnel::Field;
+use crate::rng::Rng;
+use crate::spectrum::Wavelengths;
+use crate::trace::{DroppedPower, Lane, Tree, launch_fields};
+
+/// Where one tree enters and how it travels: its index, launch point in the sample's frame
+/// and in the world (nm), direction of travel, launch fields, and its random-event stream.
+struct Launch {
+    i: u64,
+    origin: DVec3,
+    world_origin: DVec3,
+    d: DVec3,
+    e0: [Field; 2],
+    stream: u64,
+}
+
+impl Run<'_> {
+    /// The trees `trees` of direction `di` (towards the light `wi`): one `BlockCell` per
+    /// wavelength.
+    pub(super) fn block(
+        &self,
+        w: &mut Worker,
+        di: usize,
+        wi: DVec3,
+        shift: [f64; 2],
+        adaptive: bool,
+        trees: std::ops::Range<u64>,
+    ) -> Vec<BlockCell> {
+        let cfg = self.cfg;
+        let d = -wi;
+        let e0 = launch_fields(d);
+        let mut out: Vec<BlockCell> = (0..self.nl).map(|_| BlockCell::default()).collect();
+        for i in trees {
+            // A cancelled run stops within a tree, not a chunk of blocks (Ctrl-C in Python
+            // took 20 s on a steep height map); its sums are never used.
+            if cfg
+                .cancel
+                .as_ref()
+                .is_some_and(|c| c.load(Ordering::Relaxed))
+            {
+                break;
+            }
+            let mut rng = Rng::new(cfg.seed, (cfg.first_direction + di as u64) << 40 | i);
+            let origin = self.entry(i, shift, &mut rng);
+            // The tree's jitter in bin j: the j-th draw of its stream (tracing draws
+            // nothing from it).
+            for j in 0..self.nl {
+                w.lambdas[j] = self.jittered_lambda(i, j, adaptive, rng.uniform());
+            }
+            // Random events' own stream (Russian roulette; particle media re-seed it per
+            // wavelength below), so results do not depend on scheduling.
+            let stream = ((cfg.first_direction + di as u64) << 40) | i;
+            w.stack.set_stream(
+                cfg.seed ^ 0x5CA7_7E2E_D000_0000,
+                stream.wrapping_mul(0x1_0000) | 0xFFFF,
+            );
+            let launch = Launch {
+                i,
+                origin,
+                world_origin: origin + cfg.origin_nm,
+                d,
+                e0,
+                stream,
+            };
+            self.trace_together(w, &launch);
+            for (j, cell) in out.iter_mut().enumerate() {
+                let t = self.tree_of(w, j, &launch);
+                self.tally(w, t, j, cell, &launch);
+            }
+        }
+        w.dense.drain(&mut out);
+        out
+    }
+
+    /// Tree `i`'s entry point on the tile, nm (sample frame, at the top of the scene): a
+    /// lattice point (diffraction), a uniform point (`random_entry`) or the R2 sequence.
+    /// Open samples launch in the interior, the guard band from every side.
+    fn entry(&self, i: u64, shift: [f64; 2], rng: &mut Rng) -> DVec3 {
+        let (cfg, sample) = (self.cfg, self.sample);
+        let g = sample.guard_nm.unwrap_or(0.0);
+        let xy = if self.diffraction {
+            lattice_point(i, self.lattice, shift, sample.tile_nm)
+        } else if cfg.random_entry {
+            [
+                rng.range(g, sample.tile_nm[0] - g),
+                rng.range(g, sample.tile_nm[1] - g),
+            ]
+        } else {
+            entry_point(i, shift, sample.tile_nm, g)
+        };
+        DVec3::new(xy[0], xy[1], self.scene.z_top)
+    }
+
+    /// Tree `i`'s wavelength in bin `j`, nm, from the uniform draw `u`: stratified jitter
+    /// (tree i takes stratum i of N in every bin).
+    fn jittered_lambda(&self, i: u64, j: usize, adaptive: bool, u: f64) -> f64 {
+        match &self.cfg.wavelengths {
+            Wavelengths::Bins(e) => {
+                // Adaptive runs do not know N: a golden-ratio sequence (low-discrepancy
+                // for every prefix) replaces the strata. The diffraction method sums trees
+                // coherently, so they share one wavelength: the bin's centre.
+                let frac = if self.diffraction {
+                    0.5
+                } else if adaptive {
+                    (i as f64 * 0.618_033_988_749_894_9 + u).fract()
+                } else {
+                    (i as f64 + u) / self.cfg.rays as f64
+                };
+                e[j] + (e[j + 1] - e[j]) * frac
+            }
+            Wavelengths::Monochromatic(v) => v[j],
+        }
+    }
+
+    /// Counts one traced tree of `segments` segments.
+    fn count(&self, segments: u64) {
+        let c = &self.counters;
+        c.segments.fetch_add(segments, Ordering::Relaxed);
+        c.traces.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// A traced tree moved to the world (exits at `origin_nm`) and prepared for the
+    /// estimator.
+    fn traced(&self, tree: &mut Tree, scratch: &mut Scratch) {
+        for x in &mut tree.exits {
+            x.x += self.cfg.origin_nm;
+        }
+        self.est.prepare(tree, scratch);
+        self.counters
+            .leaks
+            .fetch_add(u64::from(tree.leaks), Ordering::Relaxed);
+    }
+
+    /// Traces what is traced once for all wavelengths: the shared geometry (path sharing),
+    /// or every wavelength at once (lanes). Per-wavelength tracing happens in `tree_of`.
+    fn trace_together(&self, w: &mut Worker, l: &Launch) {
+        let cfg = self.cfg;
+        match self.tracing {
+            Tracing::Shared => self.count(self.scene.trace(
+                l.origin,
+                l.d,
+                l.e0,
+                &self.fixed_indices,
+                self.lambda_max,
+                &cfg.limits,
+                &mut w.stack,
+                &mut w.trees[0],
+            )),
+            Tracing::Lanes => {
+                for (j, v) in w.indices.iter_mut().enumerate() {
+                    indices_into(self.sample, w.lambdas[j], v);
+                }
+                let lanes: Vec<Lane> = (w.indices.iter().zip(&w.lambdas))
+                    .map(|(v, &l)| Lane {
+                        indices: v,
+                        lambda_nm: l,
+                    })
+                    .collect();
+                self.count(self.scene.trace_lanes(
+                    l.origin,
+                    l.d,
+                    l.e0,
+                    &lanes,
+                    &cfg.limits,
+                    &mut w.stack,
+                    &mut w.trees,
+                ));
+            }
+            Tracing::PerWavelength => {}
+        }
+    }
+
+    /// The index in `w.trees` of the tree of wavelength bin `j`, traced and prepared.
+    fn tree_of(&self, w: &mut Worker, j: usize, l: &Launch) -> usize {
+        match self.tracing {
+            Tracing::Shared => {
+                if j == 0 {
+                    self.traced(&mut w.trees[0], &mut w.scratch);
+                }
+                0
+            }
+            Tracing::Lanes => {
+                self.traced(&mut w.trees[j], &mut w.scratch);
+                j
+            }
+            Tracing::PerWavelength => {
+                let lambda = w.lambdas[j];
+                indices_into(self.sample, lambda, &mut w.indices[0]);
+                // Volume scattering's own stream for this tree and wavelength.
+                w.stack.set_stream(
+                    self.cfg.seed ^ 0x5CA7_7E2E_D000_0000,
+                    l.stream.wrapping_mul(0x1_0000).wrapping_add(j as u64),
+                );
+                self.count(self.scene.trace(
+                    l.origin,
+                    l.d,
+                    l.e0,
+                    &w.indices[0],
+                    lambda,
+                    &self.cfg.limits,
+                    &mut w.stack,
+                    &mut w.trees[0],
+                ));
+                self.traced(&mut w.trees[0], &mut w.scratch);
+                0
+            }
+        }
+    }
+
+    /// The estimator's tally of tree `w.trees[t]` at wavelength bin `j` into `cell`:
+    /// buckets, R and T with their squares, absorbed, created, limited and dropped power,
+    /// and the diffraction method's contributions.
+    fn tally(&self, w: &mut Worker, t: usize, j: usize, cell: &mut BlockCell, l: &Launch) {
+        let est = &self.est;
+        let lambda = w.lambdas[j];
+        let tree = &w.trees[t];
+        w.deps.clear();
+        w.glob.clear();
+        let k = 2.0 * std::f64::consts::PI / lambda;
+        let entry_phase = est.entry_phase(k, l.d, l.world_origin);
+        est.deposit(
+            tree,
+            lambda,
+            entry_phase,
+            &mut w.scratch,
+            &mut w.deps,
+            &mut w.glob,
+        );
+        let (r, t) = w.dense.add_tree(j, &w.deps, &w.glob);
+        if self.diffraction {
+            let k_in = k * est.n_up;
+            let k_in = [k_in * l.d.x, k_in * l.d.y];
+            for (slot, x) in tree.exits.iter().enumerate() {
+                cell.diffraction.push(diffraction::contribution(
+                    x,
+                    l.i as u32,
+                    slot as u32,
+                    k,
+                    entry_phase,
+                    k_in,
+                ));
+            }
+        }
+        let DroppedPower {
+            all: dropped,
+            limit: dropped_limit,
+            escaped,
+        } = tree.dropped(lambda);
+        cell.trees += 1;
+        cell.r.0 += r;
+        cell.r.1 += r * r;
+        cell.t.0 += t;
+        cell.t.1 += t * t;
+        let absorbed = absorbed_power(tree, lambda, r, t, dropped, self.global);
+        cell.absorbed += absorbed;
+        // A tree that met particles or Russian roulette carries importance weights: its
+        // R + T may exceed 1 while the mean over trees conserves energy, which
+        // check_physical judges. Only deterministic ray series count as created.
+        if tree.absorbing && !self.global && tree.random_events == 0 {
+            cell.created += (-absorbed).max(0.0);
+        }
+        cell.limited += tree.limited_power;
+        cell.limit_bound += 2.0 * (dropped_limit * (r + t).max(0.0)).sqrt() + dropped_limit;
+        cell.dropped += dropped;
+        cell.dropped_limit += dropped_limit;
+        cell.escaped += escaped;
+        self.counters
+            .energy_faults
+            .fetch_add(u64::from(tree.energy_faults), Ordering::Relaxed);
+    }
+}

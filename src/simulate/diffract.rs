@@ -1,0 +1,96 @@
+//! The diffraction method's last step for one incident direction: the kept exits of every
+//! wavelength transformed into Floquet orders, which replace the cell's buckets.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::run::{Run, indices_into};
+use super::{DiffractionCell, SimError};
+use crate::accumulate::{Cell, diffraction};
+
+impl Run<'_> {
+    /// The diffraction method for one incident direction (towards the light `wi`): each
+    /// wavelength's contributions transformed into Floquet orders (`diffraction::diffract`),
+    /// which replace the cell's bucket sums and totals; the beamlet estimator's totals are
+    /// kept in `out` for the energy check.
+    pub(super) fn diffract(
+        &self,
+        wi: DVec3,
+        contribs: Vec<Vec<diffraction::Contribution>>,
+        cells: &mut [Cell],
+        out: &mut [DiffractionCell],
+    ) -> Result<(), SimError> {
+        let d = -wi;
+        let results: Vec<Result<_, String>> = contribs
+            .into_par_iter()
+            .enumerate()
+            .map(|(j, list)| {
+                // Every tree of the bin took its centre (`block`).
+                let lambda = self.settings.wavelength(j);
+                let k = 2.0 * std::f64::consts::PI / lambda;
+                let mut idx = Vec::new();
+                indices_into(self.sample, lambda, &mut idx);
+                let n_sub = idx[self.scene.substrate];
+                let h = diffraction::Hemisphere {
+                    tile_nm: self.sample.tile_nm,
+                    lambda_nm: lambda,
+                    n_out: self.est.n_up,
+                    n_in: self.est.n_up,
+                    k_in: [k * self.est.n_up * d.x, k * self.est.n_up * d.y],
+                    cos_i: -d.z,
+                    lattice: self.lattice,
+                    rho_nm: self.cfg.rho_nm,
+                    down: false,
+                };
+                let up = diffraction::diffract(&h, &list, &self.cfg.buckets)?;
+                // An absorbing substrate transmits nothing (no exit leaves downwards).
+                let down = if n_sub.im == 0.0 && list.iter().any(|c| c.down) {
+                    let h = diffraction::Hemisphere {
+                        n_out: n_sub.re,
+                        down: true,
+                        ..h
+                    };
+                    diffraction::diffract(&h, &list, &self.cfg.buckets)?
+                } else {
+                    diffraction::Pattern::default()
+                };
+                Ok((up, down))
+            })
+            .collect();
+        for (j, res) in results.into_iter().enumerate() {
+            let (up, down) = res.map_err(SimError::Config)?;
+            let cell = &mut cells[j];
+            let n = cell.trees as f64;
+            let (r_ray, t_ray) = (cell.r_sum / n, cell.t_sum / n);
+            cell.sum.fill(0.0);
+            cell.sumsq.fill(0.0);
+            cell.count.fill(0);
+            // Energy is the ray field's: each hemisphere's orders are scaled to the ray
+            // method's total there. The transform's own total (what it kept in propagating
+            // orders) is reported and judged in `finish` (DIFFRACTION_RATIO_*).
+            let scale = |rays: f64, total: f64| if total > 0.0 { rays / total } else { 0.0 };
+            let (su, sd) = (scale(r_ray, up.total), scale(t_ray, down.total));
+            for (&(kk, p), s) in up
+                .per_key
+                .iter()
+                .map(|e| (e, su))
+                .chain(down.per_key.iter().map(|e| (e, sd)))
+            {
+                let p = p * s;
+                cell.sum[kk as usize] = p * n;
+                cell.sumsq[kk as usize] = p * p * n;
+                cell.count[kk as usize] = cell.trees;
+            }
+            out[j] = DiffractionCell {
+                rays_r: r_ray,
+                rays_t: t_ray,
+                r: up.total,
+                t: down.total,
+                orders: up.orders + down.orders,
+                fallback_tubes: up.fallback_tubes + down.fallback_tubes,
+                flipped_tubes: up.flipped_tubes + down.flipped_tubes,
+            };
+        }
+        Ok(())
+    }
+}

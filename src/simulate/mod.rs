@@ -1,0 +1,134 @@
+//! The virtual goniospectrometer run: launches stratified ray trees over the tile for each
+//! incident direction, traces them (sharing geometry across wavelengths where no medium is
+//! dispersive), and accumulates them with the estimator into a `.gsa` accumulator.
+//!
+//! Determinism: trees are processed in fixed blocks whose sums are combined in block
+//! order, and every random number comes from a stream keyed by (seed, direction, tree), so
+//! the output bytes do not depend on the thread count.
+
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use crate::accumulate::file::Accumulator;
+use crate::accumulate::{Cell, Coherence};
+use crate::sample::Sample;
+use crate::trace::SceneError;
+
+/// Trees per block: the unit of parallel work and of deterministic summation.
+const BLOCK: u64 = 64;
+/// Blocks in flight at once per worker thread (at least `MIN_CHUNK_BLOCKS` in all): their
+/// sums are the only memory that grows with the work, so peak memory depends on the thread
+/// count but not on the ray count. The chunking never changes the results.
+const CHUNK_BLOCKS_PER_THREAD: u64 = 4;
+const MIN_CHUNK_BLOCKS: u64 = 16;
+
+pub use crate::spectrum::Wavelengths;
+
+mod block;
+mod diffract;
+mod hash;
+mod launch;
+mod physical;
+mod prepare;
+mod run;
+mod settings;
+mod stats;
+
+pub use hash::sample_hash;
+pub use launch::diffraction_lattice;
+pub use physical::*;
+use run::{Lost, LostSums, Run};
+pub use settings::*;
+pub use stats::*;
+
+/// What can stop a simulation.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error("{0}")]
+    Config(String),
+    /// A setting ([`SimSettings`]) outside what a run can take: `key` is its name as in
+    /// TOML and Python (`theta_o_bins`; the CLI's flag is `--theta-o-bins`).
+    #[error("{key}: {message}")]
+    Setting { key: &'static str, message: String },
+    /// An impossible result (R > 1, negative power, energy created): never written.
+    #[error("{0}")]
+    Unphysical(String),
+    /// Stopped through `SimConfig::cancel`.
+    #[error("the simulation was cancelled")]
+    Cancelled,
+}
+
+/// Runs the simulation. `progress` receives the number of trees finished so far.
+///
+/// Three stages: [`Run::prepare`] (scene, media, estimator, the header's settings),
+/// [`Run::direction`] for every incident direction (blocks of trees traced in parallel and
+/// reduced in block order), and [`Run::finish`] (statistics, header, and the refusal of
+/// impossible results).
+pub fn simulate(
+    sample: &Sample,
+    cfg: &SimConfig,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Accumulator, SimStats), SimError> {
+    validate(cfg)?;
+    // The diffraction method launches on a lattice (`diffraction_lattice`): the run traces
+    // its `nx * ny` trees per direction.
+    let lattice_cfg;
+    let lattice = diffraction_lattice(cfg.rays, sample.tile_nm);
+    let cfg = if cfg.coherence == Coherence::Diffraction {
+        let [nx, ny] = lattice;
+        lattice_cfg = SimConfig {
+            rays: nx * ny,
+            ..cfg.clone()
+        };
+        &lattice_cfg
+    } else {
+        cfg
+    };
+    let start_time = Instant::now();
+    let mut run = Run::prepare(sample, cfg)?;
+    run.lattice = lattice;
+    run.setup_seconds = start_time.elapsed().as_secs_f64();
+    let mut cells: Vec<Cell> = (0..cfg.theta_i_deg.len() * run.nl)
+        .map(|_| Cell::new(&cfg.buckets, run.global))
+        .collect();
+    let mut limit_dropped = vec![0.0; cells.len()];
+    let mut escaped = vec![0.0; cells.len()];
+    let mut limit_bound = vec![0.0; cells.len()];
+    let mut created = vec![0.0; cells.len()];
+    let mut limited = vec![0.0; cells.len()];
+    let mut diffraction = vec![DiffractionCell::default(); cells.len()];
+    let directions = cfg
+        .theta_i_deg
+        .iter()
+        .enumerate()
+        .map(|(di, &theta_deg)| {
+            let lost = Lost {
+                diffraction: &mut diffraction,
+                limit_dropped: &mut limit_dropped,
+                escaped: &mut escaped,
+                limit_bound: &mut limit_bound,
+                created: &mut created,
+                limited: &mut limited,
+            };
+            run.direction(di, theta_deg, &mut cells, lost, progress)
+        })
+        .collect::<Result<Vec<_>, SimError>>()?;
+    if cfg
+        .cancel
+        .as_ref()
+        .is_some_and(|c| c.load(Ordering::Relaxed))
+    {
+        return Err(SimError::Cancelled);
+    }
+    let lost = LostSums {
+        diffraction,
+        limit_dropped,
+        escaped,
+        limit_bound,
+        created,
+        limited,
+    };
+    run.finish(cells, lost, directions, start_time)
+}

@@ -1,0 +1,150 @@
+//! What a run refuses before tracing: methods the sample cannot take, wavelengths outside
+//! a medium's range, an absorbing or dispersive ambient medium, and diffraction runs too
+//! large for memory.
+
+use super::run::indices_into;
+use super::{DIFFRACTION_MAX_BYTES, SimConfig, SimError};
+use crate::accumulate::{Coherence, diffraction};
+use crate::optics::C64;
+use crate::sample::Sample;
+use crate::trace::Scene;
+
+/// The media's indices at `lambda_nm`.
+fn index_at(sample: &Sample, lambda_nm: f64) -> Vec<C64> {
+    let mut v = Vec::new();
+    indices_into(sample, lambda_nm, &mut v);
+    v
+}
+
+/// The methods a sample cannot take: particle media (`scattering`) need the beamlet
+/// estimator and per-wavelength paths; the diffraction method needs a periodic tile of
+/// deterministic ray fields and a fixed budget.
+pub(super) fn method_refusals(
+    sample: &Sample,
+    cfg: &SimConfig,
+    scattering: bool,
+) -> Result<(), SimError> {
+    // Particle media: properties change with the wavelength and free paths are random,
+    // so every wavelength is traced on its own; scattered light has random phases, so
+    // only the beamlet estimator (which pairs exits of one coherence group) applies.
+    if scattering {
+        if cfg.coherence != Coherence::Beamlet {
+            return Err(SimError::Config(format!(
+                "--coherence {} sums the fields of every path in a bucket, but light scattered by this sample's particle media has random phases; use --coherence beamlet (the default)",
+                cfg.coherence
+            )));
+        }
+        if cfg.path_sharing == Some(true) {
+            return Err(SimError::Config(
+                "path sharing needs wavelength-independent paths: this sample has scattering media, whose free paths and directions are drawn per wavelength".into(),
+            ));
+        }
+    }
+    if cfg.coherence == Coherence::Diffraction {
+        if sample.guard_nm.is_some() {
+            return Err(SimError::Config(
+                "--coherence diffraction takes the far field of a periodic tile, but this sample's sides are open (a guard band): give the height map periodic edges, or use --coherence beamlet".into(),
+            ));
+        }
+        if sample.interfaces.iter().any(|i| i.closed) {
+            return Err(SimError::Config(
+                "--coherence diffraction sums deterministic ray fields, but this sample has closed bodies (pigments, flakes) whose long trees end by Russian roulette with random weights; use --coherence beamlet, and a particle medium for sub-wavelength particles".into(),
+            ));
+        }
+        if cfg.tolerance.is_some() {
+            return Err(SimError::Config(
+                "--coherence diffraction sums all trees of a direction at once, so it has no per-tree error to stop on: give a fixed --rays instead of --tolerance".into(),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Every wavelength the run evaluates (`lambdas`, nm) inside every medium's range, and
+/// scattering media with a lossless host.
+pub(super) fn media_in_range(sample: &Sample, lambdas: &[f64]) -> Result<(), SimError> {
+    for m in &sample.media {
+        for &l in lambdas {
+            let (_, k) = m
+                .model
+                .eval(l)
+                .map_err(|e| SimError::Config(format!("medium '{}': {e}", m.name)))?;
+            if m.scattering.is_some() && k != 0.0 {
+                return Err(SimError::Config(format!(
+                    "medium '{}' scatters but its host index absorbs (k = {k} at {l} nm): a scattering medium's own index must be lossless; put the absorption in its particles or in absorption_per_um",
+                    m.name
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The medium above the sample is lossless at every wavelength, and constant when the
+/// sample is `dispersive`.
+pub(super) fn ambient_lossless(
+    sample: &Sample,
+    scene: &Scene,
+    lambdas: &[f64],
+    dispersive: bool,
+) -> Result<(), SimError> {
+    if let Some(&l) = lambdas
+        .iter()
+        .find(|&&l| index_at(sample, l)[scene.ambient].im != 0.0)
+    {
+        return Err(SimError::Config(format!(
+            "the medium above the sample ('{}') absorbs at {l} nm: reflectance is defined in a lossless ambient medium",
+            sample.media[scene.ambient].name
+        )));
+    }
+    if dispersive
+        && (index_at(sample, lambdas[0])[scene.ambient]
+            != index_at(sample, lambdas.iter().copied().fold(0.0, f64::max))[scene.ambient])
+    {
+        return Err(SimError::Config(
+            "the medium above the sample is dispersive; use a constant index for the ambient medium".into(),
+        ));
+    }
+    Ok(())
+}
+
+/// The diffraction method's memory: every kept exit of a direction and each wavelength's
+/// grid (ambient index `n_up`).
+pub(super) fn diffraction_budget(
+    sample: &Sample,
+    cfg: &SimConfig,
+    scene: &Scene,
+    lambdas: &[f64],
+    n_up: f64,
+) -> Result<(), SimError> {
+    let nl = cfg.wavelengths.count();
+    // Every exit of a direction is kept (about 160 bytes each, two per tree as a
+    // guide) and each wavelength's grid must fit.
+    let bytes = 2.0 * 160.0 * cfg.rays as f64 * nl as f64;
+    if bytes > DIFFRACTION_MAX_BYTES || cfg.rays > u64::from(u32::MAX) {
+        return Err(SimError::Config(format!(
+            "--coherence diffraction keeps every exit of an incident direction in memory: {} trees x {nl} wavelengths needs about {:.1} GB (at most {:.0} GB): use fewer rays or fewer wavelengths per run (batch plans split a spectrum into units)",
+            cfg.rays,
+            bytes / 1e9,
+            DIFFRACTION_MAX_BYTES / 1e9
+        )));
+    }
+    for &l in lambdas {
+        let n_sub = index_at(sample, l)[scene.substrate];
+        for n_out in [Some(n_up), (n_sub.im == 0.0).then_some(n_sub.re)]
+            .into_iter()
+            .flatten()
+        {
+            let [mx, my] = diffraction::grid_cells(sample.tile_nm, l, n_out, n_up);
+            if mx.saturating_mul(my) > diffraction::MAX_GRID_CELLS {
+                return Err(SimError::Config(format!(
+                    "--coherence diffraction needs a {mx} x {my} grid over the {:.0} x {:.0} nm tile at {l} nm (at most {} cells): use a smaller tile (a period, or a few correlation lengths); features this large against the wavelength are where rays alone hold",
+                    sample.tile_nm[0],
+                    sample.tile_nm[1],
+                    diffraction::MAX_GRID_CELLS
+                )));
+            }
+        }
+    }
+    Ok(())
+}

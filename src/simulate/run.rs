@@ -1,0 +1,471 @@
+//! The run driver: preparing the scene and estimator, tracing blocks of trees per
+//! incident direction, reducing them in block order, and finishing the header and stats.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::prepare::{ambient_lossless, diffraction_budget, media_in_range, method_refusals};
+use super::{BLOCK, CHUNK_BLOCKS_PER_THREAD, MIN_CHUNK_BLOCKS, SimError};
+use super::{
+    CREATED_REFUSED, DIFFRACTION_RATIO_REFUSED, DiffractionCell, DirectionStats, SimConfig,
+    SimStats, achieved_error, check_physical, sample_hash,
+};
+use crate::accumulate::block::{BlockCell, Dense, add_block};
+use crate::accumulate::file::{Accumulator, EntryPoints, Header, Settings, WavelengthMode};
+use crate::accumulate::{Cell, Coherence, Estimator, Scratch, diffraction};
+use crate::geom::from_spherical;
+use crate::optics::C64;
+use crate::rng::Rng;
+use crate::sample::Sample;
+use crate::spectrum::Wavelengths;
+use crate::trace::{Scene, TraceStack, Tree};
+
+/// Per-cell sums of what the run lost or could not trust (see [`SimStats`]), filled
+/// direction by direction.
+pub(super) struct Lost<'a> {
+    pub(super) diffraction: &'a mut [DiffractionCell],
+    pub(super) limit_dropped: &'a mut [f64],
+    pub(super) escaped: &'a mut [f64],
+    pub(super) limit_bound: &'a mut [f64],
+    pub(super) created: &'a mut [f64],
+    pub(super) limited: &'a mut [f64],
+}
+
+/// The finished sums of [`Lost`].
+pub(super) struct LostSums {
+    pub(super) diffraction: Vec<DiffractionCell>,
+    pub(super) limit_dropped: Vec<f64>,
+    pub(super) escaped: Vec<f64>,
+    pub(super) limit_bound: Vec<f64>,
+    pub(super) created: Vec<f64>,
+    pub(super) limited: Vec<f64>,
+}
+
+/// Counters every worker adds to.
+#[derive(Default)]
+pub(super) struct Counters {
+    pub(super) done: AtomicU64,
+    pub(super) segments: AtomicU64,
+    pub(super) leaks: AtomicU64,
+    pub(super) traces: AtomicU64,
+    pub(super) energy_faults: AtomicU64,
+}
+
+/// One worker's reusable state: the ray stack, the trees (one per wavelength when they
+/// are traced at once), the estimator's scratch and deposits, the dense block sums, and
+/// the media indices and wavelength of each tree.
+pub(super) struct Worker {
+    pub(super) stack: TraceStack,
+    pub(super) trees: Vec<Tree>,
+    pub(super) scratch: Scratch,
+    pub(super) deps: Vec<(u32, f64)>,
+    pub(super) glob: Vec<(u32, [crate::optics::fresnel::Field; 2])>,
+    pub(super) dense: Dense,
+    pub(super) indices: Vec<Vec<C64>>,
+    pub(super) lambdas: Vec<f64>,
+}
+
+/// How a tree's wavelengths are traced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Tracing {
+    /// One tree at the longest wavelength serves every wavelength (path sharing).
+    Shared,
+    /// Every wavelength at once, rays shared until a dispersive refraction.
+    Lanes,
+    /// Each wavelength on its own.
+    PerWavelength,
+}
+
+/// Everything a run shares between its directions and workers.
+pub(super) struct Run<'a> {
+    pub(super) sample: &'a Sample,
+    pub(super) cfg: &'a SimConfig,
+    pub(super) scene: Scene<'a>,
+    pub(super) est: Estimator,
+    pub(super) settings: Settings,
+    /// Geometry traced once for all wavelengths.
+    pub(super) sharing: bool,
+    pub(super) tracing: Tracing,
+    pub(super) global: bool,
+    /// `Coherence::Diffraction`: exits are kept for the far-field transform, and trees
+    /// launch on this lattice (`diffraction_lattice`).
+    pub(super) diffraction: bool,
+    pub(super) lattice: [u64; 2],
+    pub(super) nl: usize,
+    pub(super) lambda_max: f64,
+    /// Media indices at the longest wavelength (the shared geometry's).
+    pub(super) fixed_indices: Vec<C64>,
+    pub(super) counters: Counters,
+    /// Wall time of `prepare` (the scene's build, the sample's hash), s.
+    pub(super) setup_seconds: f64,
+}
+
+impl<'a> Run<'a> {
+    /// Stage 1: the scene, whether paths are shared, the media at every wavelength the
+    /// run evaluates, the estimator and the header's settings.
+    pub(super) fn prepare(sample: &'a Sample, cfg: &'a SimConfig) -> Result<Run<'a>, SimError> {
+        let mut scene = Scene::new(sample, cfg.backend)?;
+        scene.set_coherence_length(cfg.rho_nm);
+        let scattering = scene.scatters();
+        let diffraction = cfg.coherence == Coherence::Diffraction;
+        method_refusals(sample, cfg, scattering)?;
+        let dispersive = sample.media.iter().any(|m| m.model.is_dispersive()) || scattering;
+        // A coating's coefficients depend on the wavelength even with constant indices.
+        let coated = sample.interfaces.iter().any(|i| !i.coating.is_empty());
+        let sharing = cfg.path_sharing.unwrap_or(!dispersive && !coated);
+        if sharing && dispersive {
+            return Err(SimError::Config(
+                "path sharing needs non-dispersive media: this sample's indices change with wavelength"
+                    .into(),
+            ));
+        }
+        if sharing && coated {
+            return Err(SimError::Config(
+                "path sharing needs wavelength-independent interfaces: this sample has coatings, whose coefficients change with wavelength"
+                    .into(),
+            ));
+        }
+        // Every wavelength the run evaluates must be inside every medium's range.
+        let lambdas: Vec<f64> = match &cfg.wavelengths {
+            Wavelengths::Bins(e) => e.clone(),
+            Wavelengths::Monochromatic(v) => v.clone(),
+        };
+        media_in_range(sample, &lambdas)?;
+        // Particle media tabulated over the run's wavelengths (each whole nm between the
+        // extremes; a Mie table refuses an absorbing host at any of them too).
+        if scattering {
+            let lo = lambdas.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = lambdas.iter().copied().fold(0.0, f64::max);
+            scene.prepare_scattering(lo, hi)?;
+        }
+        let index_at = |l: f64| -> Vec<C64> {
+            let mut v = Vec::new();
+            indices_into(sample, l, &mut v);
+            v
+        };
+        let nl = cfg.wavelengths.count();
+        let lambda_max = cfg.wavelengths.max();
+        let est = Estimator {
+            // The diffraction method keeps the beamlet estimator's totals as the ray
+            // method's, which its own are checked against.
+            mode: if diffraction {
+                Coherence::Beamlet
+            } else {
+                cfg.coherence
+            },
+            rho_nm: cfg.rho_nm,
+            buckets: cfg.buckets,
+            n_up: index_at(lambda_max)[scene.ambient].re,
+            n_down: index_at(lambda_max)[scene.substrate].re,
+            precision: cfg.precision,
+            lambda_max_nm: lambda_max,
+            reference: cfg.reference_estimator,
+        };
+        ambient_lossless(sample, &scene, &lambdas, dispersive)?;
+        if diffraction {
+            diffraction_budget(sample, cfg, &scene, &lambdas, est.n_up)?;
+        }
+        let settings = Settings {
+            sample_name: sample.name.clone(),
+            sample_hash: sample_hash(sample),
+            theta_i_deg: cfg.theta_i_deg.clone(),
+            phi_i_deg: cfg.phi_i_deg,
+            wavelength_mode: match cfg.wavelengths {
+                Wavelengths::Bins(_) => WavelengthMode::Bins,
+                Wavelengths::Monochromatic(_) => WavelengthMode::Monochromatic,
+            },
+            wavelengths_nm: lambdas,
+            coherence: cfg.coherence,
+            coherence_radius_nm: cfg.rho_nm,
+            cutoff: cfg.limits.cutoff,
+            max_depth: cfg.limits.max_depth,
+            theta_o_bins: cfg.buckets.theta_bins,
+            phi_o_bins: cfg.buckets.phi_bins,
+            phase_precision: cfg.precision,
+            max_wraps: cfg.limits.max_wraps,
+            max_segments: cfg.limits.max_segments,
+            entry_points: if cfg.random_entry {
+                EntryPoints::Uniform
+            } else {
+                EntryPoints::R2
+            },
+            path_sharing: sharing,
+            tolerance: cfg.tolerance,
+            max_rays: cfg.tolerance.map(|_| cfg.max_rays),
+            first_direction: cfg.first_direction,
+        };
+        Ok(Run {
+            sample,
+            cfg,
+            est,
+            settings,
+            sharing,
+            tracing: if sharing {
+                Tracing::Shared
+            } else if cfg.wavelength_sharing && nl > 1 && !scattering {
+                Tracing::Lanes
+            } else {
+                Tracing::PerWavelength
+            },
+            global: cfg.coherence == Coherence::Global,
+            diffraction,
+            lattice: [cfg.rays, 1],
+            nl,
+            lambda_max,
+            fixed_indices: index_at(lambda_max),
+            counters: Counters::default(),
+            setup_seconds: 0.0,
+            scene,
+        })
+    }
+
+    fn worker(&self) -> Worker {
+        Worker {
+            stack: TraceStack::default(),
+            trees: (0..self.nl).map(|_| Tree::default()).collect(),
+            scratch: Scratch::default(),
+            deps: Vec::new(),
+            glob: Vec::new(),
+            dense: Dense::new(self.nl, 2 * self.cfg.buckets.len(), self.global),
+            indices: vec![Vec::new(); self.nl],
+            lambdas: vec![0.0; self.nl],
+        }
+    }
+
+    /// Stage 2: every tree of incident direction `di`, in batches (one for a fixed budget;
+    /// until the tolerance is met for an adaptive one), each batch's blocks traced in
+    /// parallel a chunk at a time and added to the cells in block order.
+    pub(super) fn direction(
+        &self,
+        di: usize,
+        theta_deg: f64,
+        cells: &mut [Cell],
+        lost: Lost,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<DirectionStats, SimError> {
+        let (cfg, nl) = (self.cfg, self.nl);
+        let wi = from_spherical(theta_deg.to_radians(), cfg.phi_i_deg.to_radians());
+        let mut shift_rng = Rng::new(cfg.seed, 0x5817_0000 + cfg.first_direction + di as u64);
+        let shift = [shift_rng.uniform(), shift_rng.uniform()];
+        let adaptive = cfg.tolerance.is_some();
+        // Batches are whole blocks, so where a run stops never changes the sums of the
+        // batches before it.
+        let batch = if adaptive {
+            cfg.rays.div_ceil(BLOCK) * BLOCK
+        } else {
+            cfg.rays
+        };
+        let target = if adaptive {
+            cfg.max_rays.max(batch)
+        } else {
+            cfg.rays
+        };
+        let mut start = 0u64;
+        // The diffraction method's contributions per wavelength, in block order.
+        let mut contribs: Vec<Vec<diffraction::Contribution>> = vec![Vec::new(); nl];
+        loop {
+            let end = (start + batch).min(target);
+            let nblocks = (end - start).div_ceil(BLOCK);
+            // Blocks are reduced a chunk at a time, each chunk in block order, so memory
+            // does not grow with the ray count and the sums are those of one pass over all
+            // blocks in order, whatever the chunk size or the thread count.
+            let mut chunk_lo = 0;
+            while chunk_lo < nblocks {
+                if cfg
+                    .cancel
+                    .as_ref()
+                    .is_some_and(|c| c.load(Ordering::Relaxed))
+                {
+                    // The caller gets SimError::Cancelled: these sums are never used.
+                    return Ok(DirectionStats {
+                        theta_i_deg: theta_deg,
+                        rays: start,
+                        achieved: None,
+                        converged: false,
+                    });
+                }
+                let chunk = (CHUNK_BLOCKS_PER_THREAD * rayon::current_num_threads() as u64)
+                    .max(MIN_CHUNK_BLOCKS);
+                let chunk_hi = (chunk_lo + chunk).min(nblocks);
+                let blocks: Vec<Vec<BlockCell>> = (chunk_lo..chunk_hi)
+                    .into_par_iter()
+                    .map_init(
+                        || self.worker(),
+                        |w, b| {
+                            let lo = start + b * BLOCK;
+                            let hi = (lo + BLOCK).min(end);
+                            let out = self.block(w, di, wi, shift, adaptive, lo..hi);
+                            let n = self.counters.done.fetch_add(hi - lo, Ordering::Relaxed)
+                                + (hi - lo);
+                            progress(n);
+                            out
+                        },
+                    )
+                    .collect();
+                // Combine blocks in block order: the sums do not depend on scheduling.
+                for block in blocks {
+                    for (j, bc) in block.into_iter().enumerate() {
+                        add_block(&mut cells[di * nl + j], &bc);
+                        contribs[j].extend(bc.diffraction);
+                        let k = di * nl + j;
+                        lost.limit_dropped[k] += bc.dropped_limit;
+                        lost.escaped[k] += bc.escaped;
+                        lost.limit_bound[k] += bc.limit_bound;
+                        lost.created[k] += bc.created;
+                        lost.limited[k] += bc.limited;
+                    }
+                }
+                chunk_lo = chunk_hi;
+            }
+            start = end;
+            let achieved = achieved_error(cells, di, nl, cfg.coherence);
+            let converged = adaptive && achieved.is_some_and(|a| a <= cfg.tolerance.unwrap_or(0.0));
+            if !adaptive || converged || start >= target {
+                if self.diffraction {
+                    self.diffract(
+                        wi,
+                        contribs,
+                        &mut cells[di * nl..(di + 1) * nl],
+                        &mut lost.diffraction[di * nl..(di + 1) * nl],
+                    )?;
+                }
+                return Ok(DirectionStats {
+                    theta_i_deg: theta_deg,
+                    rays: start,
+                    achieved,
+                    converged,
+                });
+            }
+        }
+    }
+
+    /// Stage 3: the run's statistics and header; energy faults and impossible results are
+    /// errors, never output.
+    pub(super) fn finish(
+        self,
+        cells: Vec<Cell>,
+        lost: LostSums,
+        directions: Vec<DirectionStats>,
+        start_time: Instant,
+    ) -> Result<(Accumulator, SimStats), SimError> {
+        let (cfg, c) = (self.cfg, &self.counters);
+        let faults = c.energy_faults.load(Ordering::Relaxed);
+        if faults > 0 {
+            return Err(SimError::Unphysical(format!(
+                "sample '{}': {faults} interface events from a lossless medium did not conserve energy (|r|^2 + T != 1); this is a bug, please report it",
+                self.sample.name
+            )));
+        }
+        let stats = SimStats {
+            trees: c.done.load(Ordering::Relaxed),
+            traces: c.traces.load(Ordering::Relaxed),
+            segments: c.segments.load(Ordering::Relaxed),
+            leaks: c.leaks.load(Ordering::Relaxed),
+            seconds: start_time.elapsed().as_secs_f64(),
+            setup_seconds: self.setup_seconds,
+            path_sharing: self.sharing,
+            wavelength_sharing: self.tracing == Tracing::Lanes,
+            directions,
+            limit_dropped: lost.limit_dropped,
+            escaped: lost.escaped,
+            limit_bound: lost.limit_bound,
+            created: lost.created,
+            limited: lost.limited,
+            diffraction: lost.diffraction,
+            envelope_violations: self.scene.scatter_violations(),
+        };
+        let header = Header {
+            settings: self.settings,
+            seeds: vec![cfg.seed],
+            // Adaptive runs: the most trees any direction used; each direction's own
+            // count too.
+            rays: stats
+                .directions
+                .iter()
+                .map(|d| d.rays)
+                .max()
+                .unwrap_or(cfg.rays),
+            rays_per_direction: stats.directions.iter().map(|d| d.rays).collect(),
+            backend: self.scene.backend().name().into(),
+            leaks: stats.leaks,
+        };
+        let acc = Accumulator { header, cells };
+        if self.diffraction
+            && let Some((k, d)) = stats
+                .diffraction
+                .iter()
+                .enumerate()
+                .filter(|(_, d)| d.rays_r + d.rays_t > 0.0)
+                .find(|(_, d)| {
+                    !(d.ratio() >= DIFFRACTION_RATIO_REFUSED
+                        && d.ratio() <= 1.0 / DIFFRACTION_RATIO_REFUSED)
+                })
+        {
+            let nl = self.nl;
+            return Err(SimError::Unphysical(format!(
+                "sample '{}', theta_i {} deg, wavelength {} nm: the diffraction transform holds {:.3} of the ray field's power in propagating orders (outside [{DIFFRACTION_RATIO_REFUSED}, {:.2}]): the rays sample the field too coarsely for it (raise --rays), or the sample has structure near or below the wavelength, where neither rays nor physical optics hold (use a rigorous solver: RCWA, FDTD)",
+                self.sample.name,
+                cfg.theta_i_deg.get(k / nl).copied().unwrap_or(f64::NAN),
+                acc.header.settings.wavelength(k % nl),
+                d.ratio(),
+                1.0 / DIFFRACTION_RATIO_REFUSED
+            )));
+        }
+        if !cfg.allow_unphysical {
+            check_physical(&acc, &self.sample.name, Some(&stats.limit_dropped))?;
+            let (created, cell) = stats.worst_created(&acc);
+            if created > CREATED_REFUSED {
+                let nl = acc.header.settings.wavelength_count().max(1);
+                return Err(SimError::Unphysical(format!(
+                    "sample '{}', theta_i {} deg, wavelength bin {}: {created:.3} of the launched power per tree came from ray series that created energy (more than {CREATED_REFUSED}): light crossed absorbing features thinner than their decay length (ridge tips at grazing light, sub-skin-depth wedges), where no ray model holds (docs/physics.md, \"Where the ray model stops\"). The result is impossible and was not written; use a rigorous solver for this geometry, or pass --allow-unphysical to write it anyway",
+                    self.sample.name,
+                    cfg.theta_i_deg.get(cell / nl).copied().unwrap_or(f64::NAN),
+                    cell % nl + 1
+                )));
+            }
+        }
+        Ok((acc, stats))
+    }
+}
+
+/// Every medium's complex index at `lambda_nm`, into `out` (reused: no allocation per
+/// tree).
+pub(super) fn indices_into(sample: &Sample, lambda_nm: f64, out: &mut Vec<C64>) {
+    out.clear();
+    out.extend(sample.media.iter().map(|m| {
+        let (n, k) = m
+            .model
+            .eval(lambda_nm)
+            .expect("range checked in Run::prepare");
+        C64::new(n, k)
+    }));
+}
+
+/// Absorbed power of one tree at one wavelength: what entered absorbing media and did not
+/// leave, `1 - R - T - dropped` with the tree's coherent totals (exact in the plane-wave
+/// limit, where the coherent sum is the exact field; docs/design.md §3), or 0 when no power
+/// entered an absorbing medium. Global mode has no per-tree coherent totals; there the
+/// incoherent exit power stands in for `R + T`.
+pub(super) fn absorbed_power(
+    tree: &Tree,
+    lambda: f64,
+    r: f64,
+    t: f64,
+    dropped: f64,
+    global: bool,
+) -> f64 {
+    // A tree with random events (roulette, particle scattering) balances only on average:
+    // its residual is kept even without absorption, so the column sums to 1 and averages
+    // to the true absorption (0 for a lossless sample).
+    if !tree.absorbing && tree.random_events == 0 {
+        return 0.0;
+    }
+    let out = if global {
+        tree.exit_power(lambda)
+    } else {
+        r + t
+    };
+    1.0 - out - dropped
+}

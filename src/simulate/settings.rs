@@ -1,0 +1,543 @@
+//! The settings of a simulation: every user knob with its default and its validation, in
+//! one place ([`SimSettings`]), and the run's configuration they resolve into
+//! ([`SimConfig`]).
+//!
+//! Every front end builds a `SimSettings`: the CLI flattens it into its flags (clap), batch
+//! plans and studies deserialise it (TOML keys of the flags' names, `theta_i` rather than
+//! `--theta-i`), Python's keywords set its fields, and render's planner starts from its
+//! default. [`SimSettings::resolve`] parses and validates it once.
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use super::SimError;
+use crate::accel::Backend;
+use crate::accumulate::{Buckets, Coherence, PhasePrecision};
+use crate::spectrum::Wavelengths;
+use crate::trace::TraceLimits;
+
+/// Every front end's defaults for a simulation, in one place (read by [`SimSettings`]'s
+/// `Default` and its flags). The limits of a tree are `TraceLimits::default()`.
+pub mod defaults {
+    /// Incident polar angles, degrees.
+    pub const THETA_I_DEG: [f64; 6] = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0];
+    /// Trees per incident direction.
+    pub const RAYS: u64 = 4096;
+    /// The most trees per direction of an adaptive run (`--tolerance`).
+    pub const MAX_RAYS: u64 = 1_000_000;
+    /// Beamlet radius: the illumination's transverse coherence length, nm.
+    pub const COHERENCE_RADIUS_NM: f64 = 5000.0;
+    /// Outgoing buckets per hemisphere, in theta and in phi.
+    pub const THETA_O_BINS: u32 = 45;
+    pub const PHI_O_BINS: u32 = 36;
+    /// Random seed.
+    pub const SEED: u64 = 1;
+    /// The most worker threads a run may ask for (each holds its own scratch buffers).
+    pub const MAX_THREADS: usize = 1024;
+}
+
+/// A value a setting cannot take (the setting's parser says why).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct BadValue(pub String);
+
+/// A finite number: every floating-point setting goes through this, so NaN and infinity
+/// are refused before any work starts (the CLI names the flag: clap's usage error, exit 2).
+pub fn finite(s: &str) -> Result<f64, BadValue> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| BadValue(format!("'{s}' is not a number")))?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(BadValue(format!("{s} is not a finite number")))
+    }
+}
+
+/// A coherence radius, nm: positive, or `inf` for the plane-wave limit.
+pub fn radius(s: &str) -> Result<f64, BadValue> {
+    if s.trim().eq_ignore_ascii_case("inf") {
+        return Ok(f64::INFINITY);
+    }
+    match s.trim().parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(BadValue(format!(
+            "'{s}' is not a positive radius in nm (or inf)"
+        ))),
+    }
+}
+
+/// A coherence mode by name.
+pub fn coherence(s: &str) -> Result<Coherence, BadValue> {
+    Coherence::parse(s).ok_or_else(|| {
+        BadValue(format!(
+            "unknown coherence '{s}' (beamlet, diffraction, bucket or global)"
+        ))
+    })
+}
+
+/// An accelerator by name.
+pub fn backend(s: &str) -> Result<Backend, BadValue> {
+    s.parse::<Backend>().map_err(|e| BadValue(e.to_string()))
+}
+
+/// Every user knob of one simulation, with its default (`Default`, from [`defaults`]) and
+/// its validation ([`SimSettings::resolve`]). Its fields are the flags of `goniospec
+/// simulate`; in TOML and Python their keys are the flags' names with `_` for `-`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, clap::Args)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimSettings {
+    /// Incident polar angles, degrees, comma-separated.
+    #[arg(long = "theta-i", value_name = "DEG,...", value_parser = finite, value_delimiter = ',', default_values_t = defaults::THETA_I_DEG)]
+    #[serde(rename = "theta_i")]
+    pub theta_i_deg: Vec<f64>,
+    /// Incident azimuth, degrees.
+    #[arg(long = "phi-i", value_name = "DEG", value_parser = finite, default_value_t = 0.0)]
+    #[serde(rename = "phi_i")]
+    pub phi_i_deg: f64,
+    /// Launched rays (trees) per incident direction; each covers every wavelength.
+    #[arg(long, default_value_t = defaults::RAYS)]
+    pub rays: u64,
+    /// Wavelengths, nm: A:B:STEP gives bins of width STEP from A to B (or, with
+    /// --monochromatic, the wavelengths A, A+STEP, ..., B); a comma list gives bin edges
+    /// (or exact wavelengths with --monochromatic).
+    #[arg(long, default_value = crate::spectrum::DEFAULT_WAVELENGTHS)]
+    pub wavelengths: String,
+    /// Use the exact wavelengths instead of jittered bins.
+    #[arg(long)]
+    pub monochromatic: bool,
+    /// Accelerator: embree or obvhs (default: embree where available).
+    #[arg(long, value_parser = backend)]
+    #[serde(with = "backend_name", skip_serializing_if = "Option::is_none")]
+    pub backend: Option<Backend>,
+    /// Seed of entry points and wavelength jitter.
+    #[arg(long, default_value_t = defaults::SEED)]
+    pub seed: u64,
+    /// How contributions interfere. beamlet (default): each tree is coherent within
+    /// itself (films, coatings) and incoherent with the others: the ray method.
+    /// diffraction: every tree's exits add as fields over the periodic tile (physical
+    /// optics on the ray field: grating orders, the coherent specular order of slightly
+    /// rough surfaces); trees launch on a lattice, R and T stay the rays', and the power
+    /// its transform kept is reported (docs/physics.md, "Diffraction"; where each holds:
+    /// docs/validity.md). bucket and global: the failing comparison modes of the seed.
+    #[arg(long, default_value = "beamlet", value_parser = coherence)]
+    #[serde(deserialize_with = "coherence_name")]
+    pub coherence: Coherence,
+    /// The illumination's transverse coherence radius in nm (the beamlet radius), or inf
+    /// for the plane-wave limit.
+    #[arg(long, default_value_t = defaults::COHERENCE_RADIUS_NM, value_parser = radius)]
+    pub coherence_radius_nm: f64,
+    /// Polar bins of the outgoing hemispheres (equal in theta).
+    #[arg(long, default_value_t = defaults::THETA_O_BINS)]
+    pub theta_o_bins: u32,
+    /// Azimuth bins of the outgoing hemispheres.
+    #[arg(long, default_value_t = defaults::PHI_O_BINS)]
+    pub phi_o_bins: u32,
+    /// Children below this fraction of the launched power are dropped (and reported).
+    #[arg(long, value_parser = finite, default_value_t = TraceLimits::CUTOFF)]
+    pub cutoff: f64,
+    /// Interface events along one path before it is dropped.
+    #[arg(long, default_value_t = TraceLimits::MAX_DEPTH)]
+    pub max_depth: u32,
+    /// Segments of one tree before its remaining rays are dropped (samples with bodies or
+    /// particle media play Russian roulette from 256 segments, so they rarely reach it).
+    #[arg(long, default_value_t = TraceLimits::MAX_SEGMENTS)]
+    pub max_segments: u32,
+    /// Adaptive budget: launch batches of --rays per incident direction until the relative
+    /// standard error of the reflectance (total and every populated bucket) is at most
+    /// this, e.g. 0.01; reports per direction whether it converged or ran out of budget.
+    #[arg(long, value_parser = finite)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tolerance: Option<f64>,
+    /// Largest number of rays per incident direction with --tolerance.
+    #[arg(long, default_value_t = defaults::MAX_RAYS)]
+    pub max_rays: u64,
+    /// Trace every wavelength separately even when no medium is dispersive.
+    #[arg(long)]
+    pub no_path_sharing: bool,
+    /// Trace each wavelength of a tree on its own instead of all at once. By default,
+    /// without path sharing, a tree's wavelengths are traced together and each ray is
+    /// shared until it refracts into a dispersive medium; both give the same bits, this
+    /// only makes the run slower (for checking).
+    #[arg(long)]
+    pub no_wavelength_sharing: bool,
+    /// Debugging only: write results that are physically impossible (R > 1, negative
+    /// power, energy created) instead of refusing them with exit status 1. The run still
+    /// prints what failed.
+    #[arg(long)]
+    pub allow_unphysical: bool,
+}
+
+impl Default for SimSettings {
+    fn default() -> Self {
+        SimSettings {
+            theta_i_deg: defaults::THETA_I_DEG.to_vec(),
+            phi_i_deg: 0.0,
+            rays: defaults::RAYS,
+            wavelengths: crate::spectrum::DEFAULT_WAVELENGTHS.into(),
+            monochromatic: false,
+            backend: None,
+            seed: defaults::SEED,
+            coherence: Coherence::Beamlet,
+            coherence_radius_nm: defaults::COHERENCE_RADIUS_NM,
+            theta_o_bins: defaults::THETA_O_BINS,
+            phi_o_bins: defaults::PHI_O_BINS,
+            cutoff: TraceLimits::CUTOFF,
+            max_depth: TraceLimits::MAX_DEPTH,
+            max_segments: TraceLimits::MAX_SEGMENTS,
+            tolerance: None,
+            max_rays: defaults::MAX_RAYS,
+            no_path_sharing: false,
+            no_wavelength_sharing: false,
+            allow_unphysical: false,
+        }
+    }
+}
+
+impl SimSettings {
+    /// The run's configuration: the wavelengths parsed, the backend resolved (Embree where
+    /// available) and checked to be in this build, and everything validated
+    /// ([`validate`]). The one place settings become a run.
+    pub fn resolve(&self) -> Result<SimConfig, SimError> {
+        let wavelengths =
+            Wavelengths::parse(&self.wavelengths, self.monochromatic).map_err(|e| {
+                SimError::Setting {
+                    key: "wavelengths",
+                    message: e.to_string(),
+                }
+            })?;
+        if let Some(b) = self.backend
+            && !b.is_available()
+        {
+            return Err(SimError::Config(
+                crate::accel::AccelError::EmbreeUnavailable.to_string(),
+            ));
+        }
+        let cfg = self.config(wavelengths);
+        validate(&cfg)?;
+        Ok(cfg)
+    }
+
+    /// The run's configuration with `wavelengths` as parsed, unvalidated (see
+    /// [`SimSettings::resolve`]; for callers whose settings were checked when they were
+    /// read).
+    pub fn config(&self, wavelengths: Wavelengths) -> SimConfig {
+        SimConfig {
+            phi_i_deg: self.phi_i_deg,
+            backend: self.backend.unwrap_or_else(Backend::default_available),
+            seed: self.seed,
+            coherence: self.coherence,
+            rho_nm: self.coherence_radius_nm,
+            limits: TraceLimits {
+                cutoff: self.cutoff,
+                max_depth: self.max_depth,
+                max_segments: self.max_segments,
+                ..TraceLimits::default()
+            },
+            buckets: Buckets {
+                theta_bins: self.theta_o_bins,
+                phi_bins: self.phi_o_bins,
+            },
+            path_sharing: self.no_path_sharing.then_some(false),
+            wavelength_sharing: !self.no_wavelength_sharing,
+            allow_unphysical: self.allow_unphysical,
+            tolerance: self.tolerance,
+            max_rays: self.max_rays,
+            ..SimConfig::new(self.theta_i_deg.clone(), wavelengths, self.rays)
+        }
+    }
+
+    /// Trees the run launches in all (for progress bars): `rays`, or `max_rays` when
+    /// adaptive, per incident direction.
+    pub fn budget(&self) -> u64 {
+        let per = if self.tolerance.is_some() {
+            self.max_rays
+        } else {
+            self.rays
+        };
+        per.saturating_mul(self.theta_i_deg.len() as u64)
+    }
+}
+
+/// A worker pool of `threads` threads (0: every core), at most [`defaults::MAX_THREADS`].
+/// Results never depend on it.
+pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, SimError> {
+    if threads > defaults::MAX_THREADS {
+        return Err(SimError::Setting {
+            key: "threads",
+            message: format!(
+                "{threads} is more than {}; 0 uses every core",
+                defaults::MAX_THREADS
+            ),
+        });
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| SimError::Config(format!("threads: {e}")))
+}
+
+/// A coherence mode by name, refused with [`coherence`]'s words.
+fn coherence_name<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Coherence, D::Error> {
+    coherence(&String::deserialize(d)?).map_err(serde::de::Error::custom)
+}
+
+/// Serde of an optional backend by name (`"embree"`, `"obvhs"`; absent: the default).
+mod backend_name {
+    use crate::accel::Backend;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(b: &Option<Backend>, s: S) -> Result<S::Ok, S::Error> {
+        match b {
+            Some(b) => s.serialize_str(b.name()),
+            None => s.serialize_none(),
+        }
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Backend>, D::Error> {
+        let name: Option<String> = Option::deserialize(d)?;
+        name.map(|n| n.parse().map_err(serde::de::Error::custom))
+            .transpose()
+    }
+}
+
+/// The smallest `--tolerance`: a relative standard error of 1e-6 already needs about 1e12
+/// trees per direction for a reflectance near 1 with unit spread.
+pub const MIN_TOLERANCE: f64 = 1e-6;
+
+/// Settings of one simulation.
+#[derive(Clone, Debug)]
+pub struct SimConfig {
+    pub theta_i_deg: Vec<f64>,
+    pub phi_i_deg: f64,
+    /// Trees per incident direction (each covers every wavelength).
+    pub rays: u64,
+    pub wavelengths: Wavelengths,
+    pub backend: Backend,
+    pub seed: u64,
+    pub coherence: Coherence,
+    pub rho_nm: f64,
+    pub limits: TraceLimits,
+    pub buckets: Buckets,
+    /// Share traced geometry across wavelengths; `None` = whenever no medium is dispersive.
+    pub path_sharing: Option<bool>,
+    /// Without path sharing, trace every wavelength of a tree at once, sharing each ray
+    /// until it refracts into a dispersive medium (`Scene::trace_lanes`); `false` traces
+    /// each wavelength on its own. Both give the same bits; this only changes the speed.
+    pub wavelength_sharing: bool,
+    /// Use the reference estimator (`accumulate::Estimator::reference`): the same physics,
+    /// slower; for tests.
+    pub reference_estimator: bool,
+    /// Where the sample's frame sits in the world, nm: exit points and launch points are
+    /// reported in world coordinates. The estimator must not depend on it (docs/design.md §3).
+    pub origin_nm: DVec3,
+    /// Adaptive budget: launch batches of `rays` trees per incident direction until the
+    /// relative standard error of the reflectance (total, and every populated bucket) is
+    /// at most this, or `max_rays` is spent. `None`: exactly `rays` trees.
+    pub tolerance: Option<f64>,
+    pub max_rays: u64,
+    /// Entry points: the R2 low-discrepancy sequence (default), or independent uniform
+    /// points (plain Monte Carlo, for convergence studies).
+    pub random_entry: bool,
+    /// Precision phases are formed in (`F32` only for the study's precision experiment).
+    pub precision: PhasePrecision,
+    /// Return results that fail [`check_physical`] instead of an error (debugging only).
+    pub allow_unphysical: bool,
+    /// The index of the first incident direction in a larger run this one is part of (a
+    /// batch unit): direction `d` draws the random streams of direction
+    /// `first_direction + d`, so the parts of a split run hold exactly the whole run's
+    /// cells. 0 for a whole run.
+    pub first_direction: u64,
+    /// Set from another thread to stop the run at the next chunk of blocks; the run then
+    /// returns [`SimError::Cancelled`] and nothing else (no partial result).
+    pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+}
+
+impl SimConfig {
+    /// A simulation of `rays` trees per incident direction with the defaults of
+    /// `goniospec simulate`: azimuth 0, the default backend, seed 1, the beamlet estimator
+    /// with a 5 um radius, the default trace limits, 45 x 36 outgoing buckets, path
+    /// sharing where no medium is dispersive, the sample at the world origin, a fixed
+    /// budget, R2 entry points and f64 phases. Change fields with struct-update syntax.
+    pub fn new(theta_i_deg: Vec<f64>, wavelengths: Wavelengths, rays: u64) -> SimConfig {
+        SimConfig {
+            theta_i_deg,
+            phi_i_deg: 0.0,
+            rays,
+            wavelengths,
+            backend: Backend::default_available(),
+            seed: defaults::SEED,
+            coherence: Coherence::Beamlet,
+            rho_nm: defaults::COHERENCE_RADIUS_NM,
+            limits: TraceLimits::default(),
+            buckets: Buckets {
+                theta_bins: defaults::THETA_O_BINS,
+                phi_bins: defaults::PHI_O_BINS,
+            },
+            path_sharing: None,
+            wavelength_sharing: true,
+            reference_estimator: false,
+            origin_nm: DVec3::ZERO,
+            tolerance: None,
+            max_rays: 0,
+            random_entry: false,
+            precision: PhasePrecision::F64,
+            allow_unphysical: false,
+            first_direction: 0,
+            cancel: None,
+        }
+    }
+}
+
+/// The validity warnings' view of a run (`sample::validity`): its wavelength range, most
+/// oblique incidence, coherence radius, bucket width and method.
+pub fn validity_context(cfg: &SimConfig) -> crate::sample::validity::Context {
+    use crate::sample::validity::{Context, Method};
+    Context {
+        lambda_min_nm: cfg.wavelengths.min(),
+        lambda_max_nm: cfg.wavelengths.max(),
+        theta_max_deg: cfg.theta_i_deg.iter().copied().fold(0.0, f64::max),
+        rho_nm: cfg.rho_nm,
+        bucket_rad: std::f64::consts::FRAC_PI_2 / f64::from(cfg.buckets.theta_bins),
+        method: if cfg.coherence == Coherence::Diffraction {
+            Method::Diffraction
+        } else {
+            Method::Rays
+        },
+    }
+}
+
+/// The validity warnings `check` gives (no run to judge): one wavelength, normal incidence
+/// up to `theta_max_deg`, coherence radius `rho_nm`, the default buckets, rays.
+pub fn check_validity_context(
+    lambda_nm: f64,
+    theta_max_deg: f64,
+    rho_nm: f64,
+) -> crate::sample::validity::Context {
+    crate::sample::validity::Context {
+        lambda_min_nm: lambda_nm,
+        lambda_max_nm: lambda_nm,
+        theta_max_deg,
+        rho_nm,
+        bucket_rad: std::f64::consts::FRAC_PI_2 / f64::from(defaults::THETA_O_BINS),
+        method: crate::sample::validity::Method::Rays,
+    }
+}
+
+/// Refuses a configuration no run can take (angles, counts, radii, limits), before any
+/// work; [`simulate`] calls it first, and front ends that judge a run beforehand (the
+/// validity warnings) call it before that.
+pub fn validate(cfg: &SimConfig) -> Result<(), SimError> {
+    let bad = |key: &'static str, m: String| Err(SimError::Setting { key, message: m });
+    if cfg.theta_i_deg.is_empty() {
+        return bad("theta_i", "no incident directions".into());
+    }
+    if let Some(t) = cfg.theta_i_deg.iter().find(|t| !(0.0..90.0).contains(*t)) {
+        return bad(
+            "theta_i",
+            format!("incident angle {t} deg is outside [0, 90)"),
+        );
+    }
+    if !cfg.phi_i_deg.is_finite() {
+        return bad("phi_i", format!("must be finite, got {}", cfg.phi_i_deg));
+    }
+    if !cfg.origin_nm.is_finite() {
+        return bad(
+            "origin_nm",
+            format!("the sample's origin must be finite, got {}", cfg.origin_nm),
+        );
+    }
+    if cfg.rays == 0 {
+        return bad("rays", "must be at least 1".into());
+    }
+    if let Some(t) = cfg.tolerance
+        && !(MIN_TOLERANCE..1.0).contains(&t)
+    {
+        return bad(
+            "tolerance",
+            format!(
+                "must be a relative standard error in [{MIN_TOLERANCE:e}, 1), got {t:e} (below 1e-6 needs some 1e12 trees per direction)"
+            ),
+        );
+    }
+    if cfg.wavelengths.count() == 0 {
+        return bad("wavelengths", "no wavelengths".into());
+    }
+    let ls = match &cfg.wavelengths {
+        Wavelengths::Bins(e) => e,
+        Wavelengths::Monochromatic(v) => v,
+    };
+    if ls.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
+        return bad("wavelengths", "must be positive and finite".into());
+    }
+    if let Wavelengths::Bins(e) = &cfg.wavelengths
+        && e.windows(2).any(|w| w[1] <= w[0])
+    {
+        return bad("wavelengths", "bin edges must increase".into());
+    }
+    if cfg.rho_nm.is_nan() || cfg.rho_nm <= 0.0 {
+        return bad(
+            "coherence_radius_nm",
+            format!("must be positive (or inf), got {}", cfg.rho_nm),
+        );
+    }
+    if !(cfg.limits.cutoff >= 0.0 && cfg.limits.cutoff < 1.0) {
+        return bad(
+            "cutoff",
+            format!("must be in [0, 1), got {}", cfg.limits.cutoff),
+        );
+    }
+    if cfg.buckets.theta_bins == 0 || cfg.buckets.phi_bins == 0 {
+        return bad(
+            "theta_o_bins",
+            "bucket counts (theta_o_bins, phi_o_bins) must be at least 1".into(),
+        );
+    }
+    // Sizes are estimated before anything is allocated (checked arithmetic throughout).
+    let buckets = u64::from(cfg.buckets.theta_bins).checked_mul(u64::from(cfg.buckets.phi_bins));
+    if buckets.is_none_or(|b| b > MAX_BUCKETS) {
+        return bad(
+            "theta_o_bins",
+            format!(
+                "{} x phi_o_bins {} is more than {MAX_BUCKETS} buckets per hemisphere",
+                cfg.buckets.theta_bins, cfg.buckets.phi_bins
+            ),
+        );
+    }
+    // The accumulator: per (direction, wavelength) cell, two hemispheres of buckets with a
+    // sum, a sum of squares and a count (24 bytes each).
+    let bytes = buckets
+        .and_then(|b| b.checked_mul(2 * 24))
+        .and_then(|b| b.checked_mul(cfg.theta_i_deg.len() as u64))
+        .and_then(|b| b.checked_mul(cfg.wavelengths.count() as u64));
+    if bytes.is_none_or(|b| b > MAX_ACCUMULATOR_BYTES) {
+        return bad(
+            "theta_o_bins",
+            format!(
+                "the accumulator would need more than {} GiB ({} incident angles x {} wavelengths x {} buckets): use fewer theta_o_bins/phi_o_bins, wavelengths or angles",
+                MAX_ACCUMULATOR_BYTES >> 30,
+                cfg.theta_i_deg.len(),
+                cfg.wavelengths.count(),
+                buckets.unwrap_or(u64::MAX)
+            ),
+        );
+    }
+    if cfg.rays > MAX_RAYS || cfg.max_rays > MAX_RAYS {
+        return bad(
+            "max_rays",
+            format!(
+                "rays and max_rays above {MAX_RAYS:e} per direction would run for weeks; split the work into seeds and merge"
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// Buckets per hemisphere (4096 x 1024 bins, far finer than any measurement).
+const MAX_BUCKETS: u64 = 1 << 22;
+/// The accumulator's cells must fit comfortably in memory (the machines this runs on have
+/// tens of GiB).
+const MAX_ACCUMULATOR_BYTES: u64 = 8 << 30;
+/// The most trees per incident direction any run may ask for.
+pub const MAX_RAYS: u64 = 1_000_000_000_000;
