@@ -41,6 +41,7 @@ def simulate(
     theta_i: Sequence[float],
     wavelengths: str = "380:780:10",
     rays: int = 4096,
+    *,
     seed: int = 1,
     coherence: Literal["beamlet", "diffraction", "bucket", "global"] = "beamlet",
     coherence_radius_nm: float = 5000.0,
@@ -59,8 +60,9 @@ def simulate(
     no_wavelength_sharing: bool = False,
     progress: bool | None = None,
 ) -> Accumulator:
-    """goniospec simulate's flags as keywords: theta_i and phi_i in degrees, wavelengths in
-    nm as --wavelengths, coherence_radius_nm in nm, cutoff a fraction of launched power.
+    """goniospec simulate's flags as keywords (the same settings type, defaults and checks;
+    an unknown keyword is a ValueError): theta_i and phi_i in degrees, wavelengths in nm as
+    --wavelengths, coherence_radius_nm in nm, cutoff a fraction of launched power.
     progress: a bar on sys.stderr when it is a terminal (None), always (True), never (False)."""
 def analytic(sample: Sample, theta_i: float, wavelengths: str = "380:780:10", monochromatic: bool = False) -> dict[str, npt.NDArray[np.float64]]:
     """Transfer-matrix lambda_nm, Rs, Rp, R, Ts, Tp, T of a [stack] sample; theta_i in degrees."""

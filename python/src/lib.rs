@@ -348,7 +348,7 @@ fn load_brdf(path: PathBuf) -> PyResult<Brdf> {
 /// nothing otherwise (`None`, the default); `True` draws it always, `False` never;
 /// `threads=0` uses all cores and results do not depend on it.
 #[pyfunction]
-#[pyo3(signature = (sample, theta_i, wavelengths = None, rays = None, threads = 0, progress = None, **settings))]
+#[pyo3(signature = (sample, theta_i, wavelengths = None, rays = None, *, threads = 0, progress = None, **settings))]
 fn simulate(
     py: Python<'_>,
     sample: &Sample,

@@ -394,8 +394,10 @@ fn load_heightmap(
         }
         _ => return Err("give both pixel_size and height_scale, or neither".into()),
     };
-    let mut map = heightmap::read(&file, scale)?;
-    let filled = map.resolve_missing(ri.missing.unwrap_or_default())?;
+    let mut map = heightmap::read(&file, scale).map_err(|e| e.to_string())?;
+    let filled = map
+        .resolve_missing(ri.missing.unwrap_or_default())
+        .map_err(|e| e.to_string())?;
     let edges = match (ri.edges, open) {
         (None, true) => heightmap::Edges::Guard,
         (None, false) => heightmap::Edges::default(),
@@ -407,7 +409,7 @@ fn load_heightmap(
         }
         (Some(e), _) => e,
     };
-    let (mesh, tile) = map.mesh(edges)?;
+    let (mesh, tile) = map.mesh(edges).map_err(|e| e.to_string())?;
     let desc = format!(
         "height map {} ({} x {} points, {} x {} nm apart{}, edges {})",
         file.display(),
