@@ -1,6 +1,6 @@
 //! `goniospec analytic`: the transfer-matrix reference of a flat stack.
 
-use super::*;
+use super::{Args, ExitCode, MeshOptions, PathBuf, Result, WavelengthArgs, finite, sample};
 
 #[derive(Args)]
 pub(super) struct AnalyticArgs {

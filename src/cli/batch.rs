@@ -4,7 +4,10 @@ use std::io::Write;
 
 use goniospec::batch::{self, Manifest};
 
-use super::*;
+use super::{
+    Args, Context, ExitCode, MeshOptions, PathBuf, Result, Subcommand, bail, progress_bar, sample,
+    thread_pool,
+};
 
 #[derive(Subcommand)]
 pub(super) enum BatchCommand {

@@ -1,6 +1,9 @@
 //! `goniospec bench …`: benchmarks that print `name: value unit` lines.
 
-use super::*;
+use super::{
+    Args, Backend, Buckets, Context, ExitCode, MeshOptions, PathBuf, Result, SimConfig, Subcommand,
+    Wavelengths, accel, bail, emit, finite, parse_backend, sample, thread_pool,
+};
 
 #[derive(Subcommand)]
 pub(super) enum BenchCommand {

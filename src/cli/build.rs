@@ -1,6 +1,8 @@
 //! `goniospec build`: turn an accumulator into a BRDF representation.
 
-use super::*;
+use super::{
+    Accumulator, Args, Context, ExitCode, OutputKind, PathBuf, Result, guard_output, positive,
+};
 
 pub(super) fn parse_repr(s: &str) -> Result<goniospec::brdf::Kind, String> {
     goniospec::brdf::Kind::parse(s)

@@ -1,6 +1,9 @@
 //! `goniospec check`: load a sample and look for defects.
 
-use super::*;
+use super::{
+    Args, Backend, ExitCode, MeshOptions, PathBuf, Result, bail, finite, parse_backend,
+    parse_radius, positive, resolve_backend, sample,
+};
 
 #[derive(Args)]
 pub(super) struct CheckArgs {

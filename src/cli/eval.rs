@@ -1,6 +1,6 @@
 //! `goniospec eval`: evaluate a BRDF at direction pairs.
 
-use super::*;
+use super::{Args, Context, ExitCode, PathBuf, Result, bail, finite};
 
 #[derive(Args)]
 pub(super) struct EvalArgs {

@@ -2,7 +2,10 @@
 
 use std::io::Write;
 
-use super::*;
+use super::{
+    Args, Context, ExitCode, MeshOptions, OutputKind, PathBuf, Result, bail, finite, guard_output,
+    sample, thread_pool,
+};
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub(super) enum ExportFormat {

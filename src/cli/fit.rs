@@ -1,6 +1,8 @@
 //! `goniospec fit`: fit a real-time material and write glTF / OpenPBR / Standard Surface.
 
-use super::*;
+use super::{
+    Accumulator, Args, Context, ExitCode, OutputKind, PathBuf, Result, bail, guard_output,
+};
 
 #[derive(Args)]
 pub(super) struct FitArgs {

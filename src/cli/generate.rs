@@ -1,6 +1,8 @@
 //! `goniospec generate`: write a generated microgeometry as OBJ.
 
-use super::*;
+use super::{
+    Args, Context, ExitCode, OutputKind, PathBuf, Result, bail, finite, guard_output, sample,
+};
 
 #[derive(Args)]
 pub(super) struct GenerateArgs {

@@ -1,6 +1,6 @@
 //! `goniospec info` and `goniospec backends`: describe files and accelerators.
 
-use super::*;
+use super::{Accumulator, Args, Backend, Context, ExitCode, PathBuf, Result, accel, bail};
 
 #[derive(Args)]
 pub(super) struct InfoArgs {

@@ -1,6 +1,6 @@
 //! `goniospec merge`: add runs of different seeds.
 
-use super::*;
+use super::{Accumulator, Args, Context, ExitCode, OutputKind, PathBuf, Result, guard_output};
 
 #[derive(Args)]
 pub(super) struct MergeArgs {

@@ -1,7 +1,7 @@
 //! `goniospec mie`: the Mie scattering of one sphere (efficiencies, asymmetry, amplitude
 //! functions), as the particle media use it.
 
-use super::*;
+use super::{Args, ExitCode, Result, bail, finite};
 
 #[derive(Args)]
 pub(super) struct MieArgs {

@@ -185,7 +185,7 @@ fn positive(s: &str) -> Result<f64, String> {
 macro_rules! outln {
     ($($t:tt)*) => {{
         use std::io::Write as _;
-        writeln!(std::io::stdout().lock(), $($t)*).context("writing to standard output")?
+        anyhow::Context::context(writeln!(std::io::stdout().lock(), $($t)*), "writing to standard output")?
     }};
 }
 
@@ -207,23 +207,23 @@ mod render;
 mod simulate;
 mod study;
 
-use analytic::*;
-use batch::*;
-use bench::*;
-use build::*;
-use check::*;
-use eval::*;
-use export::*;
-use fit::*;
-use generate::*;
-use info::*;
-use merge::*;
-use mie::*;
-use plot::*;
-use reflectance::*;
-use render::*;
-use simulate::*;
-use study::*;
+use analytic::{AnalyticArgs, analytic};
+use batch::{BatchCommand, batch};
+use bench::{BenchCommand, bench_eval, bench_large, bench_paints, bench_simulate, bench_trace};
+use build::{BuildArgs, build};
+use check::{CheckArgs, check};
+use eval::{EvalArgs, eval};
+use export::{ExportArgs, export};
+use fit::{FitArgs, fit};
+use generate::{GenerateArgs, generate};
+use info::{InfoArgs, backends, info};
+use merge::{MergeArgs, merge};
+use mie::{MieArgs, mie};
+use plot::{PlotArgs, plot};
+use reflectance::{ReflectanceArgs, reflectance};
+use render::{RenderArgs, render};
+use simulate::{SimulateArgs, simulate};
+use study::{StudyArgs, study};
 
 /// Prints one line of a long-running command's report from a callback (benchmarks): a
 /// closed pipe ends the process quietly, any other failure with a message and status 1.

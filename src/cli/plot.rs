@@ -1,6 +1,6 @@
 //! `goniospec plot`: pictures of a built BRDF.
 
-use super::*;
+use super::{Args, ExitCode, OutputKind, PathBuf, Result, bail, finite, guard_output, thread_pool};
 
 #[derive(Args)]
 pub(super) struct PlotArgs {

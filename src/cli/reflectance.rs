@@ -1,6 +1,6 @@
 //! `goniospec reflectance`: the directional reflectance of an accumulator as CSV.
 
-use super::*;
+use super::{Accumulator, Args, Coherence, ExitCode, PathBuf, Result, finite};
 
 #[derive(Args)]
 pub(super) struct ReflectanceArgs {

@@ -1,6 +1,9 @@
 //! `goniospec render`: render a shape made of a BRDF (or simulate what the image needs first).
 
-use super::*;
+use super::{
+    Args, Backend, Context, ExitCode, MeshOptions, OutputKind, PathBuf, Result, WavelengthArgs,
+    bail, finite, guard_output, progress_bar, sample, thread_pool,
+};
 
 #[derive(Args)]
 pub(super) struct RenderArgs {

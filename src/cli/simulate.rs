@@ -1,6 +1,9 @@
 //! `goniospec simulate`: trace a sample and write its accumulator.
 
-use super::*;
+use super::{
+    Args, Coherence, Context, ExitCode, MeshOptions, OutputKind, PathBuf, Result, bail, flag_error,
+    guard_output, progress_bar, sample, thread_pool,
+};
 use goniospec::simulate::SimSettings;
 
 #[derive(Args)]

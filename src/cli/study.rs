@@ -1,6 +1,6 @@
 //! `goniospec study`: run a sweep and write its report and charts.
 
-use super::*;
+use super::{Args, Context, ExitCode, PathBuf, Result};
 
 #[derive(Args)]
 pub(super) struct StudyArgs {
