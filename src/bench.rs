@@ -397,10 +397,10 @@ pub fn analytic_buckets(ni: usize, tb: u32, pb: u32, lambdas: &[f64]) -> crate::
                         .map(|&l| analytic_brdf(from_spherical(ti, 0.0), from_spherical(t, p), l))
                         .collect();
                     BucketSample {
-                        theta_i: ti,
-                        phi_i: 0.0,
-                        theta_o: t,
-                        phi_o: p,
+                        theta_i_rad: ti,
+                        phi_i_rad: 0.0,
+                        theta_o_rad: t,
+                        phi_o_rad: p,
                         flux: f.iter().map(|x| x * omega).collect(),
                         f,
                         omega,
@@ -411,8 +411,8 @@ pub fn analytic_buckets(ni: usize, tb: u32, pb: u32, lambdas: &[f64]) -> crate::
         })
         .collect();
     BucketData {
-        theta_i,
-        phi_i: 0.0,
+        theta_i_rad: theta_i,
+        phi_i_rad: 0.0,
         buckets: b,
         wavelengths_nm: lambdas.to_vec(),
         samples,
@@ -569,7 +569,7 @@ pub fn eval_bench(
         let (mut a, mut r) = (vec![0.0; nb], vec![0.0; nb]);
         for (name, b) in &reps {
             let (mut num, mut den) = (0.0, 0.0);
-            for &ti in &low.theta_i {
+            for &ti in &low.theta_i_rad {
                 for t in 0..30 {
                     for p in 0..24 {
                         let wi = from_spherical(ti, 0.0);

@@ -164,7 +164,7 @@ fn subdivided_hemisphere_conserves_flux() {
     });
     let sub = SubdividedBrdf::build(&data, 0.05);
     let nl = data.wavelengths_nm.len();
-    for i in 0..data.theta_i.len() {
+    for i in 0..data.theta_i_rad.len() {
         let leaves: Vec<usize> = sub.leaves(i).collect();
         assert!(
             leaves.len() > 4 && leaves.len() < 30 * 24,
@@ -386,13 +386,13 @@ fn gsb_files_with_a_valid_checksum_but_senseless_content_are_refused() {
         (
             "incident angles",
             Representation::Table(table.clone()),
-            table_case(|t| t.theta_i[0] = f64::NAN),
+            table_case(|t| t.theta_i_rad[0] = f64::NAN),
         ),
         (
             "table size",
             Representation::Table(table.clone()),
             table_case(|t| {
-                t.theta_i.clear();
+                t.theta_i_rad.clear();
                 t.values.clear();
             }),
         ),

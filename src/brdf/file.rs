@@ -69,20 +69,20 @@ pub fn to_bytes(r: &Representation) -> Vec<u8> {
             )
         }
         Representation::Table(t) => {
-            arrays.push(t.theta_i.clone());
+            arrays.push(t.theta_i_rad.clone());
             arrays.push(t.values.clone());
             (
                 &t.meta,
                 Params {
                     theta_bins: Some(t.theta_bins as u32),
                     phi_bins: Some(t.phi_bins as u32),
-                    phi_i: Some(t.phi_i),
+                    phi_i: Some(t.phi_i_rad),
                     ..Default::default()
                 },
             )
         }
         Representation::Subdivided(s) => {
-            arrays.push(s.theta_i.clone());
+            arrays.push(s.theta_i_rad.clone());
             for (cells, flux) in s.cells.iter().zip(&s.flux) {
                 arrays.push(
                     cells
@@ -107,8 +107,8 @@ pub fn to_bytes(r: &Representation) -> Vec<u8> {
                     tolerance: Some(s.tolerance),
                     theta_bins: Some(s.buckets.theta_bins),
                     phi_bins: Some(s.buckets.phi_bins),
-                    phi_i: Some(s.phi_i),
-                    incident_angles: Some(s.theta_i.len() as u64),
+                    phi_i: Some(s.phi_i_rad),
+                    incident_angles: Some(s.theta_i_rad.len() as u64),
                     ..Default::default()
                 },
             )
@@ -231,10 +231,10 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
                 return Err("table size does not match its axes".into());
             }
             Ok(Representation::Table(TableBrdf {
-                theta_i,
+                theta_i_rad: theta_i,
                 theta_bins: tb,
                 phi_bins: pb,
-                phi_i: pr.phi_i.unwrap_or(0.0),
+                phi_i_rad: pr.phi_i.unwrap_or(0.0),
                 values: arrays.swap_remove(1),
                 meta: header.meta,
             }))
@@ -283,8 +283,8 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
                 flux.push(arrays[2 + 2 * i].clone());
             }
             Ok(Representation::Subdivided(SubdividedBrdf {
-                theta_i: arrays[0].clone(),
-                phi_i: pr.phi_i.unwrap_or(0.0),
+                theta_i_rad: arrays[0].clone(),
+                phi_i_rad: pr.phi_i.unwrap_or(0.0),
                 buckets: Buckets {
                     theta_bins: pr.theta_bins.ok_or("missing theta_bins")?,
                     phi_bins: pr.phi_bins.ok_or("missing phi_bins")?,
@@ -344,18 +344,18 @@ fn validate(r: &Representation) -> Result<(), String> {
     match r {
         Representation::KdTree(k) => finite("kd-tree", &k.values),
         Representation::Table(t) => {
-            check_theta_i(&t.theta_i)?;
+            check_theta_i(&t.theta_i_rad)?;
             grid(t.theta_bins as u64, t.phi_bins as u64)?;
-            if !t.phi_i.is_finite() {
-                return Err(format!("phi_i = {} is not finite", t.phi_i));
+            if !t.phi_i_rad.is_finite() {
+                return Err(format!("phi_i = {} is not finite", t.phi_i_rad));
             }
             finite("table", &t.values)
         }
         Representation::Subdivided(s) => {
-            check_theta_i(&s.theta_i)?;
+            check_theta_i(&s.theta_i_rad)?;
             let (tb, pb) = (s.buckets.theta_bins, s.buckets.phi_bins);
             grid(u64::from(tb), u64::from(pb))?;
-            if !s.phi_i.is_finite() || s.cells.len() != s.theta_i.len() {
+            if !s.phi_i_rad.is_finite() || s.cells.len() != s.theta_i_rad.len() {
                 return Err("phi_i is not finite, or the cells do not match the angles".into());
             }
             for (cells, flux) in s.cells.iter().zip(&s.flux) {

@@ -524,11 +524,11 @@ impl KdTreeBrdf {
         for per in &data.samples {
             for s in per {
                 let (pi, po) = if isotropic {
-                    (0.0, (s.phi_o - s.phi_i).rem_euclid(TAU))
+                    (0.0, (s.phi_o_rad - s.phi_i_rad).rem_euclid(TAU))
                 } else {
-                    (s.phi_i, s.phi_o)
+                    (s.phi_i_rad, s.phi_o_rad)
                 };
-                pts.push([s.theta_i, pi, s.theta_o, po]);
+                pts.push([s.theta_i_rad, pi, s.theta_o_rad, po]);
                 values.extend_from_slice(&s.f);
                 if reciprocal {
                     // (wo, wi): with phi_i moved to 0 when isotropic.
@@ -537,7 +537,7 @@ impl KdTreeBrdf {
                     } else {
                         (po, pi)
                     };
-                    pts.push([s.theta_o, pi2, s.theta_i, po2]);
+                    pts.push([s.theta_o_rad, pi2, s.theta_i_rad, po2]);
                     values.extend_from_slice(&s.f);
                 }
             }

@@ -123,10 +123,14 @@ pub trait Brdf {
 /// One accumulated bucket: incident direction, outgoing bucket centre, its BRDF spectrum.
 #[derive(Clone, Debug)]
 pub struct BucketSample {
-    pub theta_i: f64,
-    pub phi_i: f64,
-    pub theta_o: f64,
-    pub phi_o: f64,
+    /// Radians.
+    pub theta_i_rad: f64,
+    /// Radians.
+    pub phi_i_rad: f64,
+    /// Radians.
+    pub theta_o_rad: f64,
+    /// Radians.
+    pub phi_o_rad: f64,
     /// BRDF per wavelength bin, 1/sr.
     pub f: Vec<f64>,
     /// Fraction of launched power per bin (for flux bookkeeping).
@@ -140,8 +144,10 @@ pub struct BucketSample {
 /// The reflection buckets of a `.gsa`, grouped by incident direction.
 #[derive(Clone, Debug)]
 pub struct BucketData {
-    pub theta_i: Vec<f64>,
-    pub phi_i: f64,
+    /// Simulated incident angles, radians.
+    pub theta_i_rad: Vec<f64>,
+    /// Incident azimuth, radians.
+    pub phi_i_rad: f64,
     pub buckets: Buckets,
     pub wavelengths_nm: Vec<f64>,
     /// `samples[i]` holds every reflection bucket of incident direction `i`, bucket order.
@@ -182,10 +188,10 @@ impl BucketData {
                     rel.push(r);
                 }
                 v.push(BucketSample {
-                    theta_i: s.theta_i_deg[i].to_radians(),
-                    phi_i: s.phi_i_deg.to_radians(),
-                    theta_o: t,
-                    phi_o: p,
+                    theta_i_rad: s.theta_i_deg[i].to_radians(),
+                    phi_i_rad: s.phi_i_deg.to_radians(),
+                    theta_o_rad: t,
+                    phi_o_rad: p,
                     f: flux.iter().map(|x| x / omega).collect(),
                     flux,
                     omega,
@@ -196,8 +202,8 @@ impl BucketData {
         }
         rel.sort_by(f64::total_cmp);
         BucketData {
-            theta_i: s.theta_i_deg.iter().map(|t| t.to_radians()).collect(),
-            phi_i: s.phi_i_deg.to_radians(),
+            theta_i_rad: s.theta_i_deg.iter().map(|t| t.to_radians()).collect(),
+            phi_i_rad: s.phi_i_deg.to_radians(),
             buckets: b,
             wavelengths_nm: (0..nl).map(|j| s.wavelength(j)).collect(),
             samples,
@@ -331,14 +337,14 @@ impl Representation {
             }
             Representation::Table(t) => format!(
                 "table: {} incident angles x {} x {}\n",
-                t.theta_i.len(),
+                t.theta_i_rad.len(),
                 t.theta_bins,
                 t.phi_bins
             ),
             Representation::Subdivided(d) => format!(
                 "subdivided: {} incident angles, {} leaves, tolerance {}\n",
-                d.theta_i.len(),
-                (0..d.theta_i.len())
+                d.theta_i_rad.len(),
+                (0..d.theta_i_rad.len())
                     .map(|i| d.leaves(i).count())
                     .sum::<usize>(),
                 d.tolerance

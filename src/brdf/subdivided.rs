@@ -31,8 +31,9 @@ pub struct Cell {
 #[derive(Clone, Debug)]
 pub struct SubdividedBrdf {
     /// Simulated incident angles, ascending (radians).
-    pub theta_i: Vec<f64>,
-    pub phi_i: f64,
+    pub theta_i_rad: Vec<f64>,
+    /// Incident azimuth, radians.
+    pub phi_i_rad: f64,
     pub buckets: Buckets,
     /// Per incident angle: the cells (root first) and their spectral flux
     /// (`flux[c * bins + j]`, fraction of launched power).
@@ -48,8 +49,8 @@ impl SubdividedBrdf {
         let nl = data.wavelengths_nm.len();
         let b = data.buckets;
         let (tb, pb) = (b.theta_bins, b.phi_bins);
-        let mut order: Vec<usize> = (0..data.theta_i.len()).collect();
-        order.sort_by(|&a, &c| data.theta_i[a].total_cmp(&data.theta_i[c]));
+        let mut order: Vec<usize> = (0..data.theta_i_rad.len()).collect();
+        order.sort_by(|&a, &c| data.theta_i_rad[a].total_cmp(&data.theta_i_rad[c]));
         let mut all_cells = Vec::new();
         let mut all_flux = Vec::new();
         for &i in &order {
@@ -163,8 +164,8 @@ impl SubdividedBrdf {
         meta.repr = super::Kind::Subdivided;
         meta.isotropic = true;
         SubdividedBrdf {
-            theta_i: order.iter().map(|&i| data.theta_i[i]).collect(),
-            phi_i: data.phi_i,
+            theta_i_rad: order.iter().map(|&i| data.theta_i_rad[i]).collect(),
+            phi_i_rad: data.phi_i_rad,
             buckets: b,
             cells: all_cells,
             flux: all_flux,
@@ -219,13 +220,13 @@ impl super::Brdf for SubdividedBrdf {
         }
         let (ti, pi) = angles(wi);
         let (to, po) = angles(wo);
-        let phi = (po - pi + self.phi_i).rem_euclid(TAU);
+        let phi = (po - pi + self.phi_i_rad).rem_euclid(TAU);
         let k = self.buckets.index(crate::geom::from_spherical(to, phi));
         let (t, p) = (
             k as u32 / self.buckets.phi_bins,
             k as u32 % self.buckets.phi_bins,
         );
-        let xs = &self.theta_i;
+        let xs = &self.theta_i_rad;
         if xs.len() == 1 || ti <= xs[0] {
             self.eval_at(0, t, p, 1.0, out);
         } else if ti >= xs[xs.len() - 1] {

@@ -11,11 +11,11 @@ use glam::DVec3;
 #[derive(Clone, Debug)]
 pub struct TableBrdf {
     /// Simulated incident angles, ascending (radians).
-    pub theta_i: Vec<f64>,
+    pub theta_i_rad: Vec<f64>,
     pub theta_bins: usize,
     pub phi_bins: usize,
     /// Azimuth of the simulation's incidence, radians (the table stores phi_o - phi_i).
-    pub phi_i: f64,
+    pub phi_i_rad: f64,
     /// `values[((i * theta_bins + t) * phi_bins + p) * bins + j]`.
     pub values: Vec<f64>,
     pub meta: Meta,
@@ -42,8 +42,8 @@ impl TableBrdf {
             data.buckets.theta_bins as usize,
             data.buckets.phi_bins as usize,
         );
-        let mut order: Vec<usize> = (0..data.theta_i.len()).collect();
-        order.sort_by(|&a, &b| data.theta_i[a].total_cmp(&data.theta_i[b]));
+        let mut order: Vec<usize> = (0..data.theta_i_rad.len()).collect();
+        order.sort_by(|&a, &b| data.theta_i_rad[a].total_cmp(&data.theta_i_rad[b]));
         let mut values = Vec::with_capacity(order.len() * tb * pb * nl);
         for &i in &order {
             // Buckets are stored theta-major, phi-minor, as the table wants.
@@ -55,10 +55,10 @@ impl TableBrdf {
         meta.repr = super::Kind::Table;
         meta.isotropic = true;
         TableBrdf {
-            theta_i: order.iter().map(|&i| data.theta_i[i]).collect(),
+            theta_i_rad: order.iter().map(|&i| data.theta_i_rad[i]).collect(),
             theta_bins: tb,
             phi_bins: pb,
-            phi_i: data.phi_i,
+            phi_i_rad: data.phi_i_rad,
             values,
             meta,
         }
@@ -74,7 +74,7 @@ impl super::Brdf for TableBrdf {
         }
         let (ti, pi) = angles(wi);
         let (to, po) = angles(wo);
-        let (i0, i1, wi_t) = bracket(&self.theta_i, ti);
+        let (i0, i1, wi_t) = bracket(&self.theta_i_rad, ti);
         // theta_o between bucket centres.
         let dt = std::f64::consts::FRAC_PI_2 / self.theta_bins as f64;
         let xt = (to / dt - 0.5).clamp(0.0, (self.theta_bins - 1) as f64);
@@ -82,7 +82,7 @@ impl super::Brdf for TableBrdf {
         let t1 = (t0 + 1).min(self.theta_bins - 1);
         let wt = xt - t0 as f64;
         // Relative azimuth in the simulation's frame, between bucket centres (periodic).
-        let phi = (po - pi + self.phi_i).rem_euclid(TAU);
+        let phi = (po - pi + self.phi_i_rad).rem_euclid(TAU);
         let dp = TAU / self.phi_bins as f64;
         let xp = (phi / dp - 0.5).rem_euclid(self.phi_bins as f64);
         let p0 = xp.floor() as usize % self.phi_bins;

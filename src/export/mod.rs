@@ -13,8 +13,8 @@ use crate::brdf::{Brdf, Representation};
 /// table's and the subdivided hemisphere's own, or the simulation settings' for a kd-tree.
 pub fn simulated_incidence(r: &Representation) -> Result<Vec<f64>, String> {
     match r {
-        Representation::Table(t) => Ok(t.theta_i.clone()),
-        Representation::Subdivided(s) => Ok(s.theta_i.clone()),
+        Representation::Table(t) => Ok(t.theta_i_rad.clone()),
+        Representation::Subdivided(s) => Ok(s.theta_i_rad.clone()),
         Representation::KdTree(_) => {
             let settings: toml::Table = toml::from_str(&r.meta().simulation)
                 .map_err(|e| format!("the BRDF's simulation settings do not parse: {e}"))?;
