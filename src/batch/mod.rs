@@ -28,6 +28,68 @@ use crate::accumulate::file::Accumulator;
 use crate::sample::{self, MeshOptions};
 use crate::simulate::{SimConfig, SimSettings, sample_hash};
 
+/// What stops a batch: a plan that cannot run, a manifest edited after `batch plan`, a
+/// unit that is not done or failed, files that cannot be read or written. Front ends turn
+/// it into a message and exit status 1.
+#[derive(Debug, thiserror::Error)]
+pub enum BatchError {
+    /// The plan (or a launcher's settings) cannot run: the message names the file and the
+    /// material at fault.
+    #[error("{0}")]
+    Plan(String),
+    /// The manifest is not as `goniospec batch plan` wrote it.
+    #[error(
+        "{path}: {why}; the manifest was edited after `goniospec batch plan` wrote it: plan again"
+    )]
+    Edited { path: PathBuf, why: String },
+    /// A shard outside `1 <= I <= N`.
+    #[error("shard {i}/{n}: need 1 <= I <= N")]
+    Shard { i: usize, n: usize },
+    /// A unit's output is not a finished unit of this plan.
+    #[error(transparent)]
+    Unit(#[from] UnitProblem),
+    /// A unit's simulation failed.
+    #[error("unit {id} ({material} at {theta_i_deg} deg): {source}")]
+    Simulation {
+        id: usize,
+        material: String,
+        theta_i_deg: f64,
+        #[source]
+        source: crate::simulate::SimError,
+    },
+    /// Units of a material are not done, each named with why.
+    #[error("material '{material}': {} of {total} units are not done:\n  {}", problems.len(), problems.join("\n  "))]
+    NotDone {
+        material: String,
+        total: usize,
+        problems: Vec<String>,
+    },
+    /// A batch file or folder could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+impl From<String> for BatchError {
+    fn from(message: String) -> Self {
+        BatchError::Plan(message)
+    }
+}
+
+/// Why a unit's output is not a finished unit of its plan (`batch status` lists these).
+#[derive(Debug, thiserror::Error)]
+pub enum UnitProblem {
+    #[error("missing")]
+    Missing,
+    #[error("unreadable: {0}")]
+    Unreadable(crate::container::FileError),
+    #[error("from another plan or sample (its header does not match the unit)")]
+    Foreign,
+}
+
 /// A plan as written: `[defaults]` and a list of `[[material]]` tables. Each material's
 /// keys override the defaults'; besides `sample`, `name` and `representations` they are
 /// the settings of `goniospec simulate` ([`SimSettings`], keys of the flags' names), with
@@ -87,33 +149,36 @@ pub const MAX_UNITS: usize = 1_000_000;
 
 /// A material's name names files and folders: letters, digits, '-', '_' or '.', not
 /// starting with '.'.
-fn check_name(name: &str) -> Result<(), String> {
+fn check_name(name: &str) -> Result<(), BatchError> {
     if name.is_empty()
         || !name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
         || name.starts_with('.')
     {
-        return Err(format!(
+        return Err(BatchError::from(format!(
             "name '{name}' must be letters, digits, '-', '_' or '.' (it names files)"
-        ));
+        )));
     }
     Ok(())
 }
 
 /// FNV-1a of the resolved materials, as the manifest records it.
-fn plan_hash(materials: &[Material]) -> Result<String, String> {
+fn plan_hash(materials: &[Material]) -> Result<String, BatchError> {
     let canonical = serde_json::to_string(materials).map_err(|e| e.to_string())?;
     Ok(format!("{:016x}", crate::io::fnv1a(canonical.as_bytes())))
 }
 
 /// The units the materials expand to: each material at each of its directions, in order,
 /// each writing `units/MATERIAL/NNNN.gsa` inside the batch folder.
-fn units_of(materials: &[Material]) -> Result<Vec<Unit>, String> {
+fn units_of(materials: &[Material]) -> Result<Vec<Unit>, BatchError> {
     let mut units = Vec::new();
     for m in materials {
         if m.settings.theta_i_deg.is_empty() {
-            return Err(format!("material '{}' has no incident angle", m.name));
+            return Err(BatchError::from(format!(
+                "material '{}' has no incident angle",
+                m.name
+            )));
         }
         for (k, &t) in m.settings.theta_i_deg.iter().enumerate() {
             units.push(Unit {
@@ -126,7 +191,9 @@ fn units_of(materials: &[Material]) -> Result<Vec<Unit>, String> {
                     .join(format!("{k:04}.gsa")),
             });
             if units.len() > MAX_UNITS {
-                return Err(format!("the plan expands to more than {MAX_UNITS} units"));
+                return Err(BatchError::from(format!(
+                    "the plan expands to more than {MAX_UNITS} units"
+                )));
             }
         }
     }
@@ -136,7 +203,7 @@ fn units_of(materials: &[Material]) -> Result<Vec<Unit>, String> {
 impl Manifest {
     /// Reads and resolves a plan: every sample is loaded now (a bad sample fails here, not
     /// hours later on a node), every setting checked as `simulate` checks it.
-    pub fn plan(plan_path: &Path) -> Result<Manifest, String> {
+    pub fn plan(plan_path: &Path) -> Result<Manifest, BatchError> {
         let text =
             crate::io::read_text(plan_path).map_err(|e| format!("{}: {e}", plan_path.display()))?;
         Self::plan_text(plan_path, &text)
@@ -144,14 +211,14 @@ impl Manifest {
 
     /// [`Manifest::plan`] of a plan's text (`plan_path` resolves its samples and names it
     /// in errors).
-    pub fn plan_text(plan_path: &Path, text: &str) -> Result<Manifest, String> {
+    pub fn plan_text(plan_path: &Path, text: &str) -> Result<Manifest, BatchError> {
         let raw: RawPlan = toml::from_str(text)
             .map_err(|e| format!("{}: {}", plan_path.display(), e.message().trim()))?;
         if raw.materials.is_empty() {
-            return Err(format!(
+            return Err(BatchError::from(format!(
                 "{}: the plan lists no [[material]]",
                 plan_path.display()
-            ));
+            )));
         }
         let base = plan_path.parent().unwrap_or(Path::new("."));
         let mut materials = Vec::new();
@@ -178,9 +245,9 @@ impl Manifest {
                 }
             };
             if raw.defaults.contains_key("sample") || raw.defaults.contains_key("name") {
-                return Err(at(
+                return Err(BatchError::from(at(
                     "sample and name belong to a [[material]], not to [defaults]".into(),
-                ));
+                )));
             }
             let sample_key = take_str(&mut merged, "sample")?
                 .ok_or_else(|| at("no sample (give its TOML path)".into()))?;
@@ -204,10 +271,10 @@ impl Manifest {
             let path = base.join(&sample_key);
             let path = std::fs::canonicalize(&path).map_err(|e| at(format!("{e}")))?;
             if path.to_str().is_none() {
-                return Err(at(format!(
+                return Err(BatchError::from(at(format!(
                     "{}: the sample's path is not valid UTF-8, which the manifest (TOML) cannot hold; rename its folder",
                     path.to_string_lossy()
-                )));
+                ))));
             }
             let sample =
                 sample::load(&path, MeshOptions::default()).map_err(|e| at(e.to_string()))?;
@@ -219,11 +286,11 @@ impl Manifest {
                     .to_string_lossy()
                     .into_owned(),
             };
-            check_name(&name).map_err(at)?;
+            check_name(&name).map_err(|e| at(e.to_string()))?;
             if materials.iter().any(|x: &Material| x.name == name) {
-                return Err(at(format!(
+                return Err(BatchError::from(at(format!(
                     "two materials are named '{name}'; give them distinct names"
-                )));
+                ))));
             }
             materials.push(Material {
                 name,
@@ -247,7 +314,7 @@ impl Manifest {
     /// angle of its direction, with its output inside the batch folder). An edited manifest
     /// would otherwise file a unit's data under another angle, write an empty accumulator,
     /// or send a unit's output over the manifest itself.
-    pub fn read(dir: &Path) -> Result<Manifest, String> {
+    pub fn read(dir: &Path) -> Result<Manifest, BatchError> {
         let p = dir.join("manifest.toml");
         let text = crate::io::read_text(&p)
             .map_err(|e| format!("{}: {e} (run `goniospec batch plan` first)", p.display()))?;
@@ -255,17 +322,15 @@ impl Manifest {
     }
 
     /// [`Manifest::read`] of a manifest's text (`p` names it in errors).
-    pub fn from_text(p: &Path, text: &str) -> Result<Manifest, String> {
+    pub fn from_text(p: &Path, text: &str) -> Result<Manifest, BatchError> {
         let m: Manifest =
             toml::from_str(text).map_err(|e| format!("{}: {}", p.display(), e.message().trim()))?;
-        let edited = |why: String| {
-            format!(
-                "{}: {why}; the manifest was edited after `goniospec batch plan` wrote it: plan again",
-                p.display()
-            )
+        let edited = |why: String| BatchError::Edited {
+            path: p.to_path_buf(),
+            why,
         };
         for mat in &m.materials {
-            check_name(&mat.name).map_err(edited)?;
+            check_name(&mat.name).map_err(|e| edited(e.to_string()))?;
         }
         if plan_hash(&m.materials)? != m.plan_hash {
             return Err(edited(
@@ -281,11 +346,15 @@ impl Manifest {
     }
 
     /// Writes `DIR/manifest.toml` atomically (making DIR).
-    pub fn write(&self, dir: &Path) -> Result<(), String> {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        let text = toml::to_string(self).map_err(|e| e.to_string())?;
+    pub fn write(&self, dir: &Path) -> Result<(), BatchError> {
+        let io = |source| BatchError::Io {
+            path: dir.to_path_buf(),
+            source,
+        };
+        std::fs::create_dir_all(dir).map_err(io)?;
+        let text = toml::to_string(self).map_err(|e| BatchError::Plan(e.to_string()))?;
         crate::io::write_atomic(&dir.join("manifest.toml"), |w| w.write_all(text.as_bytes()))
-            .map_err(|e| format!("{}: {e}", dir.display()))
+            .map_err(io)
     }
 
     pub fn material(&self, name: &str) -> &Material {
@@ -296,15 +365,15 @@ impl Manifest {
     }
 
     /// The units of shard `i` of `n` (1-based): every `n`-th unit from the `i`-th.
-    pub fn shard(&self, i: usize, n: usize) -> Result<Vec<&Unit>, String> {
+    pub fn shard(&self, i: usize, n: usize) -> Result<Vec<&Unit>, BatchError> {
         if n == 0 || i == 0 || i > n {
-            return Err(format!("shard {i}/{n}: need 1 <= I <= N"));
+            return Err(BatchError::Shard { i, n });
         }
         Ok(self.units.iter().filter(|u| u.id % n == i - 1).collect())
     }
 
     /// The simulation of a unit.
-    pub fn unit_config(&self, u: &Unit) -> Result<SimConfig, String> {
+    pub fn unit_config(&self, u: &Unit) -> Result<SimConfig, BatchError> {
         let m = self.material(&u.material);
         let whole = m.settings.resolve().map_err(|e| e.to_string())?;
         Ok(SimConfig {
@@ -315,18 +384,18 @@ impl Manifest {
     }
 
     /// Why a unit's output is not a finished unit of this plan, or `None` when it is.
-    pub fn verify(&self, dir: &Path, u: &Unit) -> Option<String> {
+    pub fn verify(&self, dir: &Path, u: &Unit) -> Option<UnitProblem> {
         self.read_unit(dir, u).err()
     }
 
     /// A unit's accumulator, read once and checked to be this unit's ("missing" when
     /// absent; otherwise why it is not).
-    pub fn read_unit(&self, dir: &Path, u: &Unit) -> Result<Accumulator, String> {
+    pub fn read_unit(&self, dir: &Path, u: &Unit) -> Result<Accumulator, UnitProblem> {
         let p = dir.join(&u.output);
         if !p.exists() {
-            return Err("missing".into());
+            return Err(UnitProblem::Missing);
         }
-        let acc = Accumulator::read(&p).map_err(|e| format!("unreadable: {e}"))?;
+        let acc = Accumulator::read(&p).map_err(UnitProblem::Unreadable)?;
         let m = self.material(&u.material);
         let s = &acc.header.settings;
         if s.sample_hash != m.sample_hash
@@ -335,7 +404,7 @@ impl Manifest {
             || acc.header.seeds != [m.settings.seed]
             || acc.header.rays_per_direction != [m.settings.rays]
         {
-            return Err("from another plan or sample (its header does not match the unit)".into());
+            return Err(UnitProblem::Foreign);
         }
         Ok(acc)
     }
@@ -346,24 +415,30 @@ impl Manifest {
         dir: &Path,
         u: &Unit,
         sample: &crate::sample::Sample,
-    ) -> Result<(), String> {
+    ) -> Result<(), BatchError> {
         let cfg = self.unit_config(u)?;
-        let (acc, _) = crate::simulate::simulate(sample, &cfg, &|_| {}).map_err(|e| {
-            format!(
-                "unit {} ({} at {} deg): {e}",
-                u.id, u.material, u.theta_i_deg
-            )
+        let (acc, _) = crate::simulate::simulate(sample, &cfg, &|_| {}).map_err(|source| {
+            BatchError::Simulation {
+                id: u.id,
+                material: u.material.clone(),
+                theta_i_deg: u.theta_i_deg,
+                source,
+            }
         })?;
         let p = dir.join(&u.output);
         if let Some(parent) = p.parent() {
-            std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
+            std::fs::create_dir_all(parent).map_err(|source| BatchError::Io {
+                path: parent.to_path_buf(),
+                source,
+            })?;
         }
-        acc.write(&p).map_err(|e| format!("{}: {e}", p.display()))
+        acc.write(&p)
+            .map_err(|e| BatchError::Plan(format!("{}: {e}", p.display())))
     }
 
     /// Assembles one material's units into its whole-run accumulator; refuses, naming
     /// them, units that are missing, corrupt or from another plan.
-    pub fn merge_material(&self, dir: &Path, name: &str) -> Result<Accumulator, String> {
+    pub fn merge_material(&self, dir: &Path, name: &str) -> Result<Accumulator, BatchError> {
         let units: Vec<&Unit> = self.units.iter().filter(|u| u.material == name).collect();
         // Each unit is read once: checked, then assembled.
         let mut parts = Vec::with_capacity(units.len());
@@ -375,19 +450,18 @@ impl Manifest {
             }
         }
         if !problems.is_empty() {
-            return Err(format!(
-                "material '{name}': {} of {} units are not done:\n  {}",
-                problems.len(),
-                units.len(),
-                problems.join("\n  ")
-            ));
+            return Err(BatchError::NotDone {
+                material: name.to_string(),
+                total: units.len(),
+                problems,
+            });
         }
         let m = self.material(name);
         let first = &parts[0].header;
         if parts.iter().any(|p| p.header.backend != first.backend) {
-            return Err(format!(
+            return Err(BatchError::from(format!(
                 "material '{name}': its units were traced with different backends"
-            ));
+            )));
         }
         let mut header = first.clone();
         header.settings.theta_i_deg = m.settings.theta_i_deg.clone();
@@ -408,8 +482,8 @@ impl Manifest {
         for u in &self.units {
             match self.verify(dir, u) {
                 None => done.push(u.id),
-                Some(why) if why == "missing" => missing.push(u.id),
-                Some(why) => failed.push((u.id, why)),
+                Some(UnitProblem::Missing) => missing.push(u.id),
+                Some(why) => failed.push((u.id, why.to_string())),
             }
         }
         (done, missing, failed)
@@ -420,7 +494,7 @@ use std::io::Write as _;
 
 /// The shard `(I, N)` from Slurm's array variables, when set (`SLURM_ARRAY_TASK_ID` of an
 /// array `1-N`, and `SLURM_ARRAY_TASK_COUNT`).
-pub fn shard_from_env() -> Option<Result<(usize, usize), String>> {
+pub fn shard_from_env() -> Option<Result<(usize, usize), BatchError>> {
     let id = std::env::var("SLURM_ARRAY_TASK_ID").ok()?;
     let count = std::env::var("SLURM_ARRAY_TASK_COUNT").ok();
     let parse = |v: &str, what: &str| {
@@ -428,16 +502,19 @@ pub fn shard_from_env() -> Option<Result<(usize, usize), String>> {
             .parse::<usize>()
             .map_err(|_| format!("{what} is not a number: '{v}'"))
     };
-    Some((|| {
-        let i = parse(&id, "SLURM_ARRAY_TASK_ID")?;
-        let n = parse(
-            count
-                .as_deref()
-                .ok_or("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not")?,
-            "SLURM_ARRAY_TASK_COUNT",
-        )?;
-        Ok((i, n))
-    })())
+    Some(
+        (|| {
+            let i = parse(&id, "SLURM_ARRAY_TASK_ID")?;
+            let n = parse(
+                count
+                    .as_deref()
+                    .ok_or("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not")?,
+                "SLURM_ARRAY_TASK_COUNT",
+            )?;
+            Ok((i, n))
+        })()
+        .map_err(BatchError::Plan),
+    )
 }
 
 /// `s` as one POSIX shell word: single-quoted, each `'` written as `'\''`. Everything
@@ -448,12 +525,12 @@ pub fn shell_quote(s: &str) -> String {
 }
 
 /// A path as text for a script, or why it cannot be one.
-fn script_path(p: &Path) -> Result<&str, String> {
+fn script_path(p: &Path) -> Result<&str, BatchError> {
     p.to_str().ok_or_else(|| {
-        format!(
+        BatchError::Plan(format!(
             "{}: the path is not valid UTF-8, which the Slurm and GNU parallel scripts cannot carry; rename the folder",
             p.to_string_lossy()
-        )
+        ))
     })
 }
 
@@ -467,7 +544,7 @@ pub fn slurm_scripts(
     goniospec: &Path,
     shards: usize,
     limit: usize,
-) -> Result<Vec<(PathBuf, String)>, String> {
+) -> Result<Vec<(PathBuf, String)>, BatchError> {
     let d = shell_quote(script_path(dir)?);
     let g = shell_quote(script_path(goniospec)?);
     let array = format!(
@@ -495,7 +572,7 @@ pub fn parallel_command(
     goniospec: &Path,
     shards: usize,
     jobs: usize,
-) -> Result<String, String> {
+) -> Result<String, BatchError> {
     let log = shell_quote(script_path(&dir.join("parallel.log"))?);
     let (d, g) = (
         shell_quote(script_path(dir)?),

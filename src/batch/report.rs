@@ -145,9 +145,9 @@ pub fn write_report(
             opts.map_resolution, opts.colours
         )));
     }
-    let m = Manifest::read(dir).map_err(|message| ReportError::Read {
+    let m = Manifest::read(dir).map_err(|e| ReportError::Read {
         path: dir.join("manifest.toml").display().to_string(),
-        message,
+        message: e.to_string(),
     })?;
     let folder = match page.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),

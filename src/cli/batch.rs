@@ -147,8 +147,8 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
                     a.plan.display()
                 );
             }
-            let m = Manifest::plan(&a.plan).map_err(anyhow::Error::msg)?;
-            m.write(&a.output).map_err(anyhow::Error::msg)?;
+            let m = Manifest::plan(&a.plan)?;
+            m.write(&a.output)?;
             let trees: u64 = m.materials.iter().map(|x| x.settings.budget()).sum();
             outln!(
                 "planned {} units ({} materials, {trees} trees) in {}",
@@ -159,13 +159,13 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         BatchCommand::Run(a) => {
-            let m = Manifest::read(&a.dir).map_err(anyhow::Error::msg)?;
+            let m = Manifest::read(&a.dir)?;
             let (i, n) = match (a.shard, batch::shard_from_env()) {
                 (Some(s), _) => s,
                 (None, Some(env)) => env.map_err(anyhow::Error::msg)?,
                 (None, None) => (1, 1),
             };
-            let units = m.shard(i, n).map_err(anyhow::Error::msg)?;
+            let units = m.shard(i, n)?;
             let pool = thread_pool(a.threads)?;
             let bar = progress_bar(units.len() as u64, "units");
             let (mut ran, mut skipped) = (0usize, 0usize);
@@ -187,8 +187,7 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
                         loaded = Some((mat.name.clone(), s));
                     }
                     let s = &loaded.as_ref().expect("loaded").1;
-                    pool.install(|| m.run_unit(&a.dir, u, s))
-                        .map_err(anyhow::Error::msg)?;
+                    pool.install(|| m.run_unit(&a.dir, u, s))?;
                     ran += 1;
                 }
                 bar.inc(1);
@@ -201,7 +200,7 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         BatchCommand::Merge(a) => {
-            let m = Manifest::read(&a.dir).map_err(anyhow::Error::msg)?;
+            let m = Manifest::read(&a.dir)?;
             let out = a.dir.join("out");
             std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
             let t0 = std::time::Instant::now();
@@ -210,7 +209,7 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
             for mat in &m.materials {
                 match m.merge_material(&a.dir, &mat.name) {
                     Ok(acc) => merged.push((mat, acc)),
-                    Err(e) => problems.push(e),
+                    Err(e) => problems.push(e.to_string()),
                 }
             }
             if !problems.is_empty() {
@@ -240,7 +239,7 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         BatchCommand::Status(a) => {
-            let m = Manifest::read(&a.dir).map_err(anyhow::Error::msg)?;
+            let m = Manifest::read(&a.dir)?;
             let (done, missing, failed) = m.status(&a.dir);
             outln!(
                 "{} units: {} done, {} missing, {} failed",
@@ -270,12 +269,11 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
             })
         }
         BatchCommand::Slurm(a) => {
-            Manifest::read(&a.dir).map_err(anyhow::Error::msg)?;
+            Manifest::read(&a.dir)?;
             let exe = std::env::current_exe().context("locating the goniospec binary")?;
             let dir =
                 std::fs::canonicalize(&a.dir).with_context(|| format!("{}", a.dir.display()))?;
-            let scripts = batch::slurm_scripts(&dir, &exe, a.shards as usize, a.limit as usize)
-                .map_err(anyhow::Error::msg)?;
+            let scripts = batch::slurm_scripts(&dir, &exe, a.shards as usize, a.limit as usize)?;
             for (p, text) in scripts {
                 goniospec::io::write_atomic(&p, |w| w.write_all(text.as_bytes()))
                     .with_context(|| format!("writing {}", p.display()))?;
@@ -297,10 +295,7 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
                 fit: !a.no_fit,
                 ..ReportOptions::default()
             };
-            let count = Manifest::read(&a.dir)
-                .map_err(anyhow::Error::msg)?
-                .materials
-                .len();
+            let count = Manifest::read(&a.dir)?.materials.len();
             let pool = thread_pool(a.threads)?;
             let bar = progress_bar(count as u64, "materials");
             let t0 = std::time::Instant::now();
@@ -317,12 +312,11 @@ pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
             Ok(ExitCode::SUCCESS)
         }
         BatchCommand::Parallel(a) => {
-            Manifest::read(&a.dir).map_err(anyhow::Error::msg)?;
+            Manifest::read(&a.dir)?;
             let exe = std::env::current_exe().context("locating the goniospec binary")?;
             let dir =
                 std::fs::canonicalize(&a.dir).with_context(|| format!("{}", a.dir.display()))?;
-            let cmd = batch::parallel_command(&dir, &exe, a.shards as usize, a.jobs as usize)
-                .map_err(anyhow::Error::msg)?;
+            let cmd = batch::parallel_command(&dir, &exe, a.shards as usize, a.jobs as usize)?;
             outln!("{cmd}");
             Ok(ExitCode::SUCCESS)
         }
