@@ -691,8 +691,10 @@ pub fn large_sample(
             path.display(),
             params.join(" ")
         ));
-        let spec = GeneratorSpec::from_key_values(kind, params)?;
-        let out = spec.generate([tile_um * 1000.0; 2], 1000.0)?;
+        let spec = GeneratorSpec::from_key_values(kind, params).map_err(|e| e.to_string())?;
+        let out = spec
+            .generate([tile_um * 1000.0; 2], 1000.0)
+            .map_err(|e| e.to_string())?;
         let (mesh, _) = out.merged();
         mesh.write_obj(
             &path,

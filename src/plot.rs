@@ -21,13 +21,49 @@ use crate::brdf::Brdf;
 use crate::geom::from_spherical;
 use crate::render::colour;
 
-/// Draws a chart into `path` atomically (`draw` renders to the temporary path it is given).
-pub fn chart_file(
+/// What stops a picture: drawing it, or writing its file.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The file could not be written (the drawing's own error included).
+    #[error("{path}: {source}")]
+    Write {
+        path: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// Not a picture goniospec writes (the message says which are).
+    #[error("{0}")]
+    Format(String),
+    /// The picture cannot be drawn (the BRDF or the plotting library says why).
+    #[error("{0}")]
+    Draw(String),
+}
+
+impl From<String> for PlotError {
+    fn from(message: String) -> Self {
+        PlotError::Draw(message)
+    }
+}
+
+impl From<&str> for PlotError {
+    fn from(message: &str) -> Self {
+        PlotError::Draw(message.to_string())
+    }
+}
+
+/// Draws a chart into `path` atomically (`draw` renders to the temporary path it is given;
+/// its error, whatever its type, is reported with the path).
+pub fn chart_file<E: std::fmt::Display>(
     path: &Path,
-    draw: impl FnOnce(&Path) -> Result<(), String>,
-) -> Result<(), String> {
-    crate::io::write_atomic_path(path, |tmp| draw(tmp).map_err(std::io::Error::other))
-        .map_err(|e| format!("{}: {e}", path.display()))
+    draw: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<(), PlotError> {
+    crate::io::write_atomic_path(path, |tmp| {
+        draw(tmp).map_err(|e| std::io::Error::other(e.to_string()))
+    })
+    .map_err(|source| PlotError::Write {
+        path: path.display().to_string(),
+        source,
+    })
 }
 
 /// Registers the embedded DejaVu Sans (the `dejavu` crate) once: no system font library.
@@ -159,11 +195,11 @@ impl LobePlot {
         theta_i_deg: f64,
         phi_i_deg: f64,
         map_n: usize,
-    ) -> Result<LobePlot, String> {
+    ) -> Result<LobePlot, PlotError> {
         if !(theta_i_deg.is_finite() && (0.0..90.0).contains(&theta_i_deg)) {
-            return Err(format!(
+            return Err(PlotError::from(format!(
                 "--theta-i must lie in [0, 90) degrees, got {theta_i_deg}"
-            ));
+            )));
         }
         if !phi_i_deg.is_finite() {
             return Err("--phi-i must be finite".into());
@@ -187,7 +223,7 @@ impl LobePlot {
     }
 
     /// Writes the plot as PNG or SVG (by the extension), atomically.
-    pub fn write(&self, path: &Path) -> Result<(), String> {
+    pub fn write(&self, path: &Path) -> Result<(), PlotError> {
         use plotters::prelude::*;
         register_font();
         let size = (1200, 600);
@@ -198,17 +234,17 @@ impl LobePlot {
             Some("svg") => chart_file(path, |tmp| {
                 self.draw(SVGBackend::new(tmp, size).into_drawing_area())
             }),
-            _ => Err(format!(
+            _ => Err(PlotError::Format(format!(
                 "{}: the plot is written as .png or .svg",
                 path.display()
-            )),
+            ))),
         }
     }
 
     fn draw<DB: plotters::prelude::DrawingBackend>(
         &self,
         root: plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
-    ) -> Result<(), String> {
+    ) -> Result<(), PlotError> {
         use plotters::prelude::*;
         let err = |e: &dyn std::fmt::Display| e.to_string();
         root.fill(&WHITE).map_err(|e| err(&e))?;

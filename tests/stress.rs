@@ -208,7 +208,9 @@ fn bad_stress_sweeps_are_refused_with_clear_errors() {
         ),
     ] {
         std::fs::write(d.join("s.toml"), format!("{base}{body}")).unwrap();
-        let e = goniospec::study::load(&d.join("s.toml")).unwrap_err();
+        let e = goniospec::study::load(&d.join("s.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains(want), "{body}: {e}");
     }
     std::fs::write(
@@ -216,7 +218,9 @@ fn bad_stress_sweeps_are_refused_with_clear_errors() {
         format!("{}reference = \"oracle\"\n[sweep]\nrays = [10]\n", base),
     )
     .unwrap();
-    let e = goniospec::study::load(&d.join("s.toml")).unwrap_err();
+    let e = goniospec::study::load(&d.join("s.toml"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("reference 'oracle'"), "{e}");
     // A rectangular tiling is accepted.
     std::fs::write(

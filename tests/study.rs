@@ -140,7 +140,9 @@ fn bad_study_files_are_refused_with_clear_errors() {
     ];
     for (text, loc, msg) in cases {
         std::fs::write(d.join("s.toml"), &text).unwrap();
-        let e = goniospec::study::load(&d.join("s.toml")).unwrap_err();
+        let e = goniospec::study::load(&d.join("s.toml"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains(loc) && e.contains(msg), "{e}");
     }
 }

@@ -279,24 +279,27 @@ impl Brdf {
         }
         guard(&path, &inputs, kind, force)?;
         let bytes = py
-            .allow_threads(|| match format {
-                "npz" => {
-                    let s: goniospec::accumulate::file::Settings =
-                        toml::from_str(&self.inner.meta().simulation).map_err(|e| e.to_string())?;
-                    let grid = goniospec::export::npz::Grid::of(
-                        &self.inner,
-                        s.theta_o_bins as usize,
-                        s.phi_o_bins as usize,
-                    )?;
-                    goniospec::export::npz::npz_bytes(&self.inner, &grid)
+            .allow_threads(|| -> Result<Vec<u8>, goniospec::export::ExportError> {
+                match format {
+                    "npz" => {
+                        let s: goniospec::accumulate::file::Settings =
+                            toml::from_str(&self.inner.meta().simulation)
+                                .map_err(|e| e.to_string())?;
+                        let grid = goniospec::export::npz::Grid::of(
+                            &self.inner,
+                            s.theta_o_bins as usize,
+                            s.phi_o_bins as usize,
+                        )?;
+                        goniospec::export::npz::npz_bytes(&self.inner, &grid)
+                    }
+                    "merl" => goniospec::export::merl::merl_bytes(&self.inner),
+                    "rgl" => {
+                        let s = sample.ok_or("format 'rgl' needs sample=Sample.load(...)")?;
+                        goniospec::export::rgl_for(&self.inner, &s.inner, resolution, None)
+                            .map(|(fields, _)| goniospec::export::tensor::to_bytes(&fields))
+                    }
+                    other => Err(format!("unknown format '{other}' (npz, merl or rgl)").into()),
                 }
-                "merl" => goniospec::export::merl::merl_bytes(&self.inner),
-                "rgl" => {
-                    let s = sample.ok_or("format 'rgl' needs sample=Sample.load(...)")?;
-                    goniospec::export::rgl_for(&self.inner, &s.inner, resolution, None)
-                        .map(|(fields, _)| goniospec::export::tensor::to_bytes(&fields))
-                }
-                other => Err(format!("unknown format '{other}' (npz, merl or rgl)")),
             })
             .map_err(value_err)?;
         goniospec::io::write_atomic(&path, |w| std::io::Write::write_all(w, &bytes))

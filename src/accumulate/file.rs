@@ -123,6 +123,23 @@ pub struct Header {
     pub leaks: u64,
 }
 
+/// A `.gsa` header whose values no reader can rely on (the message names the field).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{0}")]
+pub struct InvalidHeader(pub String);
+
+impl From<String> for InvalidHeader {
+    fn from(message: String) -> Self {
+        InvalidHeader(message)
+    }
+}
+
+impl From<&str> for InvalidHeader {
+    fn from(message: &str) -> Self {
+        InvalidHeader(message.to_string())
+    }
+}
+
 impl Header {
     /// What `goniospec info` prints about a run, one fact per line.
     pub fn describe(&self) -> String {
@@ -168,20 +185,26 @@ impl Header {
 
     /// Checks every value a reader relies on (angles, wavelengths, modes, grid sizes, ray
     /// counts); the message names the field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), InvalidHeader> {
         let s = &self.settings;
         if s.theta_i_deg.is_empty() || s.theta_i_deg.iter().any(|t| !(0.0..90.0).contains(t)) {
-            return Err(format!(
+            return Err(InvalidHeader::from(format!(
                 "theta_i_deg must be angles in [0, 90), got {:?}",
                 s.theta_i_deg
-            ));
+            )));
         }
         if !s.phi_i_deg.is_finite() {
-            return Err(format!("phi_i_deg must be finite, got {}", s.phi_i_deg));
+            return Err(InvalidHeader::from(format!(
+                "phi_i_deg must be finite, got {}",
+                s.phi_i_deg
+            )));
         }
         let w = &s.wavelengths_nm;
         if s.wavelength_count() == 0 || w.len() > 100_001 {
-            return Err(format!("{} wavelengths: none, or absurdly many", w.len()));
+            return Err(InvalidHeader::from(format!(
+                "{} wavelengths: none, or absurdly many",
+                w.len()
+            )));
         }
         if w.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
             return Err("wavelengths_nm must be positive and finite".into());
@@ -190,20 +213,23 @@ impl Header {
             return Err("wavelength bin edges must increase".into());
         }
         if s.coherence_radius_nm.is_nan() || s.coherence_radius_nm <= 0.0 {
-            return Err(format!(
+            return Err(InvalidHeader::from(format!(
                 "coherence_radius_nm must be positive (or inf), got {}",
                 s.coherence_radius_nm
-            ));
+            )));
         }
         if !(s.cutoff >= 0.0 && s.cutoff < 1.0) {
-            return Err(format!("cutoff must be in [0, 1), got {}", s.cutoff));
+            return Err(InvalidHeader::from(format!(
+                "cutoff must be in [0, 1), got {}",
+                s.cutoff
+            )));
         }
         let buckets = u64::from(s.theta_o_bins).checked_mul(u64::from(s.phi_o_bins));
         if s.theta_o_bins == 0 || s.phi_o_bins == 0 || buckets.is_none_or(|b| b > 1 << 22) {
-            return Err(format!(
+            return Err(InvalidHeader::from(format!(
                 "bucket grid {} x {} is empty or too large",
                 s.theta_o_bins, s.phi_o_bins
-            ));
+            )));
         }
         if self.rays == 0 || self.seeds.is_empty() {
             return Err("no rays or no seeds recorded".into());
@@ -212,20 +238,20 @@ impl Header {
             || self.rays_per_direction.contains(&0)
             || self.rays_per_direction.iter().max() != Some(&self.rays)
         {
-            return Err(format!(
+            return Err(InvalidHeader::from(format!(
                 "rays_per_direction {:?} does not match {} directions and rays = {}",
                 self.rays_per_direction,
                 s.theta_i_deg.len(),
                 self.rays
-            ));
+            )));
         }
         if s.tolerance.is_some_and(|t| !(t > 0.0 && t < 1.0))
             || s.tolerance.is_some() != s.max_rays.is_some()
         {
-            return Err(format!(
+            return Err(InvalidHeader::from(format!(
                 "an adaptive run needs tolerance in (0, 1) and max_rays together, got {:?} and {:?}",
                 s.tolerance, s.max_rays
-            ));
+            )));
         }
         Ok(())
     }
@@ -408,7 +434,9 @@ impl Accumulator {
             .map_err(|e| FileError::content(path, e.message().trim()))?;
         // A file is data from outside: its checksum proves it was not damaged, not that a
         // writer made sense. Every value the reader relies on is validated.
-        header.validate().map_err(|m| FileError::content(path, m))?;
+        header
+            .validate()
+            .map_err(|m| FileError::content(path, m.0))?;
         let mut acc = Accumulator {
             header,
             cells: Vec::new(),

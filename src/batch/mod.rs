@@ -263,7 +263,7 @@ impl Manifest {
             .iter()
             .map(|r| crate::brdf::Kind::parse(r))
             .collect::<Result<Vec<_>, _>>()
-            .map_err(at)?;
+            .map_err(|e| at(e.to_string()))?;
             let settings = SimSettings::deserialize(toml::Value::Table(merged))
                 .map_err(|e| at(e.message().trim().to_string()))?;
             // Checked as `simulate` checks them.

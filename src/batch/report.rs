@@ -257,7 +257,8 @@ fn material_entry(
         (r, format!("{}-table.gsb", mat.name))
     } else {
         let data = brdf::BucketData::from_accumulator(&acc);
-        let r = Representation::build(Kind::Table, &data, &Default::default()).map_err(fail)?;
+        let r = Representation::build(Kind::Table, &data, &Default::default())
+            .map_err(|e| fail(e.to_string()))?;
         (r, "a table built from the accumulator".to_string())
     };
 
@@ -269,8 +270,9 @@ fn material_entry(
         .expect("a material has at least one incident angle");
     let [lobe_name, sphere_name, fit_name] = image_names(&mat.name);
     let plot = crate::plot::LobePlot::new(&brdf, lobe_theta_deg, s.phi_i_deg, opts.map_resolution)
-        .map_err(fail)?;
-    plot.write(&folder.join(&lobe_name)).map_err(fail)?;
+        .map_err(|e| fail(e.to_string()))?;
+    plot.write(&folder.join(&lobe_name))
+        .map_err(|e| fail(e.to_string()))?;
 
     // The sphere, with `goniospec render`'s default light and environment.
     let shape = Shape::Sphere;

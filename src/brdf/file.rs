@@ -5,6 +5,7 @@
 //! the payload holds the arrays the representation needs, each as a length (u64) and that
 //! many f64, little endian. A truncated, corrupted or senseless file is refused.
 
+use super::BrdfError;
 use std::io::Write;
 use std::path::Path;
 
@@ -168,14 +169,14 @@ pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Representation, FileError>
         );
         pos += 8 * len;
     }
-    let r = decode(header, arrays).map_err(|m| content(&m))?;
-    validate(&r).map_err(|m| content(&m))?;
+    let r = decode(header, arrays).map_err(|m| content(&m.to_string()))?;
+    validate(&r).map_err(|m| content(&m.to_string()))?;
     Ok(r)
 }
 
 /// Builds the representation the arrays describe; sizes are checked with checked
 /// arithmetic, and grid values are converted only when they are exact integers.
-fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, String> {
+fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, BrdfError> {
     let nl = header.meta.wavelengths_nm.len();
     let pr = &header.params;
     let need = |k: usize| -> Result<(), String> {
@@ -190,24 +191,26 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
         Kind::Kdtree => {
             need(2)?;
             if arrays[0].len() % 4 != 0 {
-                return Err("kd-tree points are not 4-vectors".into());
+                return Err(BrdfError::from("kd-tree points are not 4-vectors"));
             }
             let points: Vec<[f64; 4]> = arrays[0]
                 .chunks_exact(4)
                 .map(|c| [c[0], c[1], c[2], c[3]])
                 .collect();
             if arrays[1].len() != times(points.len(), nl)? {
-                return Err("values do not match the points".into());
+                return Err(BrdfError::from("values do not match the points"));
             }
             let k = pr.k.ok_or("missing k")?;
             if !(1..=MAX_K as u64).contains(&k) || points.is_empty() {
-                return Err(format!(
+                return Err(BrdfError::from(format!(
                     "k = {k} neighbours (1 to {MAX_K}) over {} points",
                     points.len()
-                ));
+                )));
             }
             if let Some(p) = points.iter().find(|p| p.iter().any(|c| !c.is_finite())) {
-                return Err(format!("kd-tree point {p:?} is not finite"));
+                return Err(BrdfError::from(format!(
+                    "kd-tree point {p:?} is not finite"
+                )));
             }
             Ok(Representation::KdTree(KdTreeBrdf::from_parts(
                 points,
@@ -228,7 +231,7 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
                 || theta_i.is_empty()
                 || arrays[1].len() != times(times(times(theta_i.len(), tb)?, pb)?, nl)?
             {
-                return Err("table size does not match its axes".into());
+                return Err(BrdfError::from("table size does not match its axes"));
             }
             Ok(Representation::Table(TableBrdf {
                 theta_i_rad: theta_i,
@@ -242,10 +245,10 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
         Kind::Subdivided => {
             let ni = pr.incident_angles.ok_or("missing incident_angles")?;
             if ni == 0 || ni != arrays.len().saturating_sub(1) as u64 / 2 {
-                return Err(format!(
+                return Err(BrdfError::from(format!(
                     "incident_angles = {ni} does not match the {} arrays",
                     arrays.len()
-                ));
+                )));
             }
             need(1 + 2 * ni as usize)?;
             // A stored grid index: an exact integer that fits a u32.
@@ -261,7 +264,7 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
             for i in 0..ni as usize {
                 let raw = &arrays[1 + 2 * i];
                 if raw.len() % 6 != 0 {
-                    return Err("subdivided cells are not 6-vectors".into());
+                    return Err(BrdfError::from("subdivided cells are not 6-vectors"));
                 }
                 let c: Vec<Cell> = raw
                     .chunks_exact(6)
@@ -277,7 +280,7 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
                     })
                     .collect::<Result<_, String>>()?;
                 if c.is_empty() || arrays[2 + 2 * i].len() != times(c.len(), nl)? {
-                    return Err("cells do not match their flux".into());
+                    return Err(BrdfError::from("cells do not match their flux"));
                 }
                 cells.push(c);
                 flux.push(arrays[2 + 2 * i].clone());
@@ -295,28 +298,30 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, S
                 meta: header.meta,
             }))
         }
-        Kind::Analytic => Err("an analytic BRDF cannot be stored in a file".into()),
+        Kind::Analytic => Err(BrdfError::from(
+            "an analytic BRDF cannot be stored in a file",
+        )),
     }
 }
 
 /// Incident angles: at least one, finite, in [0, pi/2) radians, strictly increasing.
-fn check_theta_i(theta_i: &[f64]) -> Result<(), String> {
+fn check_theta_i(theta_i: &[f64]) -> Result<(), BrdfError> {
     if theta_i.is_empty()
         || theta_i
             .iter()
             .any(|t| !(0.0..std::f64::consts::FRAC_PI_2).contains(t))
         || theta_i.windows(2).any(|w| w[1] <= w[0])
     {
-        return Err(format!(
+        return Err(BrdfError::from(format!(
             "incident angles must be increasing radians in [0, pi/2), got {theta_i:?}"
-        ));
+        )));
     }
     Ok(())
 }
 
 /// Checks everything the evaluators rely on: a file is data from outside, and its
 /// checksum proves only that it was not damaged.
-fn validate(r: &Representation) -> Result<(), String> {
+fn validate(r: &Representation) -> Result<(), BrdfError> {
     let meta = match r {
         Representation::KdTree(k) => &k.meta,
         Representation::Table(t) => &t.meta,
@@ -324,10 +329,10 @@ fn validate(r: &Representation) -> Result<(), String> {
     };
     let w = &meta.wavelengths_nm;
     if w.is_empty() || w.len() > 100_001 || w.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
-        return Err(format!(
+        return Err(BrdfError::from(format!(
             "{} wavelengths: need 1 to 100001 positive finite values",
             w.len()
-        ));
+        )));
     }
     let finite = |what: &str, v: &[f64]| -> Result<(), String> {
         match v.iter().position(|x| !x.is_finite()) {
@@ -342,21 +347,26 @@ fn validate(r: &Representation) -> Result<(), String> {
         Ok(())
     };
     match r {
-        Representation::KdTree(k) => finite("kd-tree", &k.values),
+        Representation::KdTree(k) => finite("kd-tree", &k.values).map_err(BrdfError::from),
         Representation::Table(t) => {
             check_theta_i(&t.theta_i_rad)?;
             grid(t.theta_bins as u64, t.phi_bins as u64)?;
             if !t.phi_i_rad.is_finite() {
-                return Err(format!("phi_i = {} is not finite", t.phi_i_rad));
+                return Err(BrdfError::from(format!(
+                    "phi_i = {} is not finite",
+                    t.phi_i_rad
+                )));
             }
-            finite("table", &t.values)
+            finite("table", &t.values).map_err(BrdfError::from)
         }
         Representation::Subdivided(s) => {
             check_theta_i(&s.theta_i_rad)?;
             let (tb, pb) = (s.buckets.theta_bins, s.buckets.phi_bins);
             grid(u64::from(tb), u64::from(pb))?;
             if !s.phi_i_rad.is_finite() || s.cells.len() != s.theta_i_rad.len() {
-                return Err("phi_i is not finite, or the cells do not match the angles".into());
+                return Err(BrdfError::from(
+                    "phi_i is not finite, or the cells do not match the angles",
+                ));
             }
             for (cells, flux) in s.cells.iter().zip(&s.flux) {
                 finite("flux", flux)?;
@@ -371,18 +381,25 @@ fn validate(r: &Representation) -> Result<(), String> {
 /// in it with a finite, non-negative solid angle, and every split cell has four children
 /// after it in the list that partition it (disjoint, inside, areas adding up), so a
 /// descent always ends and always finds its cell.
-fn check_cells(cells: &[Cell], tb: u32, pb: u32) -> Result<(), String> {
+fn check_cells(cells: &[Cell], tb: u32, pb: u32) -> Result<(), BrdfError> {
     let root = &cells[0];
     if (root.t0, root.t1, root.p0, root.p1) != (0, tb, 0, pb) {
-        return Err("the root cell does not cover the bucket grid".into());
+        return Err(BrdfError::from(
+            "the root cell does not cover the bucket grid",
+        ));
     }
     let area = |c: &Cell| u64::from(c.t1 - c.t0) * u64::from(c.p1 - c.p0);
     for (k, c) in cells.iter().enumerate() {
         if c.t0 > c.t1 || c.t1 > tb || c.p0 > c.p1 || c.p1 > pb {
-            return Err(format!("cell {k} lies outside the bucket grid"));
+            return Err(BrdfError::from(format!(
+                "cell {k} lies outside the bucket grid"
+            )));
         }
         if !(c.omega.is_finite() && c.omega >= 0.0) {
-            return Err(format!("cell {k} has solid angle {}", c.omega));
+            return Err(BrdfError::from(format!(
+                "cell {k} has solid angle {}",
+                c.omega
+            )));
         }
     }
     for (k, c) in cells.iter().enumerate() {
@@ -391,7 +408,9 @@ fn check_cells(cells: &[Cell], tb: u32, pb: u32) -> Result<(), String> {
         }
         let first = c.child as usize;
         if first <= k || first.checked_add(4).is_none_or(|end| end > cells.len()) {
-            return Err(format!("cell {k} points at children outside the list"));
+            return Err(BrdfError::from(format!(
+                "cell {k} points at children outside the list"
+            )));
         }
         let kids = &cells[first..first + 4];
         let inside = kids
@@ -409,7 +428,9 @@ fn check_cells(cells: &[Cell], tb: u32, pb: u32) -> Result<(), String> {
             })
         });
         if !inside || !disjoint || kids.iter().map(area).sum::<u64>() != area(c) {
-            return Err(format!("the children of cell {k} do not partition it"));
+            return Err(BrdfError::from(format!(
+                "the children of cell {k} do not partition it"
+            )));
         }
     }
     Ok(())

@@ -19,6 +19,7 @@
 //! two chords less a stated slack rejects most points before the exact double-precision arc,
 //! whose vectors sit in the same group (one stretch of memory per leaf).
 
+use super::BrdfError;
 use std::f64::consts::TAU;
 
 use super::{BucketData, Meta, arc};
@@ -449,7 +450,7 @@ impl KdTree {
     /// Checks the tree's invariants: every child's box lies inside its parent's, every
     /// point inside its leaf's box (both precisions agreeing), and every point is in
     /// exactly one leaf.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), BrdfError> {
         if self.is_empty() {
             return Ok(());
         }
@@ -463,7 +464,10 @@ impl KdTree {
                 let n = &self.nodes[c.at as usize];
                 for i in 0..2 {
                     if !inside(&n.bounds(i), &b) {
-                        return Err(format!("node {}: child {i}'s box exceeds the node's", c.at));
+                        return Err(BrdfError::from(format!(
+                            "node {}: child {i}'s box exceeds the node's",
+                            c.at
+                        )));
                     }
                     stack.push((n.child[i], n.bounds(i)));
                 }
@@ -479,7 +483,9 @@ impl KdTree {
                             && v[d] <= f64::from(b[1][d])
                             && group.v[d][l] == v[d] as f32
                     }) {
-                        return Err(format!("group {g} lane {l} outside its leaf's box"));
+                        return Err(BrdfError::from(format!(
+                            "group {g} lane {l} outside its leaf's box"
+                        )));
                     }
                     let id = group.id[l];
                     if id == PAD {
@@ -487,13 +493,17 @@ impl KdTree {
                     }
                     match seen.get_mut(id as usize) {
                         Some(s) if !*s => *s = true,
-                        _ => return Err(format!("point {id} in two leaves or out of range")),
+                        _ => {
+                            return Err(BrdfError::from(format!(
+                                "point {id} in two leaves or out of range"
+                            )));
+                        }
                     }
                 }
             }
         }
         match seen.iter().position(|s| !s) {
-            Some(p) => Err(format!("point {p} in no leaf")),
+            Some(p) => Err(BrdfError::from(format!("point {p} in no leaf"))),
             None => Ok(()),
         }
     }

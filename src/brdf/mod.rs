@@ -14,6 +14,26 @@ use crate::accumulate::file::Accumulator;
 use crate::accumulate::{Buckets, Coherence};
 use glam::DVec3;
 
+/// What a BRDF representation refuses: an unknown kind, data it cannot be built from, a file whose content makes no sense.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BrdfError {
+    /// The message says what and where.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl From<String> for BrdfError {
+    fn from(message: String) -> Self {
+        BrdfError::Invalid(message)
+    }
+}
+
+impl From<&str> for BrdfError {
+    fn from(message: &str) -> Self {
+        BrdfError::Invalid(message.to_string())
+    }
+}
+
 /// The kind of a representation, serialised by name; an unknown name is refused.
 #[derive(
     Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
@@ -44,11 +64,15 @@ impl Kind {
     }
 
     /// A stored kind by name, or an error listing them.
-    pub fn parse(s: &str) -> Result<Kind, String> {
+    pub fn parse(s: &str) -> Result<Kind, BrdfError> {
         Kind::STORED
             .into_iter()
             .find(|k| k.name() == s)
-            .ok_or_else(|| format!("unknown representation '{s}' (kdtree, subdivided or table)"))
+            .ok_or_else(|| {
+                BrdfError::Invalid(format!(
+                    "unknown representation '{s}' (kdtree, subdivided or table)"
+                ))
+            })
     }
 }
 
@@ -287,11 +311,15 @@ impl Brdf for Representation {
 impl Representation {
     /// Builds a representation of `kind` from buckets. Refuses options out of range and
     /// the analytic kind (it is not built from data).
-    pub fn build(kind: Kind, data: &BucketData, o: &BuildOptions) -> Result<Self, String> {
+    pub fn build(kind: Kind, data: &BucketData, o: &BuildOptions) -> Result<Self, BrdfError> {
         Ok(match kind {
             Kind::Kdtree => {
                 if !(1..=kdtree::MAX_K).contains(&o.k) {
-                    return Err(format!("k = {} is outside 1..={}", o.k, kdtree::MAX_K));
+                    return Err(BrdfError::from(format!(
+                        "k = {} is outside 1..={}",
+                        o.k,
+                        kdtree::MAX_K
+                    )));
                 }
                 Representation::KdTree(kdtree::KdTreeBrdf::build(
                     data,
@@ -302,15 +330,19 @@ impl Representation {
             }
             Kind::Subdivided => {
                 if !(o.tolerance > 0.0 && o.tolerance.is_finite()) {
-                    return Err(format!(
+                    return Err(BrdfError::from(format!(
                         "the subdivision tolerance must be positive, got {}",
                         o.tolerance
-                    ));
+                    )));
                 }
                 Representation::Subdivided(subdivided::SubdividedBrdf::build(data, o.tolerance))
             }
             Kind::Table => Representation::Table(table::TableBrdf::build(data)),
-            Kind::Analytic => return Err("an analytic BRDF is not built from buckets".into()),
+            Kind::Analytic => {
+                return Err(BrdfError::from(
+                    "an analytic BRDF is not built from buckets",
+                ));
+            }
         })
     }
 

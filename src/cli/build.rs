@@ -4,7 +4,7 @@ use super::{
     Accumulator, Args, Context, ExitCode, OutputKind, PathBuf, Result, guard_output, positive,
 };
 
-pub(super) fn parse_repr(s: &str) -> Result<goniospec::brdf::Kind, String> {
+pub(super) fn parse_repr(s: &str) -> Result<goniospec::brdf::Kind, goniospec::brdf::BrdfError> {
     goniospec::brdf::Kind::parse(s)
 }
 

@@ -37,8 +37,7 @@ pub(super) fn generate(a: GenerateArgs) -> Result<ExitCode> {
     if !tile_nm.iter().all(|t| t.is_finite() && *t > 0.0) {
         bail!("--tile must be two positive sizes, got {:?}", a.tile);
     }
-    let spec =
-        GeneratorSpec::from_key_values(&a.kind, &a.params).map_err(|m| anyhow::anyhow!(m))?;
+    let spec = GeneratorSpec::from_key_values(&a.kind, &a.params)?;
     let comment = format!(
         "goniospec generate {} {} --tile {},{} --unit {}\nCoordinates in {}.",
         a.kind,

@@ -45,7 +45,7 @@ pub(super) fn plot(a: PlotArgs) -> Result<ExitCode> {
             goniospec::plot::LobePlot::new(&r, a.theta_i, a.phi_i, usize::from(a.map_resolution))
         })
         .map_err(anyhow::Error::msg)?;
-    plot.write(&a.output).map_err(anyhow::Error::msg)?;
+    plot.write(&a.output)?;
     outln!("wrote {}", a.output.display());
     Ok(ExitCode::SUCCESS)
 }

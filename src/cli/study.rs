@@ -12,7 +12,7 @@ pub(super) struct StudyArgs {
 }
 
 pub(super) fn study(a: StudyArgs) -> Result<ExitCode> {
-    let st = goniospec::study::load(&a.study).map_err(|e| anyhow::anyhow!(e))?;
+    let st = goniospec::study::load(&a.study)?;
     let (points, reference) =
         goniospec::study::run(&st, |l| eprintln!("{l}")).map_err(|e| anyhow::anyhow!(e))?;
     goniospec::study::write(&st, &points, &reference, &a.output)

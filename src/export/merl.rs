@@ -12,6 +12,7 @@
 //! 2-degree observer (normalised so that a flat spectrum of 1 has Y = 1), then the
 //! IEC 61966-2-1 matrix (D65 white). Cells whose centre lies below the horizon hold 0.
 
+use super::ExportError;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -55,12 +56,11 @@ pub fn cell_centre(i: usize, j: usize, k: usize) -> (f64, f64, f64) {
 }
 
 /// The bytes of a MERL file for `r`.
-pub fn merl_bytes(r: &Representation) -> Result<Vec<u8>, String> {
+pub fn merl_bytes(r: &Representation) -> Result<Vec<u8>, ExportError> {
     if !r.meta().isotropic {
-        return Err(
-            "the MERL format holds isotropic BRDFs only; build the BRDF without --anisotropic"
-                .into(),
-        );
+        return Err(ExportError::from(
+            "the MERL format holds isotropic BRDFs only; build the BRDF without --anisotropic",
+        ));
     }
     let weights = colour::bin_weights(&r.meta().wavelengths_nm);
     let nl = weights.len();
@@ -80,7 +80,9 @@ pub fn merl_bytes(r: &Representation) -> Result<Vec<u8>, String> {
         })
         .collect();
     if let Some(c) = cells.iter().find(|c| c.iter().any(|v| !v.is_finite())) {
-        return Err(format!("the BRDF's colour is not finite: {c:?}"));
+        return Err(ExportError::from(format!(
+            "the BRDF's colour is not finite: {c:?}"
+        )));
     }
     let mut out = Vec::with_capacity(12 + 3 * n * 8);
     for d in [THETA_H, THETA_D, PHI_D] {

@@ -9,9 +9,29 @@ pub mod tensor;
 
 use crate::brdf::{Brdf, Representation};
 
+/// What an export refuses: a representation it cannot tabulate, a resolution out of range, a tensor file that is not one.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ExportError {
+    /// The message says what and where.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl From<String> for ExportError {
+    fn from(message: String) -> Self {
+        ExportError::Invalid(message)
+    }
+}
+
+impl From<&str> for ExportError {
+    fn from(message: &str) -> Self {
+        ExportError::Invalid(message.to_string())
+    }
+}
+
 /// The incident elevations a representation was simulated at, radians, ascending: the
 /// table's and the subdivided hemisphere's own, or the simulation settings' for a kd-tree.
-pub fn simulated_incidence(r: &Representation) -> Result<Vec<f64>, String> {
+pub fn simulated_incidence(r: &Representation) -> Result<Vec<f64>, ExportError> {
     match r {
         Representation::Table(t) => Ok(t.theta_i_rad.clone()),
         Representation::Subdivided(s) => Ok(s.theta_i_rad.clone()),
@@ -27,7 +47,7 @@ pub fn simulated_incidence(r: &Representation) -> Result<Vec<f64>, String> {
                     v.as_float()
                         .or_else(|| v.as_integer().map(|i| i as f64))
                         .map(f64::to_radians)
-                        .ok_or_else(|| "theta_i_deg holds a non-number".to_string())
+                        .ok_or_else(|| ExportError::from("theta_i_deg holds a non-number"))
                 })
                 .collect()
         }
@@ -42,13 +62,13 @@ pub fn rgl_for(
     sample: &crate::sample::Sample,
     resolution: usize,
     theta_i: Option<Vec<f64>>,
-) -> Result<(Vec<tensor::Field>, rgl::RglReport), String> {
+) -> Result<(Vec<tensor::Field>, rgl::RglReport), ExportError> {
     if sample.name != r.meta().sample_name {
-        return Err(format!(
+        return Err(ExportError::from(format!(
             "the sample is '{}', but the BRDF was simulated from '{}'",
             sample.name,
             r.meta().sample_name
-        ));
+        )));
     }
     // The name is the user's; the geometry and media are the sample's hash (a different
     // surface under the same name was accepted).
@@ -56,10 +76,10 @@ pub fn rgl_for(
         .map_err(|e| format!("the BRDF's simulation settings are unreadable: {e}"))?;
     let hash = crate::simulate::sample_hash(sample);
     if settings.sample_hash != hash {
-        return Err(format!(
+        return Err(ExportError::from(format!(
             "the sample '{}' is not the one the BRDF was simulated from: its geometry or media differ (hash {hash}, the BRDF's {})",
             sample.name, settings.sample_hash
-        ));
+        )));
     }
     let theta_i = match theta_i {
         Some(t) => t,

@@ -10,6 +10,7 @@
 //! | `lambda_nm` | f64, 1-D | wavelength of each bin (its centre), nm |
 //! | `settings_json` | u8, 1-D | the BRDF's description as UTF-8 JSON (`bytes(a).decode()`) |
 
+use super::ExportError;
 use std::io::{Cursor, Write};
 
 use npyz::WriterBuilder;
@@ -33,9 +34,15 @@ pub const MAX_VALUES: u64 = 1 << 28;
 impl Grid {
     /// The simulated incident angles at azimuth 0, and `theta_o_bins x phi_o_bins` bucket
     /// centres, uniform in `theta_o` over [0, 90) and `phi_o` over [0, 360).
-    pub fn of(r: &Representation, theta_o_bins: usize, phi_o_bins: usize) -> Result<Grid, String> {
+    pub fn of(
+        r: &Representation,
+        theta_o_bins: usize,
+        phi_o_bins: usize,
+    ) -> Result<Grid, ExportError> {
         if theta_o_bins == 0 || phi_o_bins == 0 {
-            return Err("the outgoing grid needs at least one bin per axis".into());
+            return Err(ExportError::from(
+                "the outgoing grid needs at least one bin per axis",
+            ));
         }
         let centres = |n: usize, span: f64| (0..n).map(move |k| (k as f64 + 0.5) * span / n as f64);
         Ok(Grid {
@@ -49,7 +56,7 @@ impl Grid {
         })
     }
 
-    fn check(&self) -> Result<(), String> {
+    fn check(&self) -> Result<(), ExportError> {
         let polar = |v: &[f64]| v.iter().all(|t| t.is_finite() && (0.0..90.0).contains(t));
         if self.theta_i_deg.is_empty() || self.phi_i_deg.is_empty() {
             return Err("the incident grid is empty".into());
@@ -70,7 +77,7 @@ impl Grid {
 }
 
 /// `[theta_i, phi_i, theta_o, phi_o, lambda]` values of `r` on `grid`, C order.
-pub fn tabulate(r: &(dyn Brdf + Sync), grid: &Grid) -> Result<Vec<f64>, String> {
+pub fn tabulate(r: &(dyn Brdf + Sync), grid: &Grid) -> Result<Vec<f64>, ExportError> {
     grid.check()?;
     let nl = r.meta().wavelengths_nm.len();
     let (ni, np, no, nq) = (
@@ -106,7 +113,9 @@ pub fn tabulate(r: &(dyn Brdf + Sync), grid: &Grid) -> Result<Vec<f64>, String> 
     let values: Vec<f64> = rows.into_iter().flatten().collect();
     debug_assert_eq!(values.len() as u64, total);
     if let Some(v) = values.iter().find(|v| !v.is_finite()) {
-        return Err(format!("the BRDF evaluates to {v} on the grid"));
+        return Err(ExportError::from(format!(
+            "the BRDF evaluates to {v} on the grid"
+        )));
     }
     Ok(values)
 }
@@ -126,7 +135,7 @@ fn npy<T: npyz::AutoSerialize + Copy>(shape: &[u64], values: &[T]) -> std::io::R
 }
 
 /// The `.npz` bytes of `r` on `grid`.
-pub fn npz_bytes(r: &Representation, grid: &Grid) -> Result<Vec<u8>, String> {
+pub fn npz_bytes(r: &Representation, grid: &Grid) -> Result<Vec<u8>, ExportError> {
     let values = tabulate(r, grid)?;
     let m = r.meta();
     let settings = serde_json::json!({

@@ -32,6 +32,7 @@
 //! `D(m) max(0, m . wi) / sigma(wi)` (Heitz & d'Eon 2014) follow from it; the VNDF is
 //! tabulated per unit square of `u_m`, Jacobian `2 pi^2 u_theta sin(theta_m)`.
 
+use super::ExportError;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
@@ -85,10 +86,12 @@ pub struct Warp {
 
 impl Warp {
     /// A warp over non-negative `data` (`h` rows of `w`), not all zero.
-    pub fn new(data: Vec<f64>, w: usize, h: usize) -> Result<Warp, String> {
+    pub fn new(data: Vec<f64>, w: usize, h: usize) -> Result<Warp, ExportError> {
         assert!(w >= 2 && h >= 2 && data.len() == w * h);
         if data.iter().any(|v| !(v.is_finite() && *v >= 0.0)) {
-            return Err("a warp density is negative or not finite".into());
+            return Err(ExportError::from(
+                "a warp density is negative or not finite",
+            ));
         }
         let mut cond = vec![0.0; w * h];
         for y in 0..h {
@@ -104,7 +107,7 @@ impl Warp {
                 marg[y] + 0.5 * (cond[y * w + w - 1] + cond[(y + 1) * w + w - 1]) / (h - 1) as f64;
         }
         if marg[h - 1] <= 0.0 {
-            return Err("a warp density is zero everywhere".into());
+            return Err(ExportError::from("a warp density is zero everywhere"));
         }
         Ok(Warp {
             w,
@@ -199,7 +202,7 @@ impl FacetDistribution {
         ambient: usize,
         n: usize,
         isotropic: bool,
-    ) -> Result<FacetDistribution, String> {
+    ) -> Result<FacetDistribution, ExportError> {
         check_resolution(n)?;
         // Facet normals binned on a fine grid of (u_theta, u_phi), with their mean normal.
         const G: usize = 256;
@@ -236,7 +239,9 @@ impl FacetDistribution {
             }
         }
         if projected.is_nan() || projected <= 0.0 {
-            return Err("the sample has no facet facing its ambient medium".into());
+            return Err(ExportError::from(
+                "the sample has no facet facing its ambient medium",
+            ));
         }
         let cells: Vec<(f64, DVec3)> = area
             .iter()
@@ -378,13 +383,13 @@ pub const MAX_RESOLUTION: usize = 255;
 /// Refuses a grid resolution the writer cannot use: odd, 3..=[`MAX_RESOLUTION`] (odd:
 /// half a turn about the normal then maps the azimuth grid onto itself, as the reader's
 /// normal incidence needs).
-pub fn check_resolution(n: usize) -> Result<(), String> {
+pub fn check_resolution(n: usize) -> Result<(), ExportError> {
     if (3..=MAX_RESOLUTION).contains(&n) && n % 2 == 1 {
         Ok(())
     } else {
-        Err(format!(
+        Err(ExportError::from(format!(
             "the resolution must be odd, 3..={MAX_RESOLUTION}, got {n} (odd: half a turn about the normal then maps the azimuth grid onto itself, as the reader's normal incidence needs)"
-        ))
+        )))
     }
 }
 
@@ -393,27 +398,29 @@ pub fn rgl_fields(
     brdf: &(dyn Brdf + Sync),
     d: &FacetDistribution,
     opts: &RglOptions,
-) -> Result<(Vec<Field>, RglReport), String> {
+) -> Result<(Vec<Field>, RglReport), ExportError> {
     let n = opts.resolution;
     check_resolution(n)?;
     if d.n != n {
-        return Err(format!(
+        return Err(ExportError::from(format!(
             "the facet distribution has {} nodes, the grid {n}",
             d.n
-        ));
+        )));
     }
     if d.flat_fraction > 0.99 {
-        return Err(format!(
+        return Err(ExportError::from(format!(
             "{:.1} % of the sample's surface is flat within 0.5 degrees: its reflection is a mirror (delta) lobe, which the RGL format's warped grid cannot hold; give the surface a minimum roughness (for example a microfacet or gaussian interface with a slope of a few degrees) and simulate again",
             100.0 * d.flat_fraction
-        ));
+        )));
     }
     let theta_i = &opts.theta_i;
     if theta_i.is_empty()
         || theta_i.windows(2).any(|w| w[1] <= w[0])
         || theta_i.iter().any(|t| !(*t >= 0.0 && *t < FRAC_PI_2))
     {
-        return Err("incident angles must be ascending in [0, 90) degrees".into());
+        return Err(ExportError::from(
+            "incident angles must be ascending in [0, 90) degrees",
+        ));
     }
     let meta = brdf.meta();
     let lambdas = &meta.wavelengths_nm;
@@ -459,7 +466,7 @@ pub fn rgl_fields(
                     d.eval(u) * m.dot(wi).max(0.0) * 2.0 * PI * PI * u[0] * u2theta(u[0]).sin()
                 })
                 .collect();
-            let warp = Warp::new(vndf.clone(), n, n)?;
+            let warp = Warp::new(vndf.clone(), n, n).map_err(|e| e.to_string())?;
             let mut spectra = vec![0.0; nl * n * n];
             let mut lum = vec![0.0; n * n];
             let (mut negative, mut most_negative) = (0usize, 0.0f64);

@@ -15,6 +15,7 @@
 //! Data types are Mitsuba's `Struct::Type` codes: UInt8 = 1, Float32 = 10 (the only two
 //! the `measured` plugin uses; Float64 = 11 is read too).
 
+use super::ExportError;
 use std::io::Write;
 use std::path::Path;
 
@@ -156,9 +157,9 @@ pub fn is_tensor_file(bytes: &[u8]) -> bool {
 }
 
 /// Parses a tensor file, checking every field's extent against the file.
-pub fn from_bytes(bytes: &[u8]) -> Result<Vec<Field>, String> {
+pub fn from_bytes(bytes: &[u8]) -> Result<Vec<Field>, ExportError> {
     if !is_tensor_file(bytes) {
-        return Err("not a tensor file (wrong magic bytes)".into());
+        return Err(ExportError::from("not a tensor file (wrong magic bytes)"));
     }
     let mut pos = 12;
     let take = |pos: &mut usize, n: usize| -> Result<&[u8], String> {
@@ -170,10 +171,10 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Vec<Field>, String> {
     };
     let version = take(&mut pos, 2)?;
     if version != [1, 0] {
-        return Err(format!(
+        return Err(ExportError::from(format!(
             "tensor file version {}.{} (this build reads 1.0)",
             version[0], version[1]
-        ));
+        )));
     }
     let count = u32::from_le_bytes(take(&mut pos, 4)?.try_into().expect("4 bytes"));
     let mut fields = Vec::new();
@@ -266,7 +267,12 @@ mod tests {
         // A field reaching past the end.
         let mut short = b.clone();
         short.truncate(b.len() - 16);
-        assert!(from_bytes(&short).unwrap_err().contains("past the end"));
+        assert!(
+            from_bytes(&short)
+                .unwrap_err()
+                .to_string()
+                .contains("past the end")
+        );
         assert!(describe(&fields).contains("field a            float32  [2, 3]"));
     }
 }

@@ -13,6 +13,7 @@
 //! angles, and blind to shadowing, to inter-reflection between facets and to the lateral
 //! walk-off of the partial waves. It shares no code with the tracer or the estimator.
 
+use super::ReferenceError;
 use crate::optics::C64;
 use crate::optics::tmm::{self, StackIndices};
 use crate::sample::Sample;
@@ -26,7 +27,7 @@ pub fn reflectance(
     theta_i_deg: f64,
     edges: &[f64],
     entries: usize,
-) -> Result<Vec<f64>, String> {
+) -> Result<Vec<f64>, ReferenceError> {
     let film = Film::of(sample)?;
     let theta = theta_i_deg.to_radians();
     let d = DVec3::new(theta.sin(), 0.0, -theta.cos());
@@ -97,7 +98,7 @@ struct Film {
 }
 
 impl Film {
-    fn of(sample: &Sample) -> Result<Film, String> {
+    fn of(sample: &Sample) -> Result<Film, ReferenceError> {
         let err = || {
             format!(
                 "{}: the local-film reference needs a film of exactly two sheet interfaces (ambient over film over substrate)",
@@ -105,7 +106,7 @@ impl Film {
             )
         };
         if sample.interfaces.len() != 2 || sample.interfaces.iter().any(|i| i.closed) {
-            return Err(err());
+            return Err(ReferenceError::from(err()));
         }
         let mean_z = |k: usize| {
             let m = &sample.interfaces[k].mesh;
@@ -119,7 +120,7 @@ impl Film {
         let (top, bottom) = (&sample.interfaces[t], &sample.interfaces[b]);
         // Normals up: front above. The film lies between top's back and bottom's front.
         if top.back != bottom.front {
-            return Err(err());
+            return Err(ReferenceError::from(err()));
         }
         let tris = |m: &crate::sample::mesh::Mesh| -> Vec<[DVec3; 3]> {
             m.triangles

@@ -3,6 +3,25 @@
 //! curved and wedged films ([`local_film`]). They sit above `sample` and `accel`, which
 //! they read; `optics` below them holds only the physics of plane waves and interfaces.
 
+/// What a reference cannot compute: a sample that is not a flat [stack] or a two-sheet film, an angle or wavelength out of range.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ReferenceError {
+    /// The message says what and where.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl From<String> for ReferenceError {
+    fn from(message: String) -> Self {
+        ReferenceError::Invalid(message)
+    }
+}
+
+impl From<&str> for ReferenceError {
+    fn from(message: &str) -> Self {
+        ReferenceError::Invalid(message.to_string())
+    }
+}
 pub mod local_film;
 pub mod stack;
 

@@ -1,6 +1,7 @@
 //! The analytic reference of a flat layered sample: the transfer-matrix reflectance and
 //! transmittance of its `[stack]` (`goniospec analytic`).
 
+use super::ReferenceError;
 use crate::optics::C64;
 use crate::optics::tmm::{Rt, StackIndices, solve, solve_band};
 
@@ -8,7 +9,7 @@ use crate::optics::tmm::{Rt, StackIndices, solve, solve_band};
 pub fn stack_indices(
     sample: &crate::sample::Sample,
     lambda_nm: f64,
-) -> Result<StackIndices, String> {
+) -> Result<StackIndices, ReferenceError> {
     let st = sample.stack.as_ref().ok_or_else(|| {
         format!(
             "{} is not written as a [stack]: the analytic reference needs a flat layered sample",
@@ -40,11 +41,11 @@ pub fn analytic(
     sample: &crate::sample::Sample,
     theta_i_deg: f64,
     wavelengths: &crate::spectrum::Wavelengths,
-) -> Result<Vec<(f64, Rt)>, String> {
+) -> Result<Vec<(f64, Rt)>, ReferenceError> {
     if !(theta_i_deg.is_finite() && (0.0..90.0).contains(&theta_i_deg)) {
-        return Err(format!(
+        return Err(ReferenceError::from(format!(
             "theta_i must be in [0, 90) degrees, got {theta_i_deg}"
-        ));
+        )));
     }
     if sample.stack.is_none() {
         return Err("the sample is not written as a [stack]: the analytic reference needs a flat layered sample".into());
@@ -55,7 +56,7 @@ pub fn analytic(
         crate::spectrum::Wavelengths::Monochromatic(v) => v
             .iter()
             .map(|&l| Ok((l, solve(&stack_at(l)?, l, th))))
-            .collect::<Result<_, String>>()?,
+            .collect::<Result<_, ReferenceError>>()?,
         crate::spectrum::Wavelengths::Bins(e) => e
             .windows(2)
             .map(|w| {
@@ -69,7 +70,7 @@ pub fn analytic(
                 );
                 Ok((0.5 * (w[0] + w[1]), rt))
             })
-            .collect::<Result<_, String>>()?,
+            .collect::<Result<_, ReferenceError>>()?,
     };
     // No NaN or impossible value is ever printed: the matrix is kept finite, and a result
     // that still is not is an error.
@@ -80,11 +81,11 @@ pub fn analytic(
             .all(|v| v.is_finite() && (-1e-9..=1.0 + 1e-9).contains(v))
             || rt.r() + rt.t() > 1.0 + 1e-9
         {
-            return Err(format!(
+            return Err(ReferenceError::from(format!(
                 "the transfer matrix gave an impossible result at {l} nm (R {}, T {}): the stack is beyond what it can represent",
                 rt.r(),
                 rt.t()
-            ));
+            )));
         }
     }
     Ok(rows)

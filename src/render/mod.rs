@@ -26,6 +26,26 @@ use crate::rng::Rng;
 use crate::sample::Mesh;
 use glam::DVec3;
 
+/// What the renderer refuses: a light or environment it cannot parse, a scene it cannot draw.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RenderError {
+    /// The message says what and where.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl From<String> for RenderError {
+    fn from(message: String) -> Self {
+        RenderError::Invalid(message)
+    }
+}
+
+impl From<&str> for RenderError {
+    fn from(message: &str) -> Self {
+        RenderError::Invalid(message.to_string())
+    }
+}
+
 /// The light.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
@@ -39,7 +59,7 @@ pub enum Light {
 impl Light {
     /// Parses `--light`: `dir:THETA,PHI` (degrees), `point:X,Y,Z` or `none`. The message
     /// names the flag.
-    pub fn parse(s: &str) -> Result<Light, String> {
+    pub fn parse(s: &str) -> Result<Light, RenderError> {
         // `n` comma-separated finite numbers, or the usage message.
         let numbers = |v: &str, n: usize, usage: &str| -> Result<Vec<f64>, String> {
             let p: Vec<f64> = v
@@ -64,9 +84,9 @@ impl Light {
             let p = numbers(v, 3, "--light point:X,Y,Z needs three numbers")?;
             Ok(Light::Point(DVec3::new(p[0], p[1], p[2])))
         } else {
-            Err(format!(
+            Err(RenderError::from(format!(
                 "--light must be dir:THETA,PHI, point:X,Y,Z or none (got '{s}')"
-            ))
+            )))
         }
     }
 }
@@ -82,14 +102,14 @@ pub enum Env {
 
 impl Env {
     /// Parses `--env`: `constant`, `sky` or `none`.
-    pub fn parse(s: &str) -> Result<Env, String> {
+    pub fn parse(s: &str) -> Result<Env, RenderError> {
         match s {
             "constant" => Ok(Env::Constant),
             "sky" => Ok(Env::Sky),
             "none" => Ok(Env::None),
-            other => Err(format!(
+            other => Err(RenderError::from(format!(
                 "--env must be constant, sky or none (got '{other}')"
-            )),
+            ))),
         }
     }
 }

@@ -141,24 +141,24 @@ pub enum SceneError {
 
 impl SceneBudget {
     /// Every field in range, or what is not.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), SceneError> {
         if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
-            return Err(format!(
+            return Err(SceneError::Budget(format!(
                 "--tolerance must be a positive number, got {}",
                 self.tolerance
-            ));
+            )));
         }
         if self.rays == 0 || self.max_rays < self.rays {
-            return Err(format!(
+            return Err(SceneError::Budget(format!(
                 "--rays must be positive and at most --max-rays (got {} and {})",
                 self.rays, self.max_rays
-            ));
+            )));
         }
         if !(self.theta_step_deg > 0.0 && self.theta_step_deg < 90.0) {
-            return Err(format!(
+            return Err(SceneError::Budget(format!(
                 "--theta-step must lie between 0 and 90 degrees, got {}",
                 self.theta_step_deg
-            ));
+            )));
         }
         Ok(())
     }
@@ -174,7 +174,7 @@ impl SceneBudget {
     /// Validates the budget and plans the image on its grid; refuses an image that needs
     /// no incident direction.
     pub fn plan(&self, shape: &Shape, cfg: &RenderConfig) -> Result<Plan, SceneError> {
-        self.validate().map_err(SceneError::Budget)?;
+        self.validate()?;
         let p = plan(shape, cfg, &self.grid_deg());
         if p.needed().is_empty() {
             return Err(SceneError::NothingNeeded);
@@ -193,7 +193,7 @@ pub fn simulate_scene(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<SceneRun, SceneError> {
     use crate::brdf::{BucketData, Representation, table::TableBrdf};
-    budget.validate().map_err(SceneError::Budget)?;
+    budget.validate()?;
     let needed_deg = plan.needed();
     if needed_deg.is_empty() {
         return Err(SceneError::NothingNeeded);

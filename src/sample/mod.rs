@@ -123,6 +123,18 @@ pub enum SampleErrorKind {
     },
 }
 
+impl From<String> for SampleErrorKind {
+    fn from(message: String) -> Self {
+        SampleErrorKind::Invalid(message)
+    }
+}
+
+impl From<&str> for SampleErrorKind {
+    fn from(message: &str) -> Self {
+        SampleErrorKind::Invalid(message.to_string())
+    }
+}
+
 /// One interface: a triangle mesh with a medium on each side.
 #[derive(Clone, Debug)]
 pub struct Interface {
@@ -443,13 +455,13 @@ pub(crate) fn line_of_bytes(bytes: &[u8], pos: usize) -> usize {
 /// Every coordinate finite and within [`MAX_LENGTH_NM`], and no triangle that collapses
 /// when the accelerator rounds its corners to f32 (it would be invisible, or hide its
 /// neighbour). The message names the interface.
-fn check_geometry(interfaces: &[Interface], tile_nm: [f64; 2]) -> Result<(), String> {
+fn check_geometry(interfaces: &[Interface], tile_nm: [f64; 2]) -> Result<(), SampleErrorKind> {
     let mut extent = tile_nm[0].max(tile_nm[1]);
     for itf in interfaces {
         for p in &itf.mesh.positions_nm {
             for c in p.to_array() {
                 if !(c.is_finite() && c.abs() <= MAX_LENGTH_NM) {
-                    return Err(format!("{}: {}", itf.mesh_path.display(), beyond_limit(c)));
+                    return Err(format!("{}: {}", itf.mesh_path.display(), beyond_limit(c)).into());
                 }
                 extent = extent.max(c.abs());
             }
@@ -464,7 +476,8 @@ fn check_geometry(interfaces: &[Interface], tile_nm: [f64; 2]) -> Result<(), Str
                 collapsed.len(),
                 itf.mesh.triangles.len(),
                 f32_resolution_nm(extent)
-            ));
+            )
+            .into());
         }
     }
     Ok(())
@@ -532,7 +545,7 @@ const MIN_SEPARATION_RESOLUTIONS: f64 = 16.0;
 
 /// Checks a length after scaling to nanometres: finite, positive and at most
 /// [`MAX_LENGTH_NM`]; `what` names it in the message.
-fn check_length(what: &str, value: f64, unit: &str, nm: f64) -> Result<(), String> {
+fn check_length(what: &str, value: f64, unit: &str, nm: f64) -> Result<(), SampleErrorKind> {
     // Very large or small values in scientific notation, not hundreds of digits.
     let value = if value == 0.0 || (1e-4..1e6).contains(&value.abs()) {
         format!("{value}")
@@ -540,14 +553,14 @@ fn check_length(what: &str, value: f64, unit: &str, nm: f64) -> Result<(), Strin
         format!("{value:e}")
     };
     if !(nm.is_finite() && nm > 0.0) {
-        return Err(format!(
+        return Err(SampleErrorKind::from(format!(
             "{what} must be positive and finite, got {value} {unit}"
-        ));
+        )));
     }
     if nm > MAX_LENGTH_NM {
-        return Err(format!(
+        return Err(SampleErrorKind::from(format!(
             "{what} {value} {unit} ({nm:e} nm) exceeds the {MAX_LENGTH_NM:e} nm (10 cm) limit of f32 geometry and f64 phase"
-        ));
+        )));
     }
     Ok(())
 }
@@ -824,7 +837,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
     let tile_nm = [tx * scale, ty * scale];
     for (axis, v, nm) in [("x", tx, tile_nm[0]), ("y", ty, tile_nm[1])] {
         check_length(&format!("tile side {axis}"), v, unit, nm)
-            .map_err(|m| at(tile_span.clone(), SampleErrorKind::Invalid(m)))?;
+            .map_err(|m| at(tile_span.clone(), m))?;
     }
     // The guard band: as given, or a tenth of the shorter side; it must leave an interior
     // to launch trees in.
@@ -854,7 +867,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
         for l in raw.iter().flatten() {
             let t = *l.thickness.get_ref();
             check_length("layer thickness", t, unit, t * scale)
-                .map_err(|m| at(l.thickness.span(), SampleErrorKind::Invalid(m)))?;
+                .map_err(|m| at(l.thickness.span(), m))?;
             layers.push((medium(&l.medium)?, t * scale));
         }
         Ok(layers)
@@ -917,7 +930,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
             let total: f64 = layers.iter().map(|l| l.1).sum();
             if !layers.is_empty() {
                 check_length("total stack thickness", total / scale, unit, total)
-                    .map_err(|m| at(st.span(), SampleErrorKind::Invalid(m)))?;
+                    .map_err(|m| at(st.span(), m))?;
             }
             let res = f32_resolution_nm(tile_nm[0].max(tile_nm[1]).max(total));
             for (l, &(_, t)) in st.get_ref().layers.iter().zip(&layers) {
@@ -1025,12 +1038,12 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
                         )),
                     ));
                 }
-                let out = spec.generate(tile_nm, scale).map_err(|message| {
+                let out = spec.generate(tile_nm, scale).map_err(|e| {
                     at(
                         g.span(),
                         SampleErrorKind::Generator {
                             kind: spec.kind().to_string(),
-                            message,
+                            message: e.to_string(),
                         },
                     )
                 })?;
@@ -1147,8 +1160,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
     if interfaces.is_empty() {
         return Err(SampleError::file(path, SampleErrorKind::NoInterfaces));
     }
-    check_geometry(&interfaces, tile_nm)
-        .map_err(|m| SampleError::file(path, SampleErrorKind::Invalid(m)))?;
+    check_geometry(&interfaces, tile_nm).map_err(|m| SampleError::file(path, m))?;
 
     Ok(Sample {
         name: raw.sample.name,

@@ -11,7 +11,7 @@ pub(super) fn draw_loglog<DB: plotters::prelude::DrawingBackend>(
     xlabel: &str,
     series: &[(String, Vec<(f64, f64)>)],
     guide: Option<(&str, Vec<(f64, f64)>)>,
-) -> Result<(), String> {
+) -> Result<(), StudyError> {
     draw_chart(
         root,
         title,
@@ -30,7 +30,7 @@ pub(super) fn draw_chart<DB: plotters::prelude::DrawingBackend>(
     ylabel: &str,
     series: &[(String, Vec<(f64, f64)>)],
     guide: Option<(&str, Vec<(f64, f64)>)>,
-) -> Result<(), String> {
+) -> Result<(), StudyError> {
     use plotters::prelude::*;
     let err = |e: &dyn std::fmt::Display| e.to_string();
     root.fill(&WHITE).map_err(|e| err(&e))?;
@@ -41,7 +41,7 @@ pub(super) fn draw_chart<DB: plotters::prelude::DrawingBackend>(
         .filter(|p| p.0 > 0.0 && p.1 > 0.0)
         .collect();
     if all.is_empty() {
-        return Err("nothing to plot (no positive values)".into());
+        return Err(StudyError::from("nothing to plot (no positive values)"));
     }
     let (x0, x1) = all
         .iter()
@@ -104,7 +104,7 @@ pub(super) fn draw_chart<DB: plotters::prelude::DrawingBackend>(
 
 /// Draws the charts as PNG and SVG into `dir`: error against time (the Pareto view) and
 /// error against rays with the 1/sqrt(N) slope.
-pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, String> {
+pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, StudyError> {
     use plotters::prelude::*;
     register_font();
     let mut methods: Vec<String> = points.iter().map(method).collect();

@@ -25,6 +25,38 @@ mod run;
 pub use charts::charts;
 use charts::*;
 use report::*;
+
+/// What stops a study: a study file that does not parse or validate (named with its line), a sample or reference that cannot be computed, charts or CSV that cannot be written.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StudyError {
+    /// The message says what and where.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl From<String> for StudyError {
+    fn from(message: String) -> Self {
+        StudyError::Invalid(message)
+    }
+}
+
+impl From<crate::plot::PlotError> for StudyError {
+    fn from(e: crate::plot::PlotError) -> Self {
+        StudyError::Invalid(e.to_string())
+    }
+}
+
+impl From<crate::reference::ReferenceError> for StudyError {
+    fn from(e: crate::reference::ReferenceError) -> Self {
+        StudyError::Invalid(e.to_string())
+    }
+}
+
+impl From<&str> for StudyError {
+    fn from(message: &str) -> Self {
+        StudyError::Invalid(message.to_string())
+    }
+}
 pub use report::{write, write_area};
 pub use run::{AreaPoint, convergence_slope, holds, run, run_area};
 
@@ -260,7 +292,7 @@ pub struct Point {
 const MAX_TILES_PER_SIDE: usize = 64;
 
 /// Reads and validates a study file; errors name the file and line.
-pub fn load(path: &Path) -> Result<Study, String> {
+pub fn load(path: &Path) -> Result<Study, StudyError> {
     let text = crate::io::read_text(path)
         .map_err(|e| format!("{}: cannot read file: {e}", path.display()))?;
     parse(path, &text)
@@ -268,7 +300,7 @@ pub fn load(path: &Path) -> Result<Study, String> {
 
 /// Parses and validates the text of a study file read from `path` (named in errors;
 /// samples are resolved beside it).
-pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
+pub fn parse(path: &Path, text: &str) -> Result<Study, StudyError> {
     let raw: StudyFile = toml::from_str(text).map_err(|e| {
         let line = e.span().map(|s| crate::sample::line_of(text, s.start));
         match line {
@@ -280,7 +312,7 @@ pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
             None => format!("{}: invalid study: {}", path.display(), e.message().trim()),
         }
     })?;
-    let bad = |m: String| Err(format!("{}: {m}", path.display()));
+    let bad = |m: String| Err(StudyError::from(format!("{}: {m}", path.display())));
     let sw = &raw.sweep;
     for (name, empty) in [
         ("rays", sw.rays.is_empty()),
@@ -390,7 +422,7 @@ pub fn parse(path: &Path, text: &str) -> Result<Study, String> {
         .collect::<Result<Vec<_>, _>>();
     let representation = match representation {
         Ok(r) => r,
-        Err(m) => return bad(m),
+        Err(m) => return bad(m.to_string()),
     };
     // The same A:B:STEP rules and limits as `--wavelengths` (finite, at most
     // MAX_WAVELENGTHS bins).

@@ -3,7 +3,7 @@
 use super::*;
 
 /// Writes `area.csv` and the chart of total reflectance against sampled area.
-pub fn write_area(points: &[AreaPoint], dir: &Path) -> Result<Vec<PathBuf>, String> {
+pub fn write_area(points: &[AreaPoint], dir: &Path) -> Result<Vec<PathBuf>, StudyError> {
     use plotters::prelude::*;
     if points.is_empty() {
         return Ok(Vec::new());

@@ -18,17 +18,17 @@ pub struct AreaPoint {
 }
 
 /// Runs the sampled-area experiment of a study (empty when it has none).
-pub fn run_area(st: &Study, mut log: impl FnMut(&str)) -> Result<Vec<AreaPoint>, String> {
+pub fn run_area(st: &Study, mut log: impl FnMut(&str)) -> Result<Vec<AreaPoint>, StudyError> {
     let Some(a) = &st.area else {
         return Ok(Vec::new());
     };
     let sample: Sample =
         sample::load(&st.sample_path, MeshOptions::default()).map_err(|e| e.to_string())?;
     if sample.guard_nm.is_some() {
-        return Err(format!(
+        return Err(StudyError::from(format!(
             "{}: the sampled-area experiment repeats the tile, which needs periodic sides; this sample's sides are open (guard band)",
             st.sample_path.display()
-        ));
+        )));
     }
     let mut out = Vec::new();
     for name in &a.coherence {
@@ -114,7 +114,7 @@ pub(super) fn reference(
     st: &Study,
     sample: &Sample,
     log: &mut impl FnMut(&str),
-) -> Result<(Vec<Vec<f64>>, String), String> {
+) -> Result<(Vec<Vec<f64>>, String), StudyError> {
     let kind = match st.reference {
         ReferenceKind::Auto if sample.stack.is_some() => "tmm",
         ReferenceKind::Auto | ReferenceKind::Run => "run",
@@ -197,7 +197,7 @@ pub(super) fn reference(
 }
 
 /// Runs the study; `log` receives progress lines.
-pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String), String> {
+pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String), StudyError> {
     let sample: Sample =
         sample::load(&st.sample_path, MeshOptions::default()).map_err(|e| e.to_string())?;
     let (reference, reference_kind) = reference(st, &sample, &mut log)?;

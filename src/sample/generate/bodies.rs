@@ -2,6 +2,7 @@
 //! an O(1) neighbour grid for random sequential addition and the size checks made
 //! before anything is allocated.
 
+use super::GenerateError;
 use std::collections::HashMap;
 use std::f64::consts::{PI, TAU};
 
@@ -104,23 +105,25 @@ pub fn pigment_spheres(
     volume_fraction: f64,
     layer_nm: [f64; 2],
     subdivisions: u32,
-) -> Result<Vec<Mesh>, String> {
+) -> Result<Vec<Mesh>, GenerateError> {
     if !(radius_nm > 0.0 && radius_nm.is_finite()) {
-        return Err(format!("radius must be positive, got {radius_nm}"));
+        return Err(GenerateError::from(format!(
+            "radius must be positive, got {radius_nm}"
+        )));
     }
     if !(volume_fraction > 0.0 && volume_fraction < 0.5) {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "volume_fraction must be in (0, 0.5) (random sequential addition jams near 0.38), got {volume_fraction}"
-        ));
+        )));
     }
     let unit = icosphere(subdivisions);
     let scale = (4.0 / 3.0 * PI / enclosed_volume(&unit)).cbrt();
     let rc = radius_nm * scale; // circumscribed radius of the scaled icosphere
     let thickness = check_layer(layer_nm)?;
     if 2.0 * rc >= thickness || 2.0 * rc >= tile_nm[0] || 2.0 * rc >= tile_nm[1] {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "spheres of radius {radius_nm} nm do not fit in the layer ({thickness} nm) and tile"
-        ));
+        )));
     }
     // Placement tests the circumscribed radius within the room centres can take: beyond
     // the jamming limit of random sequential addition (about 0.38 for spheres, Feder 1980)
@@ -129,9 +132,9 @@ pub fn pigment_spheres(
     let effective =
         volume_fraction * (rc / radius_nm).powi(3) * tile_nm[0] * tile_nm[1] * thickness / room;
     if effective > RSA_JAMMING_SPHERES {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "volume_fraction {volume_fraction} is {effective:.2} for placement (the icosphere's circumscribed radius and the layer's margins), above the {RSA_JAMMING_SPHERES} random sequential addition can reach: lower it, raise subdivisions, or widen the layer"
-        ));
+        )));
     }
     let v_sphere = 4.0 / 3.0 * PI * radius_nm.powi(3);
     let count = body_count(
@@ -148,10 +151,10 @@ pub fn pigment_spheres(
     while centres.len() < count {
         attempts += 1;
         if attempts > 2000 * count + 100_000 {
-            return Err(format!(
+            return Err(GenerateError::from(format!(
                 "could place only {} of {count} spheres without overlap; lower volume_fraction",
                 centres.len()
-            ));
+            )));
         }
         let c = DVec3::new(
             rng.range(rc, tile_nm[0] - rc),
@@ -274,19 +277,19 @@ pub fn flakes(
     coating_nm: f64,
     volume_fraction: f64,
     layer_nm: [f64; 2],
-) -> Result<Vec<(Mesh, Option<Mesh>)>, String> {
+) -> Result<Vec<(Mesh, Option<Mesh>)>, GenerateError> {
     if !(size_nm > 0.0 && thickness_nm > 0.0 && thickness_nm < size_nm) {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "need 0 < thickness < size, got size {size_nm} nm, thickness {thickness_nm} nm"
-        ));
+        )));
     }
     if !(coating_nm >= 0.0 && tilt_sd_deg >= 0.0) {
         return Err("coating and tilt must be >= 0".into());
     }
     if !(volume_fraction > 0.0 && volume_fraction < 0.5) {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "volume_fraction must be in (0, 0.5), got {volume_fraction}"
-        ));
+        )));
     }
     let thickness = check_layer(layer_nm)?;
     let v_flake = size_nm * size_nm * thickness_nm;
@@ -312,10 +315,10 @@ pub fn flakes(
     while placed.len() < count {
         attempts += 1;
         if attempts > 5000 * count + 100_000 {
-            return Err(format!(
+            return Err(GenerateError::from(format!(
                 "could place only {} of {count} flakes without overlap; lower volume_fraction or the tilt",
                 placed.len()
-            ));
+            )));
         }
         // Orientation: spin about z, then tilt about the rotated x axis.
         let spin = rng.range(0.0, TAU);
@@ -377,39 +380,41 @@ const RSA_JAMMING_SPHERES: f64 = 0.37;
 
 /// Checks a body layer `[z0, z1]` (nm): finite, ordered, within the length limit; returns
 /// its thickness.
-fn check_layer(layer_nm: [f64; 2]) -> Result<f64, String> {
+fn check_layer(layer_nm: [f64; 2]) -> Result<f64, GenerateError> {
     let [z0, z1] = layer_nm;
     let lim = crate::sample::MAX_LENGTH_NM;
     if !(z0.is_finite() && z1.is_finite() && z0.abs() <= lim && z1.abs() <= lim) {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "layer = [{z0}, {z1}] nm must be finite and within +-{lim:e} nm"
-        ));
+        )));
     }
     if z1 <= z0 {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "layer = [z0, z1] needs z0 < z1, got [{z0}, {z1}] nm"
-        ));
+        )));
     }
     Ok(z1 - z0)
 }
 
 /// The number of bodies for an expected (real) count, checked before anything is
 /// allocated: at least one, at most [`MAX_BODIES`] and [`MAX_GENERATED_TRIANGLES`].
-fn body_count(what: &str, expected: f64, triangles_each: usize) -> Result<usize, String> {
+fn body_count(what: &str, expected: f64, triangles_each: usize) -> Result<usize, GenerateError> {
     if !expected.is_finite() {
-        return Err(format!("the {what} count is not finite: check the lengths"));
+        return Err(GenerateError::from(format!(
+            "the {what} count is not finite: check the lengths"
+        )));
     }
     let count = expected.round();
     if count < 1.0 {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "the volume fraction gives no {what} in this tile; enlarge the tile or the fraction"
-        ));
+        )));
     }
     let triangles = count * triangles_each as f64;
     if count > MAX_BODIES as f64 || triangles > MAX_GENERATED_TRIANGLES as f64 {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "this tile and volume fraction need {count:.3e} {what}s ({triangles:.3e} triangles); the limits are {MAX_BODIES} bodies and {MAX_GENERATED_TRIANGLES} triangles: make the {what}s larger, the tile smaller or the fraction lower"
-        ));
+        )));
     }
     Ok(count as usize)
 }

@@ -1,6 +1,7 @@
 //! Height fields over the periodic tile: the grid mesh, Gaussian random heights
 //! (spectral synthesis), the cosine sheet, V-grooves and the flat plane.
 
+use super::GenerateError;
 use std::collections::HashMap;
 use std::f64::consts::{PI, TAU};
 
@@ -111,22 +112,24 @@ pub fn gaussian_heights(
     resolution: usize,
     rms_nm: f64,
     corr_nm: f64,
-) -> Result<Vec<f64>, String> {
+) -> Result<Vec<f64>, GenerateError> {
     if !(rms_nm.is_finite() && rms_nm >= 0.0) {
-        return Err(format!("rms must be finite and >= 0, got {rms_nm}"));
+        return Err(GenerateError::from(format!(
+            "rms must be finite and >= 0, got {rms_nm}"
+        )));
     }
     if !(corr_nm.is_finite() && corr_nm > 0.0) {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "correlation_length must be positive, got {corr_nm}"
-        ));
+        )));
     }
     let n = resolution;
     let spacing = tile_nm[0].max(tile_nm[1]) / n as f64;
     if corr_nm < 3.0 * spacing {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "resolution {n} gives a grid spacing of {spacing:.1} nm, too coarse for a correlation length of {corr_nm} nm (need spacing <= l/3: resolution >= {})",
             (3.0 * tile_nm[0].max(tile_nm[1]) / corr_nm).ceil()
-        ));
+        )));
     }
     let (dqx, dqy) = (TAU / tile_nm[0], TAU / tile_nm[1]);
     // Modes up to the grid's Nyquist limit.
@@ -153,10 +156,10 @@ pub fn gaussian_heights(
         }
     }
     if rms_nm > 0.0 && total < 0.95 * rms_nm * rms_nm {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "the tile or the resolution is too small for correlation length {corr_nm} nm: only {:.0} % of the height variance fits (make the tile at least a few correlation lengths wide and resolution >= 6 L / l)",
             100.0 * total / (rms_nm * rms_nm)
-        ));
+        )));
     }
     let scale = if total > 0.0 {
         rms_nm / total.sqrt()

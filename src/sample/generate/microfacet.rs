@@ -1,6 +1,7 @@
 //! Microfacet height fields: facet normals drawn from GGX or Beckmann, integrated
 //! into a periodic height field by least squares (FFT).
 
+use super::GenerateError;
 use std::f64::consts::{PI, TAU};
 
 use glam::DVec3;
@@ -86,21 +87,23 @@ pub fn microfacet_surface(
     alpha: f64,
     corr_nm: f64,
     z0: f64,
-) -> Result<Mesh, String> {
+) -> Result<Mesh, GenerateError> {
     if cells == 0 {
         return Err("resolution must be at least 1".into());
     }
     if !(alpha.is_finite() && alpha > 0.0) {
-        return Err(format!("alpha must be positive, got {alpha}"));
+        return Err(GenerateError::from(format!(
+            "alpha must be positive, got {alpha}"
+        )));
     }
     let n = cells;
     let spacing = [tile_nm[0] / n as f64, tile_nm[1] / n as f64];
     let h_nm = spacing[0].max(spacing[1]);
     if !(corr_nm.is_finite() && corr_nm >= MIN_CELLS_PER_CORRELATION * h_nm) {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "correlation_length {corr_nm} nm spans fewer than {MIN_CELLS_PER_CORRELATION} grid cells of {h_nm:.1} nm: raise resolution to at least {} or the correlation length",
             (MIN_CELLS_PER_CORRELATION * tile_nm[0].max(tile_nm[1]) / corr_nm).ceil()
-        ));
+        )));
     }
     // Start: a Gaussian field (any RMS: only its shape matters), periodic n x n.
     let g = gaussian_heights(seed, tile_nm, n, 1.0, corr_nm)?;

@@ -14,6 +14,26 @@ use serde::Deserialize;
 
 use super::mesh::Mesh;
 
+/// What a generator refuses: an unknown kind or key, a value of the wrong type or outside its range, more triangles or bodies than the limits allow.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GenerateError {
+    /// The message says what and where.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+impl From<String> for GenerateError {
+    fn from(message: String) -> Self {
+        GenerateError::Invalid(message)
+    }
+}
+
+impl From<&str> for GenerateError {
+    fn from(message: &str) -> Self {
+        GenerateError::Invalid(message.to_string())
+    }
+}
+
 mod bodies;
 pub(crate) mod height;
 mod microfacet;
@@ -193,7 +213,7 @@ impl GeneratorSpec {
     /// them: each value is a TOML value (number, "string", [array]), and a bare word that
     /// is not one (`ggx`, `top`) is taken as a string. Unknown kinds and keys, and values
     /// of the wrong type, are refused with the generator's name.
-    pub fn from_key_values(kind: &str, params: &[String]) -> Result<GeneratorSpec, String> {
+    pub fn from_key_values(kind: &str, params: &[String]) -> Result<GeneratorSpec, GenerateError> {
         let mut text = format!("kind = {kind:?}\n");
         for p in params {
             let (k, v) = p
@@ -201,7 +221,9 @@ impl GeneratorSpec {
                 .ok_or_else(|| format!("--param '{p}' is not KEY=VALUE"))?;
             let (k, v) = (k.trim(), v.trim());
             if k.is_empty() || !k.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-                return Err(format!("--param '{p}': '{k}' is not a parameter name"));
+                return Err(GenerateError::from(format!(
+                    "--param '{p}': '{k}' is not a parameter name"
+                )));
             }
             let value = if toml::from_str::<toml::Table>(&format!("x = {v}")).is_ok() {
                 v.to_string()
@@ -210,7 +232,9 @@ impl GeneratorSpec {
             };
             text.push_str(&format!("{k} = {value}\n"));
         }
-        toml::from_str(&text).map_err(|e| format!("generator '{kind}': {}", e.message().trim()))
+        toml::from_str(&text).map_err(|e| {
+            GenerateError::Invalid(format!("generator '{kind}': {}", e.message().trim()))
+        })
     }
 
     /// The kind's name as written in TOML.
@@ -239,7 +263,7 @@ impl GeneratorSpec {
     /// Runs the generator; `u` is nanometres per sample unit. Sizes are checked before
     /// anything is allocated, and every coordinate of the result must be finite and within
     /// [`crate::sample::MAX_LENGTH_NM`] (a NaN `z` or a huge amplitude is refused, not written).
-    pub fn generate(&self, tile_nm: [f64; 2], u: f64) -> Result<Generated, String> {
+    pub fn generate(&self, tile_nm: [f64; 2], u: f64) -> Result<Generated, GenerateError> {
         let out = self.run(tile_nm, u)?;
         let meshes: Vec<&Mesh> = match &out {
             Generated::Sheet(m) => vec![m],
@@ -256,15 +280,15 @@ impl GeneratorSpec {
                 .flat_map(|p| p.to_array())
                 .find(|c| !(c.is_finite() && c.abs() <= lim))
             {
-                return Err(format!(
+                return Err(GenerateError::from(format!(
                     "a generated coordinate is {c:e} nm: lengths (z, amplitude, layer, ...) must be finite and keep the mesh within +-{lim:e} nm"
-                ));
+                )));
             }
         }
         Ok(out)
     }
 
-    fn run(&self, tile_nm: [f64; 2], u: f64) -> Result<Generated, String> {
+    fn run(&self, tile_nm: [f64; 2], u: f64) -> Result<Generated, GenerateError> {
         Ok(match *self {
             GeneratorSpec::Flat { z } => Generated::Sheet(flat(tile_nm, z * u)),
             GeneratorSpec::Gaussian {
@@ -292,7 +316,9 @@ impl GeneratorSpec {
                 check_resolution(resolution)?;
                 let (t, l) = (thickness * u, correlation_length * u);
                 if t.is_nan() || t <= 0.0 {
-                    return Err(format!("thickness must be positive, got {thickness}"));
+                    return Err(GenerateError::from(format!(
+                        "thickness must be positive, got {thickness}"
+                    )));
                 }
                 let rough = gaussian_heights(seed, tile_nm, resolution, roughness_rms * u, l)?;
                 let var = gaussian_heights(
@@ -305,9 +331,9 @@ impl GeneratorSpec {
                 if let Some(min) = var.iter().map(|v| t + v).reduce(f64::min)
                     && min <= 0.0
                 {
-                    return Err(format!(
+                    return Err(GenerateError::from(format!(
                         "the thickness variation makes the film vanish (minimum thickness {min:.1} nm); lower thickness_rms"
-                    ));
+                    )));
                 }
                 let h: Vec<f64> = rough
                     .iter()
@@ -351,7 +377,9 @@ impl GeneratorSpec {
             } => {
                 check_resolution(resolution)?;
                 if !amplitude.is_finite() {
-                    return Err(format!("amplitude must be finite, got {amplitude}"));
+                    return Err(GenerateError::from(format!(
+                        "amplitude must be finite, got {amplitude}"
+                    )));
                 }
                 let (a, z, lx) = (amplitude * u, z * u, tile_nm[0]);
                 Generated::Sheet(height_field([resolution, 1], tile_nm, move |x, _| {
@@ -360,9 +388,9 @@ impl GeneratorSpec {
             }
             GeneratorSpec::Wedge { slope_deg, z } => {
                 if slope_deg.is_nan() || slope_deg.abs() >= 45.0 {
-                    return Err(format!(
+                    return Err(GenerateError::from(format!(
                         "slope_deg must lie between -45 and 45 degrees, got {slope_deg}"
-                    ));
+                    )));
                 }
                 let (s, z, lx) = (slope_deg.to_radians().tan(), z * u, tile_nm[0]);
                 // Two cells along x put the kink exactly on a grid line.
@@ -378,9 +406,9 @@ impl GeneratorSpec {
                 seed,
             } => {
                 if subdivisions > 5 {
-                    return Err(format!(
+                    return Err(GenerateError::from(format!(
                         "subdivisions must be at most 5 (20 * 4^5 triangles per sphere), got {subdivisions}"
-                    ));
+                    )));
                 }
                 Generated::Bodies(
                     pigment_spheres(
@@ -421,21 +449,21 @@ impl GeneratorSpec {
 /// A height-field resolution: 1 to 4096 cells per side, and, since the mesh and the
 /// spectral arrays behind it are built in memory, no more than this machine has
 /// available (about 100 bytes per triangle while generating).
-fn check_resolution(r: usize) -> Result<(), String> {
+fn check_resolution(r: usize) -> Result<(), GenerateError> {
     if !(1..=4096).contains(&r) {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "resolution must be between 1 and 4096 cells per side, got {r}"
-        ));
+        )));
     }
     let bytes = 2.0 * (r as f64).powi(2) * GENERATE_BYTES_PER_TRIANGLE;
     if let Some(avail) = crate::io::available_memory_bytes()
         && bytes > avail as f64
     {
-        return Err(format!(
+        return Err(GenerateError::from(format!(
             "resolution {r} needs about {:.1} GB to generate, more than the {:.1} GB available",
             bytes / 1e9,
             avail as f64 / 1e9
-        ));
+        )));
     }
     Ok(())
 }
@@ -447,7 +475,7 @@ const GENERATE_BYTES_PER_TRIANGLE: f64 = 100.0;
 mod tests {
     use super::*;
 
-    fn kv(kind: &str, p: &[&str]) -> Result<GeneratorSpec, String> {
+    fn kv(kind: &str, p: &[&str]) -> Result<GeneratorSpec, GenerateError> {
         GeneratorSpec::from_key_values(kind, &p.iter().map(|s| s.to_string()).collect::<Vec<_>>())
     }
 
@@ -490,9 +518,9 @@ mod tests {
 
     #[test]
     fn bad_key_values_are_refused_by_name() {
-        let e = kv("gaussian", &["rms"]).unwrap_err();
+        let e = kv("gaussian", &["rms"]).unwrap_err().to_string();
         assert!(e.contains("'rms' is not KEY=VALUE"), "{e}");
-        let e = kv("gaussian", &["=1"]).unwrap_err();
+        let e = kv("gaussian", &["=1"]).unwrap_err().to_string();
         assert!(e.contains("not a parameter name"), "{e}");
         let e = kv(
             "gaussian",
@@ -503,7 +531,8 @@ mod tests {
                 "resolution=8",
             ],
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(
             e.contains("generator 'gaussian'") && e.contains("colour"),
             "{e}"
@@ -512,9 +541,10 @@ mod tests {
             "gaussian",
             &["rms=wide", "correlation_length=1", "resolution=8"],
         )
-        .unwrap_err();
+        .unwrap_err()
+        .to_string();
         assert!(e.contains("generator 'gaussian'"), "{e}");
-        let e = kv("teapot", &[]).unwrap_err();
+        let e = kv("teapot", &[]).unwrap_err().to_string();
         assert!(e.contains("teapot"), "{e}");
     }
 }
