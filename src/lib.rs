@@ -4,6 +4,24 @@
 //! The modules follow the pipeline (see ARCHITECTURE.md):
 //! [`sample`] (geometry, media) → [`accel`] (Embree, obvhs) → … → [`bench`] and the CLI.
 
+/// `From<String>` and `From<&str>` for an error whose message variant (or tuple struct) is
+/// `$path`, so a room's checks can write `Err(format!(..).into())` and `?` on a message.
+macro_rules! message_error {
+    ($ty:ty, $path:path) => {
+        impl From<String> for $ty {
+            fn from(message: String) -> Self {
+                $path(message)
+            }
+        }
+
+        impl From<&str> for $ty {
+            fn from(message: &str) -> Self {
+                $path(message.to_string())
+            }
+        }
+    };
+}
+
 pub mod accel;
 pub mod accumulate;
 pub mod batch;

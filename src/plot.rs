@@ -39,17 +39,7 @@ pub enum PlotError {
     Draw(String),
 }
 
-impl From<String> for PlotError {
-    fn from(message: String) -> Self {
-        PlotError::Draw(message)
-    }
-}
-
-impl From<&str> for PlotError {
-    fn from(message: &str) -> Self {
-        PlotError::Draw(message.to_string())
-    }
-}
+message_error!(PlotError, PlotError::Draw);
 
 /// Draws a chart into `path` atomically (`draw` renders to the temporary path it is given;
 /// its error, whatever its type, is reported with the path).

@@ -128,17 +128,7 @@ pub struct Header {
 #[error("{0}")]
 pub struct InvalidHeader(pub String);
 
-impl From<String> for InvalidHeader {
-    fn from(message: String) -> Self {
-        InvalidHeader(message)
-    }
-}
-
-impl From<&str> for InvalidHeader {
-    fn from(message: &str) -> Self {
-        InvalidHeader(message.to_string())
-    }
-}
+message_error!(InvalidHeader, InvalidHeader);
 
 impl Header {
     /// What `goniospec info` prints about a run, one fact per line.

@@ -22,17 +22,7 @@ pub enum BrdfError {
     Invalid(String),
 }
 
-impl From<String> for BrdfError {
-    fn from(message: String) -> Self {
-        BrdfError::Invalid(message)
-    }
-}
-
-impl From<&str> for BrdfError {
-    fn from(message: &str) -> Self {
-        BrdfError::Invalid(message.to_string())
-    }
-}
+message_error!(BrdfError, BrdfError::Invalid);
 
 /// The kind of a representation, serialised by name; an unknown name is refused.
 #[derive(

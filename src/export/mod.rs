@@ -17,17 +17,7 @@ pub enum ExportError {
     Invalid(String),
 }
 
-impl From<String> for ExportError {
-    fn from(message: String) -> Self {
-        ExportError::Invalid(message)
-    }
-}
-
-impl From<&str> for ExportError {
-    fn from(message: &str) -> Self {
-        ExportError::Invalid(message.to_string())
-    }
-}
+message_error!(ExportError, ExportError::Invalid);
 
 /// The incident elevations a representation was simulated at, radians, ascending: the
 /// table's and the subdivided hemisphere's own, or the simulation settings' for a kd-tree.

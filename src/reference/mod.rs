@@ -11,17 +11,7 @@ pub enum ReferenceError {
     Invalid(String),
 }
 
-impl From<String> for ReferenceError {
-    fn from(message: String) -> Self {
-        ReferenceError::Invalid(message)
-    }
-}
-
-impl From<&str> for ReferenceError {
-    fn from(message: &str) -> Self {
-        ReferenceError::Invalid(message.to_string())
-    }
-}
+message_error!(ReferenceError, ReferenceError::Invalid);
 pub mod local_film;
 pub mod stack;
 

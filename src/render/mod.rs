@@ -34,17 +34,7 @@ pub enum RenderError {
     Invalid(String),
 }
 
-impl From<String> for RenderError {
-    fn from(message: String) -> Self {
-        RenderError::Invalid(message)
-    }
-}
-
-impl From<&str> for RenderError {
-    fn from(message: &str) -> Self {
-        RenderError::Invalid(message.to_string())
-    }
-}
+message_error!(RenderError, RenderError::Invalid);
 
 /// The light.
 #[derive(Clone, Copy, Debug, PartialEq)]

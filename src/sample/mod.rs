@@ -123,17 +123,7 @@ pub enum SampleErrorKind {
     },
 }
 
-impl From<String> for SampleErrorKind {
-    fn from(message: String) -> Self {
-        SampleErrorKind::Invalid(message)
-    }
-}
-
-impl From<&str> for SampleErrorKind {
-    fn from(message: &str) -> Self {
-        SampleErrorKind::Invalid(message.to_string())
-    }
-}
+message_error!(SampleErrorKind, SampleErrorKind::Invalid);
 
 /// One interface: a triangle mesh with a medium on each side.
 #[derive(Clone, Debug)]

@@ -34,11 +34,7 @@ pub enum StudyError {
     Invalid(String),
 }
 
-impl From<String> for StudyError {
-    fn from(message: String) -> Self {
-        StudyError::Invalid(message)
-    }
-}
+message_error!(StudyError, StudyError::Invalid);
 
 impl From<crate::plot::PlotError> for StudyError {
     fn from(e: crate::plot::PlotError) -> Self {
@@ -52,11 +48,6 @@ impl From<crate::reference::ReferenceError> for StudyError {
     }
 }
 
-impl From<&str> for StudyError {
-    fn from(message: &str) -> Self {
-        StudyError::Invalid(message.to_string())
-    }
-}
 pub use report::{write, write_area};
 pub use run::{AreaPoint, convergence_slope, holds, run, run_area};
 

@@ -22,17 +22,7 @@ pub enum GenerateError {
     Invalid(String),
 }
 
-impl From<String> for GenerateError {
-    fn from(message: String) -> Self {
-        GenerateError::Invalid(message)
-    }
-}
-
-impl From<&str> for GenerateError {
-    fn from(message: &str) -> Self {
-        GenerateError::Invalid(message.to_string())
-    }
-}
+message_error!(GenerateError, GenerateError::Invalid);
 
 mod bodies;
 pub(crate) mod height;

@@ -72,17 +72,7 @@ pub enum HeightMapError {
     Invalid(String),
 }
 
-impl From<String> for HeightMapError {
-    fn from(message: String) -> Self {
-        HeightMapError::Invalid(message)
-    }
-}
-
-impl From<&str> for HeightMapError {
-    fn from(message: &str) -> Self {
-        HeightMapError::Invalid(message.to_string())
-    }
-}
+message_error!(HeightMapError, HeightMapError::Invalid);
 
 /// The most points a height map may have (a 8192 x 8192 scan; mirrored and meshed it is
 /// 2^29 triangles, beyond the mesh limit, so the mesh limit binds first for large maps).
