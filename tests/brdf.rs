@@ -496,3 +496,40 @@ fn previous_container_versions_still_read() {
         "{e}"
     );
 }
+
+/// Issue 28, item 2: a `.gsb` stores the run's whole wavelength sampling (bin edges, not
+/// only centres), refuses a sampling that does not give its centres, and files written
+/// before (centres only) still read, their bins rebuilt halfway between centres.
+#[test]
+fn gsb_files_carry_the_whole_wavelength_sampling() {
+    let (data, _) = rough_data(Buckets {
+        theta_bins: 9,
+        phi_bins: 6,
+    });
+    let table = Representation::Table(TableBrdf::build(&data));
+    let d = scratch("gsb-spectrum");
+    let p = d.join("table.gsb");
+    file::write(&table, &p).unwrap();
+    let back = file::read(&p).unwrap();
+    let edges = Wavelengths::Bins(vec![450.0, 550.0, 650.0]);
+    assert_eq!(back.meta().spectrum.as_ref(), Some(&edges));
+    assert_eq!(goniospec::render::analytic::sampling_of(back.meta()), edges);
+
+    // Edges that do not give the stored centres (500, 600) are refused.
+    let mut wrong = TableBrdf::build(&data);
+    wrong.meta.spectrum = Some(Wavelengths::Bins(vec![400.0, 550.0, 650.0]));
+    let bytes = file::to_bytes(&Representation::Table(wrong));
+    let e = file::from_bytes(&bytes, "x.gsb").err().unwrap().to_string();
+    assert!(e.contains("do not give"), "{e}");
+
+    // A file from before: no spectrum; bins rebuilt from the centres.
+    let old = file::read(&root().join("fuzz/corpus/gsb/table.gsb")).unwrap();
+    assert_eq!(old.meta().spectrum, None);
+    let c = &old.meta().wavelengths_nm;
+    let rebuilt = goniospec::render::analytic::sampling_of(old.meta());
+    assert_eq!(rebuilt.count(), c.len());
+    for (j, &cj) in c.iter().enumerate() {
+        let (lo, hi) = rebuilt.band(j);
+        assert!((0.5 * (lo + hi) - cj).abs() < 1e-9 && hi > lo, "{j}: {lo} {hi} {cj}");
+    }
+}

@@ -41,6 +41,7 @@ fn lambert(albedo: f64) -> Lambert {
         meta: Meta {
             repr: goniospec::brdf::Kind::Analytic,
             wavelengths_nm: centres(),
+            spectrum: None,
             sample_name: "white".into(),
             sample_hash: String::new(),
             simulation: String::new(),

@@ -14,6 +14,8 @@ use serde::{Deserialize, Serialize};
 
 use super::{Buckets, Cell, Coherence, PhasePrecision};
 use crate::optics::C64;
+pub use crate::spectrum::WavelengthMode;
+use crate::spectrum::Wavelengths;
 
 pub const MAGIC: &[u8; 8] = b"GSPECACC";
 pub const VERSION: u32 = 3;
@@ -66,25 +68,6 @@ fn is_zero(v: &u64) -> bool {
 
 fn is_f64(p: &PhasePrecision) -> bool {
     *p == PhasePrecision::F64
-}
-
-/// What the wavelength values of a run are (written "bins" or "monochromatic").
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum WavelengthMode {
-    /// Bin edges; each tree draws a jittered wavelength in each bin.
-    Bins,
-    /// Exact wavelengths.
-    Monochromatic,
-}
-
-impl std::fmt::Display for WavelengthMode {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            WavelengthMode::Bins => "bins",
-            WavelengthMode::Monochromatic => "monochromatic",
-        })
-    }
 }
 
 /// How entry points are drawn (written "r2" or "uniform").
@@ -196,12 +179,8 @@ impl Header {
                 w.len()
             )));
         }
-        if w.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
-            return Err("wavelengths_nm must be positive and finite".into());
-        }
-        if s.wavelength_mode == WavelengthMode::Bins && w.windows(2).any(|p| p[1] <= p[0]) {
-            return Err("wavelength bin edges must increase".into());
-        }
+        Wavelengths::from_parts(s.wavelength_mode, w.clone())
+            .map_err(|e| InvalidHeader::from(format!("wavelengths_nm: {e}")))?;
         if s.coherence_radius_nm.is_nan() || s.coherence_radius_nm <= 0.0 {
             return Err(InvalidHeader::from(format!(
                 "coherence_radius_nm must be positive (or inf), got {}",
@@ -255,6 +234,16 @@ impl Settings {
         Buckets {
             theta_bins: self.theta_o_bins,
             phi_bins: self.phi_o_bins,
+        }
+    }
+    /// The run's wavelength sampling (the header was validated when read, or written by
+    /// a run whose sampling was).
+    pub fn spectrum(&self) -> Wavelengths {
+        match self.wavelength_mode {
+            WavelengthMode::Bins => Wavelengths::Bins(self.wavelengths_nm.clone()),
+            WavelengthMode::Monochromatic => {
+                Wavelengths::Monochromatic(self.wavelengths_nm.clone())
+            }
         }
     }
     /// Number of wavelength cells.

@@ -334,6 +334,16 @@ fn validate(r: &Representation) -> Result<(), BrdfError> {
             w.len()
         )));
     }
+    // The stored sampling (validated as it was read) must be the one the centres come from.
+    if let Some(sp) = &meta.spectrum
+        && (sp.count() != w.len() || (0..w.len()).any(|j| sp.centre(j) != w[j]))
+    {
+        return Err(BrdfError::from(format!(
+            "the spectrum's {} cells do not give the {} stored centres",
+            sp.count(),
+            w.len()
+        )));
+    }
     let finite = |what: &str, v: &[f64]| -> Result<(), String> {
         match v.iter().position(|x| !x.is_finite()) {
             Some(i) => Err(format!("{what} value {i} is {}", v[i])),

@@ -104,6 +104,10 @@ pub struct Meta {
     pub repr: Kind,
     /// Representative wavelength of each bin, nm.
     pub wavelengths_nm: Vec<f64>,
+    /// The whole sampling these are the cells of (bin edges, or exact wavelengths);
+    /// absent in files written before it was stored.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spectrum: Option<crate::spectrum::Wavelengths>,
     pub sample_name: String,
     pub sample_hash: String,
     /// The simulation's settings, as TOML (from the `.gsa` header).
@@ -224,6 +228,7 @@ impl BucketData {
             meta: Meta {
                 repr: Kind::Table,
                 wavelengths_nm: (0..nl).map(|j| s.wavelength(j)).collect(),
+                spectrum: Some(s.spectrum()),
                 sample_name: s.sample_name.clone(),
                 sample_hash: s.sample_hash.clone(),
                 simulation: toml::to_string(s).unwrap_or_default(),

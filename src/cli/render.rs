@@ -235,7 +235,7 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     );
     if let Some(sp) = &a.analytic {
         let s = sample::load(sp, MeshOptions::default())?;
-        let reference = render::analytic::stack_image(&s, &r.meta().wavelengths_nm, &shape, &cfg)?;
+        let reference = render::analytic::stack_image(&s, r.meta(), &shape, &cfg)?;
         let apng = a.output.with_file_name(format!(
             "{}-analytic.png",
             a.output.file_stem().unwrap_or_default().to_string_lossy()

@@ -2,57 +2,70 @@
 //! exactly. Under an environment the pixel is `R_TMM(theta_o) L_env(r)` with `r` the
 //! mirror direction (the light, a delta direction, contributes nothing to a delta lobe).
 
-use super::{Env, Image, RenderConfig, Shape, colour};
-use crate::optics::tmm::solve_band;
+use super::{Env, Image, RenderConfig, RenderError, Shape, colour};
+use crate::brdf::Meta;
+use crate::optics::tmm::{solve, solve_band};
+use crate::spectrum::Wavelengths;
 use crate::sample::Sample;
 
-/// Renders the stack's exact specular reflection with the same camera and environment.
-pub fn stack_image(
-    s: &Sample,
-    centres_nm: &[f64],
-    shape: &Shape,
-    cfg: &RenderConfig,
-) -> anyhow::Result<Image> {
-    if s.stack.is_none() {
-        anyhow::bail!("{} is not written as a [stack]", s.path.display());
+/// The sampling a `.gsb` was built with: written whole since the file carried it; for
+/// older files (centres only) rebuilt as bins whose edges lie halfway between centres,
+/// the outer bins as wide as their neighbours (10 nm for a single centre).
+pub fn sampling_of(meta: &Meta) -> Wavelengths {
+    if let Some(w) = &meta.spectrum {
+        return w.clone();
     }
-    let nl = centres_nm.len();
-    let edges: Vec<f64> = (0..=nl)
-        .map(|i| {
-            if i == 0 {
-                centres_nm[0]
-                    - 0.5
-                        * (centres_nm.get(1).copied().unwrap_or(centres_nm[0] + 10.0)
-                            - centres_nm[0])
-            } else if i == nl {
-                centres_nm[nl - 1]
-                    + 0.5
-                        * (centres_nm[nl - 1]
-                            - centres_nm
-                                .get(nl.wrapping_sub(2))
-                                .copied()
-                                .unwrap_or(centres_nm[0] - 10.0))
-            } else {
-                0.5 * (centres_nm[i - 1] + centres_nm[i])
-            }
+    let c = &meta.wavelengths_nm;
+    let nl = c.len();
+    let first_width = if nl > 1 { c[1] - c[0] } else { 10.0 };
+    let last_width = if nl > 1 { c[nl - 1] - c[nl - 2] } else { 10.0 };
+    let edges = (0..=nl)
+        .map(|i| match i {
+            0 => c[0] - 0.5 * first_width,
+            i if i == nl => c[nl - 1] + 0.5 * last_width,
+            i => 0.5 * (c[i - 1] + c[i]),
         })
         .collect();
-    for &l in &[edges[0], edges[nl]] {
-        crate::reference::stack_indices(s, l).map_err(|e| anyhow::anyhow!(e))?;
+    Wavelengths::Bins(edges)
+}
+
+/// Renders the stack's exact specular reflection with the same camera and environment,
+/// in the wavelength cells of `meta`: a bin's reflectance averaged over the bin (Simpson,
+/// [`solve_band`]), an exact wavelength's at that wavelength.
+pub fn stack_image(
+    s: &Sample,
+    meta: &Meta,
+    shape: &Shape,
+    cfg: &RenderConfig,
+) -> Result<Image, RenderError> {
+    if s.stack.is_none() {
+        return Err(RenderError::from(format!(
+            "{} is not written as a [stack]",
+            s.path.display()
+        )));
+    }
+    let sampling = sampling_of(meta);
+    let nl = sampling.count();
+    for &l in &[sampling.min(), sampling.max()] {
+        crate::reference::stack_indices(s, l).map_err(|e| RenderError::from(e.to_string()))?;
     }
     let stack_at =
         |l: f64| crate::reference::stack_indices(s, l).expect("checked at the band edges");
+    let centres_nm = sampling.centres();
     // R(theta_o) per bin on a fine angle table.
     let n_t = 180;
     let table: Vec<Vec<f64>> = (0..n_t)
         .map(|k| {
             let th = (k as f64 + 0.5) / n_t as f64 * std::f64::consts::FRAC_PI_2;
             (0..nl)
-                .map(|j| solve_band(stack_at, edges[j], edges[j + 1], th).r())
+                .map(|j| match sampling.band(j) {
+                    (lo, hi) if lo < hi => solve_band(stack_at, lo, hi, th).r(),
+                    (l, _) => solve(&stack_at(l), l, th).r(),
+                })
                 .collect()
         })
         .collect();
-    let weights = colour::bin_weights(centres_nm);
+    let weights = colour::bin_weights(&centres_nm);
     let cam = super::camera_frame(shape, cfg);
     let mut img = Image {
         width: cfg.width,

@@ -13,13 +13,12 @@ use super::{
     SimStats, achieved_error, check_physical, sample_hash,
 };
 use crate::accumulate::block::{BlockCell, Dense, add_block};
-use crate::accumulate::file::{Accumulator, EntryPoints, Header, Settings, WavelengthMode};
+use crate::accumulate::file::{Accumulator, EntryPoints, Header, Settings};
 use crate::accumulate::{Cell, Coherence, Estimator, Scratch, diffraction};
 use crate::geom::from_spherical;
 use crate::optics::C64;
 use crate::rng::Rng;
 use crate::sample::Sample;
-use crate::spectrum::Wavelengths;
 use crate::trace::{Scene, TraceStack, Tree};
 
 /// Per-cell sums of what the run lost or could not trust (see [`SimStats`]), filled
@@ -128,10 +127,7 @@ impl<'a> Run<'a> {
             ));
         }
         // Every wavelength the run evaluates must be inside every medium's range.
-        let lambdas: Vec<f64> = match &cfg.wavelengths {
-            Wavelengths::Bins(e) => e.clone(),
-            Wavelengths::Monochromatic(v) => v.clone(),
-        };
+        let lambdas: Vec<f64> = cfg.wavelengths.values_nm().to_vec();
         media_in_range(sample, &lambdas)?;
         // Particle media tabulated over the run's wavelengths (each whole nm between the
         // extremes; a Mie table refuses an absorbing host at any of them too).
@@ -172,10 +168,7 @@ impl<'a> Run<'a> {
             sample_hash: sample_hash(sample),
             theta_i_deg: cfg.theta_i_deg.clone(),
             phi_i_deg: cfg.phi_i_deg,
-            wavelength_mode: match cfg.wavelengths {
-                Wavelengths::Bins(_) => WavelengthMode::Bins,
-                Wavelengths::Monochromatic(_) => WavelengthMode::Monochromatic,
-            },
+            wavelength_mode: cfg.wavelengths.mode(),
             wavelengths_nm: lambdas,
             coherence: cfg.coherence,
             coherence_radius_nm: cfg.rho_nm,

@@ -461,20 +461,11 @@ pub fn validate(cfg: &SimConfig) -> Result<(), SimError> {
             ),
         );
     }
-    if cfg.wavelengths.count() == 0 {
-        return bad("wavelengths", "no wavelengths".into());
-    }
-    let ls = match &cfg.wavelengths {
-        Wavelengths::Bins(e) => e,
-        Wavelengths::Monochromatic(v) => v,
-    };
-    if ls.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
-        return bad("wavelengths", "must be positive and finite".into());
-    }
-    if let Wavelengths::Bins(e) = &cfg.wavelengths
-        && e.windows(2).any(|w| w[1] <= w[0])
+    // A configuration built in code (not parsed) meets the parser's rules here.
+    if let Err(e) =
+        Wavelengths::from_parts(cfg.wavelengths.mode(), cfg.wavelengths.values_nm().to_vec())
     {
-        return bad("wavelengths", "bin edges must increase".into());
+        return bad("wavelengths", e.to_string());
     }
     if cfg.rho_nm.is_nan() || cfg.rho_nm <= 0.0 {
         return bad(
