@@ -1,0 +1,214 @@
+//! Stage 5 of [`super`]: media, their volume scattering, and names resolved against them.
+
+use toml::Spanned;
+
+use super::Ctx;
+use crate::sample::limits::check_length;
+use crate::sample::media::{RawMedium, build_model};
+use crate::sample::raw::{RawLayer, RawSample};
+use crate::sample::{Medium, SampleError, SampleErrorKind, Scattering};
+
+/// Stage 5: every medium's index model (sorted by name, so ids are deterministic), then
+/// its volume scattering.
+pub(super) fn media(cx: &Ctx, raw: &RawSample) -> Result<Vec<Medium>, SampleError> {
+    let mut media = Vec::new();
+    for (name, m) in &raw.media {
+        let model = build_model(m.get_ref(), cx.base, true).map_err(|e| match e.file {
+            Some((file, line)) => {
+                let inner = SampleError {
+                    path: file.clone(),
+                    line,
+                    kind: SampleErrorKind::Invalid(e.message.clone()),
+                };
+                cx.at(
+                    m.span(),
+                    SampleErrorKind::MediumFile {
+                        file: file.display().to_string(),
+                        message: format!("medium '{name}': {inner}"),
+                    },
+                )
+            }
+            None => cx.at(
+                m.span(),
+                SampleErrorKind::BadMedium {
+                    name: name.clone(),
+                    message: e.message,
+                },
+            ),
+        })?;
+        media.push(Medium {
+            name: name.clone(),
+            model,
+            scattering: None,
+        });
+    }
+    for (name, m) in &raw.media {
+        let scattering = scattering_of(raw, &media, name, m.get_ref()).map_err(|message| {
+            cx.at(
+                m.span(),
+                SampleErrorKind::BadMedium {
+                    name: name.clone(),
+                    message,
+                },
+            )
+        })?;
+        if let Some(s) = scattering
+            && let Some(m) = media.iter_mut().find(|x| &x.name == name)
+        {
+            m.scattering = Some(s);
+        }
+    }
+    Ok(media)
+}
+
+/// A medium's volume scattering: particles of another (homogeneous) medium, or a
+/// Henyey-Greenstein phase function with its coefficients; `None` for a clear medium.
+fn scattering_of(
+    raw: &RawSample,
+    media: &[Medium],
+    name: &str,
+    m: &RawMedium,
+) -> Result<Option<Scattering>, String> {
+    use crate::optics::particles::{Radius, ScatterModel};
+    match (&m.particles, &m.henyey_greenstein) {
+        (None, None) => Ok(None),
+        (Some(_), Some(_)) => Err("has both particles and henyey_greenstein; give one".into()),
+        (Some(p), None) => {
+            let Some(pm) = media.iter().position(|x| x.name == p.medium) else {
+                return Err(format!("particles of unknown medium '{}'", p.medium));
+            };
+            if pm
+                == media
+                    .iter()
+                    .position(|x| x.name == name)
+                    .unwrap_or(usize::MAX)
+            {
+                return Err("particles cannot be of the medium they are in".into());
+            }
+            if raw.media[&p.medium].get_ref().particles.is_some()
+                || raw.media[&p.medium].get_ref().henyey_greenstein.is_some()
+            {
+                return Err(format!(
+                    "particles of '{}', itself a scattering medium: a particle is one homogeneous medium",
+                    p.medium
+                ));
+            }
+            let radius = match (p.radius_nm, &p.log_normal) {
+                (Some(r), None) => {
+                    if !(r.is_finite() && r > 0.0 && r <= 1e6) {
+                        return Err(format!(
+                            "particles: radius_nm must be between 0 and 1e6 nm, got {r}"
+                        ));
+                    }
+                    Radius::Fixed { radius_nm: r }
+                }
+                (None, Some(ln)) => {
+                    let (r, sg) = (ln.median_radius_nm, ln.sigma);
+                    if !(r.is_finite() && r > 0.0 && r <= 1e6) {
+                        return Err(format!(
+                            "particles: median_radius_nm must be between 0 and 1e6 nm, got {r}"
+                        ));
+                    }
+                    if !(sg.is_finite() && sg > 0.0 && sg <= 1.0) {
+                        return Err(format!(
+                            "particles: the log-normal sigma (of ln r) must lie in (0, 1], got {sg}"
+                        ));
+                    }
+                    Radius::LogNormal {
+                        median_nm: r,
+                        sigma: sg,
+                    }
+                }
+                _ => {
+                    return Err(
+                        "particles need radius_nm or log_normal = { median_radius_nm, sigma }, not both"
+                            .into(),
+                    );
+                }
+            };
+            let f = p.volume_fraction;
+            if !(f.is_finite() && f > 0.0 && f < 0.74) {
+                return Err(format!(
+                    "particles: volume_fraction must lie in (0, 0.74), got {f}"
+                ));
+            }
+            Ok(Some(Scattering::Particles {
+                medium: pm,
+                radius,
+                volume_fraction: f,
+            }))
+        }
+        (None, Some(h)) => {
+            ScatterModel::henyey_greenstein(h.g, h.scattering_per_um, h.absorption_per_um)
+                .map_err(|e| format!("henyey_greenstein: {e}"))?;
+            Ok(Some(Scattering::HenyeyGreenstein {
+                g: h.g,
+                scattering_per_um: h.scattering_per_um,
+                absorption_per_um: h.absorption_per_um,
+            }))
+        }
+    }
+}
+
+/// Media by name, and layer lists resolved against them.
+pub(super) struct Names<'a> {
+    pub(super) cx: &'a Ctx<'a>,
+    pub(super) media: &'a [Medium],
+}
+
+impl Names<'_> {
+    /// The index of the medium `s` names, or an error listing the known ones.
+    pub(super) fn medium(&self, s: &Spanned<String>) -> Result<usize, SampleError> {
+        self.media
+            .iter()
+            .position(|m| &m.name == s.get_ref())
+            .ok_or_else(|| {
+                let known = if self.media.is_empty() {
+                    "no media".to_string()
+                } else {
+                    self.media
+                        .iter()
+                        .map(|m| m.name.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                };
+                self.cx.at(
+                    s.span(),
+                    SampleErrorKind::UnknownMedium {
+                        name: s.get_ref().clone(),
+                        known,
+                    },
+                )
+            })
+    }
+
+    /// Layers (of a `[stack]` or a coating) as (medium, thickness in nm).
+    pub(super) fn layers(&self, raw: &[RawLayer]) -> Result<Vec<(usize, f64)>, SampleError> {
+        let mut layers = Vec::new();
+        for l in raw {
+            let t = *l.thickness.get_ref();
+            check_length("layer thickness", t, self.cx.unit, t * self.cx.scale)
+                .map_err(|m| self.cx.at(l.thickness.span(), m))?;
+            layers.push((self.medium(&l.medium)?, t * self.cx.scale));
+        }
+        Ok(layers)
+    }
+
+    /// A coating's layers: a thin stack applied by transfer matrices, so no layer may
+    /// scatter in its volume.
+    pub(super) fn coating(&self, raw: &[RawLayer]) -> Result<Vec<(usize, f64)>, SampleError> {
+        let layers = self.layers(raw)?;
+        for (l, &(m, _)) in raw.iter().zip(&layers) {
+            if self.media[m].scattering.is_some() {
+                return Err(self.cx.at(
+                    l.medium.span(),
+                    SampleErrorKind::Invalid(format!(
+                        "coating layer '{}' scatters (particles or henyey_greenstein), but a coating is a thin film applied by transfer matrices; make it a meshed layer",
+                        self.media[m].name
+                    )),
+                ));
+            }
+        }
+        Ok(layers)
+    }
+}
