@@ -419,7 +419,9 @@ pub fn analytic_buckets(ni: usize, tb: u32, pb: u32, lambdas: &[f64]) -> crate::
         meta: Meta {
             repr: crate::brdf::Kind::Analytic,
             wavelengths_nm: lambdas.to_vec(),
-            spectrum: Some(crate::spectrum::Wavelengths::Monochromatic(lambdas.to_vec())),
+            spectrum: Some(crate::spectrum::Wavelengths::Monochromatic(
+                lambdas.to_vec(),
+            )),
             sample_name: "analytic Lambert + Blinn-Phong".into(),
             sample_hash: "analytic".into(),
             simulation: String::new(),

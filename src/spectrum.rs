@@ -139,7 +139,10 @@ impl Wavelengths {
     /// A sampling from its mode and values (nm), as files store it: every value positive
     /// and finite; bins need at least two increasing edges, exact wavelengths at least one.
     /// The count limit is the caller's (a run allows [`MAX_WAVELENGTHS`], a file more).
-    pub fn from_parts(mode: WavelengthMode, values: Vec<f64>) -> Result<Wavelengths, SpectrumError> {
+    pub fn from_parts(
+        mode: WavelengthMode,
+        values: Vec<f64>,
+    ) -> Result<Wavelengths, SpectrumError> {
         use SpectrumError as E;
         if values.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
             return Err(E::NotPositive);

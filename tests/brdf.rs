@@ -530,6 +530,9 @@ fn gsb_files_carry_the_whole_wavelength_sampling() {
     assert_eq!(rebuilt.count(), c.len());
     for (j, &cj) in c.iter().enumerate() {
         let (lo, hi) = rebuilt.band(j);
-        assert!((0.5 * (lo + hi) - cj).abs() < 1e-9 && hi > lo, "{j}: {lo} {hi} {cj}");
+        assert!(
+            (0.5 * (lo + hi) - cj).abs() < 1e-9 && hi > lo,
+            "{j}: {lo} {hi} {cj}"
+        );
     }
 }

@@ -5,8 +5,8 @@
 use super::{Env, Image, RenderConfig, RenderError, Shape, colour};
 use crate::brdf::Meta;
 use crate::optics::tmm::{solve, solve_band};
-use crate::spectrum::Wavelengths;
 use crate::sample::Sample;
+use crate::spectrum::Wavelengths;
 
 /// The sampling a `.gsb` was built with: written whole since the file carried it; for
 /// older files (centres only) rebuilt as bins whose edges lie halfway between centres,
