@@ -1,0 +1,324 @@
+//! What happens where a ray meets an interface: each lane's split into reflected and
+//! transmitted waves (Fresnel, or a coating's transfer matrices), the energy checks, and
+//! the children pushed for the walk to trace.
+
+use super::{ALL, C64, Field, Lane, RayState, Scene, TraceLimits, TraceStack, Tree, drop_all};
+use crate::optics::fresnel::{self, field_power};
+use crate::optics::tmm;
+use glam::DVec3;
+
+impl Scene<'_> {
+    /// Splits the ray `r` at an interface, lane by lane, and pushes its children.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn interface_event(
+        &self,
+        r: RayState,
+        prim: u32,
+        n: DVec3,
+        lanes: &[Lane],
+        limits: &TraceLimits,
+        stack: &mut TraceStack,
+        trees: &mut [Tree],
+    ) {
+        let itf = &self.sample.interfaces[self.owner[prim as usize] as usize];
+        let cos = r.dir.dot(n);
+        let (from, to, nf) = if cos < 0.0 {
+            (itf.front, itf.back, n)
+        } else {
+            (itf.back, itf.front, -n)
+        };
+        let first = if r.lane == ALL { 0 } else { r.lane as usize };
+        if from != r.medium {
+            for (k, f) in stack.cur.iter().enumerate() {
+                if f.is_some() {
+                    trees[first + k].leaks += 1;
+                }
+            }
+            drop_all(&stack.cur, first, r.opl, trees);
+            return;
+        }
+        // Each lane's split: the children's directions, waves and fields (a ray of one
+        // lane, the common case, needs no list).
+        let TraceStack { splits, cur, .. } = stack;
+        // Written in place (a split is a few hundred bytes); `splits[k]` is valid where
+        // `cur[k]` holds a field.
+        if splits.len() < cur.len() {
+            splits.resize_with(cur.len(), LaneSplit::default);
+        }
+        for (k, f) in cur.iter().enumerate() {
+            if let Some(e) = f {
+                let j = first + k;
+                self.lane_split(
+                    itf,
+                    &r,
+                    nf,
+                    from,
+                    to,
+                    e,
+                    &lanes[j],
+                    &mut trees[j],
+                    &mut splits[k],
+                );
+            }
+        }
+        self.push_children(&r, prim, nf, from, to, lanes, limits, stack, trees);
+    }
+
+    /// Pushes the children of ray `r` split at facet `prim` (normal `nf` facing the ray,
+    /// from medium `from` to `to`), from the lanes' splits in `stack.splits`: the
+    /// transmitted ones first (one per lane into a medium whose index varies between the
+    /// lanes, else one shared ray), then the reflected one. A child below the power cutoff
+    /// or past the depth limit is dropped and recorded in its lane's tree.
+    #[allow(clippy::too_many_arguments)]
+    fn push_children(
+        &self,
+        r: &RayState,
+        prim: u32,
+        nf: DVec3,
+        from: usize,
+        to: usize,
+        lanes: &[Lane],
+        limits: &TraceLimits,
+        stack: &mut TraceStack,
+        trees: &mut [Tree],
+    ) {
+        let first = if r.lane == ALL { 0 } else { r.lane as usize };
+        let TraceStack {
+            rays,
+            fields,
+            splits,
+            varies,
+            cur,
+            ..
+        } = stack;
+        // The lanes' splits, `None` where the lane dropped the ray.
+        let lane_splits = || {
+            cur.iter()
+                .zip(splits.iter())
+                .map(|(f, g)| f.is_some().then_some(g))
+        };
+        let depth = r.depth + 1;
+        // Whether lane j keeps a child of field `e`: below the cutoff or past the depth
+        // limit its power is dropped (recorded in its tree).
+        let keep = |tree: &mut Tree, e: &[Field; 2], j: usize| -> bool {
+            let mut power = field_power(&e[0]).max(field_power(&e[1]));
+            // Attenuated along the path so far (exactly 1 on a lossless path: no call).
+            if r.opl.im != 0.0 {
+                power *= (-4.0 * std::f64::consts::PI / lanes[j].lambda_nm * r.opl.im).exp();
+            }
+            if power < limits.cutoff {
+                tree.drop_field(e, r.opl, false);
+                false
+            } else if depth > limits.max_depth {
+                tree.drop_field(e, r.opl, true);
+                false
+            } else {
+                true
+            }
+        };
+        // The child starts a little off the surface; its plane wave's phase there is `N .
+        // offset` past the hit point, so the path stays exact however thin the layer (a 5
+        // nm film would otherwise lose 2 eps of thickness per round trip).
+        let child = |dir: DVec3,
+                     wave: (DVec3, DVec3),
+                     medium: usize,
+                     side: f64,
+                     lane,
+                     at: usize,
+                     e: [Field; 2]| {
+            let offset = nf * (side * self.eps);
+            let shift = C64::new(wave.0.dot(offset), wave.1.dot(offset));
+            RayState {
+                e,
+                pos: (r.pos + offset),
+                dir,
+                n_re: wave.0,
+                n_im: wave.1,
+                off: r.off,
+                medium,
+                opl: r.opl + shift,
+                depth,
+                lane,
+                at: at as u32,
+                group: r.group,
+                // A plane interface shares the footprint of the tube on either side, so a
+                // refracted tube's cross-section scales by cos(theta_t) / cos(theta_i).
+                tube: if side < 0.0 {
+                    r.tube * dir.dot(nf).abs() / r.dir.dot(nf).abs().max(1e-300)
+                } else {
+                    r.tube
+                },
+                path: (r.path ^ (u64::from(prim) << 1 | u64::from(side < 0.0)))
+                    .wrapping_mul(0x0000_0100_0000_01B3),
+                killed: false,
+            }
+        };
+        // Transmitted children first so the reflected one is traced first (stack order
+        // does not change results; it keeps the stack shallow for films). Under total
+        // internal reflection into a lossless medium no wave propagates and T = 0.
+        if r.lane != ALL || varies[to] {
+            // One ray per lane: its own direction into the dispersive medium.
+            for (k, s) in lane_splits().enumerate() {
+                let Some(g) = s else { continue };
+                let Some(dt) = g.dir_t else { continue };
+                let j = first + k;
+                if keep(&mut trees[j], &g.et, j) {
+                    rays.push(child(dt, g.n_t, to, -1.0, j as u32, 0, g.et));
+                }
+            }
+        } else if let Some(g) = lane_splits().flatten().next()
+            && let Some(dt) = g.dir_t
+        {
+            // Every lane refracts alike into a medium of the same index in each.
+            let (wave, at) = (g.n_t, fields.len());
+            let mut any = false;
+            for (j, s) in lane_splits().enumerate() {
+                let kept = s.and_then(|g| keep(&mut trees[j], &g.et, j).then_some(g.et));
+                any |= kept.is_some();
+                fields.push(kept);
+            }
+            if any {
+                rays.push(child(dt, wave, to, -1.0, ALL, at, [[C64::ZERO; 3]; 2]));
+            } else {
+                fields.truncate(at);
+            }
+        }
+        // The reflected wave stays in `from`, whose index is the same in every lane the
+        // ray carries, and its direction does not depend on the far side's index.
+        let Some(g) = lane_splits().flatten().next() else {
+            return;
+        };
+        let (dir_r, wave, at) = (g.dir_r, g.n_r, fields.len());
+        if r.lane != ALL {
+            if keep(&mut trees[first], &g.er, first) {
+                rays.push(child(dir_r, wave, from, 1.0, r.lane, 0, g.er));
+            }
+            return;
+        }
+        let mut any = false;
+        for (k, s) in lane_splits().enumerate() {
+            let kept =
+                s.and_then(|g| keep(&mut trees[first + k], &g.er, first + k).then_some(g.er));
+            any |= kept.is_some();
+            fields.push(kept);
+        }
+        if any {
+            rays.push(child(dir_r, wave, from, 1.0, ALL, at, [[C64::ZERO; 3]; 2]));
+        } else {
+            fields.truncate(at);
+        }
+    }
+
+    /// One lane's split of ray `r` (field `e`) at interface `itf` (normal `nf` facing the
+    /// ray, from medium `from` to `to`): the coefficients (coated where the interface
+    /// carries thin layers), the energy checks, and the children's fields; notes absorption
+    /// and faults in the lane's `tree`.
+    #[allow(clippy::too_many_arguments)]
+    fn lane_split(
+        &self,
+        itf: &crate::sample::Interface,
+        r: &RayState,
+        nf: DVec3,
+        from: usize,
+        to: usize,
+        e: &[Field; 2],
+        lane: &Lane,
+        tree: &mut Tree,
+        out: &mut LaneSplit,
+    ) {
+        let (indices, lambda_nm) = (lane.indices, lane.lambda_nm);
+        let (n1, n2) = (indices[from], indices[to]);
+        let mut g = fresnel::split_wave(r.dir, r.n_re, r.n_im, nf, n1, n2);
+        let mut coating_absorbs = false;
+        if !itf.coating.is_empty() {
+            // The thin stack's transfer-matrix amplitudes in the direction of travel
+            // (front to back: outermost layer first), at this event's tangential index.
+            tree.n_buf.clear();
+            tree.d_buf.clear();
+            tree.n_buf.push(n1);
+            let nc = itf.coating.len();
+            for i in 0..nc {
+                let (m, d) = itf.coating[if from == itf.front { i } else { nc - 1 - i }];
+                tree.n_buf.push(indices[m]);
+                tree.d_buf.push(d);
+                coating_absorbs |= indices[m].im > 0.0;
+            }
+            tree.n_buf.push(n2);
+            let amp = tmm::amplitudes(&tree.n_buf, &tree.d_buf, g.kappa, lambda_nm);
+            g.c = fresnel::coated(&g.c, amp);
+            if coating_absorbs {
+                tree.absorbing = true;
+            }
+        }
+        if g.k_im > 0.0 {
+            // The wave's amplitude varies along this facet (it entered through a facet
+            // not parallel to this one): its partial waves recombine only in part.
+            let w = recombination_weight(g.k_im, lambda_nm, self.coherence_nm);
+            if fresnel::limit_excess(&mut g.c, w) {
+                tree.limited += 1;
+                // The incident power, attenuated along the path, that met an event whose
+                // amplitudes are a model rather than the exact plane-wave ones.
+                let mut p = field_power(&e[0]).max(field_power(&e[1]));
+                if r.opl.im != 0.0 {
+                    p *= (-4.0 * std::f64::consts::PI / lambda_nm * r.opl.im).exp();
+                }
+                tree.limited_power += p * (1.0 - w);
+            }
+        }
+        if n1.im == 0.0 && r.n_im == DVec3::ZERO {
+            // A homogeneous wave from a lossless medium: |r|^2 + T = 1 exactly
+            // (optics::fresnel::balance_excess); an absorbing coating may only take power
+            // away. From an absorbing medium, or for an inhomogeneous wave, the incident
+            // and reflected fluxes do not separate and no single event balances on its
+            // own: energy is checked on the run's coherent totals
+            // (simulate::check_physical).
+            let [es, ep] = fresnel::balance_excess(&g.c, n1, n2);
+            let ok = if coating_absorbs {
+                es <= 1e-9 && ep <= 1e-9
+            } else {
+                es.abs() <= 1e-9 && ep.abs() <= 1e-9
+            };
+            debug_assert!(ok, "energy fault at an interface: {n1} -> {n2}, {:?}", g.c);
+            if !ok {
+                tree.energy_faults += 1;
+            }
+        }
+        if n2.im > 0.0 && (g.c.t_s != C64::new(0.0, 0.0) || g.c.t_p != C64::new(0.0, 0.0)) {
+            tree.absorbing = true;
+        }
+        // Field by field: no temporary of the whole split.
+        (out.er[0], out.et[0]) = fresnel::split_field(&e[0], &g);
+        (out.er[1], out.et[1]) = fresnel::split_field(&e[1], &g);
+        out.dir_r = g.dir_r;
+        out.n_r = g.n_r;
+        out.dir_t = g.dir_t;
+        out.n_t = g.n_t;
+    }
+}
+
+/// The weight in [0, 1] with which the partial waves of an event recombine, for an
+/// incident wave whose amplitude changes along the facet at the rate `k_im` (`|Im K|`,
+/// in units of `k0 = 2 pi / lambda`), under illumination coherent over `coherence_nm`:
+/// `exp(-x^2 / 2)` with `x = k0 k_im coherence_nm`, the number of e-foldings of the
+/// wave's amplitude across the coherent area. A film whose faces are parallel has `x = 0`
+/// and keeps the exact amplitudes (its series recombines into the transfer-matrix field);
+/// a slightly tilted face keeps them to second order in the tilt; a ridge tip, where the
+/// wave enters by one face and meets another at a large angle, has `x` in the hundreds,
+/// its partial waves leave in directions that never interfere, and the event conserves
+/// power on its own (docs/physics.md, "Energy at interfaces").
+pub fn recombination_weight(k_im: f64, lambda_nm: f64, coherence_nm: f64) -> f64 {
+    let x = 2.0 * std::f64::consts::PI / lambda_nm * k_im * coherence_nm;
+    (-0.5 * x * x).exp()
+}
+
+/// One lane's split at an interface: the children's directions and complex index
+/// vectors, and their fields of the two polarisations.
+#[derive(Default)]
+pub(super) struct LaneSplit {
+    dir_r: DVec3,
+    n_r: (DVec3, DVec3),
+    dir_t: Option<DVec3>,
+    n_t: (DVec3, DVec3),
+    er: [Field; 2],
+    et: [Field; 2],
+}
