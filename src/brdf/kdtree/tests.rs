@@ -11,8 +11,7 @@ fn outward_rounding_brackets_the_value() {
             assert!(f64::from(lo) <= v && v <= f64::from(hi), "{v}: {lo} {hi}");
             // At most one f32 step apart from the nearest.
             assert!(
-                f64::from(hi) - f64::from(lo)
-                    <= 2.0 * f64::from(f32::EPSILON) * v.abs().max(1e-38)
+                f64::from(hi) - f64::from(lo) <= 2.0 * f64::from(f32::EPSILON) * v.abs().max(1e-38)
             );
         }
     }
