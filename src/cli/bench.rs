@@ -352,8 +352,7 @@ pub(super) fn bench_large(a: LargeBenchArgs) -> Result<ExitCode> {
         bail!("--rays must be at least 1");
     }
     if let [key, sample] = &a.one[..] {
-        goniospec::bench::large_case(std::path::Path::new(sample), key, a.rays, emit)
-            .map_err(|e| anyhow::anyhow!(e))?;
+        goniospec::bench::large_case(std::path::Path::new(sample), key, a.rays, emit)?;
         return Ok(ExitCode::SUCCESS);
     }
     let mut cases: Vec<(String, PathBuf)> = Vec::new();
@@ -362,8 +361,7 @@ pub(super) fn bench_large(a: LargeBenchArgs) -> Result<ExitCode> {
             let which = LargeSample::parse(name).with_context(|| {
                 format!("unknown sample '{name}' (use gold_1m, film_2m, gold_10m)")
             })?;
-            let path = goniospec::bench::large_sample(&a.dir, which, |l| eprintln!("{l}"))
-                .map_err(|e| anyhow::anyhow!(e))?;
+            let path = goniospec::bench::large_sample(&a.dir, which, |l| eprintln!("{l}"))?;
             cases.push((which.name().to_string(), path));
         }
     } else {
