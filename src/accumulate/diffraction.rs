@@ -163,14 +163,56 @@ pub fn diffract(
     h: &Hemisphere,
     contribs: &[Contribution],
     buckets: &Buckets,
-) -> Result<Pattern, String> {
+) -> Result<Pattern, DiffractionError> {
     let [mx, my] = grid_cells(h.tile_nm, h.lambda_nm, h.n_out, h.n_in);
     if mx.saturating_mul(my) > MAX_GRID_CELLS {
-        return Err(format!(
-            "the diffraction method needs a {mx} x {my} grid over the {:.0} x {:.0} nm tile at {} nm (more than {MAX_GRID_CELLS} cells): use a smaller tile (a period or a few correlation lengths; features this large against the wavelength are where rays alone hold)",
-            h.tile_nm[0], h.tile_nm[1], h.lambda_nm
-        ));
+        return Err(DiffractionError::GridTooLarge {
+            cells: [mx, my],
+            tile_nm: h.tile_nm,
+            lambda_nm: h.lambda_nm,
+        });
     }
+    let (mut grids, fallback, flipped) = exit_plane_field(h, contribs, [mx, my]);
+    fft2(&mut grids, [mx, my]);
+    let (per_bucket, total, orders) = far_field(h, &grids, [mx, my], buckets);
+    let per_key = per_bucket
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| **v != 0.0)
+        .map(|(b, v)| (key(b, h.down), *v))
+        .collect();
+    Ok(Pattern {
+        per_key,
+        total,
+        orders,
+        fallback_tubes: fallback,
+        flipped_tubes: flipped,
+    })
+}
+
+/// Why the transform cannot run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DiffractionError {
+    #[error(
+        "the diffraction method needs a {} x {} grid over the {:.0} x {:.0} nm tile at {lambda_nm} nm (more than {MAX_GRID_CELLS} cells): use a smaller tile (a period or a few correlation lengths; features this large against the wavelength are where rays alone hold)",
+        cells[0], cells[1], tile_nm[0], tile_nm[1]
+    )]
+    GridTooLarge {
+        cells: [usize; 2],
+        tile_nm: [f64; 2],
+        lambda_nm: f64,
+    },
+}
+
+/// The exit-plane field of every tube leaving into hemisphere `h`, gridded on `mx x my`
+/// cells: six grids (two polarisations x three components), each tube a Gaussian patch
+/// carrying its field and the plane wave's phase. Also the tubes whose shape came from
+/// their own tracked cross-section (no neighbour on the same exit) and the mirrored ones.
+fn exit_plane_field(
+    h: &Hemisphere,
+    contribs: &[Contribution],
+    [mx, my]: [usize; 2],
+) -> (Vec<Vec<C64>>, usize, usize) {
     let (dx, dy) = (h.tile_nm[0] / mx as f64, h.tile_nm[1] / my as f64);
     let k = 2.0 * PI / h.lambda_nm;
     let kn = k * h.n_out;
@@ -291,12 +333,16 @@ pub fn diffract(
             }
         }
     }
-    // One 2-D forward FFT per component: V_m = sum_g v(x_g) exp(-i G_m . x_g).
+    (grids, fallback, flipped)
+}
+
+/// One 2-D forward FFT per grid, in place: `V_m = sum_g v(x_g) exp(-i G_m . x_g)`.
+fn fft2(grids: &mut [Vec<C64>], [mx, my]: [usize; 2]) {
     let mut planner = FftPlanner::<f64>::new();
     let fx = planner.plan_fft_forward(mx);
     let fy = planner.plan_fft_forward(my);
-    let mut col = vec![zero; my];
-    for g in &mut grids {
+    let mut col = vec![C64::new(0.0, 0.0); my];
+    for g in grids.iter_mut() {
         for row in g.chunks_exact_mut(mx) {
             fx.process(row);
         }
@@ -310,6 +356,19 @@ pub fn diffract(
             }
         }
     }
+}
+
+/// The propagating Floquet orders of the transformed grids: each order's power (the
+/// field's part transverse to its direction, per unit incident power), spread over the
+/// buckets by the illumination's angular spread. Returns the power per bucket, the total
+/// and the number of orders that carry power.
+fn far_field(
+    h: &Hemisphere,
+    grids: &[Vec<C64>],
+    [mx, my]: [usize; 2],
+    buckets: &Buckets,
+) -> (Vec<f64>, f64, usize) {
+    let kn = 2.0 * PI / h.lambda_nm * h.n_out;
     let signed = |i: usize, m: usize| -> f64 {
         if i <= m / 2 {
             i as f64
@@ -361,19 +420,7 @@ pub fn diffract(
             spread(buckets, s, sigma_s, p, h.down, &mut per_bucket);
         }
     }
-    let per_key = per_bucket
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| **v != 0.0)
-        .map(|(b, v)| (key(b, h.down), *v))
-        .collect();
-    Ok(Pattern {
-        per_key,
-        total,
-        orders,
-        fallback_tubes: fallback,
-        flipped_tubes: flipped,
-    })
+    (per_bucket, total, orders)
 }
 
 /// One column of a tube's Jacobian `d(exit point) / d(launch point)` along lattice axis

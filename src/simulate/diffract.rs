@@ -21,7 +21,7 @@ impl Run<'_> {
         out: &mut [DiffractionCell],
     ) -> Result<(), SimError> {
         let d = -wi;
-        let results: Vec<Result<_, String>> = contribs
+        let results: Vec<Result<_, diffraction::DiffractionError>> = contribs
             .into_par_iter()
             .enumerate()
             .map(|(j, list)| {
@@ -58,7 +58,7 @@ impl Run<'_> {
             })
             .collect();
         for (j, res) in results.into_iter().enumerate() {
-            let (up, down) = res.map_err(SimError::Config)?;
+            let (up, down) = res.map_err(|e| SimError::Config(e.to_string()))?;
             let cell = &mut cells[j];
             let n = cell.trees as f64;
             let (r_ray, t_ray) = (cell.r_sum / n, cell.t_sum / n);
