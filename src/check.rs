@@ -89,89 +89,157 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
     // Every sheet's feature scales, measured once for the facts and the validity warnings.
     let sheets = crate::sample::validity::sheet_scales(sample);
     for (i, itf) in sample.interfaces.iter().enumerate() {
-        let (lo, hi) = itf.mesh.bounds().expect("loaded meshes are non-empty");
-        let name = format!("interface {i} ({})", itf.mesh_path.display());
-        r.facts.push(format!(
-            "{name}: {} triangles, {} {} / {}, bounds [{:.1}, {:.1}, {:.1}] .. [{:.1}, {:.1}, {:.1}] nm",
-            itf.mesh.triangles.len(),
-            if itf.closed { "closed body, outside / inside:" } else { "sheet, front / back:" },
-            sample.media[itf.front].name,
-            sample.media[itf.back].name,
-            lo.x,
-            lo.y,
-            lo.z,
-            hi.x,
-            hi.y,
-            hi.z
-        ));
-        if lo.x < -tol || lo.y < -tol || hi.x > lx + tol || hi.y > ly + tol {
-            r.defects.push(format!(
-                "{name} reaches outside the tile [0, {lx}] x [0, {ly}] nm; geometry must lie within one tile"
-            ));
-        }
-        if itf.closed {
-            let v = enclosed_volume(&itf.mesh);
-            if v < 0.0 {
-                r.defects.push(format!(
-                    "{name}: normals point inwards (enclosed volume {v:.3e} nm³ < 0); flip the triangles or swap inside/outside"
-                ));
-            }
-            let w = watertightness(&itf.mesh);
-            if w.open_edges + w.nonmanifold_edges + w.misoriented_edges > 0 {
-                r.defects.push(format!(
-                    "{name} is not watertight: {} open edges, {} edges shared by more than two triangles, {} edges whose triangles disagree in orientation",
-                    w.open_edges, w.nonmanifold_edges, w.misoriented_edges
-                ));
-            }
-        } else {
-            let (up, total) = (0..itf.mesh.triangles.len()).fold((0.0, 0.0), |(u, t), k| {
-                let a = itf.mesh.area_vector(k);
-                (u + a.z, t + a.length())
-            });
-            r.facts.push(format!(
-                "{name}: mean normal z = {:.3} (front medium '{}' {})",
-                up / total,
-                sample.media[itf.front].name,
-                if up > 0.0 { "above" } else { "below" }
-            ));
-            if up <= 0.0 {
-                r.defects.push(format!(
-                    "{name}: normals point down on average, so its front medium '{}' lies below it; swap front and back or flip the mesh",
-                    sample.media[itf.front].name
-                ));
-            }
-            if let Some(sc) = sheets[i].filter(|sc| sc.lateral_nm.is_finite()) {
-                r.facts.push(format!(
-                    "{name}: RMS height {:.1} nm, RMS slope {:.3}, lateral scale 2 pi sigma / slope {:.0} nm, strongest axis mode period {:.0} nm ({:.0} % of the height variance), curvature radius {:.0} nm (docs/validity.md)",
-                    sc.rms_height_nm,
-                    sc.rms_slope,
-                    sc.lateral_nm,
-                    sc.period_nm,
-                    100.0 * sc.period_share,
-                    sc.curvature_radius_nm
-                ));
-            }
-            let p = periodicity(&itf.mesh, sample.tile_nm, tol);
-            if p.interior_boundary_edges > 0 {
-                r.defects.push(format!(
-                    "{name} has {} boundary edges inside the tile (holes or cracks)",
-                    p.interior_boundary_edges
-                ));
-            }
-            if p.unmatched > 0 && sample.guard_nm.is_none() {
-                r.defects.push(format!(
-                    "{name} does not tile: {} boundary edges on the tile's sides have no partner on the opposite side",
-                    p.unmatched
-                ));
-            }
-        }
+        check_interface(sample, i, itf, sheets[i], tol, &mut r);
     }
 
     let (soup, first) = sample.triangle_soup();
     let accel = Accel::build(opts.backend, &soup)?;
-    let owner = |prim: u32| first.partition_point(|&f| f <= prim) - 1;
 
-    // Interfaces that cut through each other: an edge of one crossing a triangle of another.
+    let crossings = crossings(sample, &accel, &first);
+    // Bodies small against the wavelength: ray optics does not hold for them.
+    r.warnings.extend(
+        crate::sample::validity::small_bodies(sample, 550.0)
+            .into_iter()
+            .map(|f| f.message),
+    );
+    if let Some(ctx) = &opts.validity {
+        r.warnings.extend(
+            crate::sample::validity::assess_scales(sample, &sheets, ctx)
+                .into_iter()
+                .map(|f| f.message),
+        );
+    }
+    for ((i, j), n) in crossings.iter().take(20) {
+        r.defects.push(format!(
+            "interfaces {i} and {j} intersect ({n} edges of one cross the other)"
+        ));
+    }
+    if crossings.len() > 20 {
+        r.defects.push(format!(
+            "... and {} more intersecting pairs",
+            crossings.len() - 20
+        ));
+    }
+
+    r.leak = leak_test(sample, &accel, &first, opts);
+    if r.leak.walks == 0 && opts.leak_rays > 0 {
+        r.defects.push(
+            "vertical rays from above miss the sample: no sheet covers the tile, so the medium above it is undefined".into(),
+        );
+    } else if r.leak.crossings == 0 && opts.leak_rays > 0 {
+        // A check that crossed nothing tested nothing: never report it as clean.
+        r.defects.push(format!(
+            "the leak test's {} walks crossed no interface: it tested nothing (is the geometry far taller than the tile, or does the walk miss it?)",
+            r.leak.walks
+        ));
+    }
+    r.facts.push(format!(
+        "leak test: {} walks, {} crossings, {} leaks, {} walks abandoned after {} crossings",
+        r.leak.walks, r.leak.crossings, r.leak.leaks, r.leak.abandoned, opts.max_events
+    ));
+    if r.leak.leaks > 0 {
+        r.defects.push(format!(
+            "{} of {} crossings entered an interface from a medium other than the ray's: the geometry leaks (overlapping bodies, a body poking through a sheet, or wrong front/back media)",
+            r.leak.leaks, r.leak.crossings
+        ));
+    }
+    Ok(r)
+}
+
+/// The facts and defects of interface `i`: its bounds against the tile, and a closed
+/// body's orientation and watertightness or a sheet's orientation, feature scales
+/// (`scales`, measured once for the validity warnings too) and periodicity.
+fn check_interface(
+    sample: &Sample,
+    i: usize,
+    itf: &crate::sample::Interface,
+    scales: Option<crate::sample::validity::Scales>,
+    tol: f64,
+    r: &mut CheckReport,
+) {
+    let [lx, ly] = sample.tile_nm;
+    let (lo, hi) = itf.mesh.bounds().expect("loaded meshes are non-empty");
+    let name = format!("interface {i} ({})", itf.mesh_path.display());
+    r.facts.push(format!(
+        "{name}: {} triangles, {} {} / {}, bounds [{:.1}, {:.1}, {:.1}] .. [{:.1}, {:.1}, {:.1}] nm",
+        itf.mesh.triangles.len(),
+        if itf.closed { "closed body, outside / inside:" } else { "sheet, front / back:" },
+        sample.media[itf.front].name,
+        sample.media[itf.back].name,
+        lo.x,
+        lo.y,
+        lo.z,
+        hi.x,
+        hi.y,
+        hi.z
+    ));
+    if lo.x < -tol || lo.y < -tol || hi.x > lx + tol || hi.y > ly + tol {
+        r.defects.push(format!(
+            "{name} reaches outside the tile [0, {lx}] x [0, {ly}] nm; geometry must lie within one tile"
+        ));
+    }
+    if itf.closed {
+        let v = enclosed_volume(&itf.mesh);
+        if v < 0.0 {
+            r.defects.push(format!(
+                "{name}: normals point inwards (enclosed volume {v:.3e} nm³ < 0); flip the triangles or swap inside/outside"
+            ));
+        }
+        let w = watertightness(&itf.mesh);
+        if w.open_edges + w.nonmanifold_edges + w.misoriented_edges > 0 {
+            r.defects.push(format!(
+                "{name} is not watertight: {} open edges, {} edges shared by more than two triangles, {} edges whose triangles disagree in orientation",
+                w.open_edges, w.nonmanifold_edges, w.misoriented_edges
+            ));
+        }
+    } else {
+        let (up, total) = (0..itf.mesh.triangles.len()).fold((0.0, 0.0), |(u, t), k| {
+            let a = itf.mesh.area_vector(k);
+            (u + a.z, t + a.length())
+        });
+        r.facts.push(format!(
+            "{name}: mean normal z = {:.3} (front medium '{}' {})",
+            up / total,
+            sample.media[itf.front].name,
+            if up > 0.0 { "above" } else { "below" }
+        ));
+        if up <= 0.0 {
+            r.defects.push(format!(
+                "{name}: normals point down on average, so its front medium '{}' lies below it; swap front and back or flip the mesh",
+                sample.media[itf.front].name
+            ));
+        }
+        if let Some(sc) = scales.filter(|sc| sc.lateral_nm.is_finite()) {
+            r.facts.push(format!(
+                "{name}: RMS height {:.1} nm, RMS slope {:.3}, lateral scale 2 pi sigma / slope {:.0} nm, strongest axis mode period {:.0} nm ({:.0} % of the height variance), curvature radius {:.0} nm (docs/validity.md)",
+                sc.rms_height_nm,
+                sc.rms_slope,
+                sc.lateral_nm,
+                sc.period_nm,
+                100.0 * sc.period_share,
+                sc.curvature_radius_nm
+            ));
+        }
+        let p = periodicity(&itf.mesh, sample.tile_nm, tol);
+        if p.interior_boundary_edges > 0 {
+            r.defects.push(format!(
+                "{name} has {} boundary edges inside the tile (holes or cracks)",
+                p.interior_boundary_edges
+            ));
+        }
+        if p.unmatched > 0 && sample.guard_nm.is_none() {
+            r.defects.push(format!(
+                "{name} does not tile: {} boundary edges on the tile's sides have no partner on the opposite side",
+                p.unmatched
+            ));
+        }
+    }
+}
+
+/// Pairs of interfaces that cut through each other, with how many edges of one cross a
+/// triangle of the other, sorted by pair.
+fn crossings(sample: &Sample, accel: &Accel, first: &[u32]) -> Vec<((usize, usize), usize)> {
+    let owner = |prim: u32| first.partition_point(|&f| f <= prim) - 1;
     let mut crossings: HashMap<(usize, usize), usize> = HashMap::new();
     for (i, itf) in sample.interfaces.iter().enumerate() {
         for t in &itf.mesh.triangles {
@@ -200,56 +268,9 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
             }
         }
     }
-    // Bodies small against the wavelength: ray optics does not hold for them.
-    r.warnings.extend(
-        crate::sample::validity::small_bodies(sample, 550.0)
-            .into_iter()
-            .map(|f| f.message),
-    );
-    if let Some(ctx) = &opts.validity {
-        r.warnings.extend(
-            crate::sample::validity::assess_scales(sample, &sheets, ctx)
-                .into_iter()
-                .map(|f| f.message),
-        );
-    }
     let mut pairs: Vec<_> = crossings.into_iter().collect();
     pairs.sort();
-    for ((i, j), n) in pairs.iter().take(20) {
-        r.defects.push(format!(
-            "interfaces {i} and {j} intersect ({n} edges of one cross the other)"
-        ));
-    }
-    if pairs.len() > 20 {
-        r.defects.push(format!(
-            "... and {} more intersecting pairs",
-            pairs.len() - 20
-        ));
-    }
-
-    r.leak = leak_test(sample, &accel, &first, opts);
-    if r.leak.walks == 0 && opts.leak_rays > 0 {
-        r.defects.push(
-            "vertical rays from above miss the sample: no sheet covers the tile, so the medium above it is undefined".into(),
-        );
-    } else if r.leak.crossings == 0 && opts.leak_rays > 0 {
-        // A check that crossed nothing tested nothing: never report it as clean.
-        r.defects.push(format!(
-            "the leak test's {} walks crossed no interface: it tested nothing (is the geometry far taller than the tile, or does the walk miss it?)",
-            r.leak.walks
-        ));
-    }
-    r.facts.push(format!(
-        "leak test: {} walks, {} crossings, {} leaks, {} walks abandoned after {} crossings",
-        r.leak.walks, r.leak.crossings, r.leak.leaks, r.leak.abandoned, opts.max_events
-    ));
-    if r.leak.leaks > 0 {
-        r.defects.push(format!(
-            "{} of {} crossings entered an interface from a medium other than the ray's: the geometry leaks (overlapping bodies, a body poking through a sheet, or wrong front/back media)",
-            r.leak.leaks, r.leak.crossings
-        ));
-    }
-    Ok(r)
+    pairs
 }
 
 /// Tile-side crossings of one leak-test walk before it is abandoned (a walk in a sample
