@@ -139,186 +139,203 @@ fn parse_shard(s: &str) -> Result<(usize, usize), String> {
 
 pub(super) fn batch(c: BatchCommand) -> Result<ExitCode> {
     match c {
-        BatchCommand::Plan(a) => {
-            let manifest = a.output.join("manifest.toml");
-            if goniospec::output::same_file(&manifest, &a.plan) {
-                bail!(
-                    "the plan {} is the manifest this would write: refusing to overwrite it",
-                    a.plan.display()
-                );
-            }
-            let m = Manifest::plan(&a.plan)?;
-            m.write(&a.output)?;
-            let trees: u64 = m.materials.iter().map(|x| x.settings.budget()).sum();
-            outln!(
-                "planned {} units ({} materials, {trees} trees) in {}",
-                m.units.len(),
-                m.materials.len(),
-                a.output.join("manifest.toml").display()
-            );
-            Ok(ExitCode::SUCCESS)
-        }
-        BatchCommand::Run(a) => {
-            let m = Manifest::read(&a.dir)?;
-            let (i, n) = match (a.shard, batch::shard_from_env()) {
-                (Some(s), _) => s,
-                (None, Some(env)) => env.map_err(anyhow::Error::msg)?,
-                (None, None) => (1, 1),
-            };
-            let units = m.shard(i, n)?;
-            let pool = thread_pool(a.threads)?;
-            let bar = progress_bar(units.len() as u64, "units");
-            let (mut ran, mut skipped) = (0usize, 0usize);
-            let t0 = std::time::Instant::now();
-            let mut loaded: Option<(String, sample::Sample)> = None;
-            for u in units {
-                if m.verify(&a.dir, u).is_none() {
-                    skipped += 1;
-                } else {
-                    let mat = m.material(&u.material);
-                    if loaded.as_ref().is_none_or(|(name, _)| *name != mat.name) {
-                        let s = sample::load(&mat.sample, MeshOptions::default())?;
-                        if goniospec::simulate::sample_hash(&s) != mat.sample_hash {
-                            bail!(
-                                "{}: the sample changed since the plan was made; plan again",
-                                mat.sample.display()
-                            );
-                        }
-                        loaded = Some((mat.name.clone(), s));
-                    }
-                    let s = &loaded.as_ref().expect("loaded").1;
-                    pool.install(|| m.run_unit(&a.dir, u, s))?;
-                    ran += 1;
+        BatchCommand::Plan(a) => plan(a),
+        BatchCommand::Run(a) => run(a),
+        BatchCommand::Merge(a) => merge(a),
+        BatchCommand::Status(a) => status(a),
+        BatchCommand::Slurm(a) => slurm(a),
+        BatchCommand::Report(a) => report(a),
+        BatchCommand::Parallel(a) => parallel(a),
+    }
+}
+
+/// `batch plan`: expands a plan into a manifest of units.
+fn plan(a: BatchPlanArgs) -> Result<ExitCode> {
+    let manifest = a.output.join("manifest.toml");
+    if goniospec::output::same_file(&manifest, &a.plan) {
+        bail!(
+            "the plan {} is the manifest this would write: refusing to overwrite it",
+            a.plan.display()
+        );
+    }
+    let m = Manifest::plan(&a.plan)?;
+    m.write(&a.output)?;
+    let trees: u64 = m.materials.iter().map(|x| x.settings.budget()).sum();
+    outln!(
+        "planned {} units ({} materials, {trees} trees) in {}",
+        m.units.len(),
+        m.materials.len(),
+        a.output.join("manifest.toml").display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `batch run`: runs this shard's units, skipping those already done.
+fn run(a: BatchRunArgs) -> Result<ExitCode> {
+    let m = Manifest::read(&a.dir)?;
+    let (i, n) = match (a.shard, batch::shard_from_env()) {
+        (Some(s), _) => s,
+        (None, Some(env)) => env.map_err(anyhow::Error::msg)?,
+        (None, None) => (1, 1),
+    };
+    let units = m.shard(i, n)?;
+    let pool = thread_pool(a.threads)?;
+    let bar = progress_bar(units.len() as u64, "units");
+    let (mut ran, mut skipped) = (0usize, 0usize);
+    let t0 = std::time::Instant::now();
+    let mut loaded: Option<(String, sample::Sample)> = None;
+    for u in units {
+        if m.verify(&a.dir, u).is_none() {
+            skipped += 1;
+        } else {
+            let mat = m.material(&u.material);
+            if loaded.as_ref().is_none_or(|(name, _)| *name != mat.name) {
+                let s = sample::load(&mat.sample, MeshOptions::default())?;
+                if goniospec::simulate::sample_hash(&s) != mat.sample_hash {
+                    bail!(
+                        "{}: the sample changed since the plan was made; plan again",
+                        mat.sample.display()
+                    );
                 }
-                bar.inc(1);
+                loaded = Some((mat.name.clone(), s));
             }
-            bar.finish_and_clear();
-            outln!(
-                "shard {i}/{n}: ran {ran} units, skipped {skipped} already done, in {:.2} s",
-                t0.elapsed().as_secs_f64()
-            );
-            Ok(ExitCode::SUCCESS)
+            let s = &loaded.as_ref().expect("loaded").1;
+            pool.install(|| m.run_unit(&a.dir, u, s))?;
+            ran += 1;
         }
-        BatchCommand::Merge(a) => {
-            let m = Manifest::read(&a.dir)?;
-            let out = a.dir.join("out");
-            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-            let t0 = std::time::Instant::now();
-            let mut problems = Vec::new();
-            let mut merged = Vec::new();
-            for mat in &m.materials {
-                match m.merge_material(&a.dir, &mat.name) {
-                    Ok(acc) => merged.push((mat, acc)),
-                    Err(e) => problems.push(e.to_string()),
-                }
-            }
-            if !problems.is_empty() {
-                bail!("cannot merge:\n{}", problems.join("\n"));
-            }
-            for (mat, acc) in &merged {
-                let p = out.join(format!("{}.gsa", mat.name));
-                acc.write(&p)
-                    .with_context(|| format!("writing {}", p.display()))?;
-                let data = goniospec::brdf::BucketData::from_accumulator(acc);
-                for &kind in &mat.representations {
-                    let r =
-                        goniospec::brdf::Representation::build(kind, &data, &Default::default())
-                            .map_err(anyhow::Error::msg)?;
-                    let g = out.join(format!("{}-{kind}.gsb", mat.name));
-                    goniospec::brdf::file::write(&r, &g)
-                        .with_context(|| format!("writing {}", g.display()))?;
-                }
-            }
-            outln!(
-                "merged {} units into {} materials in {}, {:.2} s",
-                m.units.len(),
-                merged.len(),
-                out.display(),
-                t0.elapsed().as_secs_f64()
-            );
-            Ok(ExitCode::SUCCESS)
-        }
-        BatchCommand::Status(a) => {
-            let m = Manifest::read(&a.dir)?;
-            let (done, missing, failed) = m.status(&a.dir);
-            outln!(
-                "{} units: {} done, {} missing, {} failed",
-                m.units.len(),
-                done.len(),
-                missing.len(),
-                failed.len()
-            );
-            for (id, why) in &failed {
-                outln!(
-                    "failed: unit {id} ({}): {why}",
-                    m.units[*id].output.display()
-                );
-            }
-            if !missing.is_empty() {
-                let shown: Vec<String> = missing.iter().take(20).map(|i| i.to_string()).collect();
-                outln!(
-                    "missing: units {}{}",
-                    shown.join(", "),
-                    if missing.len() > 20 { ", ..." } else { "" }
-                );
-            }
-            Ok(if failed.is_empty() && missing.is_empty() {
-                ExitCode::SUCCESS
-            } else {
-                ExitCode::from(1)
-            })
-        }
-        BatchCommand::Slurm(a) => {
-            Manifest::read(&a.dir)?;
-            let exe = std::env::current_exe().context("locating the goniospec binary")?;
-            let dir =
-                std::fs::canonicalize(&a.dir).with_context(|| format!("{}", a.dir.display()))?;
-            let scripts = batch::slurm_scripts(&dir, &exe, a.shards as usize, a.limit as usize)?;
-            for (p, text) in scripts {
-                goniospec::io::write_atomic(&p, |w| w.write_all(text.as_bytes()))
-                    .with_context(|| format!("writing {}", p.display()))?;
-                outln!("wrote {}", p.display());
-            }
-            outln!("submit with: bash {}", dir.join("submit.sh").display());
-            Ok(ExitCode::SUCCESS)
-        }
-        BatchCommand::Report(a) => {
-            use goniospec::batch::report::{ReportOptions, write_report};
-            let page = a
-                .output
-                .clone()
-                .unwrap_or_else(|| a.dir.join("report").join("index.html"));
-            let opts = ReportOptions {
-                sphere_px: a.sphere_size as usize,
-                spp: a.spp as usize,
-                colours: a.colours as usize,
-                fit: !a.no_fit,
-                ..ReportOptions::default()
-            };
-            let count = Manifest::read(&a.dir)?.materials.len();
-            let pool = thread_pool(a.threads)?;
-            let bar = progress_bar(count as u64, "materials");
-            let t0 = std::time::Instant::now();
-            let entries = pool.install(|| {
-                write_report(&a.dir, &page, &opts, a.force, &|n| bar.set_position(n))
-            })?;
-            bar.finish_and_clear();
-            outln!(
-                "wrote {} ({} materials) in {:.2} s",
-                page.display(),
-                entries.len(),
-                t0.elapsed().as_secs_f64()
-            );
-            Ok(ExitCode::SUCCESS)
-        }
-        BatchCommand::Parallel(a) => {
-            Manifest::read(&a.dir)?;
-            let exe = std::env::current_exe().context("locating the goniospec binary")?;
-            let dir =
-                std::fs::canonicalize(&a.dir).with_context(|| format!("{}", a.dir.display()))?;
-            let cmd = batch::parallel_command(&dir, &exe, a.shards as usize, a.jobs as usize)?;
-            outln!("{cmd}");
-            Ok(ExitCode::SUCCESS)
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    outln!(
+        "shard {i}/{n}: ran {ran} units, skipped {skipped} already done, in {:.2} s",
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `batch merge`: assembles each material's accumulator and its representations.
+fn merge(a: BatchDirArgs) -> Result<ExitCode> {
+    let m = Manifest::read(&a.dir)?;
+    let out = a.dir.join("out");
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    let t0 = std::time::Instant::now();
+    let mut problems = Vec::new();
+    let mut merged = Vec::new();
+    for mat in &m.materials {
+        match m.merge_material(&a.dir, &mat.name) {
+            Ok(acc) => merged.push((mat, acc)),
+            Err(e) => problems.push(e.to_string()),
         }
     }
+    if !problems.is_empty() {
+        bail!("cannot merge:\n{}", problems.join("\n"));
+    }
+    for (mat, acc) in &merged {
+        let p = out.join(format!("{}.gsa", mat.name));
+        acc.write(&p)
+            .with_context(|| format!("writing {}", p.display()))?;
+        let data = goniospec::brdf::BucketData::from_accumulator(acc);
+        for &kind in &mat.representations {
+            let r = goniospec::brdf::Representation::build(kind, &data, &Default::default())
+                .map_err(anyhow::Error::msg)?;
+            let g = out.join(format!("{}-{kind}.gsb", mat.name));
+            goniospec::brdf::file::write(&r, &g)
+                .with_context(|| format!("writing {}", g.display()))?;
+        }
+    }
+    outln!(
+        "merged {} units into {} materials in {}, {:.2} s",
+        m.units.len(),
+        merged.len(),
+        out.display(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `batch status`: units done, missing and failed; exit 1 unless all are done.
+fn status(a: BatchDirArgs) -> Result<ExitCode> {
+    let m = Manifest::read(&a.dir)?;
+    let (done, missing, failed) = m.status(&a.dir);
+    outln!(
+        "{} units: {} done, {} missing, {} failed",
+        m.units.len(),
+        done.len(),
+        missing.len(),
+        failed.len()
+    );
+    for (id, why) in &failed {
+        outln!(
+            "failed: unit {id} ({}): {why}",
+            m.units[*id].output.display()
+        );
+    }
+    if !missing.is_empty() {
+        let shown: Vec<String> = missing.iter().take(20).map(|i| i.to_string()).collect();
+        outln!(
+            "missing: units {}{}",
+            shown.join(", "),
+            if missing.len() > 20 { ", ..." } else { "" }
+        );
+    }
+    Ok(if failed.is_empty() && missing.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+/// `batch slurm`: writes the Slurm scripts.
+fn slurm(a: BatchSlurmArgs) -> Result<ExitCode> {
+    Manifest::read(&a.dir)?;
+    let exe = std::env::current_exe().context("locating the goniospec binary")?;
+    let dir = std::fs::canonicalize(&a.dir).with_context(|| format!("{}", a.dir.display()))?;
+    let scripts = batch::slurm_scripts(&dir, &exe, a.shards as usize, a.limit as usize)?;
+    for (p, text) in scripts {
+        goniospec::io::write_atomic(&p, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", p.display()))?;
+        outln!("wrote {}", p.display());
+    }
+    outln!("submit with: bash {}", dir.join("submit.sh").display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `batch report`: the HTML report of every material.
+fn report(a: BatchReportArgs) -> Result<ExitCode> {
+    use goniospec::batch::report::{ReportOptions, write_report};
+    let page = a
+        .output
+        .clone()
+        .unwrap_or_else(|| a.dir.join("report").join("index.html"));
+    let opts = ReportOptions {
+        sphere_px: a.sphere_size as usize,
+        spp: a.spp as usize,
+        colours: a.colours as usize,
+        fit: !a.no_fit,
+        ..ReportOptions::default()
+    };
+    let count = Manifest::read(&a.dir)?.materials.len();
+    let pool = thread_pool(a.threads)?;
+    let bar = progress_bar(count as u64, "materials");
+    let t0 = std::time::Instant::now();
+    let entries =
+        pool.install(|| write_report(&a.dir, &page, &opts, a.force, &|n| bar.set_position(n)))?;
+    bar.finish_and_clear();
+    outln!(
+        "wrote {} ({} materials) in {:.2} s",
+        page.display(),
+        entries.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `batch parallel`: prints the GNU parallel command line.
+fn parallel(a: BatchParallelArgs) -> Result<ExitCode> {
+    Manifest::read(&a.dir)?;
+    let exe = std::env::current_exe().context("locating the goniospec binary")?;
+    let dir = std::fs::canonicalize(&a.dir).with_context(|| format!("{}", a.dir.display()))?;
+    let cmd = batch::parallel_command(&dir, &exe, a.shards as usize, a.jobs as usize)?;
+    outln!("{cmd}");
+    Ok(ExitCode::SUCCESS)
 }
