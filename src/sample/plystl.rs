@@ -194,6 +194,85 @@ enum Property {
     List(String, Scalar, Scalar),
 }
 
+/// Reads a PLY header: the elements it declares (names, counts, properties) and a
+/// source positioned at the first data value, in the declared format.
+fn ply_header<'a>(path: &Path, bytes: &'a [u8]) -> Result<(Source<'a>, Vec<Element>), SampleError> {
+    let bad = |m: String| malformed(path, m);
+    const END: &[u8] = b"end_header";
+    let end = bytes
+        .windows(END.len())
+        .position(|w| w == END)
+        .ok_or_else(|| bad("no end_header: not a PLY file, or its header is cut".into()))?;
+    let header =
+        std::str::from_utf8(&bytes[..end]).map_err(|_| bad("the PLY header is not text".into()))?;
+    // The data start after end_header's line ending.
+    let mut data_at = end + END.len();
+    if bytes.get(data_at) == Some(&b'\r') {
+        data_at += 1;
+    }
+    if bytes.get(data_at) == Some(&b'\n') {
+        data_at += 1;
+    }
+    let mut lines = header.lines().map(str::trim);
+    if lines.next() != Some("ply") {
+        return Err(bad("a PLY file starts with the line \"ply\"".into()));
+    }
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    for line in lines {
+        let w: Vec<&str> = line.split_whitespace().collect();
+        match w.as_slice() {
+            [] | ["comment", ..] | ["obj_info", ..] => {}
+            ["format", f, _version] => format = Some(f.to_string()),
+            ["element", name, count] => elements.push(Element {
+                name: name.to_string(),
+                count: count
+                    .parse()
+                    .map_err(|_| bad(format!("element {name}: count {count:?} is not a number")))?,
+                props: Vec::new(),
+            }),
+            ["property", "list", ct, it, name] => {
+                let (Some(c), Some(i)) = (Scalar::parse(ct), Scalar::parse(it)) else {
+                    return Err(bad(format!("unknown PLY type in {line:?}")));
+                };
+                elements
+                    .last_mut()
+                    .ok_or_else(|| bad(format!("{line:?} before any element")))?
+                    .props
+                    .push(Property::List(name.to_string(), c, i));
+            }
+            ["property", t, name] => {
+                let s = Scalar::parse(t).ok_or_else(|| bad(format!("unknown PLY type {t:?}")))?;
+                elements
+                    .last_mut()
+                    .ok_or_else(|| bad(format!("{line:?} before any element")))?
+                    .props
+                    .push(Property::Scalar(name.to_string(), s));
+            }
+            _ => return Err(bad(format!("unexpected PLY header line {line:?}"))),
+        }
+    }
+    let src = match format.as_deref() {
+        Some("binary_little_endian") => Source::Binary {
+            data: &bytes[data_at..],
+            at: 0,
+            big: false,
+        },
+        Some("binary_big_endian") => Source::Binary {
+            data: &bytes[data_at..],
+            at: 0,
+            big: true,
+        },
+        Some("ascii") => Source::Ascii(
+            std::str::from_utf8(&bytes[data_at..])
+                .map_err(|_| bad("ASCII PLY data are not text".into()))?
+                .split_ascii_whitespace(),
+        ),
+        other => return Err(bad(format!("unknown PLY format {other:?}"))),
+    };
+    Ok((src, elements))
+}
+
 struct Element {
     name: String,
     count: u64,
@@ -253,78 +332,7 @@ pub fn parse_ply(
     opts: MeshOptions,
 ) -> Result<Mesh, SampleError> {
     let bad = |m: String| malformed(path, m);
-    const END: &[u8] = b"end_header";
-    let end = bytes
-        .windows(END.len())
-        .position(|w| w == END)
-        .ok_or_else(|| bad("no end_header: not a PLY file, or its header is cut".into()))?;
-    let header =
-        std::str::from_utf8(&bytes[..end]).map_err(|_| bad("the PLY header is not text".into()))?;
-    // The data start after end_header's line ending.
-    let mut data_at = end + END.len();
-    if bytes.get(data_at) == Some(&b'\r') {
-        data_at += 1;
-    }
-    if bytes.get(data_at) == Some(&b'\n') {
-        data_at += 1;
-    }
-    let mut lines = header.lines().map(str::trim);
-    if lines.next() != Some("ply") {
-        return Err(bad("a PLY file starts with the line \"ply\"".into()));
-    }
-    let mut format = None;
-    let mut elements: Vec<Element> = Vec::new();
-    for line in lines {
-        let w: Vec<&str> = line.split_whitespace().collect();
-        match w.as_slice() {
-            [] | ["comment", ..] | ["obj_info", ..] => {}
-            ["format", f, _version] => format = Some(f.to_string()),
-            ["element", name, count] => elements.push(Element {
-                name: name.to_string(),
-                count: count
-                    .parse()
-                    .map_err(|_| bad(format!("element {name}: count {count:?} is not a number")))?,
-                props: Vec::new(),
-            }),
-            ["property", "list", ct, it, name] => {
-                let (Some(c), Some(i)) = (Scalar::parse(ct), Scalar::parse(it)) else {
-                    return Err(bad(format!("unknown PLY type in {line:?}")));
-                };
-                elements
-                    .last_mut()
-                    .ok_or_else(|| bad(format!("{line:?} before any element")))?
-                    .props
-                    .push(Property::List(name.to_string(), c, i));
-            }
-            ["property", t, name] => {
-                let s = Scalar::parse(t).ok_or_else(|| bad(format!("unknown PLY type {t:?}")))?;
-                elements
-                    .last_mut()
-                    .ok_or_else(|| bad(format!("{line:?} before any element")))?
-                    .props
-                    .push(Property::Scalar(name.to_string(), s));
-            }
-            _ => return Err(bad(format!("unexpected PLY header line {line:?}"))),
-        }
-    }
-    let mut src = match format.as_deref() {
-        Some("binary_little_endian") => Source::Binary {
-            data: &bytes[data_at..],
-            at: 0,
-            big: false,
-        },
-        Some("binary_big_endian") => Source::Binary {
-            data: &bytes[data_at..],
-            at: 0,
-            big: true,
-        },
-        Some("ascii") => Source::Ascii(
-            std::str::from_utf8(&bytes[data_at..])
-                .map_err(|_| bad("ASCII PLY data are not text".into()))?
-                .split_ascii_whitespace(),
-        ),
-        other => return Err(bad(format!("unknown PLY format {other:?}"))),
-    };
+    let (mut src, elements) = ply_header(path, bytes)?;
     // Before reading, the counts must fit the file (each value takes at least a byte).
     let least: u64 = elements
         .iter()
