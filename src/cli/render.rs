@@ -98,26 +98,12 @@ pub(super) fn parse_shape(s: &str) -> Result<ShapeArg, String> {
 
 pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, Brdf};
-    use goniospec::render::{self, Env, Light, RenderConfig, Shape};
+    use goniospec::render::{self, Env, RenderConfig};
     if a.width == 0 || a.height == 0 || a.spp == 0 {
         bail!("--width, --height and --spp must be positive");
     }
     let (light, env) = (a.light, a.env);
-    let shape = match &a.shape {
-        ShapeArg::Sphere => Shape::Sphere,
-        ShapeArg::Plane => Shape::Plane,
-        ShapeArg::Obj(p) => {
-            let mesh = sample::load_obj(
-                p,
-                1.0,
-                MeshOptions {
-                    drop_degenerate: true,
-                    ..MeshOptions::default()
-                },
-            )?;
-            Shape::mesh(mesh, Backend::default_available())?
-        }
-    };
+    let shape = shape_of(&a.shape)?;
     let (centre, radius) = shape.bounds();
     let camera = match a.camera.len() {
         0 => [
@@ -132,37 +118,7 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     if let Some(dir) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    {
-        let png = a.output.with_extension("png");
-        let inputs: Vec<&std::path::Path> = a
-            .file
-            .iter()
-            .chain(a.simulate.iter())
-            .map(|p| p.as_path())
-            .collect();
-        for out in [&a.output, &png] {
-            guard_output(out, &inputs, OutputKind::Image, a.force)?;
-        }
-        // The accumulator and BRDF written beside the image: never an input of the run, and
-        // replaced only when they are of their kind (they replaced any NAME.gsa / NAME.gsb).
-        if let Some(sample) = &a.simulate {
-            let s = sample::load(sample, MeshOptions::default())?;
-            let mut all = inputs.clone();
-            all.extend(s.inputs.iter().map(|p| p.as_path()));
-            guard_output(
-                &a.output.with_extension("gsa"),
-                &all,
-                OutputKind::Gsa,
-                a.force,
-            )?;
-            guard_output(
-                &a.output.with_extension("gsb"),
-                &all,
-                OutputKind::Gsb,
-                a.force,
-            )?;
-        }
-    }
+    guard_outputs(&a)?;
     if !(a.fov > 0.0 && a.fov < 180.0) {
         bail!("--fov must be between 0 and 180 degrees, got {}", a.fov);
     }
@@ -234,28 +190,101 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
         png.display()
     );
     if let Some(sp) = &a.analytic {
-        let s = sample::load(sp, MeshOptions::default())?;
-        let reference = render::analytic::stack_image(&s, r.meta(), &shape, &cfg)?;
-        let apng = a.output.with_file_name(format!(
-            "{}-analytic.png",
-            a.output.file_stem().unwrap_or_default().to_string_lossy()
-        ));
-        render::write_png(&reference, &apng)?;
-        let d = render::analytic::compare(&img, &reference);
-        outln!(
-            "against the analytic TMM image ({}): relative RMSE {:.4}, mean CIE DE2000 {:.3} over {} object pixels{}",
-            apng.display(),
-            d.rel_rmse,
-            d.mean_de2000,
-            d.pixels,
-            if cfg.light != Light::None {
-                " (the light's delta reflection is left out of both)"
-            } else {
-                ""
-            }
-        );
+        against_analytic(&a, sp, r.meta(), &img, &shape, &cfg)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The object `--shape` names: a sphere, a plane, or an OBJ mesh (degenerate triangles
+/// dropped).
+fn shape_of(shape: &ShapeArg) -> Result<goniospec::render::Shape> {
+    use goniospec::render::Shape;
+    Ok(match shape {
+        ShapeArg::Sphere => Shape::Sphere,
+        ShapeArg::Plane => Shape::Plane,
+        ShapeArg::Obj(p) => {
+            let mesh = sample::load_obj(
+                p,
+                1.0,
+                MeshOptions {
+                    drop_degenerate: true,
+                    ..MeshOptions::default()
+                },
+            )?;
+            Shape::mesh(mesh, Backend::default_available())?
+        }
+    })
+}
+
+/// Checks, before any work, that the image pair (and, with `--simulate`, the `.gsa` and
+/// `.gsb` written beside it) may be written: never an input of the run, and replacing only
+/// files of their kind.
+fn guard_outputs(a: &RenderArgs) -> Result<()> {
+    let png = a.output.with_extension("png");
+    let inputs: Vec<&std::path::Path> = a
+        .file
+        .iter()
+        .chain(a.simulate.iter())
+        .map(|p| p.as_path())
+        .collect();
+    for out in [&a.output, &png] {
+        guard_output(out, &inputs, OutputKind::Image, a.force)?;
+    }
+    // The accumulator and BRDF written beside the image: never an input of the run, and
+    // replaced only when they are of their kind (they replaced any NAME.gsa / NAME.gsb).
+    if let Some(sample) = &a.simulate {
+        let s = sample::load(sample, MeshOptions::default())?;
+        let mut all = inputs.clone();
+        all.extend(s.inputs.iter().map(|p| p.as_path()));
+        guard_output(
+            &a.output.with_extension("gsa"),
+            &all,
+            OutputKind::Gsa,
+            a.force,
+        )?;
+        guard_output(
+            &a.output.with_extension("gsb"),
+            &all,
+            OutputKind::Gsb,
+            a.force,
+        )?;
+    }
+
+    Ok(())
+}
+
+/// `render --analytic`: the exact specular image of the `[stack]` sample `sp` with the
+/// same camera and light, written beside the render, and the difference printed.
+fn against_analytic(
+    a: &RenderArgs,
+    sp: &std::path::Path,
+    meta: &goniospec::brdf::Meta,
+    img: &goniospec::render::Image,
+    shape: &goniospec::render::Shape,
+    cfg: &goniospec::render::RenderConfig,
+) -> Result<()> {
+    use goniospec::render::{self, Light};
+    let s = sample::load(sp, MeshOptions::default())?;
+    let reference = render::analytic::stack_image(&s, meta, shape, cfg)?;
+    let apng = a.output.with_file_name(format!(
+        "{}-analytic.png",
+        a.output.file_stem().unwrap_or_default().to_string_lossy()
+    ));
+    render::write_png(&reference, &apng)?;
+    let d = render::analytic::compare(img, &reference);
+    outln!(
+        "against the analytic TMM image ({}): relative RMSE {:.4}, mean CIE DE2000 {:.3} over {} object pixels{}",
+        apng.display(),
+        d.rel_rmse,
+        d.mean_de2000,
+        d.pixels,
+        if cfg.light != Light::None {
+            " (the light's delta reflection is left out of both)"
+        } else {
+            ""
+        }
+    );
+    Ok(())
 }
 
 /// `render --simulate`: simulates the incident angles the image needs
