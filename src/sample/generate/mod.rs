@@ -304,35 +304,16 @@ impl GeneratorSpec {
                 z,
             } => {
                 check_resolution(resolution)?;
-                let (t, l) = (thickness * u, correlation_length * u);
-                if t.is_nan() || t <= 0.0 {
-                    return Err(GenerateError::from(format!(
-                        "thickness must be positive, got {thickness}"
-                    )));
-                }
-                let rough = gaussian_heights(seed, tile_nm, resolution, roughness_rms * u, l)?;
-                let var = gaussian_heights(
-                    seed.wrapping_add(1),
+                let h = wavy_film(
+                    seed,
                     tile_nm,
                     resolution,
+                    surface,
+                    thickness * u,
                     thickness_rms * u,
-                    l,
+                    roughness_rms * u,
+                    correlation_length * u,
                 )?;
-                if let Some(min) = var.iter().map(|v| t + v).reduce(f64::min)
-                    && min <= 0.0
-                {
-                    return Err(GenerateError::from(format!(
-                        "the thickness variation makes the film vanish (minimum thickness {min:.1} nm); lower thickness_rms"
-                    )));
-                }
-                let h: Vec<f64> = rough
-                    .iter()
-                    .zip(&var)
-                    .map(|(r, v)| match surface {
-                        FilmSurface::Top => t + r + v / 2.0,
-                        FilmSurface::Bottom => r - v / 2.0,
-                    })
-                    .collect();
                 Generated::Sheet(grid_mesh(tile_nm, resolution, &h, z * u))
             }
             GeneratorSpec::Microfacet {
@@ -434,6 +415,45 @@ impl GeneratorSpec {
             )?),
         })
     }
+}
+
+/// Heights (nm) of one surface of a wavy film of mean thickness `t` nm: a rough mid-surface
+/// (RMS `roughness_rms` nm) shared by both faces, and a thickness variation (RMS
+/// `thickness_rms` nm, the next seed) split between them; both Gaussian-correlated over
+/// `l` nm. Refused where the film would vanish.
+#[allow(clippy::too_many_arguments)]
+fn wavy_film(
+    seed: u64,
+    tile_nm: [f64; 2],
+    resolution: usize,
+    surface: FilmSurface,
+    t: f64,
+    thickness_rms: f64,
+    roughness_rms: f64,
+    l: f64,
+) -> Result<Vec<f64>, GenerateError> {
+    if t.is_nan() || t <= 0.0 {
+        return Err(GenerateError::from(format!(
+            "thickness must be positive, got {t} nm"
+        )));
+    }
+    let rough = gaussian_heights(seed, tile_nm, resolution, roughness_rms, l)?;
+    let var = gaussian_heights(seed.wrapping_add(1), tile_nm, resolution, thickness_rms, l)?;
+    if let Some(min) = var.iter().map(|v| t + v).reduce(f64::min)
+        && min <= 0.0
+    {
+        return Err(GenerateError::from(format!(
+            "the thickness variation makes the film vanish (minimum thickness {min:.1} nm); lower thickness_rms"
+        )));
+    }
+    Ok(rough
+        .iter()
+        .zip(&var)
+        .map(|(r, v)| match surface {
+            FilmSurface::Top => t + r + v / 2.0,
+            FilmSurface::Bottom => r - v / 2.0,
+        })
+        .collect())
 }
 
 /// A height-field resolution: 1 to 4096 cells per side, and, since the mesh and the
