@@ -126,11 +126,42 @@ pub fn scales(mesh: &super::Mesh, tile_nm: [f64; 2]) -> Scales {
     if sigma < 1e-9 * tile_nm[0].max(tile_nm[1]) {
         return flat;
     }
-    // Axis-aligned modes of the height: H_m = (1/A) int (z - mean) exp(-i q_m x) dA, each
-    // facet cut into n x n pieces (its extent along the axis times q_max under 2 rad) and
-    // integrated by the centroid rule, `exp(-i q_m x)` by recurrence over m; a mode of a
-    // real surface holds 2 |H_m|^2 of the variance. Periods down to 100 nm (at most 128 per
-    // tile side) are scanned, over at most about 20,000 facets taken evenly through the list.
+    let best = strongest_axis_mode(mesh, tile_nm, mean, sigma);
+    let kmax = max_edge_curvature(mesh);
+    let kappa = (cents
+        .iter()
+        .zip(&kmax)
+        .map(|((a, _), k2)| a * k2)
+        .sum::<f64>()
+        / area)
+        .sqrt();
+    Scales {
+        rms_height_nm: sigma,
+        rms_slope: s,
+        lateral_nm: if s > 0.0 {
+            2.0 * std::f64::consts::PI * sigma / s
+        } else {
+            f64::INFINITY
+        },
+        period_nm: best.0,
+        period_share: best.1,
+        curvature_radius_nm: if kappa > 0.0 {
+            1.0 / kappa
+        } else {
+            f64::INFINITY
+        },
+    }
+}
+
+/// Axis-aligned modes of the height: H_m = (1/A) int (z - mean) exp(-i q_m x) dA, each
+/// facet cut into n x n pieces (its extent along the axis times q_max under 2 rad) and
+/// integrated by the centroid rule, `exp(-i q_m x)` by recurrence over m; a mode of a
+/// real surface holds 2 |H_m|^2 of the variance. Periods down to 100 nm (at most 128 per
+/// tile side) are scanned, over at most about 20,000 facets taken evenly through the list.
+/// Returns the strongest mode's period (nm) and its share of the height variance `sigma^2`
+/// about the mean height `mean` (nm).
+fn strongest_axis_mode(mesh: &super::Mesh, tile_nm: [f64; 2], mean: f64, sigma: f64) -> (f64, f64) {
+    let p = &mesh.positions_nm;
     let stride = (mesh.triangles.len() / 20_000).max(1);
     let mut best = (f64::INFINITY, 0.0);
     for (axis, &l) in tile_nm.iter().enumerate() {
@@ -182,10 +213,15 @@ pub fn scales(mesh: &super::Mesh, tile_nm: [f64; 2]) -> Scales {
             }
         }
     }
-    // RMS curvature: across each interior edge, the turn of the normal over the mean of
-    // the two facets' altitudes onto the edge; each facet keeps the
-    // largest of its edges (the principal curvature, whatever the facets' orientation),
-    // averaged over the area.
+    best
+}
+
+/// The squared curvature of each facet (1/nm^2): across each interior edge, the turn of
+/// the normal over the mean of the two facets' altitudes onto the edge; each facet keeps
+/// the largest of its edges (the principal curvature, whatever the facets' orientation).
+/// [`scales`] averages it over the area for the RMS curvature.
+fn max_edge_curvature(mesh: &super::Mesh) -> Vec<f64> {
+    let p = &mesh.positions_nm;
     let mut edges = std::collections::HashMap::<(u32, u32), usize>::new();
     let mut kmax = vec![0.0f64; mesh.triangles.len()];
     for (k, t) in mesh.triangles.iter().enumerate() {
@@ -215,29 +251,7 @@ pub fn scales(mesh: &super::Mesh, tile_nm: [f64; 2]) -> Scales {
             }
         }
     }
-    let kappa = (cents
-        .iter()
-        .zip(&kmax)
-        .map(|((a, _), k2)| a * k2)
-        .sum::<f64>()
-        / area)
-        .sqrt();
-    Scales {
-        rms_height_nm: sigma,
-        rms_slope: s,
-        lateral_nm: if s > 0.0 {
-            2.0 * std::f64::consts::PI * sigma / s
-        } else {
-            f64::INFINITY
-        },
-        period_nm: best.0,
-        period_share: best.1,
-        curvature_radius_nm: if kappa > 0.0 {
-            1.0 / kappa
-        } else {
-            f64::INFINITY
-        },
-    }
+    kmax
 }
 
 /// One finding: the feature, its scale, and what to use instead.
