@@ -56,11 +56,7 @@ pub fn read_x3p(bytes: &[u8]) -> Result<HeightMap, HeightMapError> {
     if feature != "SUR" {
         return Err(HeightMapError::from(format!(
             "the X3P holds a {} (FeatureType), not an areal surface (SUR): profiles and point clouds cannot be meshed as a height map",
-            match feature.as_str() {
-                "PRF" => "profile".to_string(),
-                "PCL" => "point cloud".to_string(),
-                f => format!("'{f}'"),
-            }
+            feature_name(&feature)
         )));
     }
     for axis in ["CX", "CY"] {
@@ -155,6 +151,15 @@ pub fn read_x3p(bytes: &[u8]) -> Result<HeightMap, HeightMapError> {
         dy_nm: dy * 1e9,
         z_nm: z,
     })
+}
+
+/// What an X3P `FeatureType` other than an areal surface holds, for messages.
+fn feature_name(feature: &str) -> String {
+    match feature {
+        "PRF" => "profile".to_string(),
+        "PCL" => "point cloud".to_string(),
+        f => format!("'{f}'"),
+    }
 }
 
 /// Bytes per value of an X3P data type (`CZ/DataType`): I (i16), L (i32), F (f32), D (f64).
