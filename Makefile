@@ -63,8 +63,8 @@ fuzz: deps
 ## What CI runs: the harnesses build and replay every corpus and regression input, then
 ## each target is fuzzed for a few seconds (about a minute in all).
 fuzz-smoke: deps
-	cd fuzz && $(CARGO) test --release
-	./scripts/fuzz.sh 6
+	cd fuzz && $(CARGO) test
+	./scripts/fuzz.sh 3
 
 ## Interop: export RGL .bsdf files (rough gold, the seed's wavy film) and check them with an
 ## independent reader and with Mitsuba 3 (installed into .venv-interop from PyPI).
