@@ -183,7 +183,8 @@ pub fn parse(path: &Path, text: &str) -> Result<Study, StudyError> {
             None => format!("{}: invalid study: {}", path.display(), e.message().trim()),
         }
     })?;
-    let named = |m: String| StudyError::from(format!("{}: {m}", path.display()));
+    // The stages' errors say what; the file is named here.
+    let named = |e: StudyError| StudyError::from(format!("{}: {e}", path.display()));
     check_sweep(&raw.sweep, &raw.study.theta_i).map_err(named)?;
     let axes = Axes::parse(&raw.sweep).map_err(named)?;
     let settings = Settings::parse(&raw.study).map_err(named)?;
@@ -212,7 +213,7 @@ pub fn parse(path: &Path, text: &str) -> Result<Study, StudyError> {
 }
 
 /// The sweep's numeric axes: each non-empty and each value one a run can take.
-fn check_sweep(sw: &Sweep, theta_i: &[f64]) -> Result<(), String> {
+fn check_sweep(sw: &Sweep, theta_i: &[f64]) -> Result<(), StudyError> {
     for (name, empty) in [
         ("rays", sw.rays.is_empty()),
         ("theta_o_bins", sw.theta_o_bins.is_empty()),
@@ -226,7 +227,9 @@ fn check_sweep(sw: &Sweep, theta_i: &[f64]) -> Result<(), String> {
         ("origin_nm", sw.origin_nm.is_empty()),
     ] {
         if empty {
-            return Err(format!("[sweep] {name} is empty: give at least one value"));
+            return Err(StudyError::from(format!(
+                "[sweep] {name} is empty: give at least one value"
+            )));
         }
     }
     if theta_i.is_empty() {
@@ -240,7 +243,9 @@ fn check_sweep(sw: &Sweep, theta_i: &[f64]) -> Result<(), String> {
         .iter()
         .find(|c| !(c.is_finite() && **c >= 0.0 && **c < 1.0))
     {
-        return Err(format!("[sweep] cutoff {c} must lie in [0, 1)"));
+        return Err(StudyError::from(format!(
+            "[sweep] cutoff {c} must lie in [0, 1)"
+        )));
     }
     if sw.max_depth.contains(&0) {
         return Err("[sweep] max_depth must be positive".into());
@@ -250,12 +255,14 @@ fn check_sweep(sw: &Sweep, theta_i: &[f64]) -> Result<(), String> {
         .iter()
         .find(|r| r.is_nan() || **r <= 0.0)
     {
-        return Err(format!(
+        return Err(StudyError::from(format!(
             "[sweep] coherence_radius_nm {r} must be positive (or inf)"
-        ));
+        )));
     }
     if let Some(o) = sw.origin_nm.iter().find(|o| !o.is_finite()) {
-        return Err(format!("[sweep] origin_nm {o} must be finite"));
+        return Err(StudyError::from(format!(
+            "[sweep] origin_nm {o} must be finite"
+        )));
     }
     if sw.theta_o_bins.contains(&0) {
         return Err("[sweep] theta_o_bins must be positive".into());
@@ -272,35 +279,44 @@ struct Axes {
 }
 
 impl Axes {
-    fn parse(sw: &Sweep) -> Result<Axes, String> {
+    fn parse(sw: &Sweep) -> Result<Axes, StudyError> {
         let precision = sw
             .phase
             .iter()
             .map(|p| {
-                PhasePrecision::parse(p)
-                    .ok_or_else(|| format!("unknown phase precision '{p}' (f64 or f32)"))
+                PhasePrecision::parse(p).ok_or_else(|| {
+                    StudyError::from(format!("unknown phase precision '{p}' (f64 or f32)"))
+                })
             })
             .collect::<Result<Vec<_>, _>>()?;
         let coherence = sw
             .coherence
             .iter()
             .map(|c| {
-                Coherence::parse(c)
-                    .ok_or_else(|| format!("unknown coherence '{c}' (beamlet, bucket or global)"))
+                Coherence::parse(c).ok_or_else(|| {
+                    StudyError::from(format!(
+                        "unknown coherence '{c}' (beamlet, bucket or global)"
+                    ))
+                })
             })
             .collect::<Result<Vec<_>, _>>()?;
         let backend = sw
             .backend
             .iter()
-            .map(|b| b.parse::<Backend>().map_err(|e| e.to_string()))
+            .map(|b| {
+                b.parse::<Backend>()
+                    .map_err(|e| StudyError::from(e.to_string()))
+            })
             .collect::<Result<Vec<_>, _>>()?;
         if let Some(b) = backend.iter().find(|b| !b.is_available()) {
-            return Err(format!("backend {b} is not available in this build"));
+            return Err(StudyError::from(format!(
+                "backend {b} is not available in this build"
+            )));
         }
         let representation = sw
             .representation
             .iter()
-            .map(|r| crate::brdf::Kind::parse(r).map_err(|m| m.to_string()))
+            .map(|r| crate::brdf::Kind::parse(r).map_err(|m| StudyError::from(m.to_string())))
             .collect::<Result<Vec<_>, _>>()?;
         Ok(Axes {
             precision,
@@ -357,41 +373,49 @@ struct Settings {
 }
 
 impl Settings {
-    fn parse(h: &Header) -> Result<Settings, String> {
+    fn parse(h: &Header) -> Result<Settings, StudyError> {
         let reference = match h.reference.as_str() {
             "auto" => ReferenceKind::Auto,
             "local-film" => ReferenceKind::LocalFilm,
             "run" => ReferenceKind::Run,
             other => {
-                return Err(format!(
+                return Err(StudyError::from(format!(
                     "reference '{other}' must be \"auto\", \"local-film\" or \"run\""
-                ));
+                )));
             }
         };
         if !(h.tolerance >= 0.0 && h.tolerance.is_finite()) {
-            return Err(format!(
+            return Err(StudyError::from(format!(
                 "[study] tolerance {} must be a non-negative number",
                 h.tolerance
-            ));
+            )));
         }
         if let Some(t) = h.theta_i.iter().find(|t| !(0.0..90.0).contains(*t)) {
-            return Err(format!("[study] theta_i {t} must lie in [0, 90) degrees"));
+            return Err(StudyError::from(format!(
+                "[study] theta_i {t} must lie in [0, 90) degrees"
+            )));
         }
         // The same A:B:STEP rules and limits as `--wavelengths` (finite, at most
         // MAX_WAVELENGTHS bins).
         let w = &h.wavelengths;
         if !w.contains(':') {
-            return Err(format!("wavelengths '{w}' must be A:B:STEP"));
+            return Err(StudyError::from(format!(
+                "wavelengths '{w}' must be A:B:STEP"
+            )));
         }
         let edges = match Wavelengths::parse(w, false) {
             Ok(Wavelengths::Bins(e)) => e,
             Ok(Wavelengths::Monochromatic(_)) => unreachable!("bins requested"),
-            Err(e) => return Err(format!("[study] wavelengths: {e}")),
+            Err(e) => return Err(StudyError::from(format!("[study] wavelengths: {e}"))),
         };
         let random_entry = match h.sampling.as_str() {
             "r2" => false,
             "random" => true,
-            other => return Err(format!("sampling '{other}' must be \"r2\" or \"random\"")),
+            other => {
+                return Err(StudyError::from(format!(
+                    "sampling '{other}' must be \"r2\" or \"random\""
+                )));
+            }
         };
         Ok(Settings {
             reference,
@@ -403,7 +427,7 @@ impl Settings {
 
 /// The area sweep, where there is one: tilings of 1 to [`MAX_TILES_PER_SIDE`] per side
 /// and estimators by name.
-fn check_area(area: Option<AreaSweep>) -> Result<Option<AreaSweep>, String> {
+fn check_area(area: Option<AreaSweep>) -> Result<Option<AreaSweep>, StudyError> {
     match area {
         Some(a)
             if a.tiles.is_empty()
@@ -411,9 +435,9 @@ fn check_area(area: Option<AreaSweep>) -> Result<Option<AreaSweep>, String> {
                     .iter()
                     .any(|t| t.counts().iter().any(|&k| k == 0 || k > MAX_TILES_PER_SIDE)) =>
         {
-            Err(format!(
+            Err(StudyError::from(format!(
                 "[area] tiles must be a non-empty list of counts from 1 to {MAX_TILES_PER_SIDE} per side"
-            ))
+            )))
         }
         Some(a) if a.coherence.iter().any(|c| Coherence::parse(c).is_none()) => {
             Err("[area] coherence must name beamlet, bucket or global".into())
