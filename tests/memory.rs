@@ -1,12 +1,13 @@
 //! Peak memory of `simulate` does not grow with the ray count (the accumulation reduces
 //! blocks as they finish). Each run is its own process, so each high-water mark (`VmHWM`,
-//! printed in the run's summary) is that run's own.
+//! written in the run's `--report-json`) is that run's own.
 
 use std::path::Path;
 use std::process::Command;
 
 fn peak_mb(rays: u64, dir: &Path) -> f64 {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let report = dir.join(format!("m{rays}.json"));
     let out = Command::new(env!("CARGO_BIN_EXE_goniospec"))
         .arg("simulate")
         .arg(root.join("meshes/thin-film-600nm.toml"))
@@ -20,19 +21,17 @@ fn peak_mb(rays: u64, dir: &Path) -> f64 {
         ])
         .arg("-o")
         .arg(dir.join(format!("m{rays}.gsa")))
+        .arg("--report-json")
+        .arg(&report)
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr).to_string();
     assert!(out.status.success(), "{err}");
-    let at = err
-        .find("peak memory ")
-        .expect("summary has the peak memory");
-    err[at + 12..]
-        .split_whitespace()
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap_or_else(|_| panic!("{err}"))
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    json["peak_memory_mb"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("no peak_memory_mb in {json}"))
 }
 
 /// Linux only: the figure comes from `/proc/self/status`.
