@@ -54,7 +54,7 @@ pub struct Context {
 /// 1.8 % here) is one the ray method does not produce.
 pub const RAYLEIGH_MIN_FOR_RAYS: f64 = 4.0;
 /// Below this many wavelengths of period (or period-equivalent scale) neither rays nor
-/// physical optics hold (the RCWA table: 14 % R error at 1.8 wavelengths).
+/// physical optics hold (against RCWA, docs/validity.md: 14 % R error at 1.8 wavelengths).
 pub const MIN_PERIOD_WAVELENGTHS: f64 = 3.0;
 /// Below this curvature radius, in wavelengths, the tangent plane fails (`k r_c = pi`).
 pub const MIN_CURVATURE_WAVELENGTHS: f64 = 0.5;
@@ -333,7 +333,7 @@ pub fn assess_scales(sample: &Sample, sheets: &[Option<Scales>], ctx: &Context) 
             if coherent && resolved {
                 out.push(Finding {
                     message: format!(
-                        "{name} is {what}: its diffraction orders are {:.3} apart in sin(theta) at {:.0} nm, which the buckets resolve and the coherence radius ({}) spans, but rays give only their envelope (the issue's RCWA comparison: nearly disjoint angular distributions up to a period of ~18 wavelengths); use --coherence diffraction (docs/validity.md)",
+                        "{name} is {what}: its diffraction orders are {:.3} apart in sin(theta) at {:.0} nm, which the buckets resolve and the coherence radius ({}) spans, but rays give only their envelope (against a rigorous RCWA solver their angular distributions are nearly disjoint up to a period of ~18 wavelengths); use --coherence diffraction (docs/validity.md)",
                         ctx.lambda_max_nm / sc.period_nm,
                         ctx.lambda_max_nm,
                         if ctx.rho_nm.is_finite() {
