@@ -242,7 +242,8 @@ fn flat_film_accuracy(
                 .collect()
         })
         .collect();
-    for rho in [5000.0, f64::INFINITY] {
+    let default_radius = crate::simulate::defaults::COHERENCE_RADIUS_NM;
+    for rho in [default_radius, f64::INFINITY] {
         let mut c = base.clone();
         c.backend = cfg.backends[0];
         c.theta_i_deg = thetas.clone();
