@@ -513,7 +513,7 @@ fn gsb_files_carry_the_whole_wavelength_sampling() {
     let back = file::read(&p).unwrap();
     let edges = Wavelengths::Bins(vec![450.0, 550.0, 650.0]);
     assert_eq!(back.meta().spectrum.as_ref(), Some(&edges));
-    assert_eq!(goniospec::render::analytic::sampling_of(back.meta()), edges);
+    assert_eq!(back.meta().sampling(), edges);
 
     // Edges that do not give the stored centres (500, 600) are refused.
     let mut wrong = TableBrdf::build(&data);
@@ -526,7 +526,7 @@ fn gsb_files_carry_the_whole_wavelength_sampling() {
     let old = file::read(&root().join("fuzz/corpus/gsb/table.gsb")).unwrap();
     assert_eq!(old.meta().spectrum, None);
     let c = &old.meta().wavelengths_nm;
-    let rebuilt = goniospec::render::analytic::sampling_of(old.meta());
+    let rebuilt = old.meta().sampling();
     assert_eq!(rebuilt.count(), c.len());
     for (j, &cj) in c.iter().enumerate() {
         let (lo, hi) = rebuilt.band(j);

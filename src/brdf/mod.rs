@@ -121,6 +121,32 @@ pub struct Meta {
     pub median_rel_stderr: Option<f64>,
 }
 
+impl Meta {
+    /// The sampling the cells come from: as stored, or, for files written before it was
+    /// (centres only), bins whose edges lie halfway between centres, the outer bins as
+    /// wide as their neighbours (10 nm for a single centre).
+    pub fn sampling(&self) -> crate::spectrum::Wavelengths {
+        if let Some(w) = &self.spectrum {
+            return w.clone();
+        }
+        let c = &self.wavelengths_nm;
+        let nl = c.len();
+        if nl == 0 {
+            return crate::spectrum::Wavelengths::Bins(Vec::new());
+        }
+        let first_width = if nl > 1 { c[1] - c[0] } else { 10.0 };
+        let last_width = if nl > 1 { c[nl - 1] - c[nl - 2] } else { 10.0 };
+        let edges = (0..=nl)
+            .map(|i| match i {
+                0 => c[0] - 0.5 * first_width,
+                i if i == nl => c[nl - 1] + 0.5 * last_width,
+                i => 0.5 * (c[i - 1] + c[i]),
+            })
+            .collect();
+        crate::spectrum::Wavelengths::Bins(edges)
+    }
+}
+
 /// The query interface every representation implements.
 pub trait Brdf {
     /// BRDF (1/sr) of the pair `(wi, wo)` in every wavelength bin, into `out`

@@ -6,28 +6,6 @@ use super::{Env, Image, RenderConfig, RenderError, Shape, colour};
 use crate::brdf::Meta;
 use crate::optics::tmm::{solve, solve_band};
 use crate::sample::Sample;
-use crate::spectrum::Wavelengths;
-
-/// The sampling a `.gsb` was built with: written whole since the file carried it; for
-/// older files (centres only) rebuilt as bins whose edges lie halfway between centres,
-/// the outer bins as wide as their neighbours (10 nm for a single centre).
-pub fn sampling_of(meta: &Meta) -> Wavelengths {
-    if let Some(w) = &meta.spectrum {
-        return w.clone();
-    }
-    let c = &meta.wavelengths_nm;
-    let nl = c.len();
-    let first_width = if nl > 1 { c[1] - c[0] } else { 10.0 };
-    let last_width = if nl > 1 { c[nl - 1] - c[nl - 2] } else { 10.0 };
-    let edges = (0..=nl)
-        .map(|i| match i {
-            0 => c[0] - 0.5 * first_width,
-            i if i == nl => c[nl - 1] + 0.5 * last_width,
-            i => 0.5 * (c[i - 1] + c[i]),
-        })
-        .collect();
-    Wavelengths::Bins(edges)
-}
 
 /// Renders the stack's exact specular reflection with the same camera and environment,
 /// in the wavelength cells of `meta`: a bin's reflectance averaged over the bin (Simpson,
@@ -44,7 +22,7 @@ pub fn stack_image(
             s.path.display()
         )));
     }
-    let sampling = sampling_of(meta);
+    let sampling = meta.sampling();
     let nl = sampling.count();
     for &l in &[sampling.min(), sampling.max()] {
         crate::reference::stack_indices(s, l).map_err(|e| RenderError::from(e.to_string()))?;
