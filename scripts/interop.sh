@@ -4,7 +4,10 @@
 # against the PyPI miepython package (tests/interop/mie_miepython.py), and volume scattering
 # against iadpython's adding-doubling (tests/interop/rt_iadpython.py); and the diffraction
 # method against RCWA (PyPI meent: tests/interop/grating_meent.py writes the orders, the
-# `against_rcwa` test of tests/diffraction.rs compares).
+# `against_rcwa` test of tests/diffraction.rs compares); and gold gratings against the
+# Rayleigh-Fourier method, checked against PyPI grcwa (tests/interop/grating_rayleigh.py;
+# the `metal_*` tests of tests/diffraction.rs compare the diffraction method's orders and
+# the rays' R, or the warning on R).
 #
 #   scripts/interop.sh [GONIOSPEC_BINARY]
 #
@@ -14,10 +17,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${1:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 venv=${INTEROP_VENV:-.venv-interop}
-if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython, iadpython, meent, scipy" 2>/dev/null; then
-  echo "== making $venv (numpy, mitsuba, miepython, iadpython, meent, scipy)"
+if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython, iadpython, meent, scipy, grcwa" 2>/dev/null; then
+  echo "== making $venv (numpy, mitsuba, miepython, iadpython, meent, scipy, grcwa)"
   python3 -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5" "meent==0.13.2" "scipy>=1.10"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5" "meent==0.13.2" "scipy>=1.10" "grcwa==0.1.2"
 fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -25,4 +28,6 @@ trap 'rm -rf "$work"' EXIT
 "$venv/bin/python" tests/interop/mie_miepython.py "$bin"
 "$venv/bin/python" tests/interop/rt_iadpython.py "$bin" "$work/rt"
 "$venv/bin/python" tests/interop/grating_meent.py "$work/rcwa.json"
+"$venv/bin/python" tests/interop/grating_rayleigh.py "$work/metal.json"
 GONIOSPEC_RCWA_JSON="$work/rcwa.json" cargo test --release --test diffraction against_rcwa -- --ignored --nocapture
+GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test diffraction metal_ -- --ignored --nocapture

@@ -16,7 +16,7 @@ use crate::rng::Rng;
 use crate::sample::{Sample, generate::enclosed_volume};
 
 /// Settings of the leak test.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct CheckOptions {
     pub backend: Backend,
     /// Random walks of the leak test.

@@ -19,13 +19,24 @@ fn cosine(tag: &str, period: f64, amp: f64, resolution: usize) -> goniospec::sam
     )
 }
 
+/// The same grating in gold (n = 0.43 + 2.455i, constant).
+fn gold_cosine(tag: &str, period: f64, amp: f64) -> goniospec::sample::Sample {
+    let ly = period / 8.0;
+    sample_from(
+        tag,
+        &format!(
+            "[sample]\nname = \"gold grating\"\nunit = \"nm\"\ntile = [{period:?}, {ly:?}]\n[media.air]\nn = 1.0\n[media.gold]\nn = 0.43\nk = 2.455\n[[interface]]\ngenerator = {{ kind = \"cosine\", amplitude = {amp:?}, resolution = 256 }}\nfront = \"air\"\nback = \"gold\"\n"
+        ),
+    )
+}
+
 /// The run's context at 550 nm and the simulate defaults (5 um coherence radius, 45 polar
 /// buckets).
 fn ctx(method: Method) -> Context {
     Context {
         lambda_min_nm: 550.0,
         lambda_max_nm: 550.0,
-        theta_max_deg: 0.0,
+        theta_i_deg: vec![0.0],
         rho_nm: goniospec::simulate::defaults::COHERENCE_RADIUS_NM,
         bucket_rad: PI / 2.0 / f64::from(goniospec::simulate::defaults::THETA_O_BINS),
         method,
@@ -67,11 +78,6 @@ fn a_sinusoid_measures_as_its_closed_forms() {
     close(sc.curvature_radius_nm, 1.0 / k2.sqrt(), "curvature radius");
 }
 
-/// The issue's cases: a 1 um grating (1.8 wavelengths) is beyond rays and physical optics;
-/// a 5 um grating's orders are missed by rays (and not by the diffraction method); a 200 um
-/// grating needs no warning (orders 0.003 apart, a dozen per bucket); slightly rough glass
-/// (RMS 20 nm) has a coherent specular order rays miss; TiO2 spheres of radius 150 nm
-/// traced as bodies are flagged with the particle medium to use.
 /// Exactly one finding, saying each of `texts`.
 fn says_once(findings: &[validity::Finding], texts: &[&str]) {
     assert_eq!(findings.len(), 1, "{findings:?}");
@@ -80,6 +86,11 @@ fn says_once(findings: &[validity::Finding], texts: &[&str]) {
     }
 }
 
+/// The issue's cases: a 1 um grating (1.8 wavelengths) is beyond rays and physical optics;
+/// a 5 um grating's orders are missed by rays (and not by the diffraction method); a 200 um
+/// grating needs no warning (orders 0.003 apart, a dozen per bucket); slightly rough glass
+/// (RMS 20 nm) has a coherent specular order rays miss; TiO2 spheres of radius 150 nm
+/// traced as bodies are flagged with the particle medium to use.
 #[test]
 fn warnings_fire_where_the_methods_stop() {
     let one = validity::assess(
@@ -160,4 +171,51 @@ fn simulate_and_check_print_the_warnings() {
     assert_eq!(rc, 0, "{err}");
     assert!(!err.contains("warning"), "{err}");
     assert!(err.contains("diffraction: trees on a"), "{err}");
+}
+
+/// The warnings on the total R (issue 25), at single incidence angles on gold gratings whose
+/// rigorous R the interop test compares (`metal_gratings_match_rigorous_r_or_warn` in
+/// tests/diffraction.rs). The plasmon: k_sp / k0 = sqrt(eps / (eps + 1)) = 1.084 + 0.035i
+/// for this gold; a 2 um grating at 60 deg puts its order +1 at sin 60 + 0.275 = 1.141,
+/// within 3 half-widths (0.105); at 0 deg its orders within reach (|m| <= 3 for A = 100
+/// nm) stop at 0.825. Glass has no plasmon. Smooth at grazing light: A = 40 nm at 85 deg,
+/// g = 0.009, Fresnel of gold at 85 deg against its mean over +-5 deg tilts differs by
+/// 0.04; the shipped rough gold (k sigma = 7) is not smooth at any angle.
+#[test]
+fn warnings_on_total_r() {
+    let at = |theta: f64| Context {
+        theta_i_deg: vec![theta],
+        ..ctx(Method::Rays)
+    };
+    let on_r = |s: &goniospec::sample::Sample, c: &Context| -> Vec<String> {
+        validity::assess(s, c)
+            .into_iter()
+            .map(|f| f.message)
+            .filter(|m| m.contains("plasmon") || m.contains("total R is uncertain"))
+            .collect()
+    };
+    let gold = gold_cosine("validity-gold", 2000.0, 100.0);
+    let w = on_r(&gold, &at(60.0));
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("order 1 runs along the surface with tangential index 1.141"),
+        "{}",
+        w[0]
+    );
+    assert!(on_r(&gold, &at(0.0)).is_empty());
+    assert!(on_r(&cosine("validity-glass-r", 2000.0, 100.0, 256), &at(60.0)).is_empty());
+
+    let shallow = gold_cosine("validity-gold-shallow", 2000.0, 40.0);
+    let w = on_r(&shallow, &at(85.0));
+    assert!(
+        w.iter()
+            .any(|m| m.contains("smooth against the wavelength")),
+        "{w:?}"
+    );
+    let rough = shipped("rough-gold.toml");
+    let w: Vec<String> = on_r(&rough, &at(85.0))
+        .into_iter()
+        .filter(|m| m.contains("smooth"))
+        .collect();
+    assert!(w.is_empty(), "{w:?}");
 }

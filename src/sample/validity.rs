@@ -21,6 +21,10 @@
 //!   (Ogilvy, Theory of Wave Scattering from Random Rough Surfaces, 1991, §4.2).
 //!   Below a period of 3 wavelengths, or a curvature radius of half a wavelength, nothing
 //!   here holds and a rigorous solver (RCWA, FDTD) is the tool.
+//! - The total R, which both methods take from the rays, is off where a metal grating's
+//!   order meets a surface plasmon (TM absorption) and where structure is smooth against
+//!   the wavelength at grazing light (the wave sees the mean plane): measured on gold
+//!   gratings against the Rayleigh-Fourier method, `tests/interop/grating_rayleigh.py`.
 //! - Bodies: below a size parameter of 10, ray optics does not describe a particle
 //!   (van de Hulst 1957, §§ 10-12); a particle medium (Mie) does.
 
@@ -36,18 +40,25 @@ pub enum Method {
 }
 
 /// What the run asks of the sample.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Context {
     /// Shortest and longest vacuum wavelength of the run, nm.
     pub lambda_min_nm: f64,
     pub lambda_max_nm: f64,
-    /// Most oblique incidence, degrees (0 when unknown).
-    pub theta_max_deg: f64,
+    /// The incidence polar angles, degrees (`[0]` when unknown).
+    pub theta_i_deg: Vec<f64>,
     /// Transverse coherence radius, nm (`inf`: plane wave).
     pub rho_nm: f64,
     /// Polar width of one outgoing bucket, radians.
     pub bucket_rad: f64,
     pub method: Method,
+}
+
+impl Context {
+    /// The most oblique incidence, degrees.
+    pub fn theta_max_deg(&self) -> f64 {
+        self.theta_i_deg.iter().copied().fold(0.0, f64::max)
+    }
 }
 
 /// Below this Rayleigh parameter `g` the coherent specular order (`exp(-g)` of the power,
@@ -278,7 +289,7 @@ pub fn sheet_scales(sample: &Sample) -> Vec<Option<Scales>> {
 pub fn assess_scales(sample: &Sample, sheets: &[Option<Scales>], ctx: &Context) -> Vec<Finding> {
     let mut out = Vec::new();
     let lambda = ctx.lambda_min_nm;
-    let cos = ctx.theta_max_deg.to_radians().cos().max(0.05);
+    let cos = ctx.theta_max_deg().to_radians().cos().max(0.05);
     for (i, (itf, sc)) in sample.interfaces.iter().zip(sheets).enumerate() {
         let Some(sc) = *sc else {
             continue;
@@ -314,6 +325,9 @@ pub fn assess_scales(sample: &Sample, sheets: &[Option<Scales>], ctx: &Context) 
             });
             continue;
         }
+        // The total R, which both methods take from the rays.
+        out.extend(plasmon_coupling(sample, itf, &sc, ctx, &name, &what));
+        out.extend(smooth_at_grazing(sample, itf, &sc, ctx, &name, &what));
         if ctx.method == Method::Diffraction {
             let depth = sc.rms_height_nm / sc.curvature_radius_nm;
             if depth > MAX_DEPTH_OVER_CURVATURE {
@@ -351,13 +365,175 @@ pub fn assess_scales(sample: &Sample, sheets: &[Option<Scales>], ctx: &Context) 
                 message: format!(
                     "{name} has {what}: smooth against the wavelength (Rayleigh g = {g:.2} at {:.0} nm and {:.0} deg), so a coherent specular order holds about exp(-g) = {:.2} of the reflected power, which rays spread over the slope lobe instead; use --coherence diffraction (docs/validity.md)",
                     ctx.lambda_max_nm,
-                    ctx.theta_max_deg,
+                    ctx.theta_max_deg(),
                     (-g).exp()
                 ),
             });
         }
     }
     out
+}
+
+/// Within this many resonance half-widths (`Im k_sp`) of a surface plasmon's wavenumber, a
+/// grating order couples to it. Gold gratings at 550 nm against the Rayleigh-Fourier method
+/// (docs/validity.md): with 3, every case of the 144-case calibration set whose R the rays
+/// miss by more than [`R_TOLERANCE`] is warned; the 2 um gratings at 45 deg, off by 4e-3 and
+/// 9e-3, have their order 1 at 2.9 half-widths.
+pub const PLASMON_HALF_WIDTHS: f64 = 3.0;
+/// The total R the warnings on R guard, as an absolute difference from a rigorous solver.
+pub const R_TOLERANCE: f64 = 2e-3;
+/// Below this Rayleigh `g`, on a surface with `k sigma` below [`SMOOTH_K_SIGMA`], the wave
+/// sees the mean plane (the total R the flat interface's to `O(g)`), where rays average the
+/// Fresnel reflectance over the facets' tilts. Gold gratings against the Rayleigh-Fourier
+/// method: the rays' R misses by 4e-3 to 0.1 at `g` of 0.002-0.18 (docs/validity.md).
+pub const RAYLEIGH_SMOOTH: f64 = 0.25;
+/// The small-height regime of Rice's perturbation theory, `k sigma < 1` (Rice 1951; Thorsos
+/// & Jackson, JASA 86 (1989) 261, find it accurate well below 1); rougher surfaces are
+/// not smooth at any angle in that sense, however small `g` becomes at grazing light.
+pub const SMOOTH_K_SIGMA: f64 = 1.0;
+
+/// The unpolarised Fresnel reflectance from lossless `n1` onto `n2` at `theta` (radians).
+fn fresnel_r(n1: f64, n2: num_complex::Complex64, theta: f64) -> f64 {
+    let c = crate::optics::fresnel::coefficients(
+        num_complex::Complex64::new(n1, 0.0),
+        n2,
+        theta.cos().max(1e-9),
+    );
+    0.5 * (c.r_s.norm_sqr() + c.r_p.norm_sqr())
+}
+
+/// The vacuum wavelengths a check judges over the run's range: every nanometre (at most
+/// 2,001 of them).
+fn wavelengths(ctx: &Context) -> impl Iterator<Item = f64> + '_ {
+    let span = ctx.lambda_max_nm - ctx.lambda_min_nm;
+    let n = (span.ceil() as usize).clamp(0, 2000);
+    (0..=n).map(move |i| {
+        if n == 0 {
+            ctx.lambda_min_nm
+        } else {
+            ctx.lambda_min_nm + span * i as f64 / n as f64
+        }
+    })
+}
+
+/// A metal grating whose orders reach a surface plasmon. On a conductor with `Re eps_m <
+/// -eps_d` a bound surface wave runs along the interface with `k_sp = k0 sqrt(eps_m eps_d /
+/// (eps_m + eps_d))` (Raether, Surface Plasmons on Smooth and Rough Surfaces and on
+/// Gratings, Springer 1988, ch. 2); a grating of period `Lambda` lifts the incident
+/// tangential wavenumber `n_d k0 sin(theta)` by `m K`, and where an order lands within the
+/// resonance (`|k_t + m K| ~ Re k_sp`, in the plane across the grooves or conically along
+/// them) TM light is absorbed into the plasmon (Raether ch. 6; the deep dips of Hutley &
+/// Maystre, Opt. Commun. 19 (1976) 431). Neither rays nor physical optics have it. A
+/// sinusoid of amplitude `A` reaches orders up to about `k A (1 + cos theta)` (its
+/// Bessel spectrum, `J_m(k A (cos theta + cos theta_m))`), so higher orders are not
+/// counted. Measured on gold gratings against the Rayleigh-Fourier method: R too high by up
+/// to 0.16 (docs/validity.md).
+fn plasmon_coupling(
+    sample: &Sample,
+    itf: &super::Interface,
+    sc: &Scales,
+    ctx: &Context,
+    name: &str,
+    what: &str,
+) -> Option<Finding> {
+    use num_complex::Complex64 as C;
+    if sc.period_share < 0.5 {
+        return None;
+    }
+    let amp = (2.0 * sc.period_share).sqrt() * sc.rms_height_nm;
+    for lambda in wavelengths(ctx) {
+        let idx = |m: usize| sample.media[m].model.eval(lambda).ok();
+        let (Some(f), Some(b)) = (idx(itf.front), idx(itf.back)) else {
+            continue;
+        };
+        // The conductor and its lossless neighbour.
+        let (metal, nd) = match (f.1 > 0.0, b.1 > 0.0) {
+            (false, true) => (b, f.0),
+            (true, false) => (f, b.0),
+            _ => continue,
+        };
+        let eps_m = C::new(metal.0, metal.1).powi(2);
+        let eps_d = nd * nd;
+        if eps_m.re >= -eps_d {
+            continue;
+        }
+        let ksp = (eps_m * eps_d / (eps_m + eps_d)).sqrt();
+        let order = lambda / sc.period_nm;
+        for &theta in &ctx.theta_i_deg {
+            let (st, ct) = theta.to_radians().sin_cos();
+            let kt = nd * st;
+            let reach = (2.0 * std::f64::consts::PI * nd / lambda * amp * (1.0 + ct)).ceil() as i32;
+            for m in 1..=reach {
+                let q = f64::from(m) * order;
+                let near = [(kt + q).abs(), (kt - q).abs(), kt.hypot(q)]
+                    .into_iter()
+                    .find(|t| (t - ksp.re).abs() < PLASMON_HALF_WIDTHS * ksp.im);
+                if let Some(t) = near {
+                    return Some(Finding {
+                        message: format!(
+                            "{name} is {what} on a conductor: at {theta:.0} deg and {lambda:.0} nm its order {m} runs along the surface with tangential index {t:.3}, within the surface plasmon's resonance (k_sp / k0 = {:.3} + {:.3}i), which absorbs TM light that rays and physical optics reflect. The run's total R may be too high there (by up to 0.16 on gold gratings against a rigorous solver); for R near such resonances use a rigorous grating solver (the Rayleigh-Fourier or C-method, or RCWA with Li's factorisation) (docs/validity.md)",
+                            ksp.re, ksp.im
+                        ),
+                    });
+                }
+            }
+        }
+    }
+    None
+}
+
+/// Structure smooth against the wavelength at an oblique incidence the run asks for. Where
+/// Rayleigh's `g = (4 pi sigma n cos theta / lambda)^2` is small, and the heights small
+/// against the wavelength (`k sigma`), the wave reflects from the mean plane, its total R the flat interface's to `O(g)` (Rice, Commun. Pure Appl. Math. 4
+/// (1951) 351; Beckmann & Spizzichino 1963, ch. 5), while rays average the Fresnel
+/// reflectance over facet tilts (and shadow at grazing light). Where the two differ by more
+/// than [`R_TOLERANCE`], estimated as the Fresnel reflectance at `theta` against its mean
+/// at `theta` plus and minus the RMS slope angle, the rays' R is off: on gold gratings at
+/// 75-85 deg, by up to 0.1 against the Rayleigh-Fourier method (docs/validity.md).
+fn smooth_at_grazing(
+    sample: &Sample,
+    itf: &super::Interface,
+    sc: &Scales,
+    ctx: &Context,
+    name: &str,
+    what: &str,
+) -> Option<Finding> {
+    let tilt = sc.rms_slope.atan();
+    for lambda in [ctx.lambda_min_nm, ctx.lambda_max_nm] {
+        let (Ok(f), Ok(b)) = (
+            sample.media[itf.front].model.eval(lambda),
+            sample.media[itf.back].model.eval(lambda),
+        ) else {
+            continue;
+        };
+        if f.1 != 0.0 {
+            continue;
+        }
+        let n2 = num_complex::Complex64::new(b.0, b.1);
+        for &theta in &ctx.theta_i_deg {
+            let t = theta.to_radians();
+            let g =
+                (4.0 * std::f64::consts::PI * sc.rms_height_nm * f.0 * t.cos() / lambda).powi(2);
+            let k_sigma = 2.0 * std::f64::consts::PI * f.0 * sc.rms_height_nm / lambda;
+            if g >= RAYLEIGH_SMOOTH || k_sigma >= SMOOTH_K_SIGMA {
+                continue;
+            }
+            let flat = fresnel_r(f.0, n2, t);
+            let tilted = 0.5
+                * (fresnel_r(f.0, n2, (t - tilt).abs())
+                    + fresnel_r(f.0, n2, (t + tilt).min(std::f64::consts::FRAC_PI_2)));
+            if (tilted - flat).abs() > R_TOLERANCE {
+                return Some(Finding {
+                    message: format!(
+                        "{name} has {what}: at {theta:.0} deg and {lambda:.0} nm it is smooth against the wavelength (Rayleigh g = {g:.2}), so the wave reflects from its mean plane (R {flat:.3}, the flat interface's) while rays average over facet tilts of {:.1} deg (about {tilted:.3}); the run's total R is uncertain by about {:.3} there. The flat interface's R is the better estimate at this angle; a rigorous solver settles it (docs/validity.md)",
+                        tilt.to_degrees(),
+                        (tilted - flat).abs()
+                    ),
+                });
+            }
+        }
+    }
+    None
 }
 
 /// Everything a run should be told before it starts: [`assess`] and [`small_bodies`] at

@@ -397,7 +397,7 @@ pub fn validity_context(cfg: &SimConfig) -> crate::sample::validity::Context {
     Context {
         lambda_min_nm: cfg.wavelengths.min(),
         lambda_max_nm: cfg.wavelengths.max(),
-        theta_max_deg: cfg.theta_i_deg.iter().copied().fold(0.0, f64::max),
+        theta_i_deg: cfg.theta_i_deg.clone(),
         rho_nm: cfg.rho_nm,
         bucket_rad: std::f64::consts::FRAC_PI_2 / f64::from(cfg.buckets.theta_bins),
         method: if cfg.coherence == Coherence::Diffraction {
@@ -418,7 +418,12 @@ pub fn check_validity_context(
     crate::sample::validity::Context {
         lambda_min_nm: lambda_nm,
         lambda_max_nm: lambda_nm,
-        theta_max_deg,
+        // Every whole degree up to the most oblique: `check` judges the angles a run may ask.
+        theta_i_deg: (0..)
+            .map(f64::from)
+            .take_while(|t| *t < theta_max_deg)
+            .chain([theta_max_deg])
+            .collect(),
         rho_nm,
         bucket_rad: std::f64::consts::FRAC_PI_2 / f64::from(defaults::THETA_O_BINS),
         method: crate::sample::validity::Method::Rays,
