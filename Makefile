@@ -45,6 +45,7 @@ study: deps
 	$(BIN) study studies/flat-film.toml -o out/study/flat-film
 	$(BIN) study studies/rough-glass.toml -o out/study/rough-glass
 	$(BIN) study studies/darkening.toml -o out/study/darkening
+	$(BIN) study studies/grating-methods.toml -o out/study/grating-methods
 
 ## The stress studies (about 30 s): where each method breaks. Reports in out/stress/*/;
 ## docs/stability.md summarises them.

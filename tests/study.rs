@@ -187,3 +187,45 @@ fn the_darkening_study_shows_global_falling_and_beamlet_staying() {
         );
     }
 }
+
+/// The method as an axis (issue 26): the shipped grating study measures both methods against
+/// a high-budget diffraction run. The two share R (the diffraction method keeps the rays'
+/// R: within 1e-4 of each other here); rays stay far from the orders at every budget (the
+/// angular distribution of a 5 um grating, against Kirchhoff and RCWA in tests/diffraction.rs:
+/// L1 above 1), the diffraction method converges to them. The CSV and the chart carry it.
+#[test]
+fn the_grating_study_charts_the_angular_distribution_of_both_methods() {
+    let st = goniospec::study::load(&root().join("studies/grating-methods.toml")).unwrap();
+    let (points, reference) = goniospec::study::run(&st, |_| {}).unwrap();
+    assert!(reference.contains("diffraction"), "{reference}");
+    let of = |name: &str| -> Vec<&goniospec::study::Point> {
+        points
+            .iter()
+            .filter(|p| p.variant.coherence.name() == name)
+            .collect()
+    };
+    for p in &points {
+        assert!(p.error < 1e-4, "R error {} at {} rays", p.error, p.rays);
+    }
+    for p in of("beamlet") {
+        let l1 = p.distribution_l1.unwrap();
+        assert!(l1 > 0.8, "rays at {} trees: L1 {l1}", p.rays);
+    }
+    let best = of("diffraction")
+        .into_iter()
+        .max_by_key(|p| p.rays)
+        .unwrap();
+    let l1 = best.distribution_l1.unwrap();
+    assert!(l1 < 0.05, "diffraction at {} trees: L1 {l1}", best.rays);
+    let d = scratch("study-methods");
+    goniospec::study::write(&st, &points, &reference, &d).unwrap();
+    let csv = std::fs::read_to_string(d.join("points.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().ends_with(",distribution_l1"));
+    let written = goniospec::study::charts(&points, &d).unwrap();
+    assert!(
+        written
+            .iter()
+            .any(|p| p.ends_with("distribution-vs-time.svg")),
+        "{written:?}"
+    );
+}

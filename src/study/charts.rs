@@ -126,6 +126,20 @@ pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, StudyError> 
             .collect()
     };
     let by_time = series(&|p| p.wall_s.max(1e-4));
+    // The angular distribution against the reference run's, where it has one.
+    let by_spread: Vec<(String, Vec<(f64, f64)>)> = methods
+        .iter()
+        .map(|m| {
+            let mut v: Vec<(f64, f64)> = points
+                .iter()
+                .filter(|p| &method(p) == m)
+                .filter_map(|p| Some((p.wall_s.max(1e-4), p.distribution_l1?.max(1e-6))))
+                .collect();
+            v.sort_by(|a, b| a.0.total_cmp(&b.0));
+            (m.clone(), v)
+        })
+        .filter(|(_, v)| !v.is_empty())
+        .collect();
     // Representations: query time against the error of their hemispherical integral.
     let mut reprs: Vec<crate::brdf::Kind> = points.iter().map(|p| p.representation).collect();
     reprs.sort();
@@ -152,7 +166,14 @@ pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, StudyError> 
             ("1/sqrt(N)", vec![(n0, e0), (n1, e0 * (n0 / n1).sqrt())])
         });
     let mut written = Vec::new();
-    for (stem, title, xlabel, data, g) in [
+    let spread_chart = (
+        "distribution-vs-time",
+        "Angular distribution against the reference's (L1) and wall time",
+        "wall time (s)",
+        &by_spread,
+        None,
+    );
+    let charts = [
         (
             "error-vs-time",
             "Error against wall time (lower left is better)",
@@ -174,7 +195,9 @@ pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, StudyError> 
             &by_repr,
             None,
         ),
-    ] {
+    ];
+    let spread = (!by_spread.is_empty()).then_some(spread_chart);
+    for (stem, title, xlabel, data, g) in charts.into_iter().chain(spread) {
         let png = dir.join(format!("{stem}.png"));
         let svg = dir.join(format!("{stem}.svg"));
         // The bitmap backend picks its format from the extension: the temporary keeps it.

@@ -76,7 +76,8 @@ struct Header {
     repeats: u64,
     /// "auto" (the analytic TMM for `[stack]` samples, else a high-budget run),
     /// "local-film" (the tangent-plane film reference of curved and wedged films) or
-    /// "run" (a high-budget beamlet run).
+    /// "run" (a high-budget beamlet run) or "diffraction" (a high-budget run of the
+    /// diffraction method, for studies that chart the angular distribution of both methods).
     #[serde(default = "default_reference")]
     reference: String,
     /// The largest error (absolute, in R) at which the report says a method holds
@@ -295,7 +296,7 @@ impl Axes {
             .map(|c| {
                 Coherence::parse(c).ok_or_else(|| {
                     StudyError::from(format!(
-                        "unknown coherence '{c}' (beamlet, bucket or global)"
+                        "unknown coherence '{c}' (beamlet, diffraction, bucket or global)"
                     ))
                 })
             })
@@ -378,9 +379,10 @@ impl Settings {
             "auto" => ReferenceKind::Auto,
             "local-film" => ReferenceKind::LocalFilm,
             "run" => ReferenceKind::Run,
+            "diffraction" => ReferenceKind::Diffraction,
             other => {
                 return Err(StudyError::from(format!(
-                    "reference '{other}' must be \"auto\", \"local-film\" or \"run\""
+                    "reference '{other}' must be \"auto\", \"local-film\", \"run\" or \"diffraction\""
                 )));
             }
         };

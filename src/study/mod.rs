@@ -81,6 +81,10 @@ pub enum ReferenceKind {
     LocalFilm,
     /// A high-budget beamlet run with the default settings.
     Run,
+    /// A high-budget run of the diffraction method (`--coherence diffraction`) with the
+    /// default settings: its R is the rays', its angular distribution physical optics', so
+    /// a study with the method as an axis charts both methods' distributions against it.
+    Diffraction,
 }
 
 /// One setting of everything a study sweeps except rays and representation (a line in
@@ -119,6 +123,11 @@ pub struct Point {
     /// RMS over incident angles and bins of the representation's hemispherical integral
     /// `integral f cos(theta_o) dw_o` against the reference reflectance.
     pub repr_error: f64,
+    /// Mean over incident angles and bins of the L1 distance between the point's reflected
+    /// distribution over the buckets and the reference's (each normalised to 1; 0
+    /// identical, 2 disjoint), from its last repetition; `None` where the reference has no
+    /// distribution (TMM, local film) or the point's buckets differ from the reference's.
+    pub distribution_l1: Option<f64>,
     /// Why a repetition's result was physically impossible (`simulate::check_physical`):
     /// such a point never holds, whatever its error.
     pub unphysical: Option<String>,

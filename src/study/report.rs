@@ -74,13 +74,13 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
     crate::io::write_atomic(&dir.join("points.csv"), |w| {
         writeln!(
             w,
-            "backend,coherence,coherence_radius_nm,theta_o_bins,cutoff,max_depth,phase,origin_nm,rays,representation,wall_s,traced_rays,peak_mem_mb,error,error_stderr,dropped,holds,query_ns,repr_error"
+            "backend,coherence,coherence_radius_nm,theta_o_bins,cutoff,max_depth,phase,origin_nm,rays,representation,wall_s,traced_rays,peak_mem_mb,error,error_stderr,dropped,holds,query_ns,repr_error,distribution_l1"
         )?;
         for p in points {
             let v = &p.variant;
             writeln!(
                 w,
-                "{},{},{},{},{:e},{},{},{:e},{},{},{:.4},{},{:.1},{:.6e},{:.6e},{:.3e},{},{:.0},{:.6e}",
+                "{},{},{},{},{:e},{},{},{:e},{},{},{:.4},{},{:.1},{:.6e},{:.6e},{:.3e},{},{:.0},{:.6e},{}",
                 v.backend,
                 v.coherence.name(),
                 v.radius,
@@ -99,7 +99,9 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
                 p.dropped,
                 holds(p, st.tolerance),
                 p.query_ns,
-                p.repr_error
+                p.repr_error,
+                p.distribution_l1
+                    .map_or(String::new(), |d| format!("{d:.6e}"))
             )?;
         }
         Ok(())
@@ -121,23 +123,28 @@ pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::
         writeln!(
             w,
             "Error: RMS over incident angles and bins of the directional reflectance against the {reference}. \
-             A point holds when its error is at most {} (the study's tolerance).\n",
+             A point holds when its error is at most {} (the study's tolerance). \
+             Distribution L1: the mean over incident angles and bins of the L1 distance between the point's \
+             reflected distribution over the buckets and the reference run's, each normalised to 1 \
+             (0 identical, 2 disjoint; `-` where the reference has none).\n",
             st.tolerance
         )?;
         writeln!(
             w,
-            "| method | rays | wall s | error | error bars | dropped | holds | query ns | representation error |"
+            "| method | rays | wall s | error | error bars | distribution L1 | dropped | holds | query ns | representation error |"
         )?;
-        writeln!(w, "|---|---|---|---|---|---|---|---|---|")?;
+        writeln!(w, "|---|---|---|---|---|---|---|---|---|---|")?;
         for p in points {
             writeln!(
                 w,
-                "| {} | {} | {:.3} | {:.2e} | {:.1e} | {:.1e} | {} | {:.0} | {:.2e} |",
+                "| {} | {} | {:.3} | {:.2e} | {:.1e} | {} | {:.1e} | {} | {:.0} | {:.2e} |",
                 method(p),
                 p.rays,
                 p.wall_s,
                 p.error,
                 p.stderr,
+                p.distribution_l1
+                    .map_or("-".to_string(), |d| format!("{d:.3}")),
                 p.dropped,
                 if holds(p, st.tolerance) {
                     "yes"

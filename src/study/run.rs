@@ -109,16 +109,70 @@ pub(super) fn r_table(acc: &Accumulator) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// The reference reflectance per (incident angle, bin) and a description of it.
+/// The reflected distribution over the buckets per (incident angle, bin), each normalised
+/// to 1 (all zeros where nothing is reflected).
+pub(super) fn distribution_table(acc: &Accumulator) -> Vec<Vec<Vec<f64>>> {
+    let s = &acc.header.settings;
+    let (mode, buckets) = (s.coherence_mode(), s.buckets());
+    (0..s.theta_i_deg.len())
+        .map(|i| {
+            (0..s.wavelength_count())
+                .map(|j| {
+                    let c = acc.cell(i, j);
+                    let f: Vec<f64> = (0..buckets.len())
+                        .map(|b| c.fraction(2 * b, mode))
+                        .collect();
+                    let total: f64 = f.iter().sum();
+                    f.into_iter()
+                        .map(|x| if total > 0.0 { x / total } else { 0.0 })
+                        .collect()
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Mean L1 distance of two [`distribution_table`]s over incident angles and bins; `None`
+/// when their shapes differ (another bucket layout).
+pub(super) fn distribution_l1(a: &[Vec<Vec<f64>>], b: &[Vec<Vec<f64>>]) -> Option<f64> {
+    let (mut sum, mut n) = (0.0, 0usize);
+    if a.len() != b.len() {
+        return None;
+    }
+    for (ra, rb) in a.iter().zip(b) {
+        if ra.len() != rb.len() {
+            return None;
+        }
+        for (da, db) in ra.iter().zip(rb) {
+            if da.len() != db.len() {
+                return None;
+            }
+            sum += da.iter().zip(db).map(|(x, y)| (x - y).abs()).sum::<f64>();
+            n += 1;
+        }
+    }
+    (n > 0).then(|| sum / n as f64)
+}
+
+/// What a study measures against: R per (incident angle, bin), the reflected distribution
+/// where the reference has one, and a description.
+pub(super) struct Reference {
+    pub r: Vec<Vec<f64>>,
+    pub distribution: Option<Vec<Vec<Vec<f64>>>>,
+    pub kind: String,
+}
+
+/// The study's reference ([`ReferenceKind`]).
 pub(super) fn reference(
     st: &Study,
     sample: &Sample,
     log: &mut impl FnMut(&str),
-) -> Result<(Vec<Vec<f64>>, String), StudyError> {
+) -> Result<Reference, StudyError> {
     let kind = match st.reference {
         ReferenceKind::Auto if sample.stack.is_some() => "tmm",
         ReferenceKind::Auto | ReferenceKind::Run => "run",
         ReferenceKind::LocalFilm => "local-film",
+        ReferenceKind::Diffraction => "diffraction",
     };
     match kind {
         "tmm" => {
@@ -146,7 +200,11 @@ pub(super) fn reference(
                         .collect()
                 })
                 .collect();
-            Ok((r, "analytic TMM (bin-averaged)".into()))
+            Ok(Reference {
+                r,
+                distribution: None,
+                kind: "analytic TMM (bin-averaged)".into(),
+            })
         }
         "local-film" => {
             let entries = 48;
@@ -155,12 +213,13 @@ pub(super) fn reference(
                 .iter()
                 .map(|&t| crate::reference::local_film::reflectance(sample, t, &st.edges, entries))
                 .collect::<Result<Vec<_>, _>>()?;
-            Ok((
+            Ok(Reference {
                 r,
-                format!(
+                distribution: None,
+                kind: format!(
                     "local-film (tangent-plane) TMM reference, {entries} x {entries} entry points"
                 ),
-            ))
+            })
         }
         _ => {
             log(&format!(
@@ -169,8 +228,13 @@ pub(super) fn reference(
             ));
             // Low-discrepancy entry points and default settings for the reference whatever
             // the study sweeps: its error falls about as 1/N, far below the points'.
+            let diffraction = kind == "diffraction";
             let v = Variant {
-                coherence: Coherence::Beamlet,
+                coherence: if diffraction {
+                    Coherence::Diffraction
+                } else {
+                    Coherence::Beamlet
+                },
                 radius: crate::simulate::defaults::COHERENCE_RADIUS_NM,
                 cutoff: TraceLimits::default().cutoff,
                 max_depth: TraceLimits::default().max_depth,
@@ -180,18 +244,22 @@ pub(super) fn reference(
             };
             let mut cfg = config(st, st.reference_rays, &v, st.seed.wrapping_add(1_000_003));
             cfg.random_entry = false;
-            let r = r_table(
-                &simulate(sample, &cfg, &|_| {})
-                    .map_err(|e| e.to_string())?
-                    .0,
-            );
-            Ok((
-                r,
-                format!(
-                    "high-budget beamlet run ({} rays per direction, radius 5 um)",
+            let acc = simulate(sample, &cfg, &|_| {})
+                .map_err(|e| e.to_string())?
+                .0;
+            Ok(Reference {
+                r: r_table(&acc),
+                distribution: Some(distribution_table(&acc)),
+                kind: format!(
+                    "high-budget {} run ({} rays per direction, radius 5 um)",
+                    if diffraction {
+                        "diffraction"
+                    } else {
+                        "beamlet"
+                    },
                     st.reference_rays
                 ),
-            ))
+            })
         }
     }
 }
@@ -200,7 +268,11 @@ pub(super) fn reference(
 pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String), StudyError> {
     let sample: Sample =
         sample::load(&st.sample_path, MeshOptions::default()).map_err(|e| e.to_string())?;
-    let (reference, reference_kind) = reference(st, &sample, &mut log)?;
+    let Reference {
+        r: reference,
+        distribution: reference_distribution,
+        kind: reference_kind,
+    } = reference(st, &sample, &mut log)?;
     let mut points = Vec::new();
     for v in &st.variants {
         for &rays in &st.rays {
@@ -232,6 +304,9 @@ pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String)
                 last = Some((acc, stats));
             }
             let (acc, stats) = last.expect("at least one repetition");
+            let spread = reference_distribution
+                .as_ref()
+                .and_then(|d| distribution_l1(&distribution_table(&acc), d));
             let data = BucketData::from_accumulator(&acc);
             for &repr in &st.representation {
                 let rep = Representation::build(repr, &data, &crate::brdf::BuildOptions::default())
@@ -274,14 +349,17 @@ pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String)
                     dropped: dropped / dn,
                     query_ns,
                     repr_error: (re2 / rn).sqrt(),
+                    distribution_l1: spread,
                     unphysical: unphysical.clone(),
                 };
                 log(&format!(
-                    "{} rays {}: error {:.2e} (+- {:.1e}), dropped {:.1e}, {:.2} s, query {:.0} ns",
+                    "{} rays {}: error {:.2e} (+- {:.1e}), distribution L1 {}, dropped {:.1e}, {:.2} s, query {:.0} ns",
                     method(&p),
                     rays,
                     p.error,
                     p.stderr,
+                    p.distribution_l1
+                        .map_or("-".to_string(), |d| format!("{d:.3}")),
                     p.dropped,
                     wall,
                     query_ns,
