@@ -31,3 +31,7 @@ trap 'rm -rf "$work"' EXIT
 "$venv/bin/python" tests/interop/grating_rayleigh.py "$work/metal.json"
 GONIOSPEC_RCWA_JSON="$work/rcwa.json" cargo test --release --test diffraction against_rcwa -- --ignored --nocapture
 GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test diffraction metal_ -- --ignored --nocapture
+# The peer benchmark (issue 31): Mitsuba 3 and goniospec on the same mesh and rays must find
+# the same hits (its speed figures are printed; speed is not asserted here).
+"$bin" bench peer --rays 200000 --trees 2000 --python "$venv/bin/python" | tee "$work/peer.txt"
+grep -q "^hit_count_difference: 0.00e0" "$work/peer.txt" || { echo "bench peer: the hit counts differ"; exit 1; }

@@ -27,10 +27,13 @@ pub enum BenchError {
     Accel(#[from] crate::accel::AccelError),
     #[error(transparent)]
     Simulation(#[from] crate::simulate::SimError),
+    /// The peer benchmark's other process (`bench peer`).
+    #[error("{0}")]
+    Peer(String),
 }
 
 /// An I/O error at `path`.
-fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> BenchError + '_ {
+pub(super) fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> BenchError + '_ {
     move |source| BenchError::Io {
         path: path.to_path_buf(),
         source,

@@ -5,10 +5,12 @@
 
 mod eval;
 mod large;
+mod peer;
 mod simulate;
 
 pub use eval::{analytic_brdf, analytic_buckets, eval_bench};
 pub use large::{BenchError, LargeSample, large_case, large_sample};
+pub use peer::{PeerConfig, peer_bench};
 pub use simulate::{SimulateBenchConfig, simulate_bench};
 
 use std::time::Instant;

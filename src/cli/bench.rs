@@ -40,6 +40,64 @@ pub(super) enum BenchCommand {
     ///
     /// Example: goniospec bench paints --rays 4096
     Paints(PaintBenchArgs),
+    /// A peer on the same work: Mitsuba 3's closest-hit query (`ray_intersect_preliminary`,
+    /// the `mitsuba` wheel's `llvm_ad_rgb` variant, in a Python process) against goniospec's
+    /// raw intersector on the same mesh (the sample's interfaces) and the same random rays at
+    /// the same thread count, and the goniospec tracer's segments per second at one
+    /// wavelength, as fractions of Mitsuba's rate. The tracer carries fields, phases and
+    /// splits per segment; the figure shows what that costs. Needs a Python with mitsuba
+    /// and numpy (`make interop` makes .venv-interop, the default here).
+    ///
+    /// Example: goniospec bench peer --rays 1000000
+    Peer(PeerBenchArgs),
+}
+
+#[derive(Args)]
+pub(super) struct PeerBenchArgs {
+    /// Sample whose interfaces are the mesh.
+    /// (A relative path missing from the working directory is taken from the goniospec
+    /// checkout this binary was built from.)
+    #[arg(default_value = "meshes/thin-film-600nm.toml")]
+    sample: PathBuf,
+    /// Random rays over the mesh for the closest-hit comparison.
+    #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..))]
+    rays: u64,
+    /// Trees of the tracer's run (30 degrees, 550 nm).
+    #[arg(long, default_value_t = 20_000, value_parser = clap::value_parser!(u64).range(1..))]
+    trees: u64,
+    /// Python with the mitsuba and numpy wheels (default: the checkout's .venv-interop).
+    #[arg(long)]
+    python: Option<PathBuf>,
+    /// goniospec's accelerator (default: embree where available).
+    #[arg(long, value_parser = parse_backend)]
+    backend: Option<Backend>,
+    /// Worker threads, for both (0: all cores).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+}
+
+/// `bench peer`: Mitsuba 3 against goniospec on the same mesh and rays.
+pub(super) fn bench_peer(a: PeerBenchArgs) -> Result<ExitCode> {
+    let sample_path = goniospec::bench::shipped(&a.sample);
+    let s = sample::load(&sample_path, MeshOptions::default())?;
+    let pool = thread_pool(a.threads)?;
+    let python = a.python.unwrap_or_else(|| {
+        goniospec::bench::shipped(std::path::Path::new(".venv-interop/bin/python"))
+    });
+    let dir = std::env::temp_dir().join(format!("goniospec-peer-{}", std::process::id()));
+    let cfg = goniospec::bench::PeerConfig {
+        rays: usize::try_from(a.rays)?,
+        trees: a.trees,
+        python,
+        script: goniospec::bench::shipped(std::path::Path::new("scripts/bench-peer-mitsuba.py")),
+        threads: pool.current_num_threads(),
+        backend: a.backend.unwrap_or_else(Backend::default_available),
+        seed: 1,
+    };
+    let result = pool.install(|| goniospec::bench::peer_bench(&s, &cfg, &dir, emit));
+    let _ = std::fs::remove_dir_all(&dir);
+    result?;
+    Ok(ExitCode::SUCCESS)
 }
 
 #[derive(Args)]

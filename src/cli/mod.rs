@@ -209,7 +209,9 @@ mod study;
 
 use analytic::{AnalyticArgs, analytic};
 use batch::{BatchCommand, batch};
-use bench::{BenchCommand, bench_eval, bench_large, bench_paints, bench_simulate, bench_trace};
+use bench::{
+    BenchCommand, bench_eval, bench_large, bench_paints, bench_peer, bench_simulate, bench_trace,
+};
 use build::{BuildArgs, build};
 use check::{CheckArgs, check};
 use eval::{EvalArgs, eval};
@@ -270,6 +272,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Bench(BenchCommand::Eval(a)) => bench_eval(a),
         Command::Bench(BenchCommand::Large(a)) => bench_large(a),
         Command::Bench(BenchCommand::Paints(a)) => bench_paints(a),
+        Command::Bench(BenchCommand::Peer(a)) => bench_peer(a),
     }
 }
 
