@@ -33,7 +33,7 @@ pub mod export;
 pub mod fit;
 pub mod geom;
 pub mod io;
-pub mod mem;
+pub mod machine;
 pub mod optics;
 pub mod output;
 pub mod plot;

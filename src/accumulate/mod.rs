@@ -466,7 +466,12 @@ impl Estimator {
             }
             let theta_w2 = (lambda_nm / (PI * self.rho_nm)).powi(2);
             if !self.reference {
-                self.deposit_pairs(k, theta_w2, s, out);
+                // The pair loop and its batches compiled for AVX2 where the CPU has it
+                // (the same bits: `machine::with_avx2`).
+                crate::machine::with_avx2(
+                    #[inline(always)]
+                    || self.deposit_pairs(k, theta_w2, s, out),
+                );
                 return;
             }
             for pr in &p.pairs {
@@ -540,6 +545,7 @@ impl Estimator {
     /// proportion to their powers (as the reference does) and summed per exit, one deposit
     /// per exit rather than two per pair. The same sums as the reference to rounding
     /// (tests/estimator.rs).
+    #[inline(always)]
     fn deposit_pairs(&self, k: f64, theta_w2: f64, s: &mut Scratch, out: &mut Vec<(u32, f64)>) {
         let Scratch {
             prep: p,

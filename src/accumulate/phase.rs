@@ -44,8 +44,17 @@ const C: [f64; 8] = [
     1.0 / 20_922_789_888_000.0,
 ];
 
-/// `sin x` and `cos x` for every `x` of `phase`, into `sin` and `cos` (resized).
+/// `sin x` and `cos x` for every `x` of `phase`, into `sin` and `cos` (resized); AVX2
+/// where the CPU has it, with the same bits (`machine::with_avx2`).
 pub fn sin_cos_batch(phase: &[f64], sin: &mut Vec<f64>, cos: &mut Vec<f64>) {
+    crate::machine::with_avx2(
+        #[inline(always)]
+        || sin_cos_body(phase, sin, cos),
+    );
+}
+
+#[inline(always)]
+fn sin_cos_body(phase: &[f64], sin: &mut Vec<f64>, cos: &mut Vec<f64>) {
     sin.resize(phase.len(), 0.0);
     cos.resize(phase.len(), 0.0);
     // NaN is not in range either.
@@ -86,8 +95,16 @@ pub const EXP_MIN: f64 = -708.0;
 /// ln 2 / 2`, the Taylor series of `e^r` to degree 13 (the next term is below 5e-18), and
 /// `2^n` built in the exponent bits. Arguments below [`EXP_MIN`] give 0 (the C library
 /// would give a subnormal below 3e-308); positive or NaN arguments send the batch to the C
-/// library.
+/// library. AVX2 where the CPU has it, with the same bits (`machine::with_avx2`).
 pub fn exp_batch(arg: &[f64], out: &mut Vec<f64>) {
+    crate::machine::with_avx2(
+        #[inline(always)]
+        || exp_body(arg, out),
+    );
+}
+
+#[inline(always)]
+fn exp_body(arg: &[f64], out: &mut Vec<f64>) {
     out.resize(arg.len(), 0.0);
     if arg.iter().any(|x| *x > 0.0 || x.is_nan()) {
         for (x, o) in arg.iter().zip(out.iter_mut()) {
@@ -169,6 +186,30 @@ mod tests {
         assert_eq!(s[0], 1e7f64.sin());
         assert_eq!(c[1], (-3e9f64).cos());
         assert!(s[2].is_nan() && c[2].is_nan());
+    }
+
+    /// The AVX2 path (where the CPU has it) and the baseline path give the same bits.
+    #[test]
+    fn the_avx2_path_gives_the_baseline_bits() {
+        let mut x: Vec<f64> = Vec::new();
+        let mut u = 0.5f64;
+        for i in 0..100_003 {
+            u = (u * 3.987_654_321 + 0.123_456_789).fract();
+            let mag = 10f64.powf(-9.0 + u * 15.0);
+            x.push(if i % 2 == 0 { mag } else { -mag });
+        }
+        let (mut s1, mut c1, mut s2, mut c2) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        sin_cos_body(&x, &mut s1, &mut c1);
+        sin_cos_batch(&x, &mut s2, &mut c2);
+        let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&s1), bits(&s2));
+        assert_eq!(bits(&c1), bits(&c2));
+        let neg: Vec<f64> = x.iter().map(|v| -v.abs().min(700.0)).collect();
+        let (mut e1, mut e2) = (Vec::new(), Vec::new());
+        exp_body(&neg, &mut e1);
+        exp_batch(&neg, &mut e2);
+        assert_eq!(bits(&e1), bits(&e2));
+        eprintln!("AVX2 path taken: {}", crate::machine::avx2_enabled());
     }
 
     #[test]

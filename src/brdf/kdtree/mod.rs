@@ -210,8 +210,8 @@ impl KdTree {
         }
         // A query walks some 30 nodes and groups at random places in arrays of up to a few
         // hundred MB: on 2 MiB pages most of those walks stay within the TLB.
-        tree.nodes = crate::mem::with_huge_pages(tree.nodes);
-        tree.groups = crate::mem::with_huge_pages(tree.groups);
+        tree.nodes = crate::machine::with_huge_pages(tree.nodes);
+        tree.groups = crate::machine::with_huge_pages(tree.groups);
         tree
     }
 
@@ -222,10 +222,10 @@ impl KdTree {
         let at = (c.at & !LEAF_BIT) as usize;
         if c.at & LEAF_BIT == 0 {
             if let Some(n) = self.nodes.get(at) {
-                crate::mem::prefetch(n);
+                crate::machine::prefetch(n);
             }
         } else if let Some(g) = self.groups.get(at) {
-            crate::mem::prefetch(g);
+            crate::machine::prefetch(g);
         }
     }
 
@@ -586,7 +586,7 @@ impl KdTreeBrdf {
             tree: KdTree::build(&points),
             points,
             // Read at four random places per query.
-            values: crate::mem::with_huge_pages(values),
+            values: crate::machine::with_huge_pages(values),
             k: k.max(1),
             meta,
         }

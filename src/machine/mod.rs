@@ -1,8 +1,55 @@
-//! The second `unsafe` room (the first is the Embree binding, `accel::embree`): memory
-//! advice and software prefetch for the data structures whose queries are bound by memory
-//! latency (the BRDF kd-tree at 10^6 buckets: some 30 dependent fetches per query, most of
-//! them TLB misses on 4 KiB pages). Each use is a safe wrapper with its SAFETY argument; the
-//! rest of the crate calls only these.
+//! The second `unsafe` room (the first is the Embree binding, `accel::embree`): what the
+//! machine offers beyond portable Rust.
+//!
+//! - Runtime-dispatched SIMD ([`with_avx2`]): the estimator's batch loops compiled a second
+//!   time for AVX2 and chosen when the CPU has it. The build itself targets baseline x86-64
+//!   (no `target-cpu=native`), so one binary runs everywhere.
+//! - Memory advice ([`with_huge_pages`]) and software prefetch ([`prefetch`]) for the data
+//!   structures whose queries are bound by memory latency (the BRDF kd-tree at 10^6 buckets:
+//!   some 30 dependent fetches per query, most of them TLB misses on 4 KiB pages).
+//!
+//! Each use is a safe wrapper with its SAFETY argument; the rest of the crate calls only
+//! these.
+
+/// Runs `f` compiled for AVX2 where the CPU has it, else as compiled for baseline x86-64.
+///
+/// `f` (a closure, monomorphised per call site) is inlined into a function with the `avx2`
+/// target feature, so its loops are vectorised four `f64` lanes wide instead of two. The
+/// results are bit-identical either way: Rust never contracts `a * b + c` into a fused
+/// multiply-add, and IEEE-754 addition, multiplication, division and square root round
+/// the same in every lane width; only the number of lanes per instruction differs
+/// (`phase::tests` checks both paths against each other bit for bit). Bodies that call
+/// `mul_add` would differ between machines and must not be passed here.
+#[inline(always)]
+pub fn with_avx2<R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(target_arch = "x86_64")]
+    {
+        #[target_feature(enable = "avx2")]
+        fn avx2<R>(f: impl FnOnce() -> R) -> R {
+            f()
+        }
+        if avx2_enabled() {
+            // SAFETY: `avx2` only requires the CPU to execute AVX2 instructions, which
+            // `avx2_enabled` has just confirmed (`is_x86_feature_detected!`, CPUID).
+            return unsafe { avx2(f) };
+        }
+    }
+    f()
+}
+
+/// Whether [`with_avx2`] takes its AVX2 path: the CPU has AVX2, and the environment does not
+/// set `GONIOSPEC_NO_AVX2` (read once; for tests and benchmarks of the baseline path).
+pub fn avx2_enabled() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+        *ON.get_or_init(|| {
+            std::is_x86_feature_detected!("avx2") && std::env::var_os("GONIOSPEC_NO_AVX2").is_none()
+        })
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
 
 /// Huge pages on x86-64 Linux: 2 MiB.
 const HUGE_PAGE: usize = 2 << 20;
