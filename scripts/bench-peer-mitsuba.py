@@ -11,7 +11,8 @@ vectorised kernel over all rays, on THREADS threads); `scene.ray_intersect_preli
 is its closest-hit query (distance and primitive, no surface interaction), the work
 goniospec's raw intersector does. The first call compiles the kernel and is not timed;
 the best of five timed calls is printed, with the number of rays that hit, as
-`name: value unit` lines.
+`name: value unit` lines, and each ray's triangle (2^32 - 1 for a miss) is written to
+`DIR/hits.u32` for goniospec to compare with its own.
 """
 import sys
 import time
@@ -46,7 +47,10 @@ def main():
         dt = time.perf_counter() - t0
         if i > 0:
             best = min(best, dt)
-        hits = int(np.isfinite(np.asarray(pi.t)).sum())
+        hit = np.isfinite(np.asarray(pi.t))
+        hits = int(hit.sum())
+    prim = np.where(hit, np.asarray(pi.prim_index, dtype=np.uint32), np.uint32(0xFFFFFFFF))
+    prim.astype("<u4").tofile(f"{d}/hits.u32")
     print(f"mitsuba_version: {mi.__version__}")
     print(f"mitsuba_build_s: {build:.3f} s")
     print(f"mitsuba_rays_per_s: {len(r) / best:.0f} rays/s")

@@ -31,9 +31,9 @@ trap 'rm -rf "$work"' EXIT
 "$venv/bin/python" tests/interop/grating_rayleigh.py "$work/metal.json"
 GONIOSPEC_RCWA_JSON="$work/rcwa.json" cargo test --release --test diffraction against_rcwa -- --ignored --nocapture
 GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test diffraction metal_ -- --ignored --nocapture
-# The peer benchmark (issue 31): Mitsuba 3 and goniospec on the same mesh and rays must find
-# the same hits (its speed figures are printed; speed is not asserted here). Mitsuba's
-# llvm_ad_rgb variant loads the system's LLVM, version 15 or newer (Debian 12: libllvm15;
+# The peer benchmark (issue 31): Mitsuba 3 and goniospec on the same mesh and rays must hit
+# the same triangle, ray by ray (all but 1e-4: edge ties); its speed figures are printed,
+# speed is not asserted here. Mitsuba's llvm_ad_rgb variant loads the system's LLVM, version 15 or newer (Debian 12: libllvm15;
 # the libllvm14 that libclang-dev brings is too old for Dr.Jit).
 if ! ls /usr/lib/x86_64-linux-gnu/libLLVM-1[5-9]*.so.* /usr/lib/x86_64-linux-gnu/libLLVM-[2-9]*.so.* >/dev/null 2>&1; then
   if [ "$(id -u)" = 0 ]; then SUDO=""; else SUDO="sudo"; fi
@@ -42,4 +42,5 @@ if ! ls /usr/lib/x86_64-linux-gnu/libLLVM-1[5-9]*.so.* /usr/lib/x86_64-linux-gnu
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq libllvm15 >/dev/null
 fi
 "$bin" bench peer --rays 200000 --trees 2000 --python "$venv/bin/python" | tee "$work/peer.txt"
-grep -q "^hit_count_difference: 0.00e0" "$work/peer.txt" || { echo "bench peer: the hit counts differ"; exit 1; }
+awk '/^same_triangle_fraction:/ { ok = ($2 >= 0.9999) } END { exit !ok }' "$work/peer.txt" \
+  || { echo "bench peer: Mitsuba and goniospec hit different triangles on more than 1e-4 of the rays"; exit 1; }
