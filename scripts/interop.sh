@@ -35,7 +35,13 @@ GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test diff
 # the same triangle, ray by ray (all but 1e-4: edge ties); its speed figures are printed,
 # speed is not asserted here. Mitsuba's llvm_ad_rgb variant loads the system's LLVM, version 15 or newer (Debian 12: libllvm15;
 # the libllvm14 that libclang-dev brings is too old for Dr.Jit).
-if ! ls /usr/lib/x86_64-linux-gnu/libLLVM-1[5-9]*.so.* /usr/lib/x86_64-linux-gnu/libLLVM-[2-9]*.so.* >/dev/null 2>&1; then
+llvm_ok=0
+for f in /usr/lib/x86_64-linux-gnu/libLLVM-*.so.*; do
+  v=${f##*/libLLVM-}
+  v=${v%%.*}
+  if [[ $v =~ ^[0-9]+$ ]] && ((v >= 15)); then llvm_ok=1; fi
+done
+if ((!llvm_ok)); then
   if [ "$(id -u)" = 0 ]; then SUDO=""; else SUDO="sudo"; fi
   echo "== installing libllvm15 for Mitsuba's LLVM variant"
   $SUDO apt-get update -qq
