@@ -71,41 +71,7 @@ pub fn write_area(points: &[AreaPoint], dir: &Path) -> Result<Vec<PathBuf>, Stud
 /// Writes `points.csv` and `report.md` into `dir` (atomically each).
 pub fn write(st: &Study, points: &[Point], reference: &str, dir: &Path) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
-    crate::io::write_atomic(&dir.join("points.csv"), |w| {
-        writeln!(
-            w,
-            "backend,coherence,coherence_radius_nm,theta_o_bins,cutoff,max_depth,phase,origin_nm,rays,representation,wall_s,traced_rays,peak_mem_mb,error,error_stderr,dropped,holds,query_ns,repr_error,distribution_l1"
-        )?;
-        for p in points {
-            let v = &p.variant;
-            writeln!(
-                w,
-                "{},{},{},{},{:e},{},{},{:e},{},{},{:.4},{},{:.1},{:.6e},{:.6e},{:.3e},{},{:.0},{:.6e},{}",
-                v.backend,
-                v.coherence.name(),
-                v.radius,
-                v.theta_o_bins,
-                v.cutoff,
-                v.max_depth,
-                v.precision.name(),
-                v.origin_nm,
-                p.rays,
-                p.representation,
-                p.wall_s,
-                p.traced_rays,
-                p.peak_mem_mb,
-                p.error,
-                p.stderr,
-                p.dropped,
-                holds(p, st.tolerance),
-                p.query_ns,
-                p.repr_error,
-                p.distribution_l1
-                    .map_or(String::new(), |d| format!("{d:.6e}"))
-            )?;
-        }
-        Ok(())
-    })?;
+    write_points_csv(st, points, dir)?;
     crate::io::write_atomic(&dir.join("report.md"), |w| {
         writeln!(w, "# Study: {}\n", st.name)?;
         if !st.notes.trim().is_empty() {
@@ -258,4 +224,44 @@ pub(super) fn method(p: &Point) -> String {
         s.push_str(&format!(" origin={:e}nm", v.origin_nm));
     }
     s
+}
+
+/// Writes `points.csv` into `dir` (atomically): one row per point, every swept setting and
+/// every measured figure.
+fn write_points_csv(st: &Study, points: &[Point], dir: &Path) -> std::io::Result<()> {
+    crate::io::write_atomic(&dir.join("points.csv"), |w| {
+        writeln!(
+            w,
+            "backend,coherence,coherence_radius_nm,theta_o_bins,cutoff,max_depth,phase,origin_nm,rays,representation,wall_s,traced_rays,peak_mem_mb,error,error_stderr,dropped,holds,query_ns,repr_error,distribution_l1"
+        )?;
+        for p in points {
+            let v = &p.variant;
+            writeln!(
+                w,
+                "{},{},{},{},{:e},{},{},{:e},{},{},{:.4},{},{:.1},{:.6e},{:.6e},{:.3e},{},{:.0},{:.6e},{}",
+                v.backend,
+                v.coherence.name(),
+                v.radius,
+                v.theta_o_bins,
+                v.cutoff,
+                v.max_depth,
+                v.precision.name(),
+                v.origin_nm,
+                p.rays,
+                p.representation,
+                p.wall_s,
+                p.traced_rays,
+                p.peak_mem_mb,
+                p.error,
+                p.stderr,
+                p.dropped,
+                holds(p, st.tolerance),
+                p.query_ns,
+                p.repr_error,
+                p.distribution_l1
+                    .map_or(String::new(), |d| format!("{d:.6e}"))
+            )?;
+        }
+        Ok(())
+    })
 }
