@@ -505,6 +505,44 @@ fn validity_map() {
     }
 }
 
+/// The diffraction method on the grating `(period, amplitude)` nm, index `n + i k`, against
+/// one case of a rigorous reference (`theta_deg`, total `r`, `orders` as order -> efficiency):
+/// R within 1e-3, and the orders, each normalised by its total, within L1 0.05 order by order.
+fn matches_rigorous_orders(
+    case: &serde_json::Value,
+    (period, amp): (f64, f64),
+    lambda: f64,
+    (n, k): (f64, f64),
+    label: &str,
+) {
+    let theta = case["theta_deg"].as_f64().unwrap();
+    let r_ref = case["r"].as_f64().unwrap();
+    let reference: std::collections::BTreeMap<i32, f64> = case["orders"]
+        .as_object()
+        .unwrap()
+        .iter()
+        .map(|(m, e)| (m.parse().unwrap(), e.as_f64().unwrap()))
+        .collect();
+    let (ours, _, r) = grating_orders(period, amp, lambda, theta, n, k, 40_000);
+    let os: f64 = ours.values().sum();
+    let keys: std::collections::BTreeSet<i32> =
+        ours.keys().chain(reference.keys()).copied().collect();
+    let l1: f64 = keys
+        .iter()
+        .map(|m| {
+            (ours.get(m).copied().unwrap_or(0.0) / os
+                - reference.get(m).copied().unwrap_or(0.0) / r_ref)
+                .abs()
+        })
+        .sum();
+    println!(
+        "{label} theta {theta}: R {r:.6} against {r_ref:.6} (|dR| {:.1e}); order L1 {l1:.4}",
+        (r - r_ref).abs()
+    );
+    assert!((r - r_ref).abs() < 1e-3, "{label}: R {r} against {r_ref}");
+    assert!(l1 < 0.05, "{label}: order L1 {l1}");
+}
+
 /// Against a rigorous solver: the RCWA order efficiencies of tests/interop/grating_meent.py
 /// (meent, converged in slices and orders, energy checked there) for a glass sinusoid of
 /// period 10 um (18 wavelengths), 0 and 30 degrees. The diffraction method's R within 1e-3
@@ -522,33 +560,8 @@ fn against_rcwa() {
     );
     let (lambda, n) = (v["lambda_nm"].as_f64().unwrap(), v["n"].as_f64().unwrap());
     for case in v["cases"].as_array().unwrap() {
-        let theta = case["theta_deg"].as_f64().unwrap();
-        let r_rcwa = case["r"].as_f64().unwrap();
-        let rcwa: std::collections::BTreeMap<i32, f64> = case["orders"]
-            .as_object()
-            .unwrap()
-            .iter()
-            .map(|(m, e)| (m.parse().unwrap(), e.as_f64().unwrap()))
-            .collect();
         // The method's R is the ray field's (its orders are scaled to it).
-        let (ours, _, r) = grating_orders(period, amp, lambda, theta, n, 0.0, 40_000);
-        let os: f64 = ours.values().sum();
-        let keys: std::collections::BTreeSet<i32> =
-            ours.keys().chain(rcwa.keys()).copied().collect();
-        let l1: f64 = keys
-            .iter()
-            .map(|m| {
-                (ours.get(m).copied().unwrap_or(0.0) / os
-                    - rcwa.get(m).copied().unwrap_or(0.0) / r_rcwa)
-                    .abs()
-            })
-            .sum();
-        println!(
-            "against_rcwa theta {theta}: R {r:.6} against RCWA {r_rcwa:.6} (|dR| {:.1e}); order L1 {l1:.4}",
-            (r - r_rcwa).abs()
-        );
-        assert!((r - r_rcwa).abs() < 1e-3, "R {r} against RCWA {r_rcwa}");
-        assert!(l1 < 0.05, "order L1 {l1} against RCWA");
+        matches_rigorous_orders(case, (period, amp), lambda, (n, 0.0), "against RCWA");
     }
 }
 
@@ -586,31 +599,7 @@ fn metal_grating_against_rigorous() {
         if ![0.0, 30.0].contains(&theta) {
             continue;
         }
-        let r_ref = case["r"].as_f64().unwrap();
-        let reference: std::collections::BTreeMap<i32, f64> = case["orders"]
-            .as_object()
-            .unwrap()
-            .iter()
-            .map(|(m, e)| (m.parse().unwrap(), e.as_f64().unwrap()))
-            .collect();
-        let (ours, _, r) = grating_orders(period, amp, lambda, theta, n, k, 40_000);
-        let os: f64 = ours.values().sum();
-        let keys: std::collections::BTreeSet<i32> =
-            ours.keys().chain(reference.keys()).copied().collect();
-        let l1: f64 = keys
-            .iter()
-            .map(|m| {
-                (ours.get(m).copied().unwrap_or(0.0) / os
-                    - reference.get(m).copied().unwrap_or(0.0) / r_ref)
-                    .abs()
-            })
-            .sum();
-        println!(
-            "metal grating theta {theta}: R {r:.6} against {r_ref:.6} (|dR| {:.1e}); order L1 {l1:.4}",
-            (r - r_ref).abs()
-        );
-        assert!((r - r_ref).abs() < 1e-3, "R {r} against {r_ref}");
-        assert!(l1 < 0.05, "order L1 {l1}");
+        matches_rigorous_orders(case, (period, amp), lambda, (n, k), "metal grating");
     }
 }
 

@@ -326,8 +326,14 @@ pub fn assess_scales(sample: &Sample, sheets: &[Option<Scales>], ctx: &Context) 
             continue;
         }
         // The total R, which both methods take from the rays.
-        out.extend(plasmon_coupling(sample, itf, &sc, ctx, &name, &what));
-        out.extend(smooth_at_grazing(sample, itf, &sc, ctx, &name, &what));
+        let sheet = Sheet {
+            itf,
+            sc: &sc,
+            name: &name,
+            what: &what,
+        };
+        out.extend(plasmon_coupling(sample, &sheet, ctx));
+        out.extend(smooth_at_grazing(sample, &sheet, ctx));
         if ctx.method == Method::Diffraction {
             let depth = sc.rms_height_nm / sc.curvature_radius_nm;
             if depth > MAX_DEPTH_OVER_CURVATURE {
@@ -416,6 +422,24 @@ fn wavelengths(ctx: &Context) -> impl Iterator<Item = f64> + '_ {
     })
 }
 
+/// One sheet interface as the warnings on R see it: the interface, its scales, and how the
+/// messages name it and its structure.
+struct Sheet<'a> {
+    itf: &'a super::Interface,
+    sc: &'a Scales,
+    name: &'a str,
+    what: &'a str,
+}
+
+impl Sheet<'_> {
+    /// `(n, k)` of the media in front of and behind the sheet at `lambda_nm` (vacuum), or
+    /// `None` outside a medium's table.
+    fn indices(&self, sample: &Sample, lambda_nm: f64) -> Option<[(f64, f64); 2]> {
+        let idx = |m: usize| sample.media[m].model.eval(lambda_nm).ok();
+        Some([idx(self.itf.front)?, idx(self.itf.back)?])
+    }
+}
+
 /// A metal grating whose orders reach a surface plasmon. On a conductor with `Re eps_m <
 /// -eps_d` a bound surface wave runs along the interface with `k_sp = k0 sqrt(eps_m eps_d /
 /// (eps_m + eps_d))` (Raether, Surface Plasmons on Smooth and Rough Surfaces and on
@@ -428,22 +452,15 @@ fn wavelengths(ctx: &Context) -> impl Iterator<Item = f64> + '_ {
 /// Bessel spectrum, `J_m(k A (cos theta + cos theta_m))`), so higher orders are not
 /// counted. Measured on gold gratings against the Rayleigh-Fourier method: R too high by up
 /// to 0.16 (docs/validity.md).
-fn plasmon_coupling(
-    sample: &Sample,
-    itf: &super::Interface,
-    sc: &Scales,
-    ctx: &Context,
-    name: &str,
-    what: &str,
-) -> Option<Finding> {
+fn plasmon_coupling(sample: &Sample, sheet: &Sheet, ctx: &Context) -> Option<Finding> {
     use num_complex::Complex64 as C;
+    let Sheet { sc, name, what, .. } = *sheet;
     if sc.period_share < 0.5 {
         return None;
     }
     let amp = (2.0 * sc.period_share).sqrt() * sc.rms_height_nm;
     for lambda in wavelengths(ctx) {
-        let idx = |m: usize| sample.media[m].model.eval(lambda).ok();
-        let (Some(f), Some(b)) = (idx(itf.front), idx(itf.back)) else {
+        let Some([f, b]) = sheet.indices(sample, lambda) else {
             continue;
         };
         // The conductor and its lossless neighbour.
@@ -484,26 +501,19 @@ fn plasmon_coupling(
 
 /// Structure smooth against the wavelength at an oblique incidence the run asks for. Where
 /// Rayleigh's `g = (4 pi sigma n cos theta / lambda)^2` is small, and the heights small
-/// against the wavelength (`k sigma`), the wave reflects from the mean plane, its total R the flat interface's to `O(g)` (Rice, Commun. Pure Appl. Math. 4
-/// (1951) 351; Beckmann & Spizzichino 1963, ch. 5), while rays average the Fresnel
-/// reflectance over facet tilts (and shadow at grazing light). Where the two differ by more
+/// against the wavelength (`k sigma`), the wave reflects from the mean plane, its total R
+/// the flat interface's to `O(g)` (Rice, Commun. Pure Appl. Math. 4 (1951) 351; Beckmann &
+/// Spizzichino 1963, ch. 5), while rays average the Fresnel
+/// reflectance over facet tilts (and shadow at grazing light). Judged at every nanometre of
+/// the run's range and at each of its angles. Where the two differ by more
 /// than [`R_TOLERANCE`], estimated as the Fresnel reflectance at `theta` against its mean
 /// at `theta` plus and minus the RMS slope angle, the rays' R is off: on gold gratings at
 /// 75-85 deg, by up to 0.1 against the Rayleigh-Fourier method (docs/validity.md).
-fn smooth_at_grazing(
-    sample: &Sample,
-    itf: &super::Interface,
-    sc: &Scales,
-    ctx: &Context,
-    name: &str,
-    what: &str,
-) -> Option<Finding> {
+fn smooth_at_grazing(sample: &Sample, sheet: &Sheet, ctx: &Context) -> Option<Finding> {
+    let Sheet { sc, name, what, .. } = *sheet;
     let tilt = sc.rms_slope.atan();
-    for lambda in [ctx.lambda_min_nm, ctx.lambda_max_nm] {
-        let (Ok(f), Ok(b)) = (
-            sample.media[itf.front].model.eval(lambda),
-            sample.media[itf.back].model.eval(lambda),
-        ) else {
+    for lambda in wavelengths(ctx) {
+        let Some([f, b]) = sheet.indices(sample, lambda) else {
             continue;
         };
         if f.1 != 0.0 {
