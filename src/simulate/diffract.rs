@@ -35,7 +35,6 @@ impl Run<'_> {
                     tile_nm: self.sample.tile_nm,
                     lambda_nm: lambda,
                     n_out: self.est.n_up,
-                    n_in: self.est.n_up,
                     k_in: [k * self.est.n_up * d.x, k * self.est.n_up * d.y],
                     cos_i: -d.z,
                     lattice: self.lattice,

@@ -135,7 +135,8 @@ pub(super) fn diffraction_budget(
             .into_iter()
             .flatten()
         {
-            let [mx, my] = diffraction::grid_cells(sample.tile_nm, l, n_out, n_up);
+            let lattice = super::launch::diffraction_lattice(cfg.rays, sample.tile_nm);
+            let [mx, my] = diffraction::grid_cells(sample.tile_nm, l, n_out, lattice);
             if mx.saturating_mul(my) > diffraction::MAX_GRID_CELLS {
                 return Err(SimError::Config(format!(
                     "--coherence diffraction needs a {mx} x {my} grid over the {:.0} x {:.0} nm tile at {l} nm (at most {} cells): use a smaller tile (a period, or a few correlation lengths); features this large against the wavelength are where rays alone hold",
