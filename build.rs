@@ -38,6 +38,16 @@ fn main() {
     }
 
     let Some((include_dir, major)) = find_embree_header() else {
+        // Installing Embree later must rebuild with it: watch the folders it would appear
+        // in (an existing folder's time changes when an entry is added).
+        for dir in env::var_os("EMBREE_INCLUDE_DIR")
+            .map(PathBuf::from)
+            .into_iter()
+            .chain(CANDIDATE_INCLUDE_DIRS.iter().map(PathBuf::from))
+            .filter(|d| d.is_dir())
+        {
+            println!("cargo::rerun-if-changed={}", dir.display());
+        }
         println!(
             "cargo::warning=Embree headers not found (looked for embree4/rtcore.h and embree3/rtcore.h in EMBREE_INCLUDE_DIR and {}): building without Embree; only the obvhs backend is available. On Debian: apt-get install -y libembree-dev libclang-dev pkg-config",
             CANDIDATE_INCLUDE_DIRS.join(", ")
