@@ -38,7 +38,7 @@ for s in "${samples[@]}"; do
       echo "same: $name theta_i $t"
     else
       echo "DIFFERENT: $name theta_i $t"
-      diff "$work/$name-old-$t.csv" "$work/$name-new-$t.csv" | head -5
+      diff "$work/$name-old-$t.csv" "$work/$name-new-$t.csv" | head -14 || true
       status=1
     fi
   done
