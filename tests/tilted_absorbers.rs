@@ -104,39 +104,45 @@ fn simulate_films(tilts: &[f64], thetas: &[f64]) -> Vec<Vec<Vec<(f64, f64)>>> {
         .collect()
 }
 
-/// Where the beamlet estimator cannot yet follow the film (faces tilted by 0.05 degrees
-/// and more at the default 5 um beamlet: its partial waves are inhomogeneous across the
-/// beamlet, which the estimator's overlap treats as uniform), the run says so: the power
-/// that met energy-limited events is reported above `CREATED_WARN`, which is what
-/// `simulate` warns about. At 1e-2 degrees and below, where the film is exact, it stays
-/// under it.
+/// Where the beamlet estimator cannot yet follow the film (faces tilted by 0.1 degree and
+/// more at the default 5 um beamlet: the film's successive partial waves leave `2 beta
+/// Re(q)` apart in direction, and the estimator's directional overlap, which takes each
+/// exit as a homogeneous beamlet, keeps only part of the cross terms whose cancellation
+/// makes the film), the run says so: the power that met energy-limited events is reported
+/// above `CREATED_WARN`, which is what `simulate` warns about, or, where the film's
+/// balance comes out impossible (R + T above 1 beyond the run's tolerance, as at 1 degree,
+/// 30 degrees and 650 nm), the run is refused. At 1e-2 degree and below, where the film is
+/// exact, neither happens.
 #[test]
 fn the_run_reports_the_power_it_could_not_treat_exactly() {
+    use goniospec::simulate::{CREATED_WARN, SimError, simulate};
     let lambdas: Vec<f64> = GOLD.iter().map(|g| g.0).collect();
-    for (tilt, warned) in [(1e-4, false), (1e-2, false), (0.05, true), (1.0, true)] {
+    for (tilt, inexact) in [(1e-4, false), (1e-2, false), (0.2, true), (1.0, true)] {
         let s = film(tilt);
         let cfg = config(
             &[0.0, 30.0],
             Wavelengths::Monochromatic(lambdas.clone()),
             256,
         );
-        let (acc, stats) = goniospec::simulate::simulate(&s, &cfg, &|_| {}).unwrap();
-        let (limited, _) = stats.worst_limited(&acc);
-        assert_eq!(
-            limited > goniospec::simulate::CREATED_WARN,
-            warned,
-            "tilt {tilt} deg: {limited:e} of the power met energy-limited events"
-        );
+        let said = match simulate(&s, &cfg, &|_| {}) {
+            Ok((acc, stats)) => stats.worst_limited(&acc).0 > CREATED_WARN,
+            Err(SimError::Unphysical(m)) => {
+                assert!(m.contains("energy created"), "tilt {tilt} deg: {m}");
+                true
+            }
+            Err(e) => panic!("tilt {tilt} deg: {e}"),
+        };
+        assert_eq!(said, inexact, "tilt {tilt} deg: warned or refused: {said}");
     }
 }
 
-/// Tilts from 1e-6 to 1e-2 degree, 0/30/60 degrees, 450-650 nm: R and T within 2e-3 of
+/// Tilts from 1e-6 to 0.05 degree, 0/30/60 degrees, 450-650 nm: R and T within 2e-3 of
 /// the local TMM, and no jump between neighbouring tilts beyond the reference's own change
-/// (plus the same 2e-3). (Issue 25 asks this up to 1 degree; from 0.05 degree on the
-/// estimator is not there yet, and the run warns: the next test.)
+/// (plus the same 2e-3). (Issue 25 asks this up to 1 degree; from 0.1 degree on the
+/// estimator is not there yet, and the run warns: the previous test.)
 #[test]
-fn a_gold_film_with_a_tilted_back_face_matches_the_local_tmm_up_to_a_hundredth_of_a_degree() {
-    let tilts = [1e-6, 1e-4, 3e-3, 1e-2];
+fn a_gold_film_with_a_tilted_back_face_matches_the_local_tmm_up_to_a_twentieth_of_a_degree() {
+    let tilts = [1e-6, 1e-4, 3e-3, 1e-2, 0.05];
     let thetas = [0.0, 30.0, 60.0];
     let got = simulate_films(&tilts, &thetas);
     let mut refs = Vec::new();
@@ -177,6 +183,175 @@ fn a_gold_film_with_a_tilted_back_face_matches_the_local_tmm_up_to_a_hundredth_o
                     tilts[a - 1],
                     tilts[a]
                 );
+            }
+        }
+    }
+}
+
+/// The wavy film of issue 25: gold `t` nm thick (vertically) on glass, both faces one
+/// Gaussian height field of RMS `rms` nm and correlation length 2 um (`wavy-film` with no
+/// thickness variation) on a 20 um tile of 128 x 128 cells. Returns the sample and the top
+/// face's triangles (nm) as generated.
+fn wavy_gold(t: f64, rms: f64) -> (goniospec::sample::Sample, goniospec::sample::mesh::Mesh) {
+    use goniospec::sample::generate::{Generated, GeneratorSpec};
+    let spec = |surface: &str| {
+        format!(
+            "kind = \"wavy-film\", surface = \"{surface}\", thickness = {t:?}, thickness_rms = 0.0, roughness_rms = {rms:?}, correlation_length = 2000.0, resolution = 128, seed = 11"
+        )
+    };
+    let top = match toml::from_str::<GeneratorSpec>(&spec("top").replace(", ", "\n"))
+        .unwrap()
+        .generate([20_000.0, 20_000.0], 1.0)
+        .unwrap()
+    {
+        Generated::Sheet(m) => m,
+        _ => panic!("a sheet"),
+    };
+    let table: String = GOLD
+        .iter()
+        .map(|(w, n, k)| format!("{w},{n},{k}\n"))
+        .collect();
+    let text = format!(
+        "[sample]\nname = \"wavy gold {t} nm\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n[media.air]\nn = 1.0\n[media.gold]\ntable = \"gold.csv\"\n[media.glass]\nn = {GLASS:?}\n[[interface]]\ngenerator = {{ {} }}\nfront = \"air\"\nback = \"gold\"\n[[interface]]\ngenerator = {{ {} }}\nfront = \"gold\"\nback = \"glass\"\n",
+        spec("top"),
+        spec("bottom")
+    );
+    let dir = scratch("wavy-gold");
+    std::fs::write(dir.join("gold.csv"), format!("lambda_nm,n,k\n{table}")).unwrap();
+    (sample_in(&dir, &text), top)
+}
+
+/// The facet-wise TMM: every top facet a flat film of its own normal thickness `t cos(s)`
+/// (the faces are vertical offsets of one another) lit at its own angle, weighted by the
+/// power it intercepts (area times the cosine of the local angle; at these slopes and
+/// angles no facet shadows another, and reflected and transmitted light leaves without
+/// meeting the film again). Unpolarised light is unpolarised in every facet's own s/p
+/// basis, so `(R_s + R_p) / 2` holds per facet.
+fn facet_wise_tmm(
+    top: &goniospec::sample::mesh::Mesh,
+    t: f64,
+    theta_deg: f64,
+    g: (f64, f64, f64),
+) -> (f64, f64) {
+    let (lambda, n, k) = g;
+    let th = theta_deg.to_radians();
+    let d = glam::DVec3::new(th.sin(), 0.0, -th.cos());
+    let (mut r, mut tr, mut w) = (0.0, 0.0, 0.0);
+    for i in 0..top.triangles.len() {
+        let av = top.area_vector(i);
+        let m = av.normalize();
+        let cos_l = -d.dot(m);
+        let wi = 0.5 * av.length() * cos_l;
+        let (ri, ti) = tmm_ref(
+            &[C::new(1.0, 0.0), C::new(n, k), C::new(GLASS, 0.0)],
+            &[t * m.z],
+            lambda,
+            cos_l.acos(),
+        );
+        r += wi * ri;
+        tr += wi * ti;
+        w += wi;
+    }
+    (r / w, tr / w)
+}
+
+/// A wavy gold film, 5 and 20 nm, against the facet-wise TMM (issue 25). Its faces are
+/// parallel facet by facet, but the film's series walks from facet to facet (tens to a
+/// hundred nm per round trip at 30 degrees and 650 nm, against 156 nm facets), so the
+/// faces it meets are tilted against each other by up to a few tenths of a degree (the
+/// curvature times the walk). Where the slopes reach about 4 degrees every case is within
+/// the issue's 1e-2; at 7.5 degrees normal light is, and at 30 degrees every case is within
+/// 1e-2 or the run warns that power met energy-limited events (it does at 650 nm, 1.8e-2
+/// off). The plane-wave estimator pairs only exits whose directions agree to 1e-9, so it
+/// cannot recombine such a film's series: it warns.
+#[test]
+fn a_wavy_thin_gold_film_matches_the_facet_wise_tmm_or_warns() {
+    use goniospec::simulate::CREATED_WARN;
+    let lambdas: Vec<f64> = GOLD.iter().map(|g| g.0).collect();
+    let thetas = [0.0, 30.0];
+    for (rms, slope_deg) in [(25.0, 3.8), (50.0, 7.5)] {
+        for t in [5.0, 20.0] {
+            let (s, top) = wavy_gold(t, rms);
+            let max_slope = (0..top.triangles.len())
+                .map(|i| top.area_vector(i).normalize().z.acos().to_degrees())
+                .fold(0.0, f64::max);
+            assert!(
+                (max_slope - slope_deg).abs() < 0.1,
+                "the film's steepest facet: {max_slope} degrees"
+            );
+            let mut cfg = config(&thetas, Wavelengths::Monochromatic(lambdas.clone()), 4096);
+            let (acc, stats) = goniospec::simulate::simulate(&s, &cfg, &|_| {}).unwrap();
+            let (limited, _) = stats.worst_limited(&acc);
+            for (i, &th) in thetas.iter().enumerate() {
+                for (j, &g) in GOLD.iter().enumerate() {
+                    let (r, tr) = totals(&acc, i, j);
+                    let (r_ref, t_ref) = facet_wise_tmm(&top, t, th, g);
+                    let err = (r - r_ref).abs().max((tr - t_ref).abs());
+                    eprintln!(
+                        "{t} nm gold, slopes to {max_slope:.1} deg, theta {th}, {} nm: R {r:.4} (facet-wise TMM {r_ref:.4}), T {tr:.4} ({t_ref:.4}); limited {limited:.1e}",
+                        g.0
+                    );
+                    let within = err < 1e-2;
+                    if rms <= 25.0 || th == 0.0 {
+                        assert!(
+                            within,
+                            "{t} nm, rms {rms}, theta {th}, {} nm: off by {err}",
+                            g.0
+                        );
+                    } else {
+                        assert!(
+                            within || limited > CREATED_WARN,
+                            "{t} nm, rms {rms}, theta {th}, {} nm: off by {err} without a warning",
+                            g.0
+                        );
+                    }
+                }
+            }
+            cfg.rho_nm = f64::INFINITY;
+            cfg.allow_unphysical = true;
+            let (acc, stats) = goniospec::simulate::simulate(&s, &cfg, &|_| {}).unwrap();
+            let (limited, _) = stats.worst_limited(&acc);
+            assert!(
+                limited > CREATED_WARN,
+                "{t} nm, rms {rms}: the plane-wave estimator does not say it cannot follow the film ({limited:e})"
+            );
+        }
+    }
+}
+
+/// The deflection that sets the recombination weight, against its first-order form: a
+/// wave that entered gold through a horizontal face (`N = (kappa, 0, q)`, `N''` vertical)
+/// meeting a facet tilted by `beta` in azimuth `phi` has its reflected index turned by `2
+/// beta (q e + (N . e) z)`, `e` the tilt's horizontal direction: `2 beta |Re(q) e + (N' .
+/// e) z|`, and not at all at a parallel facet.
+#[test]
+fn the_deflection_of_a_tilted_facet_is_first_order_in_the_tilt() {
+    use goniospec::trace::deflection;
+    for &(n, k) in &[(0.43, 2.455), (1.38, 1.92), (0.166, 3.15)] {
+        for kappa in [0.0, 0.5, 0.85] {
+            let q = (C::new(n, k) * C::new(n, k) - kappa * kappa).sqrt();
+            let (n_re, n_im) = (
+                glam::DVec3::new(kappa, 0.0, q.re),
+                glam::DVec3::new(0.0, 0.0, q.im),
+            );
+            assert!(deflection(n_re, n_im, glam::DVec3::Z) < 1e-15);
+            for beta in [1e-4f64, 1e-3, 1e-2] {
+                for phi in [0.0f64, 1.0, 2.5] {
+                    let m = glam::DVec3::new(
+                        beta.sin() * phi.cos(),
+                        beta.sin() * phi.sin(),
+                        beta.cos(),
+                    );
+                    let d = deflection(n_re, n_im, m);
+                    let e_dot = kappa * phi.cos();
+                    let first = 2.0 * beta * (q.re * q.re + e_dot * e_dot).sqrt();
+                    // Second-order terms: beta^2 |N'| against the first-order one.
+                    let tol = 4.0 * beta * beta * (kappa + q.re) + 1e-15;
+                    assert!(
+                        (d - first).abs() <= tol,
+                        "n {n} + {k}i, kappa {kappa}, beta {beta}, phi {phi}: {d} against {first}"
+                    );
+                }
             }
         }
     }

@@ -129,7 +129,7 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     if limited > goniospec::simulate::CREATED_WARN {
         let (theta, bin) = where_(cell);
         eprintln!(
-            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets tilted against the face the light entered by, beyond what its partial waves recombine over the coherence length (film faces tilted by more than about 0.02 degrees at the default 5 um beamlet, ridge tips); those events conserve energy by a model, not exactly, and R and T can be off by up to about that much (a tilted 20 nm gold film at 1 degree: R 0.72 against 0.34). A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
+            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets tilted against the face the light entered by, beyond what the estimator recombines of its partial waves at this coherence radius (film faces tilted by more than about 0.05 degree at the default 5 um beamlet, ridge tips); those events conserve energy by a model, not exactly, and R and T can be off by more than that (a 20 nm gold film whose faces meet at half a degree: off by up to 0.11; a wavy one with slopes to 7.5 degrees: 1.8e-2 at 30 degrees). A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
         );
     }
     let (created, cell) = stats.worst_created(&acc);

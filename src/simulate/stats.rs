@@ -140,9 +140,10 @@ pub struct SimStats {
     pub created: Vec<f64>,
     /// Per cell: the summed power per tree that met energy-limited events inside absorbers
     /// (`trace::Tree::limited_power`): facets tilted against the wave's entry facet by more
-    /// than its partial waves can recombine over the coherence length (film faces tilted by
-    /// more than about 0.02 degrees at a 5 um beamlet, ridge tips). There R and T come from
-    /// a model that conserves energy, not from exact amplitudes.
+    /// than the estimator recombines of their partial waves at the coherence radius (film
+    /// faces tilted by more than about 0.05 degree at a 5 um beamlet, ridge tips;
+    /// `trace::recombination_weight`). There R and T come from a model that conserves
+    /// energy, not from exact amplitudes.
     pub limited: Vec<f64>,
     /// The diffraction method, per cell: the ray method's totals beside the diffracted
     /// ones (empty cells for other methods).
