@@ -1,5 +1,5 @@
 //! `bench simulate`: the tracer against the raw intersector, the sharing modes, the
-//! diffraction method's cost and the flat film's accuracy.
+//! diffraction method's and the particle media's cost and the flat film's accuracy.
 
 use std::time::Instant;
 
@@ -19,10 +19,12 @@ pub struct SimulateBenchConfig {
     pub seed: u64,
 }
 
-/// Runs `bench simulate` on `sample` and on the flat soap film `flat`, printing through `log`.
+/// Runs `bench simulate` on `sample`, on the flat soap film `flat` and on the particle
+/// medium `paint`, printing through `log`.
 pub fn simulate_bench(
     sample: &crate::sample::Sample,
     flat: &crate::sample::Sample,
+    paint: &crate::sample::Sample,
     cfg: &SimulateBenchConfig,
     mut log: impl FnMut(&str),
 ) -> Result<(), crate::simulate::SimError> {
@@ -58,6 +60,7 @@ pub fn simulate_bench(
     }
 
     diffraction_cost(sample, &base, cfg, &mut log)?;
+    particle_cost(paint, &base, cfg, &mut log)?;
     flat_film_accuracy(flat, &base, cfg, &mut log)?;
     Ok(())
 }
@@ -208,6 +211,58 @@ fn diffraction_cost(
     ));
     log(&format!("diffraction_power_kept_worst: {kept:.4}"));
 
+    Ok(())
+}
+
+/// Particle media against rays in the same layers (issue 31): `paint` as shipped and with
+/// its particles taken out (the binder clear), at the same trees (at most 2,048) and bins.
+/// The figure is the whole run's wall time: a particle tree walks hundreds of scattering
+/// events where the clear binder's walks a few segments.
+fn particle_cost(
+    paint: &crate::sample::Sample,
+    base: &crate::simulate::SimConfig,
+    cfg: &SimulateBenchConfig,
+    log: &mut impl FnMut(&str),
+) -> Result<(), crate::simulate::SimError> {
+    use crate::simulate::simulate;
+    if paint.media.iter().all(|m| m.scattering.is_none()) {
+        return Err(crate::simulate::SimError::Config(format!(
+            "bench simulate: '{}' has no particle medium to measure (--paint)",
+            paint.name
+        )));
+    }
+    let mut clear = paint.clone();
+    for m in &mut clear.media {
+        m.scattering = None;
+    }
+    let mut c = base.clone();
+    c.backend = cfg.backends[0];
+    c.rays = cfg.rays.min(2048);
+    let mut secs = [0.0; 2];
+    let mut segments = [0.0; 2];
+    for (k, s) in [&clear, paint].into_iter().enumerate() {
+        let t0 = Instant::now();
+        let (_, st) = simulate(s, &c, &|_| {})?;
+        secs[k] = t0.elapsed().as_secs_f64();
+        segments[k] = st.segments as f64 / st.traces.max(1) as f64;
+    }
+    log(&format!(
+        "particle media on '{}', {} trees x {} bins: {:.2} s against {:.2} s for rays in the clear binder ({:.0} against {:.0} segments per tree)",
+        paint.name,
+        c.rays,
+        cfg.bins.len() - 1,
+        secs[1],
+        secs[0],
+        segments[1],
+        segments[0]
+    ));
+    log(&format!("particles_seconds: {:.3} s", secs[1]));
+    log(&format!("particles_clear_binder_seconds: {:.3} s", secs[0]));
+    log(&format!("particles_over_rays: {:.2} x", secs[1] / secs[0]));
+    log(&format!(
+        "particles_segments_per_tree: {:.0} segments",
+        segments[1]
+    ));
     Ok(())
 }
 

@@ -15,8 +15,10 @@ pub(super) enum BenchCommand {
     Trace(TraceArgs),
     /// End-to-end simulation speed: launched rays/s and traced segments/s against the
     /// raw intersector, path sharing on against off, Embree against obvhs; the diffraction
-    /// method's wall time against rays on the same sample (at most 16,384 trees); and the
-    /// wall time and TMM error of a flat film at 40 bins x 10 incident angles.
+    /// method's wall time against rays on the same sample (at most 16,384 trees); the
+    /// particle media's against rays in the same layers without particles (the white paint,
+    /// at most 2,048 trees); and the wall time and TMM error of a flat film at 40 bins x 10
+    /// incident angles.
     Simulate(SimBenchArgs),
     /// BRDF representations: query time (median, p99), memory and build time at 10^4,
     /// 10^5 and 10^6 buckets of a smooth analytic BRDF with its accuracy; the kd-tree
@@ -203,6 +205,12 @@ pub(super) struct SimBenchArgs {
     /// checkout this binary was built from.)
     #[arg(long, default_value = "meshes/flat-soap-film.toml")]
     flat: PathBuf,
+    /// Particle-medium sample for the particles' cost against rays in the same layers
+    /// without particles (at most 2,048 trees).
+    /// (A relative path missing from the working directory is taken from the goniospec
+    /// checkout this binary was built from.)
+    #[arg(long, default_value = "meshes/paint-pigments.toml")]
+    paint: PathBuf,
 }
 
 #[derive(Args)]
@@ -268,6 +276,7 @@ pub(super) fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
     let sample_path = goniospec::bench::shipped(&a.sample);
     let s = sample::load(&sample_path, MeshOptions::default())?;
     let flat = sample::load(&goniospec::bench::shipped(&a.flat), MeshOptions::default())?;
+    let paint = sample::load(&goniospec::bench::shipped(&a.paint), MeshOptions::default())?;
     let cfg = goniospec::bench::SimulateBenchConfig {
         rays: a.rays,
         theta_i_deg: a.theta_i,
@@ -279,7 +288,7 @@ pub(super) fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
         seed: 1,
     };
     let pool = thread_pool(a.threads)?;
-    pool.install(|| goniospec::bench::simulate_bench(&s, &flat, &cfg, emit))?;
+    pool.install(|| goniospec::bench::simulate_bench(&s, &flat, &paint, &cfg, emit))?;
     // Peak memory must not grow with the ray count: two child processes, 10x apart (each
     // process's own high-water mark; one process could not measure the second run).
     let dir = std::env::temp_dir().join(format!("goniospec-bench-{}", std::process::id()));
