@@ -612,7 +612,8 @@ fn tube_column<'c>(
         let reach = 16.0 * step[axis] / cos_j;
         let column = |o: &Contribution| {
             let d = [o.x[0] - wrap[0] - c.x[0], o.x[1] - wrap[1] - c.x[1]];
-            (d[0].hypot(d[1]) < reach).then(|| {
+            // Squared lengths: `hypot`'s care for overflow costs 5 % of the run here.
+            (d[0] * d[0] + d[1] * d[1] < reach * reach).then(|| {
                 [
                     dir as f64 * d[0] / step[axis],
                     dir as f64 * d[1] / step[axis],
@@ -634,8 +635,9 @@ fn tube_column<'c>(
     };
     match (along(1), along(-1)) {
         (Some((a, sa)), Some((b, sb))) => {
-            let diff = (a[0] - b[0]).hypot(a[1] - b[1]);
-            if diff <= 0.25 * (a[0].hypot(a[1]) + b[0].hypot(b[1])) {
+            let len = |v: [f64; 2]| (v[0] * v[0] + v[1] * v[1]).sqrt();
+            let diff = len([a[0] - b[0], a[1] - b[1]]);
+            if diff <= 0.25 * (len(a) + len(b)) {
                 // The two sides agree: a smooth map, sampled either side.
                 Some([0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])])
             } else if sa != sb {
@@ -643,11 +645,7 @@ fn tube_column<'c>(
                 Some(if sa { a } else { b })
             } else {
                 // An edge the paths do not tell apart: the side without the jump.
-                Some(if a[0].hypot(a[1]) <= b[0].hypot(b[1]) {
-                    a
-                } else {
-                    b
-                })
+                Some(if len(a) <= len(b) { a } else { b })
             }
         }
         (a, b) => a.or(b).map(|x| x.0),
