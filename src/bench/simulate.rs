@@ -29,6 +29,13 @@ pub fn simulate_bench(
     mut log: impl FnMut(&str),
 ) -> Result<(), crate::simulate::SimError> {
     use crate::simulate::{SimConfig, Wavelengths};
+    // Checked before any work: the particle figure needs a particle medium.
+    if paint.media.iter().all(|m| m.scattering.is_none()) {
+        return Err(crate::simulate::SimError::Config(format!(
+            "bench simulate: '{}' has no particle medium to measure (--paint)",
+            paint.name
+        )));
+    }
     let threads = rayon::current_num_threads();
     let base = SimConfig {
         seed: cfg.seed,
@@ -169,7 +176,6 @@ fn diffraction_cost(
     log: &mut impl FnMut(&str),
 ) -> Result<(), crate::simulate::SimError> {
     use crate::accumulate::Coherence;
-    use crate::simulate::simulate;
     let nbins = cfg.bins.len() - 1;
     let mut c = base.clone();
     c.backend = cfg.backends[0];
@@ -181,9 +187,8 @@ fn diffraction_cost(
         .enumerate()
     {
         c.coherence = mode;
-        let t0 = Instant::now();
-        let (_, st) = simulate(sample, &c, &|_| {})?;
-        secs[k] = t0.elapsed().as_secs_f64();
+        let st;
+        (secs[k], st) = timed(sample, &c)?;
         if mode == Coherence::Diffraction {
             kept = st
                 .diffraction
@@ -224,13 +229,6 @@ fn particle_cost(
     cfg: &SimulateBenchConfig,
     log: &mut impl FnMut(&str),
 ) -> Result<(), crate::simulate::SimError> {
-    use crate::simulate::simulate;
-    if paint.media.iter().all(|m| m.scattering.is_none()) {
-        return Err(crate::simulate::SimError::Config(format!(
-            "bench simulate: '{}' has no particle medium to measure (--paint)",
-            paint.name
-        )));
-    }
     let mut clear = paint.clone();
     for m in &mut clear.media {
         m.scattering = None;
@@ -241,9 +239,8 @@ fn particle_cost(
     let mut secs = [0.0; 2];
     let mut segments = [0.0; 2];
     for (k, s) in [&clear, paint].into_iter().enumerate() {
-        let t0 = Instant::now();
-        let (_, st) = simulate(s, &c, &|_| {})?;
-        secs[k] = t0.elapsed().as_secs_f64();
+        let st;
+        (secs[k], st) = timed(s, &c)?;
         segments[k] = st.segments as f64 / st.traces.max(1) as f64;
     }
     log(&format!(
@@ -264,6 +261,16 @@ fn particle_cost(
         segments[1]
     ));
     Ok(())
+}
+
+/// One simulation's wall time, s, and its statistics.
+fn timed(
+    sample: &crate::sample::Sample,
+    cfg: &crate::simulate::SimConfig,
+) -> Result<(f64, crate::simulate::SimStats), crate::simulate::SimError> {
+    let t0 = Instant::now();
+    let (_, st) = crate::simulate::simulate(sample, cfg, &|_| {})?;
+    Ok((t0.elapsed().as_secs_f64(), st))
 }
 
 /// The flat-film goal: 40 bins x 10 incident angles, error against the TMM, at the default
