@@ -104,18 +104,16 @@ fn simulate_films(tilts: &[f64], thetas: &[f64]) -> Vec<Vec<Vec<(f64, f64)>>> {
         .collect()
 }
 
-/// Where the beamlet estimator cannot yet follow the film (faces tilted by 0.1 degree and
-/// more at the default 5 um beamlet: the film's successive partial waves leave `2 beta
-/// Re(q)` apart in direction, and the estimator's directional overlap, which takes each
-/// exit as a homogeneous beamlet, keeps only part of the cross terms whose cancellation
-/// makes the film), the run says so: the power that met energy-limited events is reported
-/// above `CREATED_WARN`, which is what `simulate` warns about, or, where the film's
-/// balance comes out impossible (R + T above 1 beyond the run's tolerance, as at 1 degree,
-/// 30 degrees and 650 nm), the run is refused. At 1e-2 degree and below, where the film is
-/// exact, neither happens.
+/// Where the events cannot keep their plane-wave amplitudes (faces meeting at 0.2 degree
+/// and more change the reflected wave by `|Delta| ~ 2 beta |N|`, and
+/// `trace::recombination_weight` limits them in part), the run says so: the power that met
+/// energy-limited events is reported above `LIMITED_WARN`, which is what `simulate` warns
+/// about (measured: R and T off by 9-10 times that figure from 0.2 to 1 degree), or, where
+/// the film's balance comes out impossible (R + T above 1 beyond the run's tolerance), the
+/// run is refused. At 1e-2 degree and below, where the film is exact, neither happens.
 #[test]
 fn the_run_reports_the_power_it_could_not_treat_exactly() {
-    use goniospec::simulate::{CREATED_WARN, SimError, simulate};
+    use goniospec::simulate::{LIMITED_WARN, SimError, simulate};
     let lambdas: Vec<f64> = GOLD.iter().map(|g| g.0).collect();
     for (tilt, inexact) in [(1e-4, false), (1e-2, false), (0.2, true), (1.0, true)] {
         let s = film(tilt);
@@ -125,7 +123,7 @@ fn the_run_reports_the_power_it_could_not_treat_exactly() {
             256,
         );
         let said = match simulate(&s, &cfg, &|_| {}) {
-            Ok((acc, stats)) => stats.worst_limited(&acc).0 > CREATED_WARN,
+            Ok((acc, stats)) => stats.worst_limited(&acc).0 > LIMITED_WARN,
             Err(SimError::Unphysical(m)) => {
                 assert!(m.contains("energy created"), "tilt {tilt} deg: {m}");
                 true
@@ -138,8 +136,11 @@ fn the_run_reports_the_power_it_could_not_treat_exactly() {
 
 /// Tilts from 1e-6 to 0.05 degree, 0/30/60 degrees, 450-650 nm: R and T within 2e-3 of
 /// the local TMM, and no jump between neighbouring tilts beyond the reference's own change
-/// (plus the same 2e-3). (Issue 25 asks this up to 1 degree; from 0.1 degree on the
-/// estimator is not there yet, and the run warns: the previous test.)
+/// (plus the same 2e-3). (Issue 25 asks this up to 1 degree. Measured worst errors, each at
+/// 60 degrees and 650 nm: 2.1e-4 at 1e-2 degree, 9.2e-4 at 0.05, 2.7e-3 at 0.1, 1.0e-2 at
+/// 0.2 and 6.8e-2 at 0.5; refused at 1 degree. Before this estimator's amplitude window
+/// and the plane-wave event weight: 1.6e-3, 6.6e-3, 2.8e-2 and 0.11. From 0.1 degree on
+/// the run warns: the previous test.)
 #[test]
 fn a_gold_film_with_a_tilted_back_face_matches_the_local_tmm_up_to_a_twentieth_of_a_degree() {
     let tilts = [1e-6, 1e-4, 3e-3, 1e-2, 0.05];
@@ -259,17 +260,19 @@ fn facet_wise_tmm(
 /// parallel facet by facet, but the film's series walks from facet to facet (tens to a
 /// hundred nm per round trip at 30 degrees and 650 nm, against 156 nm facets), so the
 /// faces it meets are tilted against each other by up to a few tenths of a degree (the
-/// curvature times the walk). Where the slopes reach about 4 degrees every case is within
-/// the issue's 1e-2; at 7.5 degrees normal light is, and at 30 degrees every case is within
-/// 1e-2 or the run warns that power met energy-limited events (it does at 650 nm, 1.8e-2
-/// off). The plane-wave estimator pairs only exits whose directions agree to 1e-9, so it
-/// cannot recombine such a film's series: it warns.
+/// curvature times the walk). With slopes up to 3.8, 7.5 and 10 degrees, at 0 and 30
+/// degrees, each case is within the issue's 1e-2 or the run warns (`LIMITED_WARN`;
+/// measured: 3.8 degrees within 4.7e-3; 7.5 degrees 1.8e-2 and 10 degrees 3.1e-2 off at 30
+/// degrees and 650 nm, both warned), for the beamlet estimator and for the plane-wave
+/// limit, which recombine the film's inhomogeneous partial waves over the same amplitude
+/// window and agree within 1e-3 (measured: 1.4e-4). (Before, the plane-wave estimator
+/// could not recombine such a film at all: 0.46 off.)
 #[test]
-fn a_wavy_thin_gold_film_matches_the_facet_wise_tmm_or_warns() {
-    use goniospec::simulate::CREATED_WARN;
+fn a_wavy_thin_gold_film_matches_the_facet_wise_tmm_with_either_estimator() {
+    use goniospec::simulate::LIMITED_WARN;
     let lambdas: Vec<f64> = GOLD.iter().map(|g| g.0).collect();
     let thetas = [0.0, 30.0];
-    for (rms, slope_deg) in [(25.0, 3.8), (50.0, 7.5)] {
+    for (rms, slope_deg) in [(25.0, 3.8), (50.0, 7.5), (67.0, 10.0)] {
         for t in [5.0, 20.0] {
             let (s, top) = wavy_gold(t, rms);
             let max_slope = (0..top.triangles.len())
@@ -279,42 +282,41 @@ fn a_wavy_thin_gold_film_matches_the_facet_wise_tmm_or_warns() {
                 (max_slope - slope_deg).abs() < 0.1,
                 "the film's steepest facet: {max_slope} degrees"
             );
-            let mut cfg = config(&thetas, Wavelengths::Monochromatic(lambdas.clone()), 4096);
-            let (acc, stats) = goniospec::simulate::simulate(&s, &cfg, &|_| {}).unwrap();
-            let (limited, _) = stats.worst_limited(&acc);
+            // The beamlet estimator at its default radius, and the plane-wave limit.
+            let mut runs = Vec::new();
+            for rho in [5000.0, f64::INFINITY] {
+                let mut cfg = config(&thetas, Wavelengths::Monochromatic(lambdas.clone()), 4096);
+                cfg.rho_nm = rho;
+                let (acc, stats) = goniospec::simulate::simulate(&s, &cfg, &|_| {}).unwrap();
+                let (limited, _) = stats.worst_limited(&acc);
+                runs.push((acc, limited, rho));
+            }
             for (i, &th) in thetas.iter().enumerate() {
                 for (j, &g) in GOLD.iter().enumerate() {
-                    let (r, tr) = totals(&acc, i, j);
                     let (r_ref, t_ref) = facet_wise_tmm(&top, t, th, g);
-                    let err = (r - r_ref).abs().max((tr - t_ref).abs());
-                    eprintln!(
-                        "{t} nm gold, slopes to {max_slope:.1} deg, theta {th}, {} nm: R {r:.4} (facet-wise TMM {r_ref:.4}), T {tr:.4} ({t_ref:.4}); limited {limited:.1e}",
-                        g.0
-                    );
-                    let within = err < 1e-2;
-                    if rms <= 25.0 || th == 0.0 {
-                        assert!(
-                            within,
-                            "{t} nm, rms {rms}, theta {th}, {} nm: off by {err}",
+                    let mut got = Vec::new();
+                    for (acc, limited, rho) in &runs {
+                        let (r, tr) = totals(acc, i, j);
+                        let err = (r - r_ref).abs().max((tr - t_ref).abs());
+                        eprintln!(
+                            "{t} nm gold, slopes to {max_slope:.1} deg, theta {th}, {} nm, rho {rho}: R {r:.4} (facet-wise TMM {r_ref:.4}), T {tr:.4} ({t_ref:.4}); off by {err:.1e}; limited {limited:.1e}",
                             g.0
                         );
-                    } else {
                         assert!(
-                            within || limited > CREATED_WARN,
+                            err < 1e-2 || *limited > LIMITED_WARN,
                             "{t} nm, rms {rms}, theta {th}, {} nm: off by {err} without a warning",
                             g.0
                         );
+                        got.push((r, tr));
                     }
+                    let apart = (got[0].0 - got[1].0).abs().max((got[0].1 - got[1].1).abs());
+                    assert!(
+                        apart < 1e-3,
+                        "{t} nm, rms {rms}, theta {th}, {} nm: the estimators {apart} apart",
+                        g.0
+                    );
                 }
             }
-            cfg.rho_nm = f64::INFINITY;
-            cfg.allow_unphysical = true;
-            let (acc, stats) = goniospec::simulate::simulate(&s, &cfg, &|_| {}).unwrap();
-            let (limited, _) = stats.worst_limited(&acc);
-            assert!(
-                limited > CREATED_WARN,
-                "{t} nm, rms {rms}: the plane-wave estimator does not say it cannot follow the film ({limited:e})"
-            );
         }
     }
 }

@@ -199,6 +199,46 @@ struct Pair {
     k_pos: f64,
     /// `|w_j - w_l|^2`, for the directional overlap at each wavelength.
     dw2: f64,
+    /// `|(N''_j + N''_l)_perp|^2`: how fast the pair's amplitudes change across the
+    /// beamlet (the exits' imaginary index vectors, across `wbar`; zero for homogeneous
+    /// exits), which narrows the window their directional overlap is taken over
+    /// ([`directional_exponent`]).
+    m2: f64,
+}
+
+/// A pair of inhomogeneous exits is evaluated over the window in which its amplitudes
+/// change by at most this factor's logarithm (5 %): see [`directional_exponent`].
+pub const AMPLITUDE_WINDOW: f64 = 0.05;
+
+/// The exponent of a pair's directional overlap at wave number `k` (1/nm), for exits
+/// `|w_j - w_l|^2 = dw2` apart in direction and with `m2` as in [`Pair::m2`], under a
+/// beamlet of radius `rho_nm`:
+///
+/// - homogeneous exits (`m2 = 0`): the Gaussian beamlets' overlap `-|dw|^2 / (2
+///   theta_w^2)`, `theta_w = lambda / (pi rho)` (docs/design.md §4), that is `-s^2 k^2
+///   |dw|^2 / 2` over the window `s = rho / 2`;
+/// - inhomogeneous exits (they left an absorber through a face not parallel to its planes
+///   of constant amplitude, as each partial wave of a film whose faces are tilted does):
+///   their fields `a exp(i k N . x)` change in amplitude by `exp(k |M| x)` across the
+///   beamlet, `M = (N''_j + N''_l)_perp`, so their plane-wave extrapolation from the exit
+///   points holds only within `s = AMPLITUDE_WINDOW / (k |M|)`. The overlap is taken over
+///   that window where it is smaller than `rho / 2`: `-min(rho / 2, c / (k |M|))^2 k^2
+///   |dw|^2 / 2`. The exact overlap of two inhomogeneous Gaussian beamlets over a window
+///   `s` is `exp(-s^2 Q . Q / 2)` with `Q = k (dw + i M)` (docs/physics.md, "Energy at
+///   interfaces"): within this window its other factors, `exp(s^2 k^2 |M|^2 / 2)` and a
+///   phase `s^2 k^2 dw . M`, are within `c^2 / 2 = 1.25e-3` of 1 and are left out.
+///
+/// The window is continuous in `M` (it is the beamlet's until `k |M| rho / 2` reaches
+/// `c`: a film tilted by about 1e-4 degree), so results are continuous in a facet's tilt.
+#[inline(always)]
+fn directional_exponent(dw2: f64, m2: f64, k: f64, rho_nm: f64) -> f64 {
+    let beamlet = 0.25 * k * k * rho_nm * rho_nm;
+    let window = if m2 > 0.0 {
+        beamlet.min(AMPLITUDE_WINDOW * AMPLITUDE_WINDOW / m2)
+    } else {
+        beamlet
+    };
+    -0.5 * dw2 * window
 }
 
 impl Estimator {
@@ -237,11 +277,14 @@ impl Estimator {
         let plane_wave = self.rho_nm.is_infinite();
         if plane_wave {
             self.prepare_groups(tree, p);
+            self.prepare_inhomogeneous_pairs(tree, p);
             return;
         }
         // The directional kernel `exp(-|dw|^2 / (2 theta_w^2))`, `theta_w = lambda / (pi
         // rho)`, is largest at the longest wavelength.
         let two_theta_max2 = 2.0 * (self.lambda_max_nm / (PI * self.rho_nm)).powi(2);
+        let k_min = 2.0 * PI / self.lambda_max_nm;
+        let inhomogeneous = ex.iter().any(|x| x.n_im != DVec3::ZERO);
         let mut candidates = std::mem::take(&mut s.cand);
         candidates.clear();
         self.candidate_pairs(ex, &p.pow, two_theta_max2, &mut s.grid, &mut candidates);
@@ -256,14 +299,27 @@ impl Estimator {
                 let perp = dx - wbar * along;
                 (-perp.dot(perp) / (2.0 * self.rho_nm * self.rho_nm)).exp()
             };
+            let m2 = if inhomogeneous {
+                let m = ex[j].n_im + ex[l].n_im;
+                let m = m - wbar * m.dot(wbar);
+                m.dot(m)
+            } else {
+                0.0
+            };
             let h =
                 0.5 * (hermitian(&ex[j].e[0], &ex[l].e[0]) + hermitian(&ex[j].e[1], &ex[l].e[1]));
-            // Pairs that cannot contribute at any wavelength are skipped: |c| <= 2|h| K.
+            // Pairs that cannot contribute at any wavelength are skipped: |c| <= 2|h| K,
+            // and the directional overlap is largest at the longest wavelength.
             let bound = 2.0 * h.norm() * k_pos;
+            let directional = || {
+                if m2 > 0.0 {
+                    directional_exponent(dw2, m2, k_min, self.rho_nm).exp()
+                } else {
+                    (-dw2 / two_theta_max2).exp()
+                }
+            };
             if bound < NEGLIGIBLE_CROSS
-                || (!self.reference
-                    && dw2 > 0.0
-                    && bound * (-dw2 / two_theta_max2).exp() < NEGLIGIBLE_CROSS)
+                || (!self.reference && dw2 > 0.0 && bound * directional() < NEGLIGIBLE_CROSS)
             {
                 continue;
             }
@@ -276,6 +332,7 @@ impl Estimator {
                 delta_nm,
                 k_pos,
                 dw2,
+                m2,
             });
         }
         s.cand = candidates;
@@ -324,7 +381,29 @@ impl Estimator {
         grid.clear();
         grid.extend(ex.iter().enumerate().map(|(i, x)| (key(x.dir), i as u32)));
         grid.sort_unstable();
+        let same =
+            |a: &crate::trace::Exit, b: &crate::trace::Exit| a.up == b.up && a.group == b.group;
+        // The inhomogeneous exits, in order (none in most trees).
+        let inhomogeneous: Vec<u32> = (0..n as u32)
+            .filter(|&i| ex[i as usize].n_im != DVec3::ZERO)
+            .collect();
         for (j, x) in ex.iter().enumerate() {
+            // An inhomogeneous exit's directional window can be far narrower than the
+            // beamlet's ([`directional_exponent`]): it pairs with every exit of its
+            // hemisphere and group (only films and absorbers' edges have such exits).
+            if x.n_im != DVec3::ZERO {
+                for (l, y) in ex.iter().enumerate().skip(j + 1) {
+                    if same(x, y) {
+                        out.push((j as u32, l as u32));
+                    }
+                }
+                continue;
+            }
+            for &l in &inhomogeneous[inhomogeneous.partition_point(|&l| l as usize <= j)..] {
+                if same(x, &ex[l as usize]) {
+                    out.push((j as u32, l));
+                }
+            }
             let k = key(x.dir);
             for dx in -1..=1 {
                 for dy in -1..=1 {
@@ -336,7 +415,8 @@ impl Estimator {
                                 break;
                             }
                             let l = l as usize;
-                            if l > j && ex[l].up == x.up && ex[l].group == x.group {
+                            // Pairs with an inhomogeneous exit were all taken above.
+                            if l > j && same(&ex[l], x) && ex[l].n_im == DVec3::ZERO {
                                 let dw = x.dir - ex[l].dir;
                                 if dw.dot(dw) <= reach2 * (1.0 + 1e-9) {
                                     out.push((j as u32, l as u32));
@@ -411,6 +491,56 @@ impl Estimator {
         }
     }
 
+    /// Plane-wave limit: the pairs of exits in different groups of which at least one is
+    /// inhomogeneous. Their directional window is their amplitudes', not the beamlet's
+    /// ([`directional_exponent`], finite however wide the beamlet), so they interfere in
+    /// part, as they do at any finite radius; positions do not decorrelate (`k_pos = 1`).
+    fn prepare_inhomogeneous_pairs(&self, tree: &Tree, p: &mut Prepared) {
+        let ex = &tree.exits;
+        if ex.iter().all(|x| x.n_im == DVec3::ZERO) {
+            return;
+        }
+        // Each exit's group, as the index of the group's first member in `members`.
+        let mut group = vec![0u32; ex.len()];
+        let mut start = 0;
+        for (i, &m) in p.members.iter().enumerate() {
+            let (a, b) = (&ex[p.members[start] as usize], &ex[m as usize]);
+            if i > 0 && (a.up != b.up || a.group != b.group || (a.dir - b.dir).length() > 1e-9) {
+                start = i;
+            }
+            group[m as usize] = start as u32;
+        }
+        for j in 0..ex.len() {
+            for l in j + 1..ex.len() {
+                let (a, b) = (&ex[j], &ex[l]);
+                if (a.n_im == DVec3::ZERO && b.n_im == DVec3::ZERO)
+                    || a.up != b.up
+                    || a.group != b.group
+                    || group[j] == group[l]
+                {
+                    continue;
+                }
+                let wbar = (a.dir + b.dir).normalize();
+                let m = a.n_im + b.n_im;
+                let m = m - wbar * m.dot(wbar);
+                let h = 0.5 * (hermitian(&a.e[0], &b.e[0]) + hermitian(&a.e[1], &b.e[1]));
+                if 2.0 * h.norm() < NEGLIGIBLE_CROSS || m.dot(m) == 0.0 {
+                    continue;
+                }
+                let n0 = if a.up { self.n_up } else { self.n_down };
+                p.pairs.push(Pair {
+                    j: j as u32,
+                    l: l as u32,
+                    h,
+                    delta_nm: self.path_difference(a, b, wbar, n0),
+                    k_pos: 1.0,
+                    dw2: (a.dir - b.dir).length_squared(),
+                    m2: m.dot(m),
+                });
+            }
+        }
+    }
+
     /// Deposits of the prepared tree at `lambda_nm` into `out` as `(key, fraction of
     /// launched power)`, several entries per key possible. For `Global` mode, fills
     /// `global` with `(key, amplitude)` instead; `entry_phase` is the incident wave's phase
@@ -477,7 +607,9 @@ impl Estimator {
             for pr in &p.pairs {
                 let (j, l) = (pr.j as usize, pr.l as usize);
                 let mut kernel = pr.k_pos;
-                if pr.dw2 > 0.0 {
+                if pr.m2 > 0.0 {
+                    kernel *= directional_exponent(pr.dw2, pr.m2, k, self.rho_nm).exp();
+                } else if pr.dw2 > 0.0 {
                     kernel *= (-pr.dw2 / (2.0 * theta_w2)).exp();
                 }
                 let (sn, cs) = (k * pr.delta_nm).sin_cos();
@@ -565,8 +697,13 @@ impl Estimator {
         // Exponents: the directional kernel's, and the pair's attenuation.
         arg.clear();
         let two_theta_w2 = 2.0 * theta_w2;
+        let rho = self.rho_nm;
         arg.extend(p.pairs.iter().map(|pr| {
-            let mut a = -pr.dw2 / two_theta_w2;
+            let mut a = if pr.m2 > 0.0 {
+                directional_exponent(pr.dw2, pr.m2, k, rho)
+            } else {
+                -pr.dw2 / two_theta_w2
+            };
             if p.absorbing {
                 a -= k * (p.im[pr.j as usize] + p.im[pr.l as usize]);
             }

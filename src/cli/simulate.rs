@@ -126,10 +126,10 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         (theta.copied().unwrap_or(f64::NAN), cell % nl + 1)
     };
     let (limited, cell) = stats.worst_limited(&acc);
-    if limited > goniospec::simulate::CREATED_WARN {
+    if limited > goniospec::simulate::LIMITED_WARN {
         let (theta, bin) = where_(cell);
         eprintln!(
-            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets tilted against the face the light entered by, beyond what the estimator recombines of its partial waves at this coherence radius (film faces tilted by more than about 0.05 degree at the default 5 um beamlet, ridge tips); those events conserve energy by a model, not exactly, and R and T can be off by more than that (a 20 nm gold film whose faces meet at half a degree: off by up to 0.11; a wavy one with slopes to 7.5 degrees: 1.8e-2 at 30 degrees). A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
+            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets that change the wave by a good part of its index (film faces meeting at more than about 0.1 degree, wavy metal films with slopes of several degrees, ridge tips, flake edges); those events conserve energy by a model, not exactly, and R and T can be off by about eight times that (a 20 nm gold film whose faces meet at 0.2 degree: 1.0e-2; at half a degree: 6.8e-2; a wavy one with slopes to 10 degrees: 3.1e-2 at 30 degrees). A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
         );
     }
     let (created, cell) = stats.worst_created(&acc);

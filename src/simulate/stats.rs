@@ -139,9 +139,8 @@ pub struct SimStats {
     /// interfere, where no ray model holds (docs/physics.md, "Where the ray model stops").
     pub created: Vec<f64>,
     /// Per cell: the summed power per tree that met energy-limited events inside absorbers
-    /// (`trace::Tree::limited_power`): facets tilted against the wave's entry facet by more
-    /// than the estimator recombines of their partial waves at the coherence radius (film
-    /// faces tilted by more than about 0.05 degree at a 5 um beamlet, ridge tips;
+    /// (`trace::Tree::limited_power`): facets that change the wave by a good part of its
+    /// index (film faces meeting at more than about 0.1 degree, ridge tips, flake edges;
     /// `trace::recombination_weight`). There R and T come from a model that conserves
     /// energy, not from exact amplitudes.
     pub limited: Vec<f64>,

@@ -312,6 +312,12 @@ struct RayState {
     path: u64,
     /// Ended by Russian roulette: popped and discarded.
     killed: bool,
+    /// The product of the recombination weights of the events the ray came through
+    /// ([`recombination_weight`]; 1 where every event kept its exact amplitudes): its
+    /// exit's inhomogeneity is scaled by it ([`Exit::n_im`]), so the partial waves of
+    /// energy-limited events (ridge tips, flake edges) are not recombined by the estimator
+    /// either.
+    coherent: f64,
 }
 
 /// The two launched fields for a wave travelling along `d` (unit): s (perpendicular to the

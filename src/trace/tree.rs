@@ -13,6 +13,13 @@ pub struct Exit {
     pub opl: C64,
     /// Unit direction of travel.
     pub dir: DVec3,
+    /// Imaginary part of the exit wave's complex index vector `N = N' + i N''`
+    /// (dimensionless; the field varies as `exp(i k0 N . x)`): zero for a homogeneous
+    /// wave; perpendicular to `dir` for the inhomogeneous wave that leaves an absorber
+    /// through a face not parallel to its planes of constant amplitude; scaled by the
+    /// recombination weights of the events on its path (zero after a ridge tip's fully
+    /// energy-limited event, whose partial waves do not recombine).
+    pub n_im: DVec3,
     /// Exit point on the exit plane, unwrapped (nm).
     pub x: DVec3,
     pub up: bool,

@@ -185,6 +185,7 @@ impl Scene<'_> {
             tube: 1.0,
             path: PATH_START,
             killed: false,
+            coherent: 1.0,
         };
         // One lane, or an ambient medium that differs between them: a ray per lane.
         if lanes.len() == 1 || stack.varies[self.ambient] {
@@ -356,6 +357,7 @@ fn leave(r: &RayState, n_med: C64, first: usize, cur: &[Option<[Field; 2]>], tre
                 e: *e,
                 opl: r.opl,
                 dir: r.dir,
+                n_im: r.n_im * r.coherent,
                 x,
                 up,
                 group: r.group,
