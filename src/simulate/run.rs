@@ -106,7 +106,6 @@ impl<'a> Run<'a> {
     /// run evaluates, the estimator and the header's settings.
     pub(super) fn prepare(sample: &'a Sample, cfg: &'a SimConfig) -> Result<Run<'a>, SimError> {
         let mut scene = Scene::new(sample, cfg.backend)?;
-        scene.set_coherence_length(cfg.rho_nm);
         let scattering = scene.scatters();
         let diffraction = cfg.coherence == Coherence::Diffraction;
         method_refusals(sample, cfg, scattering)?;

@@ -45,6 +45,13 @@ impl Scene<'_> {
         if splits.len() < cur.len() {
             splits.resize_with(cur.len(), LaneSplit::default);
         }
+        // The event's recombination weight: the same in every lane (it depends on the
+        // wave's index vector and the facet alone); 1 for a homogeneous wave.
+        let w = if r.n_im != DVec3::ZERO {
+            recombination_weight(r.n_re, r.n_im, nf)
+        } else {
+            1.0
+        };
         for (k, f) in cur.iter().enumerate() {
             if let Some(e) = f {
                 let j = first + k;
@@ -52,8 +59,8 @@ impl Scene<'_> {
                     itf,
                     &r,
                     nf,
-                    from,
-                    to,
+                    (from, to),
+                    w,
                     e,
                     &lanes[j],
                     &mut trees[j],
@@ -61,14 +68,19 @@ impl Scene<'_> {
                 );
             }
         }
-        self.push_children(&r, prim, nf, from, to, lanes, limits, stack, trees);
+        let coherent = r.coherent * w;
+        self.push_children(
+            &r, prim, nf, from, to, coherent, lanes, limits, stack, trees,
+        );
     }
 
     /// Pushes the children of ray `r` split at facet `prim` (normal `nf` facing the ray,
     /// from medium `from` to `to`), from the lanes' splits in `stack.splits`: the
     /// transmitted ones first (one per lane into a medium whose index varies between the
-    /// lanes, else one shared ray), then the reflected one. A child below the power cutoff
-    /// or past the depth limit is dropped and recorded in its lane's tree.
+    /// lanes, else one shared ray), then the reflected one; each carries `coherent`, the
+    /// product of the recombination weights on its path ([`recombination_weight`]). A
+    /// child below the power cutoff or past the depth limit is dropped and recorded in its
+    /// lane's tree.
     #[allow(clippy::too_many_arguments)]
     fn push_children(
         &self,
@@ -77,6 +89,7 @@ impl Scene<'_> {
         nf: DVec3,
         from: usize,
         to: usize,
+        coherent: f64,
         lanes: &[Lane],
         limits: &TraceLimits,
         stack: &mut TraceStack,
@@ -98,12 +111,6 @@ impl Scene<'_> {
                 .map(|(f, g)| f.is_some().then_some(g))
         };
         let depth = r.depth + 1;
-        // The event's recombination weight (the same in every lane), carried on.
-        let coherent = if r.n_im != DVec3::ZERO {
-            r.coherent * recombination_weight(r.n_re, r.n_im, nf)
-        } else {
-            r.coherent
-        };
         // Whether lane j keeps a child of field `e`: below the cutoff or past the depth
         // limit its power is dropped (recorded in its tree).
         let keep = |tree: &mut Tree, e: &[Field; 2], j: usize| -> bool {
@@ -217,17 +224,17 @@ impl Scene<'_> {
     }
 
     /// One lane's split of ray `r` (field `e`) at interface `itf` (normal `nf` facing the
-    /// ray, from medium `from` to `to`): the coefficients (coated where the interface
-    /// carries thin layers), the energy checks, and the children's fields; notes absorption
-    /// and faults in the lane's `tree`.
+    /// ray, from medium `from` to `to`, the event's recombination weight `w`): the
+    /// coefficients (coated where the interface carries thin layers), the energy checks,
+    /// and the children's fields; notes absorption and faults in the lane's `tree`.
     #[allow(clippy::too_many_arguments)]
     fn lane_split(
         &self,
         itf: &crate::sample::Interface,
         r: &RayState,
         nf: DVec3,
-        from: usize,
-        to: usize,
+        (from, to): (usize, usize),
+        w: f64,
         e: &[Field; 2],
         lane: &Lane,
         tree: &mut Tree,
@@ -260,7 +267,6 @@ impl Scene<'_> {
         if g.k_im > 0.0 {
             // The wave's amplitude varies along this facet (it entered through a facet
             // not parallel to this one): its partial waves recombine only in part.
-            let w = recombination_weight(r.n_re, r.n_im, nf);
             if fresnel::limit_excess(&mut g.c, w) {
                 tree.limited += 1;
                 // The incident power, attenuated along the path, that met an event whose

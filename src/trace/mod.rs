@@ -90,9 +90,6 @@ pub struct Scene<'a> {
     /// Medium above everything and below everything.
     pub ambient: usize,
     pub substrate: usize,
-    /// The length over which the illumination is coherent, nm: the beamlet radius of a
-    /// finite-radius estimator, else the tile's longer side (`set_coherence_length`).
-    coherence_nm: f64,
     /// Per medium: its volume scattering, once [`Scene::prepare_scattering`] has
     /// tabulated it (`None` for a clear medium).
     scatter: Vec<Option<ScatterModel>>,
@@ -155,7 +152,6 @@ impl<'a> Scene<'a> {
             eps,
             ambient: 0,
             substrate: 0,
-            coherence_nm: lx.max(ly),
             scatter: Vec::new(),
             scatters: sample.media.iter().any(|m| m.scattering.is_some()),
             roulette: sample.media.iter().any(|m| m.scattering.is_some())
@@ -164,16 +160,6 @@ impl<'a> Scene<'a> {
         scene.ambient = scene.outer_medium(true)?;
         scene.substrate = scene.outer_medium(false)?;
         Ok(scene)
-    }
-
-    /// Sets the length over which the illumination is coherent (nm, finite and positive;
-    /// anything else keeps the tile's longer side): the scale against which an event
-    /// inside an absorber judges whether its partial waves recombine
-    /// ([`recombination_weight`]).
-    pub fn set_coherence_length(&mut self, nm: f64) {
-        if nm.is_finite() && nm > 0.0 {
-            self.coherence_nm = nm;
-        }
     }
 
     /// The medium beyond the sample above (or below) it, from vertical probe rays; the
