@@ -29,8 +29,8 @@ pub const NOT_CONVERGED: f64 = 0.1;
 pub const CREATED_WARN: f64 = 1e-3;
 /// Mean power per tree that met energy-limited events (`SimStats::limited`: absorbing
 /// facets that change the wave by a good part of its index, `trace::recombination_weight`)
-/// above which `simulate` warns. On gold films whose faces meet at 0.1-0.5 degree, R and T
-/// were off from the local transfer-matrix film by 7-8 times this figure
+/// above which `simulate` warns. On gold films whose faces meet at 0.2-1 degree, R and T
+/// were off from the local transfer-matrix film by 8-9 times this figure
 /// (tests/tilted_absorbers.rs), so the warning fires where that could exceed 1e-3.
 pub const LIMITED_WARN: f64 = 1e-4;
 /// Mean power per tree created by ray series that do not recombine above which the result

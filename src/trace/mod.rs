@@ -35,7 +35,7 @@ mod walk;
 pub use random::{ROULETTE_AFTER_SEGMENTS, ROULETTE_BELOW};
 
 use events::LaneSplit;
-pub use events::{deflection, recombination_weight};
+pub use events::{PLANE_WAVE_TILT, deflection, recombination_weight};
 pub use tree::{Dropped, DroppedPower, Exit, Tree};
 
 /// Limits of a tree.
