@@ -7,7 +7,11 @@
 # `against_rcwa` test of tests/diffraction.rs compares); and gold gratings against the
 # Rayleigh-Fourier method, checked against PyPI grcwa (tests/interop/grating_rayleigh.py;
 # the `metal_*` tests of tests/diffraction.rs compare the diffraction method's orders and
-# the rays' R, or the warning on R).
+# the rays' R, or the warning on R); and gold V-grooves against RCWA for TE (grcwa:
+# tests/interop/vgroove_rcwa.py; `gold_v_grooves_against_rigorous_te_or_warn` in
+# tests/tilted_absorbers.rs compares the rays' TE R, or the warning), and the local
+# transfer-matrix film that test file uses for tilted gold films, against RCWA for TE
+# (tests/interop/roof_rcwa.py).
 #
 #   scripts/interop.sh [GONIOSPEC_BINARY]
 #
@@ -29,8 +33,11 @@ trap 'rm -rf "$work"' EXIT
 "$venv/bin/python" tests/interop/rt_iadpython.py "$bin" "$work/rt"
 "$venv/bin/python" tests/interop/grating_meent.py "$work/rcwa.json"
 "$venv/bin/python" tests/interop/grating_rayleigh.py "$work/metal.json"
+"$venv/bin/python" tests/interop/vgroove_rcwa.py "$work/vgroove.json"
+"$venv/bin/python" tests/interop/roof_rcwa.py
 GONIOSPEC_RCWA_JSON="$work/rcwa.json" cargo test --release --test diffraction against_rcwa -- --ignored --nocapture
 GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test diffraction metal_ -- --ignored --nocapture
+GONIOSPEC_VGROOVE_JSON="$work/vgroove.json" cargo test --release --test tilted_absorbers gold_v_grooves_against_rigorous -- --ignored --nocapture
 # The peer benchmark (issue 31): Mitsuba 3 and goniospec on the same mesh and rays must hit
 # the same triangle, ray by ray (all but 1e-4: edge ties); its speed figures are printed,
 # speed is not asserted here. Mitsuba's llvm_ad_rgb variant loads the system's LLVM, version 15 or newer (Debian 12: libllvm15;

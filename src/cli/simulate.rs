@@ -71,8 +71,7 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         pool.install(|| goniospec::simulate::simulate(&s, &cfg, &|n| bar.set_position(n)))?;
     bar.finish_and_clear();
     if a.settings.allow_unphysical
-        && let Err(e) =
-            goniospec::simulate::check_physical(&acc, &s.name, Some(&stats.limit_dropped))
+        && let Err(e) = goniospec::simulate::check_physical(&acc, &s.name, Some(&stats))
     {
         eprintln!("warning (--allow-unphysical): {e}");
     }
@@ -129,14 +128,14 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     if limited > goniospec::simulate::LIMITED_WARN {
         let (theta, bin) = where_(cell);
         eprintln!(
-            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets that change the wave by a good part of its index (film faces meeting at more than about 0.1 degree, wavy metal films with slopes of several degrees, ridge tips, flake edges); those events conserve energy by a model, not exactly. On tilted gold films R and T were off by 8 to 9 times that figure (faces meeting at 0.2 degree: 2.6e-3; at half a degree: 1.4e-2; at one degree: 5.6e-2). A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
+            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets that change the wave by a good part of its index (film faces meeting at more than about 0.1 degree, wavy metal films with slopes of several degrees, ridge tips, flake edges); those events conserve energy by a model, not exactly. On tilted gold films R and T were off by 8 to 9 times that figure (faces meeting at 0.2 degree: 2.6e-3; at half a degree: 1.4e-2; at one degree: 5.6e-2); on gold V-grooves, against geometric optics and a rigorous solver, by up to 3 times it and the created power together. A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
         );
     }
     let (created, cell) = stats.worst_created(&acc);
     if created > goniospec::simulate::CREATED_WARN {
         let (theta, bin) = where_(cell);
         eprintln!(
-            "warning: {created:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) came from ray series that created energy: light crossed absorbing features thinner than their decay length (ridge tips at grazing light, sub-skin-depth wedges), where the partial waves of one region leave in directions that cannot interfere and no ray model holds; R is uncertain by about that much there. Check such a sample against a rigorous solver (RCWA), or use less grazing light or rounder ridges (docs/physics.md, \"Where the ray model stops\")",
+            "warning: {created:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) came from ray series that created energy: light crossed absorbing features thinner than their decay length (ridge tips at grazing light, sub-skin-depth wedges), where the partial waves of one region leave in directions that cannot interfere and no ray model holds; R is uncertain by up to about 3 times that and the limited power together there (gold V-grooves against geometric optics and a rigorous solver). Check such a sample against a rigorous solver (RCWA), or use less grazing light or rounder ridges (docs/physics.md, \"Where the ray model stops\")",
         );
     }
     if let Some(g) = s.guard_nm {

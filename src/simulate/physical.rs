@@ -2,6 +2,7 @@
 //! energy created, series cut before they converged.
 
 use super::SimError;
+use super::SimStats;
 use crate::accumulate::Coherence;
 use crate::accumulate::file::Accumulator;
 
@@ -48,12 +49,14 @@ pub const CREATED_REFUSED: f64 = 0.1;
 /// per-tree spread (Monte Carlo noise of the cross terms is legitimate; a systematic
 /// excess is not), plus the largest coherent effect of the dropped amplitudes, `2 sqrt(D
 /// (R + T)) + D` for the dropped power `D` (`|a + b|^2 - |a|^2 <= 2 |a| |b| + |b|^2`, and
-/// Cauchy-Schwarz over trees; `limit_dropped`, per cell as in [`SimStats::limit_dropped`],
-/// is the part cut by limits, for the convergence test), and for energy balances with a finite beamlet radius [`BEAMLET_ENERGY_SLACK`].
+/// Cauchy-Schwarz over trees; the run's `stats`, where given, tell the part cut by limits
+/// ([`SimStats::limit_dropped`]), for the convergence test), and for energy balances with a finite beamlet radius [`BEAMLET_ENERGY_SLACK`].
+/// A refusal names its likely cause: series cut by limits, or ray series that created
+/// energy ([`SimStats::created`], above [`CREATED_WARN`] in that cell).
 pub fn check_physical(
     acc: &Accumulator,
     sample_name: &str,
-    limit_dropped: Option<&[f64]>,
+    stats: Option<&SimStats>,
 ) -> Result<(), SimError> {
     let s = &acc.header.settings;
     let mode = s.coherence_mode();
@@ -92,7 +95,8 @@ pub fn check_physical(
             // Every dropped amplitude, by the cutoff or a limit, can change the coherent
             // totals by up to the Cauchy-Schwarz bound; a cell that lost more than
             // NOT_CONVERGED to limits is refused outright below.
-            let d_limit = limit_dropped.map_or(0.0, |l| l[i * nl + j] / n);
+            let d_limit = stats.map_or(0.0, |st| st.limit_dropped[i * nl + j] / n);
+            let created = stats.map_or(0.0, |st| st.created[i * nl + j] / n);
             let truncation = 2.0 * (d * (r + t).abs()).sqrt() + d;
             let tol = ROUNDING + NOISE_SIGMAS * (se_r + se_t) + truncation;
             let tol_energy = tol + slack;
@@ -136,14 +140,26 @@ pub fn check_physical(
                 None
             };
             if let Some(what) = what {
+                let causes = if created > CREATED_WARN {
+                    format!(
+                        " The cause: {created:.3} of the launched power per tree came from ray series \
+                         that created energy, where light crossed absorbing features thinner than \
+                         their decay length (ridge tips at grazing light, sub-skin-depth wedges) and \
+                         no ray model holds (docs/physics.md, \"Where the ray model stops\"): use a \
+                         rigorous solver for this geometry, less grazing light or rounder ridges."
+                    )
+                } else {
+                    " Likely causes: meshed thin layers whose ray series does not converge \
+                     (high-contrast multilayers, absorbing layers thinner than their decay \
+                     length): model them as a coating, a [stack] in its default mode or \
+                     coating = [...] on the interface (docs/physics.md); or a bug."
+                        .to_string()
+                };
                 return Err(SimError::Unphysical(format!(
                     "sample '{sample_name}', theta_i {theta} deg, phi_i {} deg, lambda {} nm: {what} \
                      (tolerance {tol:.1e}: rounding, {NOISE_SIGMAS} standard errors and the dropped \
                      power's coherent bound; energy balances also {slack:.0e} for partial coherence). The result is \
-                     impossible and was not written.{hint} Likely causes: meshed thin layers whose ray \
-                     series does not converge (high-contrast multilayers, absorbing layers thinner \
-                     than their decay length): model them as a coating, a [stack] in its default \
-                     mode or coating = [...] on the interface (docs/physics.md); or a bug. Pass \
+                     impossible and was not written.{hint}{causes} Pass \
                      --allow-unphysical to write it anyway for debugging.",
                     s.phi_i_deg,
                     s.wavelength(j),

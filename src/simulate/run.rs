@@ -406,7 +406,7 @@ impl<'a> Run<'a> {
             )));
         }
         if !cfg.allow_unphysical {
-            check_physical(&acc, &self.sample.name, Some(&stats.limit_dropped))?;
+            check_physical(&acc, &self.sample.name, Some(&stats))?;
             let (created, cell) = stats.worst_created(&acc);
             if created > CREATED_REFUSED {
                 let nl = acc.header.settings.wavelength_count().max(1);

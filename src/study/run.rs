@@ -285,9 +285,7 @@ pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String)
                 let t0 = Instant::now();
                 let (acc, stats) = simulate(&sample, &cfg, &|_| {}).map_err(|e| e.to_string())?;
                 wall += t0.elapsed().as_secs_f64() / st.repeats as f64;
-                if let Err(e) =
-                    crate::simulate::check_physical(&acc, &sample.name, Some(&stats.limit_dropped))
-                {
+                if let Err(e) = crate::simulate::check_physical(&acc, &sample.name, Some(&stats)) {
                     unphysical.get_or_insert(e.to_string());
                 }
                 let r = r_table(&acc);
