@@ -104,32 +104,34 @@ fn simulate_films(tilts: &[f64], thetas: &[f64]) -> Vec<Vec<Vec<(f64, f64)>>> {
         .collect()
 }
 
-/// Where the events cannot keep their plane-wave amplitudes (faces meeting at 0.2 degree
-/// and more change the reflected wave by `|Delta| ~ 2 beta |N|`, and
-/// `trace::recombination_weight` limits them in part), the run says so: the power that met
-/// energy-limited events is reported above `LIMITED_WARN`, which is what `simulate` warns
-/// about (measured: R and T off by 8-9 times that figure from 0.2 to 1 degree), or, where
-/// the film's balance comes out impossible (R + T above 1 beyond the run's tolerance), the
-/// run is refused. At 1e-2 degree and below, where the film is exact, neither happens.
+/// Where the run is not exact, it says so: the power that met energy-limited events
+/// (`trace::recombination_weight`) above `LIMITED_WARN`, or the power its series created
+/// above `CREATED_WARN` (what `simulate` warns about), or, where the film's balance comes
+/// out impossible (R + T above 1 beyond the run's tolerance), a refusal. Up to 0.2 degree,
+/// where the film is within 2e-3 of the local TMM (next test), none of them happens; at
+/// 0.5 degree (4.3e-3 off) and 1 degree (2.5e-2 off) the run warns.
 #[test]
 fn the_run_reports_the_power_it_could_not_treat_exactly() {
-    use goniospec::simulate::{LIMITED_WARN, SimError, simulate};
+    use goniospec::simulate::{CREATED_WARN, LIMITED_WARN, SimError, simulate};
     let lambdas: Vec<f64> = GOLD.iter().map(|g| g.0).collect();
     for (tilt, inexact) in [
         (1e-4, false),
         (1e-2, false),
-        (0.1, false),
-        (0.2, true),
+        (0.2, false),
+        (0.5, true),
         (1.0, true),
     ] {
         let s = film(tilt);
         let cfg = config(
-            &[0.0, 30.0],
+            &[0.0, 30.0, 60.0],
             Wavelengths::Monochromatic(lambdas.clone()),
             256,
         );
         let said = match simulate(&s, &cfg, &|_| {}) {
-            Ok((acc, stats)) => stats.worst_limited(&acc).0 > LIMITED_WARN,
+            Ok((acc, stats)) => {
+                stats.worst_limited(&acc).0 > LIMITED_WARN
+                    || stats.worst_created(&acc).0 > CREATED_WARN
+            }
             Err(SimError::Unphysical(m)) => {
                 assert!(m.contains("energy created"), "tilt {tilt} deg: {m}");
                 true
@@ -140,16 +142,15 @@ fn the_run_reports_the_power_it_could_not_treat_exactly() {
     }
 }
 
-/// Tilts from 1e-6 to 0.1 degree, 0/30/60 degrees, 450-650 nm: R and T within 2e-3 of
+/// Tilts from 1e-6 to 0.2 degree, 0/30/60 degrees, 450-650 nm: R and T within 2e-3 of
 /// the local TMM, and no jump between neighbouring tilts beyond the reference's own change
-/// (plus the same 2e-3). (Issue 25 asks this up to 1 degree. Measured worst errors, each at
-/// 60 degrees and 650 nm: 2.1e-4 at 1e-2 degree, 5.1e-4 at 0.05, 9.4e-4 at 0.1, 2.6e-3 at
-/// 0.2, 5.4e-3 at 0.3, 1.4e-2 at 0.5 and 5.6e-2 at 1; with the estimator and event weight
-/// of the stop before: 1.6e-3, 6.6e-3, 2.8e-2, 0.11 at 0.05-0.5 and 0.33 at 1. From 0.2
-/// degree on the run warns: the previous test.)
+/// (plus the same 2e-3). (Issue 25 asks this up to 1 degree; RCWA confirms the reference
+/// there for TE, tests/interop/roof_rcwa.py. Measured worst errors: 5.7e-4 at 0.1 degree,
+/// 1.0e-3 at 0.2, 4.3e-3 at 0.5 and 2.5e-2 at 1, where the run warns: the previous test;
+/// with the event weight `exp(-x)` of the stop before, 9.4e-4, 2.6e-3, 1.4e-2 and 5.6e-2.)
 #[test]
-fn a_gold_film_with_a_tilted_back_face_matches_the_local_tmm_up_to_a_tenth_of_a_degree() {
-    let tilts = [1e-6, 1e-4, 3e-3, 1e-2, 0.05, 0.1];
+fn a_gold_film_with_a_tilted_back_face_matches_the_local_tmm_up_to_a_fifth_of_a_degree() {
+    let tilts = [1e-6, 1e-4, 3e-3, 1e-2, 0.05, 0.1, 0.2];
     let thetas = [0.0, 30.0, 60.0];
     let got = simulate_films(&tilts, &thetas);
     let mut refs = Vec::new();
@@ -267,11 +268,12 @@ fn facet_wise_tmm(
 /// hundred nm per round trip at 30 degrees and 650 nm, against 156 nm facets), so the
 /// faces it meets are tilted against each other by up to a few tenths of a degree (the
 /// curvature times the walk). With slopes up to 3.8, 7.5 and 10 degrees, at 0 and 30
-/// degrees, every case is within the issue's 1e-2 (measured: at most 5.9e-3, 20 nm at 30
-/// degrees and 650 nm, slopes to 10 degrees), for the beamlet estimator and for the
-/// plane-wave limit, which recombine the film's inhomogeneous partial waves over the same
-/// amplitude window and agree within 1e-3. (The stop before: 7.5-degree slopes 1.8e-2 off
-/// at 30 degrees, the plane-wave estimator up to 0.46.)
+/// degrees, every case is within 2e-3, tighter than the issue's 1e-2 (measured: at most
+/// 5.2e-4, 20 nm at 30 degrees and 650 nm, slopes to 10 degrees; 5.9e-3 with the event
+/// weight `exp(-x)` of the stop before), for the beamlet estimator and for the plane-wave
+/// limit, which recombine the film's inhomogeneous partial waves over the same amplitude
+/// window and agree within 1e-3. (Two stops before: 7.5-degree slopes 1.8e-2 off at 30
+/// degrees, the plane-wave estimator up to 0.46.)
 #[test]
 fn a_wavy_thin_gold_film_matches_the_facet_wise_tmm_with_either_estimator() {
     let lambdas: Vec<f64> = GOLD.iter().map(|g| g.0).collect();
@@ -307,7 +309,7 @@ fn a_wavy_thin_gold_film_matches_the_facet_wise_tmm_with_either_estimator() {
                             g.0
                         );
                         assert!(
-                            err < 1e-2,
+                            err < 2e-3,
                             "{t} nm, rms {rms}, theta {th}, {} nm: off by {err}",
                             g.0
                         );
@@ -364,12 +366,12 @@ fn the_deflection_of_a_tilted_facet_is_first_order_in_the_tilt() {
 }
 
 /// The event weight: 1 at a facet parallel to the wave's planes of constant amplitude,
-/// falling continuously with the tilt, as `exp(-|Delta|^2 / (2 a^2))` to first order for a
-/// wave that entered gold from air (`|Delta| = 2 beta |N|` for a tilt about the axis
-/// across the plane of incidence, `N = (kappa, 0, q)`); and for the evanescent wave a
-/// lossless medium of index `n` carries beside a metal (`N = (sqrt(n^2 + g^2), 0, 0) + i
-/// (0, 0, g)`), whose evanescence `(n^2 + 2 g^2) / n^2` multiplies the exponent, against
-/// the homogeneous-like wave of the same `|Delta|`.
+/// falling continuously with the tilt, as `exp(-x^2)`, `x = e |Delta|^2 / (2 a^2)`, to
+/// first order for a wave that entered gold from air (`|Delta| = 2 beta |N|` for a tilt
+/// about the axis across the plane of incidence, `N = (kappa, 0, q)`); and for the
+/// evanescent wave a lossless medium of index `n` carries beside a metal (`N = (sqrt(n^2 +
+/// g^2), 0, 0) + i (0, 0, g)`), whose evanescence `(n^2 + 2 g^2) / n^2` multiplies `x`,
+/// against the homogeneous-like wave of the same `|Delta|`.
 #[test]
 fn the_event_weight_falls_with_the_tilt_and_faster_for_evanescent_waves() {
     use goniospec::trace::{PLANE_WAVE_TILT, recombination_weight};
@@ -388,9 +390,10 @@ fn the_event_weight_falls_with_the_tilt_and_faster_for_evanescent_waves() {
         assert!(w < last && w > 0.0, "beta {beta}: {w} after {last}");
         last = w;
         let delta = 2.0 * beta * (n_re.length_squared() + n_im.length_squared()).sqrt();
-        let first = (-evanescence * delta * delta / (2.0 * a2)).exp();
+        let x = evanescence * delta * delta / (2.0 * a2);
+        let first = (-x * x).exp();
         assert!(
-            (w.ln() / first.ln() - 1.0).abs() < 4.0 * beta,
+            (w.ln() / first.ln() - 1.0).abs() < 8.0 * beta,
             "beta {beta}: {w} against {first}"
         );
     }
@@ -406,8 +409,11 @@ fn the_event_weight_falls_with_the_tilt_and_faster_for_evanescent_waves() {
     let scale = (n_re.length_squared() + n_im.length_squared()).sqrt()
         / (e_re.length_squared() + e_im.length_squared()).sqrt();
     let m_gold = glam::DVec3::new((beta / scale).sin(), 0.0, (beta / scale).cos());
-    let ratio = recombination_weight(e_re, e_im, m).ln()
-        / (recombination_weight(n_re, n_im, m_gold).ln() / evanescence);
+    // ln w = -x^2, x proportional to the evanescence at equal |Delta|.
+    let ratio = (recombination_weight(e_re, e_im, m).ln()
+        / recombination_weight(n_re, n_im, m_gold).ln())
+    .sqrt()
+        * evanescence;
     let expected = (n * n + 2.0 * g * g) / (n * n);
     assert!(
         (ratio / expected - 1.0).abs() < 1e-2,

@@ -128,7 +128,7 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     if limited > goniospec::simulate::LIMITED_WARN {
         let (theta, bin) = where_(cell);
         eprintln!(
-            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets that change the wave by a good part of its index (film faces meeting at more than about 0.1 degree, wavy metal films with slopes of several degrees, ridge tips, flake edges); those events conserve energy by a model, not exactly. On tilted gold films R and T were off by 8 to 9 times that figure (faces meeting at 0.2 degree: 2.6e-3; at half a degree: 1.4e-2; at one degree: 5.6e-2); on gold V-grooves, against geometric optics and a rigorous solver, by up to 3 times it and the created power together. A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
+            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets that change the wave by a good part of its index (film faces meeting at more than about 0.1 degree, wavy metal films with slopes of several degrees, ridge tips, flake edges); those events conserve energy by a model, not exactly. R may be off by up to 3 times that and the power created by ray series together (gold V-grooves against geometric optics and a rigorous solver; gold films whose faces meet at half a degree: 4.3e-3, at one degree: 2.5e-2). A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
         );
     }
     let (created, cell) = stats.worst_created(&acc);
