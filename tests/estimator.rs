@@ -87,35 +87,8 @@ fn the_direction_grid_keeps_every_pair_that_matters_on_trees_with_many_exits() {
         "[sample]\nname = \"steep glass\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n[[interface]]\nmesh = \"g.obj\"\nfront = \"air\"\nback = \"glass\"\n",
     );
     // Some trees have many exits.
-    let scene =
-        goniospec::trace::Scene::new(&s, goniospec::accel::Backend::default_available()).unwrap();
-    let indices: Vec<_> = s
-        .media
-        .iter()
-        .map(|m| {
-            let (n, k) = m.model.eval(550.0).unwrap();
-            num_complex::Complex64::new(n, k)
-        })
-        .collect();
-    let t = 60f64.to_radians();
-    let dir = glam::DVec3::new(t.sin(), 0.0, -t.cos());
     let mut most = 0;
-    for i in 0..24 {
-        let mut tree = goniospec::trace::Tree::default();
-        scene.trace(
-            glam::DVec3::new(
-                800.0 * i as f64 + 37.0,
-                613.0 * i as f64 + 11.0,
-                scene.z_top,
-            ),
-            dir,
-            goniospec::trace::launch_fields(dir),
-            &indices,
-            550.0,
-            &goniospec::trace::TraceLimits::default(),
-            &mut goniospec::trace::TraceStack::default(),
-            &mut tree,
-        );
+    for tree in trees_at_60_degrees(&s) {
         most = most.max(tree.exits.len());
     }
     assert!(
@@ -148,35 +121,8 @@ fn inhomogeneous_exits_pair_alike_in_the_fast_and_the_reference_estimator() {
             spec("bottom")
         ),
     );
-    let scene =
-        goniospec::trace::Scene::new(&s, goniospec::accel::Backend::default_available()).unwrap();
-    let indices: Vec<_> = s
-        .media
-        .iter()
-        .map(|m| {
-            let (n, k) = m.model.eval(550.0).unwrap();
-            num_complex::Complex64::new(n, k)
-        })
-        .collect();
-    let t = 60f64.to_radians();
-    let dir = glam::DVec3::new(t.sin(), 0.0, -t.cos());
     let (mut most, mut inhomogeneous) = (0, 0);
-    for i in 0..24 {
-        let mut tree = goniospec::trace::Tree::default();
-        scene.trace(
-            glam::DVec3::new(
-                800.0 * i as f64 + 37.0,
-                613.0 * i as f64 + 11.0,
-                scene.z_top,
-            ),
-            dir,
-            goniospec::trace::launch_fields(dir),
-            &indices,
-            550.0,
-            &goniospec::trace::TraceLimits::default(),
-            &mut goniospec::trace::TraceStack::default(),
-            &mut tree,
-        );
+    for tree in trees_at_60_degrees(&s) {
         most = most.max(tree.exits.len());
         inhomogeneous += tree
             .exits
@@ -195,4 +141,40 @@ fn inhomogeneous_exits_pair_alike_in_the_fast_and_the_reference_estimator() {
     fast_equals_reference(&s, &cfg, "steep gold film");
     cfg.rho_nm = f64::INFINITY;
     fast_equals_reference(&s, &cfg, "steep gold film, plane wave");
+}
+
+/// 24 trees of sample `s` at 550 nm, light at 60 degrees, launched at spread points.
+fn trees_at_60_degrees(s: &goniospec::sample::Sample) -> Vec<goniospec::trace::Tree> {
+    let scene =
+        goniospec::trace::Scene::new(s, goniospec::accel::Backend::default_available()).unwrap();
+    let indices: Vec<_> = s
+        .media
+        .iter()
+        .map(|m| {
+            let (n, k) = m.model.eval(550.0).unwrap();
+            num_complex::Complex64::new(n, k)
+        })
+        .collect();
+    let t = 60f64.to_radians();
+    let dir = glam::DVec3::new(t.sin(), 0.0, -t.cos());
+    (0..24)
+        .map(|i| {
+            let mut tree = goniospec::trace::Tree::default();
+            scene.trace(
+                glam::DVec3::new(
+                    800.0 * i as f64 + 37.0,
+                    613.0 * i as f64 + 11.0,
+                    scene.z_top,
+                ),
+                dir,
+                goniospec::trace::launch_fields(dir),
+                &indices,
+                550.0,
+                &goniospec::trace::TraceLimits::default(),
+                &mut goniospec::trace::TraceStack::default(),
+                &mut tree,
+            );
+            tree
+        })
+        .collect()
 }
