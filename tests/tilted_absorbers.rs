@@ -104,23 +104,19 @@ fn simulate_films(tilts: &[f64], thetas: &[f64]) -> Vec<Vec<Vec<(f64, f64)>>> {
         .collect()
 }
 
-/// Where the run is not exact, it says so: the power that met energy-limited events
-/// (`trace::recombination_weight`) above `LIMITED_WARN`, or the power its series created
-/// above `CREATED_WARN` (what `simulate` warns about), or, where the film's balance comes
-/// out impossible (R + T above 1 beyond the run's tolerance), a refusal. Up to 0.2 degree,
-/// where the film is within 2e-3 of the local TMM (next test), none of them happens; at
-/// 0.5 degree (4.3e-3 off) and 1 degree (2.5e-2 off) the run warns.
+/// Where the run is not exact, it says so: the power that met facets tilted against the
+/// planes of constant amplitude of the wave inside the absorber (`SimStats::limited`,
+/// `trace::event_weights`) above `LIMITED_WARN`, or the power its series created above
+/// `CREATED_WARN` (what `simulate` warns about), or, where the film's balance comes out
+/// impossible (R + T above 1 beyond the run's tolerance), a refusal. Up to 0.2 degree
+/// (4.3e-4 off the local TMM, 1.4e-6 limited) none of them happens; at 1 degree (1.15e-2
+/// off, 1.4e-3 limited) the run warns. (At 0.5 degree, 1.3e-3 off, the limited power is
+/// 9.5e-5, at the warning's threshold: not asserted either way.)
 #[test]
 fn the_run_reports_the_power_it_could_not_treat_exactly() {
     use goniospec::simulate::{CREATED_WARN, LIMITED_WARN, SimError, simulate};
     let lambdas: Vec<f64> = GOLD.iter().map(|g| g.0).collect();
-    for (tilt, inexact) in [
-        (1e-4, false),
-        (1e-2, false),
-        (0.2, false),
-        (0.5, true),
-        (1.0, true),
-    ] {
+    for (tilt, inexact) in [(1e-4, false), (1e-2, false), (0.2, false), (1.0, true)] {
         let s = film(tilt);
         let cfg = config(
             &[0.0, 30.0, 60.0],
@@ -142,15 +138,17 @@ fn the_run_reports_the_power_it_could_not_treat_exactly() {
     }
 }
 
-/// Tilts from 1e-6 to 0.2 degree, 0/30/60 degrees, 450-650 nm: R and T within 2e-3 of
+/// Tilts from 1e-6 to 0.5 degree, 0/30/60 degrees, 450-650 nm: R and T within 2e-3 of
 /// the local TMM, and no jump between neighbouring tilts beyond the reference's own change
 /// (plus the same 2e-3). (Issue 25 asks this up to 1 degree; RCWA confirms the reference
-/// there for TE, tests/interop/roof_rcwa.py. Measured worst errors: 5.7e-4 at 0.1 degree,
-/// 1.0e-3 at 0.2, 4.3e-3 at 0.5 and 2.5e-2 at 1, where the run warns: the previous test;
-/// with the event weight `exp(-x)` of the stop before, 9.4e-4, 2.6e-3, 1.4e-2 and 5.6e-2.)
+/// there for TE, tests/interop/roof_rcwa.py. Measured worst errors: 4.3e-4 at 0.2 degree,
+/// 1.3e-3 at 0.5 and 1.15e-2 at 1, where the run warns: the previous test. Before the
+/// event weights took the facet that made the wave (`trace::event_weights`) and the
+/// estimator carried inhomogeneous pairs to their midpoint (`accumulate`), 1.0e-3, 4.3e-3
+/// and 2.5e-2.)
 #[test]
-fn a_gold_film_with_a_tilted_back_face_matches_the_local_tmm_up_to_a_fifth_of_a_degree() {
-    let tilts = [1e-6, 1e-4, 3e-3, 1e-2, 0.05, 0.1, 0.2];
+fn a_gold_film_with_a_tilted_back_face_matches_the_local_tmm_up_to_half_a_degree() {
+    let tilts = [1e-6, 1e-4, 3e-3, 1e-2, 0.05, 0.1, 0.2, 0.5];
     let thetas = [0.0, 30.0, 60.0];
     let got = simulate_films(&tilts, &thetas);
     let mut refs = Vec::new();
@@ -419,6 +417,57 @@ fn the_event_weight_falls_with_the_tilt_and_faster_for_evanescent_waves() {
         (ratio / expected - 1.0).abs() < 1e-2,
         "{ratio} against {expected}"
     );
+}
+
+/// The event weights of a wave bouncing in a gold wedge (faces meeting at 1 degree, 650
+/// nm, normal incidence), its index vector reflected by hand (`N - 2 (N . m) m` for its
+/// real and imaginary parts): against the wave's own planes of constant amplitude the
+/// facets tilt further each round trip and `w0` falls (below 0.5 by the sixth event),
+/// while against the facet that made the wave the tilt stays 1 degree and `w` stays above
+/// 0.999 (its closed form at `|Delta| = 2 beta |N|`). At a ridge tip (the wave entered
+/// through a facet 60 degrees from the one it meets) both weights are the same and small.
+#[test]
+fn event_weights_spare_a_wedges_series_and_still_limit_a_ridge_tip() {
+    use goniospec::trace::{PLANE_WAVE_TILT, event_weights};
+    let gold = C::new(0.166, 3.15);
+    let beta = 1f64.to_radians();
+    let (top, back) = (
+        glam::DVec3::Z,
+        glam::DVec3::new(beta.sin(), 0.0, beta.cos()),
+    );
+    let reflect = |v: glam::DVec3, m: glam::DVec3| v - m * (2.0 * v.dot(m));
+    // Entered through the top at normal incidence: N = -gold z.
+    let (mut n_re, mut n_im) = (
+        glam::DVec3::new(0.0, 0.0, -gold.re),
+        glam::DVec3::new(0.0, 0.0, -gold.im),
+    );
+    let a2 = PLANE_WAVE_TILT * PLANE_WAVE_TILT;
+    let delta = 2.0 * beta.sin() * gold.norm();
+    let closed = (-(delta * delta / (2.0 * a2)).powi(2)).exp();
+    let mut w0s = Vec::new();
+    let mut last = top;
+    for event in 0..8 {
+        let facet = if event % 2 == 0 { back } else { top };
+        let (w, w0) = event_weights(n_re, n_im, facet, last);
+        assert!(w >= w0, "event {event}: w {w} below w0 {w0}");
+        assert!(
+            w > 0.999 && (w.ln() / closed.ln() - 1.0).abs() < 0.05,
+            "event {event}: w {w}, closed form {closed}"
+        );
+        w0s.push(w0);
+        (n_re, n_im) = (reflect(n_re, facet), reflect(n_im, facet));
+        last = facet;
+    }
+    assert!(
+        w0s.windows(2).all(|p| p[1] < p[0]) && w0s[5] < 0.5,
+        "w0 along the series: {w0s:?}"
+    );
+    // A ridge tip: entered through a wall at 60 degrees, meeting the other wall.
+    let wall = glam::DVec3::new(60f64.to_radians().sin(), 0.0, 60f64.to_radians().cos());
+    let other = glam::DVec3::new(-wall.x, 0.0, wall.z);
+    let (n_re, n_im) = (-wall * gold.re, -wall * gold.im);
+    let (w, w0) = event_weights(n_re, n_im, other, wall);
+    assert!(w == w0 && w < 1e-3, "ridge tip: w {w}, w0 {w0}");
 }
 
 /// Gold V-grooves (60 degree opening, 2 um period, walls 60 degrees from the horizontal),

@@ -206,6 +206,40 @@ struct Pair {
     /// exits), which narrows the window their directional overlap is taken over
     /// ([`directional_exponent`]).
     m2: f64,
+    /// The pair's amplitudes carried from their exit points to their midpoint, where its
+    /// phase is taken ([`midpoint_terms`]), as an exponent over `k`, nm (zero for
+    /// homogeneous exits).
+    grow_nm: f64,
+}
+
+/// What carrying a pair of exits `a`, `b` to their midpoint adds where at least one is an
+/// inhomogeneous wave (`N = N' + i N''`, `N' . N'' = 0` and `|N'|^2 - |N''|^2 = n0^2` in
+/// the lossless exit medium, `N'` along the exit's direction): `(phase_nm, grow_nm)`.
+///
+/// A field `a exp(i k N . (x - x_a))` evaluated at the midpoint `x_c = (x_a + x_b) / 2`
+/// has its amplitude multiplied by `exp(-k N''_a . (x_c - x_a))`, so the product of the
+/// pair's amplitudes there gains `exp(k g)` with `g = -(N''_a - N''_b) . (x_b - x_a) / 2`
+/// (`grow_nm`); and its phase difference is `k [OPL_a - OPL_b - (N'_a + N'_b) / 2 . (x_a -
+/// x_b)]`, which differs from the homogeneous pairs' `n0 wbar . (x_a - x_b)`
+/// ([`Estimator::path_difference`]) by `phase_nm`. Both vanish for homogeneous exits and
+/// for exits at one point. Evaluated at any point common to the pair, the cross term
+/// averages over launch points to the same value on a facet whose partial waves are plane
+/// waves (a wedge); at the exit points, as before, the amplitudes of a film whose faces
+/// are tilted were taken at different places: a gold film whose faces meet at 0.5 degree
+/// was 4.3e-3 off the local transfer-matrix film, with 1.7e-3 of the power per tree
+/// created at 60 degrees and 650 nm, and is 1.3e-3 off with none now
+/// (tests/tilted_absorbers.rs). (Carrying every exit of a tree to one common point instead
+/// makes the amplitudes of partial waves that walked hundreds of nanometres grow without
+/// bound: 0.42 of the power created at 0.5 degree.)
+fn midpoint_terms(a: &crate::trace::Exit, b: &crate::trace::Exit, n0: f64) -> (f64, f64) {
+    if a.n_im == DVec3::ZERO && b.n_im == DVec3::ZERO {
+        return (0.0, 0.0);
+    }
+    let n_re = |x: &crate::trace::Exit| x.dir * (n0 * n0 + x.n_im.length_squared()).sqrt();
+    let wbar = (a.dir + b.dir).normalize();
+    let phase = -((n_re(a) + n_re(b)) * 0.5 - wbar * n0).dot(a.x - b.x);
+    let grow = -0.5 * (a.n_im - b.n_im).dot(b.x - a.x);
+    (phase, grow)
 }
 
 /// [`Pair::m2`] for exits `a` and `b` about their mean direction `wbar`: `|(N''_a +
@@ -327,13 +361,17 @@ impl Estimator {
                     (-dw2 / two_theta_max2).exp()
                 }
             };
-            if bound < NEGLIGIBLE_CROSS
-                || (!self.reference && dw2 > 0.0 && bound * directional() < NEGLIGIBLE_CROSS)
+            // Carried to their midpoint the amplitudes may grow ([`midpoint_terms`]): such
+            // a pair is kept.
+            let n0 = if ex[j].up { self.n_up } else { self.n_down };
+            let (phase_nm, grow_nm) = midpoint_terms(&ex[j], &ex[l], n0);
+            if grow_nm <= 0.0
+                && (bound < NEGLIGIBLE_CROSS
+                    || (!self.reference && dw2 > 0.0 && bound * directional() < NEGLIGIBLE_CROSS))
             {
                 continue;
             }
-            let n0 = if ex[j].up { self.n_up } else { self.n_down };
-            let delta_nm = self.path_difference(&ex[j], &ex[l], wbar, n0);
+            let delta_nm = self.path_difference(&ex[j], &ex[l], wbar, n0) + phase_nm;
             p.pairs.push(Pair {
                 j: j as u32,
                 l: l as u32,
@@ -342,6 +380,7 @@ impl Estimator {
                 k_pos,
                 dw2,
                 m2,
+                grow_nm,
             });
         }
         s.cand = candidates;
@@ -525,18 +564,20 @@ impl Estimator {
                 let wbar = (a.dir + b.dir).normalize();
                 let m2 = inhomogeneity(a, b, wbar);
                 let h = 0.5 * (hermitian(&a.e[0], &b.e[0]) + hermitian(&a.e[1], &b.e[1]));
-                if 2.0 * h.norm() < NEGLIGIBLE_CROSS || m2 == 0.0 {
+                let n0 = if a.up { self.n_up } else { self.n_down };
+                let (phase_nm, grow_nm) = midpoint_terms(a, b, n0);
+                if (2.0 * h.norm() < NEGLIGIBLE_CROSS && grow_nm <= 0.0) || m2 == 0.0 {
                     continue;
                 }
-                let n0 = if a.up { self.n_up } else { self.n_down };
                 p.pairs.push(Pair {
                     j: j as u32,
                     l: l as u32,
                     h,
-                    delta_nm: self.path_difference(a, b, wbar, n0),
+                    delta_nm: self.path_difference(a, b, wbar, n0) + phase_nm,
                     k_pos: 1.0,
                     dw2: (a.dir - b.dir).length_squared(),
                     m2,
+                    grow_nm,
                 });
             }
         }
@@ -614,6 +655,7 @@ impl Estimator {
                     kernel *= (-pr.dw2 / (2.0 * theta_w2)).exp();
                 }
                 let (sn, cs) = (k * pr.delta_nm).sin_cos();
+                kernel *= (k * pr.grow_nm).exp();
                 let mut c = 2.0 * (pr.h.re * cs - pr.h.im * sn) * kernel;
                 let (mut pj, mut pl) = (p.pow[j], p.pow[l]);
                 if p.absorbing {
@@ -708,7 +750,8 @@ impl Estimator {
             if p.absorbing {
                 a -= k * (p.im[pr.j as usize] + p.im[pr.l as usize]);
             }
-            a
+            // The amplitudes carried to the pair's midpoint ([`midpoint_terms`]).
+            a + k * pr.grow_nm
         }));
         phase::exp_batch(arg, expv);
         // Each exit's attenuated power.

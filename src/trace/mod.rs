@@ -35,7 +35,7 @@ mod walk;
 pub use random::{ROULETTE_AFTER_SEGMENTS, ROULETTE_BELOW};
 
 use events::LaneSplit;
-pub use events::{PLANE_WAVE_TILT, deflection, recombination_weight};
+pub use events::{PLANE_WAVE_TILT, deflection, event_weights, recombination_weight};
 pub use tree::{Dropped, DroppedPower, Exit, Tree};
 
 /// Limits of a tree.
@@ -304,6 +304,9 @@ struct RayState {
     /// energy-limited events (ridge tips, flake edges) are not recombined by the estimator
     /// either.
     coherent: f64,
+    /// The normal of the facet at which the wave was made, its last interface event (zero
+    /// for a launched ray): [`event_weights`].
+    last_facet: DVec3,
 }
 
 /// The two launched fields for a wave travelling along `d` (unit): s (perpendicular to the

@@ -186,6 +186,7 @@ impl Scene<'_> {
             path: PATH_START,
             killed: false,
             coherent: 1.0,
+            last_facet: DVec3::ZERO,
         };
         // One lane, or an ambient medium that differs between them: a ray per lane.
         if lanes.len() == 1 || stack.varies[self.ambient] {

@@ -390,6 +390,12 @@ pub fn split_wave(d: DVec3, n_re: DVec3, n_im: DVec3, nf: DVec3, n1: C64, n2: C6
     }
 }
 
+/// Whether `|r|^2 + |t|^2` exceeds 1 in either polarisation: the event [`limit_excess`]
+/// would scale at a weight below 1.
+pub fn exceeds_unity(c: &Coefficients) -> bool {
+    c.r_s.norm_sqr() + c.t_s.norm_sqr() > 1.0 || c.r_p.norm_sqr() + c.t_p.norm_sqr() > 1.0
+}
+
 /// Limits the energy of an event whose incident wave is inhomogeneous along the facet
 /// (`k_im > 0`) by the weight `w` in [0, 1] that its partial waves recombine: where
 /// `|r|^2 + T` of a polarisation exceeds 1 (the interference flux of the incident and
