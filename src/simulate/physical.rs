@@ -31,11 +31,11 @@ pub const CREATED_WARN: f64 = 1e-3;
 /// Mean power per tree that met facets tilted against the planes of constant amplitude of
 /// the wave inside an absorber (`SimStats::limited`, weighted by `1 - w0` of
 /// `trace::event_weights`) above which `simulate` warns. Where the run warns, R was off
-/// by up to 3 times the limited and created power together on gold V-grooves against
-/// geometric optics and RCWA, and by 6.6 times on a gold film whose faces meet at 1 degree
-/// against the local transfer-matrix film (1.15e-2 off, with 1.4e-3 limited and 3.5e-4
-/// created; tests/tilted_absorbers.rs). At 0.5 degree (1.3e-3 off) the film reports
-/// 9.5e-5.
+/// by up to 3 times the limited and created power together: gold V-grooves against
+/// geometric optics and RCWA, and a gold film whose faces meet at 1 degree against the
+/// local transfer-matrix film (1.1e-2 off, with 1.4e-3 limited and 6.9e-3 created;
+/// tests/tilted_absorbers.rs asserts the bound). At 0.5 degree (1.7e-3 off) the film
+/// reports 9.5e-5.
 pub const LIMITED_WARN: f64 = 1e-4;
 /// Mean power per tree created by ray series that do not recombine above which the result
 /// is refused: a tenth of the light came out of a model that does not hold.
