@@ -54,18 +54,23 @@ def rcwa_te(lam, theta, n_g, slices, cells=2000):
     return float(np.real(r)), float(np.real(t))
 
 
-def film_te(lam, theta, d):
-    """TE (s) R and T of a flat gold film of thickness d between air and glass."""
+def film(lam, theta, d, pol="s"):
+    """R and T of a flat gold film of thickness d between air and glass, for s (TE) or p
+    (TM): the Airy sum with the admittances `y = q` (s) or `q / n^2` (p, the magnetic
+    field's amplitude, continuous across each face), `q = n cos(theta)`, `r = (y_i - y_j) /
+    (y_i + y_j)`, `t = 2 y_i / (y_i + y_j)`, `T = Re(y_glass) |t|^2 / y_air` (Born & Wolf
+    §1.6.4)."""
     n = [1.0, GOLD[lam], GLASS]
     s = np.sin(np.radians(theta))
     q = [ni * np.sqrt(1 - (s / ni) ** 2 + 0j) for ni in n]
-    r01, r12 = (q[0] - q[1]) / (q[0] + q[1]), (q[1] - q[2]) / (q[1] + q[2])
-    t01, t12 = 2 * q[0] / (q[0] + q[1]), 2 * q[1] / (q[1] + q[2])
+    y = q if pol == "s" else [q[i] / n[i] ** 2 for i in range(3)]
+    r01, r12 = (y[0] - y[1]) / (y[0] + y[1]), (y[1] - y[2]) / (y[1] + y[2])
+    t01, t12 = 2 * y[0] / (y[0] + y[1]), 2 * y[1] / (y[1] + y[2])
     e = np.exp(2j * np.pi / lam * q[1] * d)
     den = 1 + r01 * r12 * e * e
     r = (r01 + r12 * e * e) / den
     t = t01 * t12 * e / den
-    return abs(r) ** 2, abs(t) ** 2 * q[2].real / q[0].real
+    return abs(r) ** 2, abs(t) ** 2 * y[2].real / y[0].real
 
 
 def main():
@@ -73,7 +78,7 @@ def main():
     worst = 0.0
     for lam in GOLD:
         for theta in (0.0, 30.0, 60.0):
-            r_loc, t_loc = np.mean([film_te(lam, theta, thickness(x)) for x in xs], axis=0)
+            r_loc, t_loc = np.mean([film(lam, theta, thickness(x)) for x in xs], axis=0)
             r_lo, t_lo = rcwa_te(lam, theta, 41, 20)
             r, t = rcwa_te(lam, theta, 81, 40)
             assert max(abs(r - r_lo), abs(t - t_lo)) < 5e-4, f"RCWA not converged: {lam} {theta}"
@@ -84,4 +89,5 @@ def main():
     print(f"local TMM against RCWA (TE), 1 degree: worst {worst:.1e}")
 
 
-main()
+if __name__ == "__main__":
+    main()

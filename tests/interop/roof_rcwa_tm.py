@@ -25,9 +25,8 @@ import sys
 
 import numpy as np
 
-GOLD = {450.0: 1.38 + 1.92j, 550.0: 0.43 + 2.455j, 650.0: 0.166 + 3.15j}
-GLASS = 1.5
-T0 = 25.0
+from roof_rcwa import GLASS, GOLD, T0, film
+
 TILT = float(sys.argv[1]) if len(sys.argv) > 1 else 1.0
 L = 20.0 / np.tan(np.radians(TILT))
 
@@ -37,21 +36,8 @@ def thickness(x):
 
 
 def film_tm(lam, theta, d):
-    """TM (p) R and T of a flat gold film of thickness d between air and glass, with the
-    magnetic field's amplitude (continuous across each face) and the admittances `y =
-    q / n^2`, `q = n cos(theta)` (Born & Wolf §1.6.4): `r = (y_i - y_j) / (y_i + y_j)`, `t =
-    2 y_i / (y_i + y_j)`, the Airy sum over the film, `T = Re(y_glass) |t|^2 / y_air`."""
-    n = [1.0, GOLD[lam], GLASS]
-    s = np.sin(np.radians(theta))
-    q = [ni * np.sqrt(1 - (s / ni) ** 2 + 0j) for ni in n]
-    y = [q[i] / n[i] ** 2 for i in range(3)]
-    r01, r12 = (y[0] - y[1]) / (y[0] + y[1]), (y[1] - y[2]) / (y[1] + y[2])
-    t01, t12 = 2 * y[0] / (y[0] + y[1]), 2 * y[1] / (y[1] + y[2])
-    e = np.exp(2j * np.pi / lam * q[1] * d)
-    den = 1 + r01 * r12 * e * e
-    r = (r01 + r12 * e * e) / den
-    t = t01 * t12 * e / den
-    return abs(r) ** 2, abs(t) ** 2 * y[2].real / y[0].real
+    """TM (p) R and T of the flat film at thickness d (roof_rcwa.film)."""
+    return film(lam, theta, d, "p")
 
 
 def rcwa_tm(lam, theta, nh, slices, formulation, cells=2048, flat=None):
