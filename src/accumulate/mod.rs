@@ -207,14 +207,17 @@ struct Pair {
     /// ([`directional_exponent`]).
     m2: f64,
     /// The pair's amplitudes carried from their exit points to their midpoint, where its
-    /// phase is taken ([`midpoint_terms`]), as an exponent over `k`, nm (zero for
+    /// phase is taken ([`pair_terms`]), as an exponent over `k`, nm (zero for
     /// homogeneous exits).
     grow_nm: f64,
 }
 
-/// What carrying a pair of exits `a`, `b` to their midpoint adds where at least one is an
-/// inhomogeneous wave (`N = N' + i N''`, `N' . N'' = 0` and `|N'|^2 - |N''|^2 = n0^2` in
-/// the lossless exit medium, `N'` along the exit's direction): `(phase_nm, grow_nm)`.
+/// What a pair of exits `a`, `b` of which at least one is an inhomogeneous wave (`N = N' +
+/// i N''`, `N' . N'' = 0` and `|N'|^2 - |N''|^2 = n0^2` in the lossless exit medium, `N'`
+/// along the exit's direction) needs beyond a homogeneous pair: the terms of carrying it
+/// to its midpoint, `(phase_nm, grow_nm)`, and its interference flux factor `f`.
+///
+/// **Midpoint.**
 ///
 /// A field `a exp(i k N . (x - x_a))` evaluated at the midpoint `x_c = (x_a + x_b) / 2`
 /// has its amplitude multiplied by `exp(-k N''_a . (x_c - x_a))`, so the product of the
@@ -227,23 +230,12 @@ struct Pair {
 /// waves (a wedge); at the exit points, as before, the amplitudes of a film whose faces
 /// are tilted were taken at different places: a gold film whose faces meet at 0.5 degree
 /// was 4.3e-3 off the local transfer-matrix film, with 1.7e-3 of the power per tree
-/// created at 60 degrees and 650 nm, and is 1.3e-3 off with none now (1.7e-3 with
-/// [`flux_factor`] too; tests/tilted_absorbers.rs). (Carrying every exit of a tree to one common point instead
-/// makes the amplitudes of partial waves that walked hundreds of nanometres grow without
-/// bound: 0.42 of the power created at 0.5 degree.)
-fn midpoint_terms(a: &crate::trace::Exit, b: &crate::trace::Exit, n0: f64) -> (f64, f64) {
-    if a.n_im == DVec3::ZERO && b.n_im == DVec3::ZERO {
-        return (0.0, 0.0);
-    }
-    let n_re = |x: &crate::trace::Exit| x.dir * (n0 * n0 + x.n_im.length_squared()).sqrt();
-    let wbar = (a.dir + b.dir).normalize();
-    let phase = -((n_re(a) + n_re(b)) * 0.5 - wbar * n0).dot(a.x - b.x);
-    let grow = -0.5 * (a.n_im - b.n_im).dot(b.x - a.x);
-    (phase, grow)
-}
-
-/// The interference flux factor of exits `a` and `b` (at least one inhomogeneous) through
-/// the exit plane: `f = (q_a + conj(q_b)) / (Re q_a + Re q_b)`, with `q = N . z_out` the
+/// created at 60 degrees and 650 nm, and is 1.3e-3 off with none now (1.7e-3 with the flux
+/// factor too; tests/tilted_absorbers.rs). (Carrying every exit of a tree to one common
+/// point instead makes the amplitudes of partial waves that walked hundreds of nanometres
+/// grow without bound: 0.42 of the power created at 0.5 degree.)
+///
+/// **Flux factor**, through the exit plane: `f = (q_a + conj(q_b)) / (Re q_a + Re q_b)`, with `q = N . z_out` the
 /// complex normal index of each exit (`z_out` the exit plane's normal on the side the
 /// light leaves by; `N' = |N'| d`, `|N'|^2 = n0^2 + |N''|^2` in the lossless exit medium).
 ///
@@ -264,17 +256,23 @@ fn midpoint_terms(a: &crate::trace::Exit, b: &crate::trace::Exit, n0: f64) -> (f
 /// faces. Measured on a gold film whose faces meet at 1 degree, against RCWA for TM (PyPI
 /// nannos, Li's factorisation, 121 orders): R at 60 degrees and 650 nm 0.334 against
 /// 0.325, was 0.358; at 550 nm 0.228 against 0.227, was 0.239 (docs/physics.md).
-fn flux_factor(a: &crate::trace::Exit, b: &crate::trace::Exit, n0: f64) -> C64 {
+///
+/// Returns `(phase_nm, grow_nm, f)`; a homogeneous pair `(0, 0, 1)`.
+fn pair_terms(a: &crate::trace::Exit, b: &crate::trace::Exit, n0: f64) -> (f64, f64, C64) {
     if a.n_im == DVec3::ZERO && b.n_im == DVec3::ZERO {
-        return C64::ONE;
+        return (0.0, 0.0, C64::ONE);
     }
+    let n_re = |x: &crate::trace::Exit| x.dir * (n0 * n0 + x.n_im.length_squared()).sqrt();
+    let (na, nb) = (n_re(a), n_re(b));
+    let wbar = (a.dir + b.dir).normalize();
+    let phase = -((na + nb) * 0.5 - wbar * n0).dot(a.x - b.x);
+    let grow = -0.5 * (a.n_im - b.n_im).dot(b.x - a.x);
     let z = if a.up { DVec3::Z } else { -DVec3::Z };
-    let q = |x: &crate::trace::Exit| {
-        let n_re = (n0 * n0 + x.n_im.length_squared()).sqrt();
-        C64::new(x.dir.dot(z) * n_re, x.n_im.dot(z))
-    };
-    let (qa, qb) = (q(a), q(b));
-    (qa + qb.conj()) / (qa.re + qb.re)
+    let (qa, qb) = (
+        C64::new(na.dot(z), a.n_im.dot(z)),
+        C64::new(nb.dot(z), b.n_im.dot(z)),
+    );
+    (phase, grow, (qa + qb.conj()) / (qa.re + qb.re))
 }
 
 /// [`Pair::m2`] for exits `a` and `b` about their mean direction `wbar`: `|(N''_a +
@@ -385,9 +383,10 @@ impl Estimator {
                 0.0
             };
             let n0 = if ex[j].up { self.n_up } else { self.n_down };
+            let (phase_nm, grow_nm, flux) = pair_terms(&ex[j], &ex[l], n0);
             let h = 0.5
                 * (hermitian(&ex[j].e[0], &ex[l].e[0]) + hermitian(&ex[j].e[1], &ex[l].e[1]))
-                * flux_factor(&ex[j], &ex[l], n0);
+                * flux;
             // Pairs that cannot contribute at any wavelength are skipped: |c| <= 2|h| K,
             // and the directional overlap is largest at the longest wavelength.
             let bound = 2.0 * h.norm() * k_pos;
@@ -398,9 +397,8 @@ impl Estimator {
                     (-dw2 / two_theta_max2).exp()
                 }
             };
-            // Carried to their midpoint the amplitudes may grow ([`midpoint_terms`]): such
+            // Carried to their midpoint the amplitudes may grow ([`pair_terms`]): such
             // a pair is kept.
-            let (phase_nm, grow_nm) = midpoint_terms(&ex[j], &ex[l], n0);
             if grow_nm <= 0.0
                 && (bound < NEGLIGIBLE_CROSS
                     || (!self.reference && dw2 > 0.0 && bound * directional() < NEGLIGIBLE_CROSS))
@@ -600,10 +598,8 @@ impl Estimator {
                 let wbar = (a.dir + b.dir).normalize();
                 let m2 = inhomogeneity(a, b, wbar);
                 let n0 = if a.up { self.n_up } else { self.n_down };
-                let h = 0.5
-                    * (hermitian(&a.e[0], &b.e[0]) + hermitian(&a.e[1], &b.e[1]))
-                    * flux_factor(a, b, n0);
-                let (phase_nm, grow_nm) = midpoint_terms(a, b, n0);
+                let (phase_nm, grow_nm, flux) = pair_terms(a, b, n0);
+                let h = 0.5 * (hermitian(&a.e[0], &b.e[0]) + hermitian(&a.e[1], &b.e[1])) * flux;
                 if (2.0 * h.norm() < NEGLIGIBLE_CROSS && grow_nm <= 0.0) || m2 == 0.0 {
                     continue;
                 }
@@ -788,7 +784,7 @@ impl Estimator {
             if p.absorbing {
                 a -= k * (p.im[pr.j as usize] + p.im[pr.l as usize]);
             }
-            // The amplitudes carried to the pair's midpoint ([`midpoint_terms`]).
+            // The amplitudes carried to the pair's midpoint ([`pair_terms`]).
             a + k * pr.grow_nm
         }));
         phase::exp_batch(arg, expv);
@@ -858,7 +854,7 @@ mod tests {
     /// Poynting flux by brute force, `Re[(E x conj(H))_z] / 2` with `E = sum A_j y` and
     /// `H = sum N_j x E_j` (Maxwell's curl equation for a plane wave, in units of the
     /// vacuum impedance), normalised by a single wave's, against the estimator's pair sum
-    /// of carried amplitudes (`A sqrt(Re q)`) with [`flux_factor`]. Without the factor the
+    /// of carried amplitudes (`A sqrt(Re q)`) with [`pair_terms`]. Without the factor the
     /// sum is off at first order in `|N''|`.
     #[test]
     fn the_pair_flux_factor_gives_the_poynting_flux_of_inhomogeneous_waves() {
@@ -916,7 +912,7 @@ mod tests {
         let brute = flux(&[0, 1]) / unit;
         let h = hermitian(&a.e[0], &b.e[0]);
         let pw = field_power(&a.e[0]) + field_power(&b.e[0]);
-        let with = pw + 2.0 * (h * flux_factor(&a, &b, 1.0)).re;
+        let with = pw + 2.0 * (h * pair_terms(&a, &b, 1.0).2).re;
         let without = pw + 2.0 * h.re;
         assert!((with - brute).abs() < 1e-4 * pw, "{with} against {brute}");
         assert!(
@@ -927,7 +923,7 @@ mod tests {
         let (mut c, mut d) = (exit(0), exit(1));
         c.n_im = DVec3::ZERO;
         d.n_im = DVec3::ZERO;
-        assert_eq!(flux_factor(&c, &d, 1.0), C64::ONE);
+        assert_eq!(pair_terms(&c, &d, 1.0).2, C64::ONE);
     }
 
     /// Homogeneous exits: the beamlet's Gaussian overlap `exp(-|dw|^2 / (2 theta_w^2))`,

@@ -393,7 +393,15 @@ pub fn split_wave(d: DVec3, n_re: DVec3, n_im: DVec3, nf: DVec3, n1: C64, n2: C6
 /// Whether `|r|^2 + |t|^2` exceeds 1 in either polarisation: the event [`limit_excess`]
 /// would scale at a weight below 1.
 pub fn exceeds_unity(c: &Coefficients) -> bool {
-    c.r_s.norm_sqr() + c.t_s.norm_sqr() > 1.0 || c.r_p.norm_sqr() + c.t_p.norm_sqr() > 1.0
+    power_sums(c).iter().any(|&sum| sum > 1.0)
+}
+
+/// `|r|^2 + |t|^2` of each polarisation, `[s, p]`.
+fn power_sums(c: &Coefficients) -> [f64; 2] {
+    [
+        c.r_s.norm_sqr() + c.t_s.norm_sqr(),
+        c.r_p.norm_sqr() + c.t_p.norm_sqr(),
+    ]
 }
 
 /// Limits the energy of an event whose incident wave is inhomogeneous along the facet
@@ -406,10 +414,7 @@ pub fn exceeds_unity(c: &Coefficients) -> bool {
 /// scaling is continuous in `w`, and the tracer's `w` is continuous in the facet's tilt
 /// (`trace::recombination_weight`). Returns whether anything was scaled.
 pub fn limit_excess(c: &mut Coefficients, w: f64) -> bool {
-    let excess = [
-        c.r_s.norm_sqr() + c.t_s.norm_sqr(),
-        c.r_p.norm_sqr() + c.t_p.norm_sqr(),
-    ];
+    let excess = power_sums(c);
     let mut scaled = false;
     for (k, sum) in excess.into_iter().enumerate() {
         if sum > 1.0 && w < 1.0 {
