@@ -2,7 +2,7 @@
 //! averaged over the local thickness (written here, independent of the tracer).
 //!
 //! A 20 nm-class gold film on glass: flat top, back face a periodic roof tilted by
-//! `alpha`, so the local thickness is `t(x) = T0 - tan(alpha) |x - L/2|`. The film is far
+//! `alpha`, so the local thickness is `t(x) = t_max - tan(alpha) |x - L/2|` (`Roof`). The film is far
 //! thinner than the wavelength, so its local reflectance is the flat film's at the local
 //! thickness (the tangent-plane or local-film model): the ray series of one point recombines
 //! within the beamlet, and the reflectance averaged over the tile is the average of
@@ -25,65 +25,84 @@ const GOLD: [(f64, f64, f64); 3] = [
     (650.0, 0.166, 3.15),
 ];
 const GLASS: f64 = 1.5;
-/// Thickness at the roof's ridge line, nm.
-const T0: f64 = 25.0;
-
-/// The tile side for a tilt: 20 um, or less so the thickness stays within [T0 - 10, T0].
-fn tile_for(tilt_deg: f64) -> f64 {
-    (20.0 / tilt_deg.to_radians().tan()).min(20_000.0)
+/// A gold roof on glass: flat top at z = 0, back face tilted by `tilt_deg` either way of
+/// the ridge line, where the film is `t_max` nm thick, down to `t_max - rise` nm at the
+/// valleys, over a square tile of side `2 rise / tan(tilt)` (at most 20 um).
+#[derive(Clone, Copy, Debug)]
+struct Roof {
+    tilt_deg: f64,
+    t_max: f64,
+    rise: f64,
 }
 
-/// Writes the film: `top.obj` (z = 0) and `back.obj` (the roof), and the sample.
-fn film(tilt_deg: f64) -> goniospec::sample::Sample {
-    let l = tile_for(tilt_deg);
-    let d = scratch("tilted-film");
-    let rise = tilt_deg.to_radians().tan() * l / 2.0;
-    std::fs::write(
-        d.join("top.obj"),
-        format!("v 0 0 0\nv {l} 0 0\nv {l} {l} 0\nv 0 {l} 0\nf 1 2 3\nf 1 3 4\n"),
-    )
-    .unwrap();
-    let (zl, zc) = (-T0 + rise, -T0);
-    let h = l / 2.0;
-    std::fs::write(
-        d.join("back.obj"),
-        format!(
-            "v 0 0 {zl}\nv {h} 0 {zc}\nv {l} 0 {zl}\nv 0 {l} {zl}\nv {h} {l} {zc}\nv {l} {l} {zl}\nf 1 2 5\nf 1 5 4\nf 2 3 6\nf 2 6 5\n"
-        ),
-    )
-    .unwrap();
-    let table: String = GOLD
-        .iter()
-        .map(|(w, n, k)| format!("{w},{n},{k}\n"))
-        .collect();
-    std::fs::write(d.join("gold.csv"), format!("lambda_nm,n,k\n{table}")).unwrap();
-    sample_in(
-        &d,
-        &format!(
-            "[sample]\nname = \"gold roof {tilt_deg}\"\nunit = \"nm\"\ntile = [{l:?}, {l:?}]\n[media.air]\nn = 1.0\n[media.gold]\ntable = \"gold.csv\"\n[media.glass]\nn = {GLASS:?}\n[[interface]]\nmesh = \"top.obj\"\nfront = \"air\"\nback = \"gold\"\n[[interface]]\nmesh = \"back.obj\"\nfront = \"gold\"\nback = \"glass\"\n"
-        ),
-    )
-}
-
-/// The reference: unpolarised (R, T) of the flat film at each local thickness, averaged
-/// over the tile (midpoint rule on 2,000 points; `R_TMM(t)` is smooth in t).
-fn local_tmm(tilt_deg: f64, lambda: f64, n: f64, k: f64, theta_deg: f64) -> (f64, f64) {
-    let l = tile_for(tilt_deg);
-    let m = 2000;
-    let (mut r, mut t) = (0.0, 0.0);
-    for i in 0..m {
-        let x = (i as f64 + 0.5) / m as f64 * l;
-        let thick = T0 - tilt_deg.to_radians().tan() * (x - l / 2.0).abs();
-        let (ri, ti) = tmm_ref(
-            &[C::new(1.0, 0.0), C::new(n, k), C::new(GLASS, 0.0)],
-            &[thick],
-            lambda,
-            theta_deg.to_radians(),
-        );
-        r += ri;
-        t += ti;
+impl Roof {
+    /// The film of issue 25: 15 to 25 nm thick (facets of 573 nm at 1 degree).
+    fn thin(tilt_deg: f64) -> Roof {
+        Roof {
+            tilt_deg,
+            t_max: 25.0,
+            rise: 10.0,
+        }
     }
-    (r / m as f64, t / m as f64)
+
+    fn tile(&self) -> f64 {
+        (2.0 * self.rise / self.tilt_deg.to_radians().tan()).min(20_000.0)
+    }
+
+    fn thickness(&self, x: f64) -> f64 {
+        self.t_max - self.tilt_deg.to_radians().tan() * (x - self.tile() / 2.0).abs()
+    }
+
+    /// Writes the film: `top.obj` (z = 0) and `back.obj` (the roof), and the sample.
+    fn sample(&self) -> goniospec::sample::Sample {
+        let l = self.tile();
+        let d = scratch("tilted-film");
+        std::fs::write(
+            d.join("top.obj"),
+            format!("v 0 0 0\nv {l} 0 0\nv {l} {l} 0\nv 0 {l} 0\nf 1 2 3\nf 1 3 4\n"),
+        )
+        .unwrap();
+        let (zl, zc) = (-self.thickness(0.0), -self.t_max);
+        let h = l / 2.0;
+        std::fs::write(
+            d.join("back.obj"),
+            format!(
+                "v 0 0 {zl}\nv {h} 0 {zc}\nv {l} 0 {zl}\nv 0 {l} {zl}\nv {h} {l} {zc}\nv {l} {l} {zl}\nf 1 2 5\nf 1 5 4\nf 2 3 6\nf 2 6 5\n"
+            ),
+        )
+        .unwrap();
+        let table: String = GOLD
+            .iter()
+            .map(|(w, n, k)| format!("{w},{n},{k}\n"))
+            .collect();
+        std::fs::write(d.join("gold.csv"), format!("lambda_nm,n,k\n{table}")).unwrap();
+        sample_in(
+            &d,
+            &format!(
+                "[sample]\nname = \"gold roof {}\"\nunit = \"nm\"\ntile = [{l:?}, {l:?}]\n[media.air]\nn = 1.0\n[media.gold]\ntable = \"gold.csv\"\n[media.glass]\nn = {GLASS:?}\n[[interface]]\nmesh = \"top.obj\"\nfront = \"air\"\nback = \"gold\"\n[[interface]]\nmesh = \"back.obj\"\nfront = \"gold\"\nback = \"glass\"\n",
+                self.tilt_deg
+            ),
+        )
+    }
+
+    /// The reference: unpolarised (R, T) of the flat film at each local thickness,
+    /// averaged over the tile (midpoint rule on 2,000 points; `R_TMM(t)` is smooth in t).
+    fn local_tmm(&self, lambda: f64, n: f64, k: f64, theta_deg: f64) -> (f64, f64) {
+        let (l, m) = (self.tile(), 2000);
+        let (mut r, mut t) = (0.0, 0.0);
+        for i in 0..m {
+            let x = (i as f64 + 0.5) / m as f64 * l;
+            let (ri, ti) = tmm_ref(
+                &[C::new(1.0, 0.0), C::new(n, k), C::new(GLASS, 0.0)],
+                &[self.thickness(x)],
+                lambda,
+                theta_deg.to_radians(),
+            );
+            r += ri;
+            t += ti;
+        }
+        (r / m as f64, t / m as f64)
+    }
 }
 
 /// (R, T) of the film at each tilt, incident angle and wavelength: `[tilt][theta][lambda]`.
@@ -92,7 +111,7 @@ fn simulate_films(tilts: &[f64], thetas: &[f64]) -> Vec<Vec<Vec<(f64, f64)>>> {
     tilts
         .iter()
         .map(|&tilt| {
-            let s = film(tilt);
+            let s = Roof::thin(tilt).sample();
             let acc = run(
                 &s,
                 &config(thetas, Wavelengths::Monochromatic(lambdas.clone()), 256),
@@ -107,47 +126,91 @@ fn simulate_films(tilts: &[f64], thetas: &[f64]) -> Vec<Vec<Vec<(f64, f64)>>> {
 /// Where the run is not exact, it says so: the power that met facets tilted against the
 /// planes of constant amplitude of the wave inside the absorber (`SimStats::limited`,
 /// `trace::event_weights`) above `LIMITED_WARN`, or the power its series created above
-/// `CREATED_WARN` (what `simulate` warns about), or, where the film's balance comes out
-/// impossible (R + T above 1 beyond the run's tolerance), a refusal. Up to 0.2 degree
-/// (2.9e-4 off the local TMM, 1.4e-6 limited) none of them happens; at 1 degree the run
-/// warns, and its error against the local TMM (1.1e-2) is within the bound the warnings
-/// state, 3 times the limited and created power together (1.4e-3 and 6.9e-3). (At 0.5
-/// degree, 1.7e-3 off, the limited power is 9.5e-5, at the warning's threshold: not
-/// asserted either way.)
+/// `CREATED_WARN` (what `simulate` warns about). Over gold roofs with faces meeting at
+/// 1e-4 to 2 degrees and facets of 0.57 to 9.2 um, at 0/30/60 degrees and 450-650 nm:
+/// where the run is silent, R and T are within 2e-3 (issue 25's tolerance) of the local
+/// TMM; where it warns, within `LIMITED_FILM_FACTOR` times the limited and created power
+/// together, the bound the warning states. Up to 0.2 degree on the 15-25 nm roof the run
+/// is silent (2.9e-4 off, 1.4e-6 limited); at 1 degree it warns (1.0e-2 off, 1.4e-3
+/// limited, 7.3e-3 created). Measured on the longer roofs: 1 degree over 1.1 um facets
+/// 5.8e-3 off with 2.4e-4 limited, the ratio 24; over 4.6 um 3.1e-3 with 6.5e-5, 48; 2
+/// degrees over 4.6 um (40-200 nm) 3.1e-3 with 6.0e-5, 52; 1 degree over 9.2 um (20-180
+/// nm) silent, 1.8e-3 off with 3.2e-5.
 #[test]
-fn the_run_reports_the_power_it_could_not_treat_exactly() {
-    use goniospec::simulate::{CREATED_WARN, LIMITED_WARN, SimError, simulate};
+fn the_run_is_within_2e_3_of_the_local_tmm_or_warns_with_a_bound_that_holds() {
+    use goniospec::simulate::{CREATED_WARN, LIMITED_FILM_FACTOR, LIMITED_WARN, simulate};
     let lambdas: Vec<f64> = GOLD.iter().map(|g| g.0).collect();
     let thetas = [0.0, 30.0, 60.0];
-    for (tilt, inexact) in [(1e-4, false), (1e-2, false), (0.2, false), (1.0, true)] {
-        let s = film(tilt);
+    let roof = |tilt_deg, t_max, rise| Roof {
+        tilt_deg,
+        t_max,
+        rise,
+    };
+    // The roof, and whether the run must warn (`None`: either, with the bound).
+    let cases = [
+        (Roof::thin(1e-4), Some(false)),
+        (Roof::thin(1e-2), Some(false)),
+        (Roof::thin(0.2), Some(false)),
+        (Roof::thin(0.5), None),
+        (Roof::thin(1.0), Some(true)),
+        (roof(1.0, 40.0, 20.0), Some(true)),
+        (roof(1.0, 100.0, 80.0), None),
+        (roof(1.0, 180.0, 160.0), None),
+        (roof(2.0, 200.0, 160.0), None),
+        (roof(0.7, 40.0, 20.0), None),
+    ];
+    for (roof, must_warn) in cases {
+        let s = roof.sample();
         let cfg = config(&thetas, Wavelengths::Monochromatic(lambdas.clone()), 256);
-        let said = match simulate(&s, &cfg, &|_| {}) {
-            Ok((acc, stats)) => {
-                let (limited, created) = (stats.worst_limited(&acc).0, stats.worst_created(&acc).0);
-                let warned = limited > LIMITED_WARN || created > CREATED_WARN;
-                if warned {
-                    for (i, &th) in thetas.iter().enumerate() {
-                        for (j, &(lambda, n, k)) in GOLD.iter().enumerate() {
-                            let (r, t) = totals(&acc, i, j);
-                            let (r_ref, t_ref) = local_tmm(tilt, lambda, n, k, th);
-                            let err = (r - r_ref).abs().max((t - t_ref).abs());
-                            assert!(
-                                err <= 3.0 * (limited + created),
-                                "tilt {tilt} deg, theta {th}, {lambda} nm: {err} off, beyond 3 x ({limited} + {created})"
-                            );
-                        }
-                    }
-                }
-                warned
-            }
-            Err(SimError::Unphysical(m)) => {
-                assert!(m.contains("energy created"), "tilt {tilt} deg: {m}");
-                true
-            }
-            Err(e) => panic!("tilt {tilt} deg: {e}"),
+        let (acc, stats) = simulate(&s, &cfg, &|_| {}).unwrap_or_else(|e| panic!("{roof:?}: {e}"));
+        let (limited, created) = (stats.worst_limited(&acc).0, stats.worst_created(&acc).0);
+        let warned = limited > LIMITED_WARN || created > CREATED_WARN;
+        let bound = if warned {
+            LIMITED_FILM_FACTOR * (limited + created)
+        } else {
+            2e-3
         };
-        assert_eq!(said, inexact, "tilt {tilt} deg: warned or refused: {said}");
+        let mut worst = 0.0f64;
+        for (i, &th) in thetas.iter().enumerate() {
+            for (j, &(lambda, n, k)) in GOLD.iter().enumerate() {
+                let (r, t) = totals(&acc, i, j);
+                let (r_ref, t_ref) = roof.local_tmm(lambda, n, k, th);
+                worst = worst.max((r - r_ref).abs().max((t - t_ref).abs()));
+            }
+        }
+        eprintln!(
+            "{roof:?}: {worst:.2e} off the local TMM; limited {limited:.1e}, created {created:.1e}, warned {warned}"
+        );
+        assert!(
+            worst <= bound,
+            "{roof:?}: {worst} off the local TMM, beyond {bound} (warned: {warned})"
+        );
+        if let Some(w) = must_warn {
+            assert_eq!(warned, w, "{roof:?}: warned {warned}");
+        }
+    }
+}
+
+/// Where a film's series create a tenth of the power, the run is refused and says why: a
+/// 5-15 nm gold roof whose faces meet at 3 degrees over 190 nm facets, lit at 60 degrees
+/// (1.3 of the power per tree created at 550 nm; features thinner than the wave's decay
+/// length seen from its direction, where no ray model holds).
+#[test]
+fn a_sub_skin_depth_wedge_is_refused_and_says_why() {
+    use goniospec::simulate::{SimError, simulate};
+    let roof = Roof {
+        tilt_deg: 3.0,
+        t_max: 15.0,
+        rise: 10.0,
+    };
+    let lambdas: Vec<f64> = GOLD.iter().map(|g| g.0).collect();
+    let cfg = config(&[60.0], Wavelengths::Monochromatic(lambdas), 256);
+    match simulate(&roof.sample(), &cfg, &|_| {}) {
+        Err(SimError::Unphysical(m)) => assert!(
+            m.contains("came from ray series that created energy"),
+            "the refusal does not name its cause: {m}"
+        ),
+        other => panic!("expected a refusal, got {:?}", other.map(|_| ())),
     }
 }
 
@@ -156,8 +219,8 @@ fn the_run_reports_the_power_it_could_not_treat_exactly() {
 /// (plus the same 2e-3). (Issue 25 asks this up to 1 degree; RCWA confirms the reference
 /// there, within 2.3e-3 for TE (tests/interop/roof_rcwa.py), and for TM within 3e-3
 /// except T at 30 degrees and 650 nm, 5e-3 to 8e-3 (tests/interop/roof_rcwa_tm.py).
-/// Measured worst errors: 2.9e-4 at 0.2 degree, 1.7e-3 at 0.5 and 1.1e-2 at 1, where the
-/// run warns: the previous test. Before the event weights took the facet that made the
+/// Measured worst errors: 2.9e-4 at 0.2 degree, 1.5e-3 at 0.5 and 1.0e-2 at 1, where the
+/// run warns (the test before). Before the event weights took the facet that made the
 /// wave (`trace::event_weights`) and the estimator took inhomogeneous pairs at their
 /// midpoint with their interference flux (`accumulate`), 1.0e-3, 4.3e-3 and 2.5e-2.)
 #[test]
@@ -171,7 +234,7 @@ fn a_gold_film_with_a_tilted_back_face_matches_the_local_tmm_up_to_half_a_degree
         for (i, &th) in thetas.iter().enumerate() {
             let mut row = Vec::new();
             for (j, &(lambda, n, k)) in GOLD.iter().enumerate() {
-                let (r_ref, t_ref) = local_tmm(tilt, lambda, n, k, th);
+                let (r_ref, t_ref) = Roof::thin(tilt).local_tmm(lambda, n, k, th);
                 let (r, t) = got[a][i][j];
                 eprintln!(
                     "tilt {tilt:e} deg, theta {th}, {lambda} nm: R {r:.5} (local TMM {r_ref:.5}), T {t:.5} ({t_ref:.5})"
@@ -568,11 +631,6 @@ fn v_groove_run(s: &goniospec::sample::Sample, theta: f64) -> (f64, f64, f64, f6
     (r, se, stats.created[0] / trees, stats.limited[0] / trees)
 }
 
-/// What the V-groove warnings state: where the run reports more than `CREATED_WARN`
-/// created or `LIMITED_WARN` limited power, R may be off by up to 3 times their sum
-/// (src/cli/simulate.rs says so).
-const V_GROOVE_WARNED_FACTOR: f64 = 3.0;
-
 /// Where no ray model is exact, the run says so. Gold V-grooves (60 degrees, 2 um) lit
 /// across the grooves: light that enters the gold within about 100 nm of a ridge tip, on
 /// the side where its skin-depth wave runs towards the tip, crosses to the other wall
@@ -580,14 +638,17 @@ const V_GROOVE_WARNED_FACTOR: f64 = 3.0;
 /// nm of a tip at 0 degrees). Against geometric optics without that light (above), R
 /// agrees within the noise and 1e-3 where the run reports no more than `CREATED_WARN`
 /// created and `LIMITED_WARN` limited power; otherwise the run warns, and R is within
-/// `V_GROOVE_WARNED_FACTOR` times their sum. At 89 degrees, where a quarter of the power
-/// comes from such series, the run is refused and says why.
+/// `LIMITED_EDGE_FACTOR` times their sum, the bound the warning states: at 89 degrees
+/// too, where 0.17 of the power per tree is limited and R is 0.085 above geometric optics.
+/// (Before the exits of inhomogeneous TM waves were written on the power basis,
+/// `fresnel::on_power_basis`, the run created a quarter of the power there and was
+/// refused.)
 #[test]
 fn gold_v_grooves_match_geometric_optics_or_warn() {
-    use goniospec::simulate::{CREATED_WARN, LIMITED_WARN, SimError, simulate};
+    use goniospec::simulate::{CREATED_WARN, LIMITED_EDGE_FACTOR, LIMITED_WARN};
     let (n, k) = (0.43, 2.455);
     let s = gold_v_grooves(n, k);
-    for th in [0.0, 60.0, 80.0, 85.0] {
+    for th in [0.0, 60.0, 80.0, 85.0, 89.0] {
         let (r, se, created, limited) = v_groove_run(&s, th);
         let r_geo = v_groove_geometric(th, C::new(n, k), 200_000);
         let err = (r - r_geo).abs();
@@ -602,18 +663,10 @@ fn gold_v_grooves_match_geometric_optics_or_warn() {
             );
         } else {
             assert!(
-                err <= noise + V_GROOVE_WARNED_FACTOR * (created + limited),
+                err <= noise + LIMITED_EDGE_FACTOR * (created + limited),
                 "theta {th}: off by {err:.2e}, more than the warnings state"
             );
         }
-    }
-    let cfg = config(&[89.0], Wavelengths::Monochromatic(vec![550.0]), 20_000);
-    match simulate(&s, &cfg, &|_| {}) {
-        Err(SimError::Unphysical(m)) => assert!(
-            m.contains("came from ray series that created energy"),
-            "89 deg: the refusal does not name its cause: {m}"
-        ),
-        other => panic!("89 deg: expected a refusal, got {:?}", other.map(|_| ())),
     }
 }
 
@@ -675,13 +728,13 @@ fn v_groove_traced_by_polarisation(
 /// (tests/interop/vgroove_rcwa.py, run by `make interop`, which sets
 /// GONIOSPEC_VGROOVE_JSON). TM is not compared: a staircase of a metal profile does not
 /// converge for TM in RCWA. The rays' TE reflectance agrees within the reference's
-/// uncertainty plus 2e-3, or the run warns and is within `V_GROOVE_WARNED_FACTOR` times
+/// uncertainty plus 2e-3, or the run warns and is within `LIMITED_EDGE_FACTOR` times
 /// the created and limited power it reports. (At grazing light the rigorous R is above
 /// the rays': the ridge tops diffract, which no ray model has.)
 #[test]
 #[ignore = "needs the RCWA reference: make interop"]
 fn gold_v_grooves_against_rigorous_te_or_warn() {
-    use goniospec::simulate::{CREATED_WARN, LIMITED_WARN};
+    use goniospec::simulate::{CREATED_WARN, LIMITED_EDGE_FACTOR, LIMITED_WARN};
     let path =
         std::env::var("GONIOSPEC_VGROOVE_JSON").expect("GONIOSPEC_VGROOVE_JSON: run make interop");
     let refs: serde_json::Value =
@@ -711,7 +764,7 @@ fn gold_v_grooves_against_rigorous_te_or_warn() {
             assert!(err <= tol, "theta {th}: off by {err:.2e} without a warning");
         } else {
             assert!(
-                err <= tol + V_GROOVE_WARNED_FACTOR * (created + limited),
+                err <= tol + LIMITED_EDGE_FACTOR * (created + limited),
                 "theta {th}: off by {err:.2e}, more than the warnings state"
             );
         }

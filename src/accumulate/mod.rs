@@ -230,10 +230,11 @@ struct Pair {
 /// waves (a wedge); at the exit points, as before, the amplitudes of a film whose faces
 /// are tilted were taken at different places: a gold film whose faces meet at 0.5 degree
 /// was 4.3e-3 off the local transfer-matrix film, with 1.7e-3 of the power per tree
-/// created at 60 degrees and 650 nm, and is 1.3e-3 off with none now (1.7e-3 with the flux
-/// factor too; tests/tilted_absorbers.rs). (Carrying every exit of a tree to one common
-/// point instead makes the amplitudes of partial waves that walked hundreds of nanometres
-/// grow without bound: 0.42 of the power created at 0.5 degree.)
+/// created at 60 degrees and 650 nm, and was 1.3e-3 off with none (1.7e-3 with the flux
+/// factor too, 1.5e-3 with the exits on the power basis; tests/tilted_absorbers.rs).
+/// (Carrying every exit of a tree to one common point instead makes the amplitudes of
+/// partial waves that walked hundreds of nanometres grow without bound: 0.42 of the power
+/// created at 0.5 degree.)
 ///
 /// **Flux factor**, through the exit plane: `f = (q_a + conj(q_b)) / (Re q_a + Re q_b)`, with `q = N . z_out` the
 /// complex normal index of each exit (`z_out` the exit plane's normal on the side the
@@ -850,15 +851,18 @@ mod tests {
     }
 
     /// Two inhomogeneous plane waves leaving into air (`N' . N'' = 0`, `|N'|^2 - |N''|^2 =
-    /// 1`, directions 30 and 30.5 degrees, `|N''|` 0.1 and 0.2), s-polarised: their normal
-    /// Poynting flux by brute force, `Re[(E x conj(H))_z] / 2` with `E = sum A_j y` and
-    /// `H = sum N_j x E_j` (Maxwell's curl equation for a plane wave, in units of the
-    /// vacuum impedance), normalised by a single wave's, against the estimator's pair sum
-    /// of carried amplitudes (`A sqrt(Re q)`) with [`pair_terms`]. Without the factor the
-    /// sum is off at first order in `|N''|`.
+    /// 1`, directions 30 and 30.5 degrees, `|N''|` 0.1 and 0.2, both in the x-z plane):
+    /// their normal Poynting flux by brute force, `Re[(E x conj(H))_z] / 2` with `E = sum
+    /// E_j` and `H = sum N_j x E_j` (Maxwell's curl equation for a plane wave, in units of
+    /// the vacuum impedance), normalised by a single wave's, against the estimator's pair
+    /// sum of the exits' carried fields with [`pair_terms`]. s-polarised, `E_j = A_j y`;
+    /// p-polarised, `E_j = A_j (y x N_j)` (transverse: `E . N = 0`), whose complex vector's
+    /// `|E|^2` is `|A|^2 (|N'|^2 + |N''|^2)` while it carries `|A|^2 Re(q)`: the tracer
+    /// writes such exits on the power basis (`fresnel::on_power_basis`). Without the flux
+    /// factor, or for p without the power basis, the sum is off by more than 1e-2.
     #[test]
     fn the_pair_flux_factor_gives_the_poynting_flux_of_inhomogeneous_waves() {
-        use crate::optics::fresnel::Field;
+        use crate::optics::fresnel::{Field, on_power_basis};
         let wave = |theta_deg: f64, g: f64| {
             let t = theta_deg.to_radians();
             let d = DVec3::new(t.sin(), 0.0, t.cos());
@@ -877,52 +881,100 @@ mod tests {
         let nvec = |(_, re, im): (DVec3, DVec3, DVec3)| -> [C64; 3] {
             std::array::from_fn(|i| C64::new(re[i], im[i]))
         };
-        let flux = |which: &[usize]| {
-            let (mut e, mut h) = ([C64::ZERO; 3], [C64::ZERO; 3]);
-            for &j in which {
-                let ej = [C64::ZERO, amps[j], C64::ZERO];
-                let hj = cross(nvec(waves[j]), ej);
-                for i in 0..3 {
-                    e[i] += ej[i];
-                    h[i] += hj[i];
+        let y = [C64::ZERO, C64::ONE, C64::ZERO];
+        for p_polarised in [false, true] {
+            let field = |j: usize| -> [C64; 3] {
+                let unit = if p_polarised {
+                    cross(y, nvec(waves[j]))
+                } else {
+                    y
+                };
+                unit.map(|c| c * amps[j])
+            };
+            let flux = |which: &[usize]| {
+                let (mut e, mut h) = ([C64::ZERO; 3], [C64::ZERO; 3]);
+                for &j in which {
+                    let ej = field(j);
+                    let hj = cross(nvec(waves[j]), ej);
+                    for i in 0..3 {
+                        e[i] += ej[i];
+                        h[i] += hj[i];
+                    }
                 }
+                let hc = h.map(|x| x.conj());
+                0.5 * cross(e, hc)[2].re
+            };
+            // Each exit as the tracer leaves it: the field times `sqrt(Re q)`, then on the
+            // power basis (or not).
+            let exit = |j: usize, basis: bool| {
+                let (d, re, im) = waves[j];
+                let raw: Field = field(j).map(|c| c * re.z.sqrt());
+                let e = if basis {
+                    on_power_basis(&raw, re, im, 1.0)
+                } else {
+                    raw
+                };
+                crate::trace::Exit {
+                    e: [e, e],
+                    opl: C64::ZERO,
+                    dir: d,
+                    n_im: im,
+                    x: DVec3::ZERO,
+                    up: true,
+                    group: 0,
+                    tube: 1.0,
+                    path: 0,
+                }
+            };
+            // A single wave's flux per unit `|A|^2 Re(q)` (the common factor, 1/2).
+            let unit = flux(&[0]) / (amps[0].norm_sqr() * waves[0].1.z);
+            let brute = flux(&[0, 1]) / unit;
+            let estimate = |basis: bool, with_factor: bool| {
+                let (a, b) = (exit(0, basis), exit(1, basis));
+                let h = hermitian(&a.e[0], &b.e[0]);
+                let f = if with_factor {
+                    pair_terms(&a, &b, 1.0).2
+                } else {
+                    C64::ONE
+                };
+                field_power(&a.e[0]) + field_power(&b.e[0]) + 2.0 * (h * f).re
+            };
+            let with = estimate(true, true);
+            assert!(
+                (with - brute).abs() < 1e-4 * brute,
+                "p {p_polarised}: {with} against {brute}"
+            );
+            let without = estimate(true, false);
+            assert!(
+                (without - brute).abs() > 1e-2 * brute,
+                "p {p_polarised}, no factor: {without} against {brute}"
+            );
+            let complex_p = estimate(false, true);
+            if p_polarised {
+                assert!(
+                    (complex_p - brute).abs() > 1e-2 * brute,
+                    "p on the complex vector: {complex_p} against {brute}"
+                );
+            } else {
+                assert!(
+                    (complex_p - with).abs() < 1e-12 * brute,
+                    "s: the power basis changes nothing: {complex_p} against {with}"
+                );
             }
-            let hc = h.map(|x| x.conj());
-            0.5 * cross(e, hc)[2].re
-        };
-        let exit = |j: usize| {
-            let (d, re, im) = waves[j];
-            let q = re.z;
-            let e: Field = [C64::ZERO, amps[j] * q.sqrt(), C64::ZERO];
-            crate::trace::Exit {
-                e: [e, e],
-                opl: C64::ZERO,
-                dir: d,
-                n_im: im,
-                x: DVec3::ZERO,
-                up: true,
-                group: 0,
-                tube: 1.0,
-                path: 0,
-            }
-        };
-        let (a, b) = (exit(0), exit(1));
-        // A single wave's flux per carried power (the common factor).
-        let unit = flux(&[0]) / field_power(&a.e[0]);
-        let brute = flux(&[0, 1]) / unit;
-        let h = hermitian(&a.e[0], &b.e[0]);
-        let pw = field_power(&a.e[0]) + field_power(&b.e[0]);
-        let with = pw + 2.0 * (h * pair_terms(&a, &b, 1.0).2).re;
-        let without = pw + 2.0 * h.re;
-        assert!((with - brute).abs() < 1e-4 * pw, "{with} against {brute}");
-        assert!(
-            (without - brute).abs() > 1e-2 * pw,
-            "{without} against {brute}"
-        );
+        }
         // Homogeneous exits: the factor is 1.
-        let (mut c, mut d) = (exit(0), exit(1));
-        c.n_im = DVec3::ZERO;
-        d.n_im = DVec3::ZERO;
+        let bare = |dir: DVec3| crate::trace::Exit {
+            e: [[C64::ZERO; 3]; 2],
+            opl: C64::ZERO,
+            dir,
+            n_im: DVec3::ZERO,
+            x: DVec3::ZERO,
+            up: true,
+            group: 0,
+            tube: 1.0,
+            path: 0,
+        };
+        let (c, d) = (bare(waves[0].0), bare(waves[1].0));
         assert_eq!(pair_terms(&c, &d, 1.0).2, C64::ONE);
     }
 

@@ -128,7 +128,9 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     if limited > goniospec::simulate::LIMITED_WARN {
         let (theta, bin) = where_(cell);
         eprintln!(
-            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets that change the wave by a good part of its index (film faces meeting at more than about 0.1 degree, wavy metal films with slopes of several degrees, ridge tips, flake edges); there the plane-wave model of those events is stretched or replaced by one that conserves energy. R may be off by up to 3 times that and the power created by ray series together (gold V-grooves against geometric optics and a rigorous solver; a gold film whose faces meet at one degree: 1.1e-2, 1.3 times). A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
+            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets that change the wave by a good part of its index (film faces meeting at more than about 0.1 degree, wavy metal films with slopes of several degrees, ridge tips, flake edges); there the plane-wave model of those events is stretched or replaced by one that conserves energy. R may be off by up to {edge} times that and the power created by ray series together at ridge tips and flake edges (gold V-grooves against geometric optics and a rigorous solver), and by up to {film} times that on thin absorbing films whose faces are not parallel (gold films whose faces meet at 0.5-2 degrees against the local transfer-matrix film: 1.5e-3 to 1e-2 off). A thin absorbing film should be a coating when its faces are nearly parallel (docs/physics.md, \"Where the ray model stops\")",
+            edge = goniospec::simulate::LIMITED_EDGE_FACTOR,
+            film = goniospec::simulate::LIMITED_FILM_FACTOR,
         );
     }
     let (created, cell) = stats.worst_created(&acc);

@@ -414,8 +414,8 @@ pub fn recombination_weight(n_re: DVec3, n_im: DVec3, normal: DVec3) -> f64 {
 ///
 /// Measured (tests/tilted_absorbers.rs, 256 trees, 0/30/60 degrees, 450-650 nm, worst R or
 /// T error against the local transfer-matrix film): a gold film whose faces meet at 0.5
-/// degree 1.7e-3 (4.3e-3 with `w = w0` and the estimator before its midpoint amplitudes
-/// and flux factor, [`crate::accumulate`]), at 1 degree 1.1e-2 (2.5e-2).
+/// degree 1.5e-3 (4.3e-3 with `w = w0` and the estimator before its midpoint amplitudes
+/// and flux factor, [`crate::accumulate`]), at 1 degree 1.0e-2 (2.5e-2).
 pub fn event_weights(n_re: DVec3, n_im: DVec3, normal: DVec3, last: DVec3) -> (f64, f64) {
     let w0 = recombination_weight(n_re, n_im, normal);
     if last == DVec3::ZERO || w0 == 1.0 {

@@ -7,7 +7,9 @@ use glam::DVec3;
 /// A ray leaving the sample through the launch plane (up) or the bottom plane (down).
 #[derive(Clone, Copy, Debug)]
 pub struct Exit {
-    /// Field of each incident polarisation, without the propagation phase.
+    /// Field of each incident polarisation, without the propagation phase; for an
+    /// inhomogeneous wave, on the power basis (`fresnel::on_power_basis`: `|e|^2` is its
+    /// flux, in TM too).
     pub e: [Field; 2],
     /// Complex optical path length from the launch plane, nm.
     pub opl: C64,

@@ -10,7 +10,7 @@ use super::{
 };
 use crate::accel::{Intersector, Ray};
 use crate::optics::C64;
-use crate::optics::fresnel::Field;
+use crate::optics::fresnel::{self, Field};
 use glam::DVec3;
 
 impl Scene<'_> {
@@ -354,8 +354,13 @@ fn leave(r: &RayState, n_med: C64, first: usize, cur: &[Option<[Field; 2]>], tre
         if absorbed {
             t.absorbing = true;
         } else {
+            let e = if r.n_im == DVec3::ZERO || n_med.im != 0.0 {
+                *e
+            } else {
+                e.map(|f| fresnel::on_power_basis(&f, r.n_re, r.n_im, n_med.re))
+            };
             t.exits.push(Exit {
-                e: *e,
+                e,
                 opl: r.opl,
                 dir: r.dir,
                 n_im: r.n_im * r.coherent,

@@ -215,6 +215,34 @@ pub fn field_power(e: &Field) -> f64 {
     e[0].norm_sqr() + e[1].norm_sqr() + e[2].norm_sqr()
 }
 
+/// The field `e` of an inhomogeneous plane wave `N = n_re + i n_im` in a lossless medium of
+/// index `n` (`N . N = n^2`, so `n_re . n_im = 0`; `e . N = 0`), rewritten on a real
+/// basis so that `|e|^2` is its normal flux, as for a homogeneous wave.
+///
+/// Its TE part lies along the real `u = n_re x n_im / |n_re x n_im|`, its TM part along
+/// `p = u x N / n` (bilinear norm 1, and `e = (e . u) u + (e . p) p`). With `H = N x E`
+/// (Maxwell's curl equation for a plane wave, in units of the vacuum admittance), each part
+/// of amplitude `a` carries the normal flux `|a|^2 Re(q)`, `q = N . z` (TM: `E x conj(H) =
+/// |a|^2 N` since `(u x N) x u = N`), whereas `|p|^2 = (|n_re|^2 + |n_im|^2) / n^2`, above 1:
+/// on the complex vector the TM part's `|e|^2` overstates its power by that factor (Born &
+/// Wolf §1.4.3 for the Poynting vector; §14.2 for inhomogeneous waves). The rewritten field
+/// is `(e . u) u + (e . p) (u x n_re / |n_re|)`; the estimator's pair products of such
+/// fields take TM pairs like TE ones. Homogeneous waves are returned as they are.
+pub fn on_power_basis(e: &Field, n_re: DVec3, n_im: DVec3, n: f64) -> Field {
+    let u = n_re.cross(n_im);
+    if u.length_squared() == 0.0 {
+        return *e;
+    }
+    let u = u.normalize();
+    let p = scale(
+        &cross(&real(u), &complex(n_re, n_im)),
+        C64::new(1.0 / n, 0.0),
+    );
+    let (a_s, a_p) = (field_dot_real(e, u), bilinear(e, &p));
+    let p_real = u.cross(n_re.normalize());
+    std::array::from_fn(|k| a_s * u[k] + a_p * p_real[k])
+}
+
 fn complex(re: DVec3, im: DVec3) -> Field {
     [
         C64::new(re.x, im.x),
