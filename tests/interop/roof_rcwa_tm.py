@@ -4,18 +4,22 @@ factorisation: PyPI nannos (2.6.5), a Fourier modal method whose "tangent" formu
 applies Li's inverse rule across the grating's period and whose "original" one does not.
 Not part of `make interop` (about 15 minutes on two cores); run by hand:
 
-    python -m venv /tmp/rcwa && /tmp/rcwa/bin/pip install nannos==2.6.5
-    /tmp/rcwa/bin/python tests/interop/roof_rcwa_tm.py [TILT_DEG]
+    python -m venv /tmp/rcwa && /tmp/rcwa/bin/pip install nannos==2.6.5 grcwa
+    /tmp/rcwa/bin/python tests/interop/roof_rcwa_tm.py [TILT_DEG [T_MAX_NM RISE_NM]]
 
 The film is the one tests/interop/roof_rcwa.py checks in TE with grcwa: air above a flat
 top at z = 0, gold (Johnson & Christy at 450, 550 and 650 nm, as constants), a back face
-that is a periodic roof with thickness `25 - tan(tilt) |x - L/2|` nm over the tile `L = 20
-/ tan(tilt)`, glass (1.5) below; the roof as a staircase of slices, the permittivity of
+that is a periodic roof with thickness `T_MAX - tan(tilt) |x - L/2|` nm over the tile `L = 2
+RISE / tan(tilt)` (by default `T_MAX` 25 and `RISE` 10 nm, tests/tilted_absorbers.rs's
+`Roof::thin`; its longer roofs take other values), glass (1.5) below; the roof as a staircase of slices, the permittivity of
 each sampled on 2,048 cells. For each case it prints R and T in TM (E in the plane of
 incidence, across the roof's ridges) at 81 orders and 40 slices and at 121 orders and 60
-slices, with both formulations: their spread is the figure's uncertainty (up to 3e-3 at
-650 nm, where gold's permittivity is largest), and the local transfer-matrix film's TM
-R and T (the Airy sum at each local thickness, averaged over 2,000 points) beside them.
+slices (orders and cells multiplied by the period over 1146 nm, rounded, for longer
+roofs), with both formulations: their spread is the figure's uncertainty (up to 3e-3 at
+650 nm, where gold's permittivity is largest), the local transfer-matrix film's TM
+R and T (the Airy sum at each local thickness, averaged over 2,000 points) beside them,
+and TE by grcwa (tests/interop/roof_rcwa.py's solver, 81 orders and 40 slices, scaled
+likewise) for the unpolarised figures.
 
 Measured at 1 degree (docs/physics.md, "Where the ray model stops"): the local TMM's TM
 R is within 3e-3 of RCWA at all nine angles and wavelengths, and so is its T except at
@@ -25,14 +29,22 @@ import sys
 
 import numpy as np
 
-from roof_rcwa import GLASS, GOLD, T0, film
+import roof_rcwa
+from roof_rcwa import GLASS, GOLD, film
 
 TILT = float(sys.argv[1]) if len(sys.argv) > 1 else 1.0
-L = 20.0 / np.tan(np.radians(TILT))
+T_MAX = float(sys.argv[2]) if len(sys.argv) > 2 else 25.0
+RISE = float(sys.argv[3]) if len(sys.argv) > 3 else 10.0
+L = 2.0 * RISE / np.tan(np.radians(TILT))
+# Orders and cells grow with the period, from 81 and 121 orders on 2,048 cells at the
+# default roof's 1146 nm: the same resolution across it.
+SCALE = max(1, round(L / 1146.0))
+# roof_rcwa's TE solver reads its module's roof.
+roof_rcwa.T0, roof_rcwa.TILT, roof_rcwa.L = T_MAX, TILT, L
 
 
 def thickness(x):
-    return T0 - np.tan(np.radians(TILT)) * np.abs(x - L / 2)
+    return T_MAX - np.tan(np.radians(TILT)) * np.abs(x - L / 2)
 
 
 def film_tm(lam, theta, d):
@@ -40,7 +52,7 @@ def film_tm(lam, theta, d):
     return film(lam, theta, d, "p")
 
 
-def rcwa_tm(lam, theta, nh, slices, formulation, cells=2048, flat=None):
+def rcwa_tm(lam, theta, nh, slices, formulation, cells=2048 * SCALE, flat=None):
     """TM R and T of the roof by RCWA; with `flat` (nm), of a flat film that thick."""
     import nannos as nn
 
@@ -55,7 +67,7 @@ def rcwa_tm(lam, theta, nh, slices, formulation, cells=2048, flat=None):
     t = thickness((np.arange(cells) + 0.5) / cells * L)
     t_min = thickness(0.0)
     layers = [lattice.Layer("air", epsilon=1.0), lattice.Layer("gold", thickness=t_min, epsilon=eps)]
-    dz = (T0 - t_min) / slices
+    dz = (T_MAX - t_min) / slices
     for k in range(slices):
         layer = lattice.Layer(f"roof{k}", thickness=dz)
         e = lattice.ones() * (GLASS**2 + 0j)
@@ -78,14 +90,15 @@ def main():
     for theta in (60.0, 30.0, 0.0):
         for lam in GOLD:
             row = []
-            for nh, slices in ((81, 40), (121, 60)):
+            for nh, slices in ((80 * SCALE + 1, 40), (120 * SCALE + 1, 60)):
                 for form in ("original", "tangent"):
                     row.append(rcwa_tm(lam, theta, nh, slices, form))
             rs, ts = [x[0] for x in row], [x[1] for x in row]
             r_loc, t_loc = np.mean([film_tm(lam, theta, thickness(x)) for x in xs], axis=0)
+            r_te, t_te = roof_rcwa.rcwa_te(lam, theta, 80 * SCALE + 1, 40, cells=2000 * SCALE)
             print(
-                f"gold roof {TILT} deg, {lam:.0f} nm, {theta:.0f} deg, TM: RCWA R {min(rs):.4f}-{max(rs):.4f} "
-                f"T {min(ts):.4f}-{max(ts):.4f}; local TMM R {r_loc:.4f} T {t_loc:.4f}",
+                f"gold roof {TILT} deg, {T_MAX - RISE:.0f}-{T_MAX:.0f} nm, {lam:.0f} nm, {theta:.0f} deg, TM: RCWA R {min(rs):.4f}-{max(rs):.4f} "
+                f"T {min(ts):.4f}-{max(ts):.4f}; local TMM R {r_loc:.4f} T {t_loc:.4f}; TE: RCWA R {r_te:.4f} T {t_te:.4f}",
                 flush=True,
             )
 
