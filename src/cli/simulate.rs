@@ -137,7 +137,8 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     if created > goniospec::simulate::CREATED_WARN {
         let (theta, bin) = where_(cell);
         eprintln!(
-            "warning: {created:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) came from ray series that created energy: light crossed absorbing features thinner than their decay length (ridge tips at grazing light, sub-skin-depth wedges), where the partial waves of one region leave in directions that cannot interfere and no ray model holds; R is uncertain by up to about 3 times that and the limited power together there (gold V-grooves against geometric optics and a rigorous solver). Check such a sample against a rigorous solver (RCWA), or use less grazing light or rounder ridges (docs/physics.md, \"Where the ray model stops\")",
+            "warning: {created:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) came from ray series that created energy: light crossed absorbing features thinner than their decay length (ridge tips at grazing light, sub-skin-depth wedges), where the partial waves of one region leave in directions that cannot interfere and no ray model holds; R is uncertain by up to about {edge} times that and the limited power together there (gold V-grooves against geometric optics and a rigorous solver). Check such a sample against a rigorous solver (RCWA), or use less grazing light or rounder ridges (docs/physics.md, \"Where the ray model stops\")",
+            edge = goniospec::simulate::LIMITED_EDGE_FACTOR,
         );
     }
     if let Some(g) = s.guard_nm {
