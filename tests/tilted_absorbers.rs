@@ -25,6 +25,15 @@ const GOLD: [(f64, f64, f64); 3] = [
     (650.0, 0.166, 3.15),
 ];
 const GLASS: f64 = 1.5;
+/// Writes `GOLD` as the media table `gold.csv` in `dir`.
+fn write_gold_table(dir: &std::path::Path) {
+    let table: String = GOLD
+        .iter()
+        .map(|(w, n, k)| format!("{w},{n},{k}\n"))
+        .collect();
+    std::fs::write(dir.join("gold.csv"), format!("lambda_nm,n,k\n{table}")).unwrap();
+}
+
 /// A gold roof on glass: flat top at z = 0, back face tilted by `tilt_deg` either way of
 /// the ridge line, where the film is `t_max` nm thick, down to `t_max - rise` nm at the
 /// valleys, over a square tile of side `2 rise / tan(tilt)` (at most 20 um).
@@ -71,11 +80,7 @@ impl Roof {
             ),
         )
         .unwrap();
-        let table: String = GOLD
-            .iter()
-            .map(|(w, n, k)| format!("{w},{n},{k}\n"))
-            .collect();
-        std::fs::write(d.join("gold.csv"), format!("lambda_nm,n,k\n{table}")).unwrap();
+        write_gold_table(&d);
         sample_in(
             &d,
             &format!(
@@ -290,17 +295,13 @@ fn wavy_gold(t: f64, rms: f64) -> (goniospec::sample::Sample, goniospec::sample:
         Generated::Sheet(m) => m,
         _ => panic!("a sheet"),
     };
-    let table: String = GOLD
-        .iter()
-        .map(|(w, n, k)| format!("{w},{n},{k}\n"))
-        .collect();
     let text = format!(
         "[sample]\nname = \"wavy gold {t} nm\"\nunit = \"nm\"\ntile = [20000.0, 20000.0]\n[media.air]\nn = 1.0\n[media.gold]\ntable = \"gold.csv\"\n[media.glass]\nn = {GLASS:?}\n[[interface]]\ngenerator = {{ {} }}\nfront = \"air\"\nback = \"gold\"\n[[interface]]\ngenerator = {{ {} }}\nfront = \"gold\"\nback = \"glass\"\n",
         spec("top"),
         spec("bottom")
     );
     let dir = scratch("wavy-gold");
-    std::fs::write(dir.join("gold.csv"), format!("lambda_nm,n,k\n{table}")).unwrap();
+    write_gold_table(&dir);
     (sample_in(&dir, &text), top)
 }
 

@@ -35,6 +35,8 @@ from roof_rcwa import GLASS, GOLD, film
 TILT = float(sys.argv[1]) if len(sys.argv) > 1 else 1.0
 T_MAX = float(sys.argv[2]) if len(sys.argv) > 2 else 25.0
 RISE = float(sys.argv[3]) if len(sys.argv) > 3 else 10.0
+if not (0.0 < TILT < 45.0 and 0.0 < RISE < T_MAX):
+    sys.exit(f"need 0 < TILT_DEG < 45 and 0 < RISE_NM < T_MAX_NM, got {TILT}, {T_MAX}, {RISE}")
 L = 2.0 * RISE / np.tan(np.radians(TILT))
 # Orders and cells grow with the period, from 81 and 121 orders on 2,048 cells at the
 # default roof's 1146 nm: the same resolution across it.

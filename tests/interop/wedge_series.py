@@ -115,6 +115,8 @@ def averaged(lam, theta, beta, pol, t1, t2, m=2000):
 def main():
     args = [float(a) for a in sys.argv[1:5]] if len(sys.argv) > 4 else [650.0, 60.0, 20.0, 40.0]
     lam, theta, t1, t2 = args
+    if lam not in GOLD or not 0.0 <= theta < 90.0 or not 0.0 < t1 < t2:
+        sys.exit(f"need LAMBDA_NM in {sorted(GOLD)}, 0 <= THETA_DEG < 90 and 0 < T1_NM < T2_NM")
     thick = (np.arange(2000) + 0.5) / 2000 * (t2 - t1) + t1
     for pol in ("s", "p"):
         r_loc, t_loc = np.mean([film(lam, theta, t, pol) for t in thick], axis=0)
