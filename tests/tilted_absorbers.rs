@@ -132,15 +132,17 @@ fn simulate_films(tilts: &[f64], thetas: &[f64]) -> Vec<Vec<Vec<(f64, f64)>>> {
 /// planes of constant amplitude of the wave inside the absorber (`SimStats::limited`,
 /// `trace::event_weights`) above `LIMITED_WARN`, or the power its series created above
 /// `CREATED_WARN` (what `simulate` warns about). Over gold roofs with faces meeting at
-/// 1e-4 to 2 degrees and facets of 0.57 to 9.2 um, at 0/30/60 degrees and 450-650 nm:
+/// 1e-4 to 40 degrees and facets of 0.01 to 9.2 um, at 0/30/60 degrees and 450-650 nm:
 /// where the run is silent, R and T are within 2e-3 (issue 25's tolerance) of the local
 /// TMM; where it warns, within `LIMITED_FILM_FACTOR` times the limited and created power
-/// together, the bound the warning states. Up to 0.2 degree on the 15-25 nm roof the run
-/// is silent (2.9e-4 off, 1.4e-6 limited); at 1 degree it warns (1.0e-2 off, 1.4e-3
-/// limited, 7.3e-3 created). Measured on the longer roofs: 1 degree over 1.1 um facets
-/// 5.8e-3 off with 2.4e-4 limited, the ratio 24; over 4.6 um 3.1e-3 with 6.5e-5, 48; 2
-/// degrees over 4.6 um (40-200 nm) 3.1e-3 with 6.0e-5, 52; 1 degree over 9.2 um (20-180
-/// nm) silent, 1.8e-3 off with 3.2e-5.
+/// together, the bound the warning states. Films whose faces meet within
+/// `FILM_TILT_FULL` (20 degrees) are taken by the local film (`trace::film`) and are silent:
+/// measured at most 5.1e-4 off (4.1e-7 at 1e-4 degree; from 0.2 degree on, the tile's
+/// quadrature by 256 trees), where the ray series
+/// were 1.0e-2 off at 1 degree (warned) and 0.47 at 8. Between 20 and 30 degrees the ray
+/// series take a growing share, reported as limited, and the run warns: at 21 degrees
+/// 2.4e-2 off with 2.5e-2 limited, at 25 0.35 with 0.57; at 40 degrees (the ray series
+/// alone) 0.48 with 0.27 limited and 1.7e-2 created.
 #[test]
 fn the_run_is_within_2e_3_of_the_local_tmm_or_warns_with_a_bound_that_holds() {
     use goniospec::simulate::{CREATED_WARN, LIMITED_FILM_FACTOR, LIMITED_WARN, simulate};
@@ -151,18 +153,23 @@ fn the_run_is_within_2e_3_of_the_local_tmm_or_warns_with_a_bound_that_holds() {
         t_max,
         rise,
     };
-    // The roof, and whether the run must warn (`None`: either, with the bound).
+    // The roof, and whether the run must warn.
     let cases = [
-        (Roof::thin(1e-4), Some(false)),
-        (Roof::thin(1e-2), Some(false)),
-        (Roof::thin(0.2), Some(false)),
-        (Roof::thin(0.5), None),
-        (Roof::thin(1.0), Some(true)),
-        (roof(1.0, 40.0, 20.0), Some(true)),
-        (roof(1.0, 100.0, 80.0), None),
-        (roof(1.0, 180.0, 160.0), None),
-        (roof(2.0, 200.0, 160.0), None),
-        (roof(0.7, 40.0, 20.0), None),
+        (Roof::thin(1e-4), false),
+        (Roof::thin(1e-2), false),
+        (Roof::thin(0.2), false),
+        (Roof::thin(0.5), false),
+        (Roof::thin(1.0), false),
+        (roof(1.0, 40.0, 20.0), false),
+        (roof(1.0, 100.0, 80.0), false),
+        (roof(1.0, 180.0, 160.0), false),
+        (roof(2.0, 200.0, 160.0), false),
+        (roof(0.7, 40.0, 20.0), false),
+        (Roof::thin(10.0), false),
+        (roof(10.0, 120.0, 100.0), false),
+        (Roof::thin(21.0), true),
+        (Roof::thin(25.0), true),
+        (Roof::thin(40.0), true),
     ];
     for (roof, must_warn) in cases {
         let s = roof.sample();
@@ -190,21 +197,21 @@ fn the_run_is_within_2e_3_of_the_local_tmm_or_warns_with_a_bound_that_holds() {
             worst <= bound,
             "{roof:?}: {worst} off the local TMM, beyond {bound} (warned: {warned})"
         );
-        if let Some(w) = must_warn {
-            assert_eq!(warned, w, "{roof:?}: warned {warned}");
-        }
+        assert_eq!(warned, must_warn, "{roof:?}: warned {warned}");
     }
 }
 
 /// Where a film's series create a tenth of the power, the run is refused and says why: a
-/// 5-15 nm gold roof whose faces meet at 3 degrees over 190 nm facets, lit at 60 degrees
-/// (1.3 of the power per tree created at 550 nm; features thinner than the wave's decay
-/// length seen from its direction, where no ray model holds).
+/// 5-15 nm gold roof whose faces meet at 60 degrees over 6 nm facets, lit at 60 degrees
+/// (thousands of times the power per tree created; features thinner than the wave's decay
+/// length seen from its direction, where no ray model holds, and too steep for the local
+/// film, `trace::film`). (At 3 degrees this roof created 1.3 and was refused before the
+/// local film took it: now it is 3.9e-4 off the local TMM.)
 #[test]
 fn a_sub_skin_depth_wedge_is_refused_and_says_why() {
     use goniospec::simulate::{SimError, simulate};
     let roof = Roof {
-        tilt_deg: 3.0,
+        tilt_deg: 60.0,
         t_max: 15.0,
         rise: 10.0,
     };
@@ -219,18 +226,21 @@ fn a_sub_skin_depth_wedge_is_refused_and_says_why() {
     }
 }
 
-/// Tilts from 1e-6 to 0.5 degree, 0/30/60 degrees, 450-650 nm: R and T within 2e-3 of
-/// the local TMM, and no jump between neighbouring tilts beyond the reference's own change
-/// (plus the same 2e-3). (Issue 25 asks this up to 1 degree; RCWA confirms the reference
-/// there, within 2.3e-3 for TE (tests/interop/roof_rcwa.py), and for TM within 3e-3
-/// except T at 30 degrees and 650 nm, 5e-3 to 8e-3 (tests/interop/roof_rcwa_tm.py).
-/// Measured worst errors: 2.9e-4 at 0.2 degree, 1.5e-3 at 0.5 and 1.0e-2 at 1, where the
-/// run warns (the test before). Before the event weights took the facet that made the
-/// wave (`trace::event_weights`) and the estimator took inhomogeneous pairs at their
-/// midpoint with their interference flux (`accumulate`), 1.0e-3, 4.3e-3 and 2.5e-2.)
+/// Tilts from 1e-6 to 20 degrees, 0/30/60 degrees, 450-650 nm: R and T within 2e-3 of the
+/// local TMM, and no jump between neighbouring tilts beyond the reference's own change
+/// (plus the same 2e-3). Issue 25 asks this up to 1 degree. The tracer takes such films by
+/// the local film (`trace::film`): measured at most 3.6e-4 off at every tilt (4e-7 at 1e-4
+/// degree; from 0.2 degree on 3.0e-4 to 3.6e-4, the tile's quadrature by 256 trees). As ray series they were 2.9e-4 off at 0.2 degree, 1.5e-3 at
+/// 0.5 and 1.0e-2 at 1 (warned), and like bulk gold from a few degrees (0.47 off at 8).
+/// RCWA confirms the reference at 1 degree, within 2.3e-3 for TE (tests/interop/roof_rcwa.py)
+/// and within 3e-3 for TM except T at 30 degrees and 650 nm, 5e-3 to 8e-3
+/// (tests/interop/roof_rcwa_tm.py); at larger tilts this roof's period falls below the
+/// wavelength and TM departs from any local model (docs/physics.md).
 #[test]
-fn a_gold_film_with_a_tilted_back_face_matches_the_local_tmm_up_to_half_a_degree() {
-    let tilts = [1e-6, 1e-4, 3e-3, 1e-2, 0.05, 0.1, 0.2, 0.5];
+fn a_gold_film_with_a_tilted_back_face_matches_the_local_tmm_up_to_20_degrees() {
+    let tilts = [
+        1e-6, 1e-4, 3e-3, 1e-2, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0,
+    ];
     let thetas = [0.0, 30.0, 60.0];
     let got = simulate_films(&tilts, &thetas);
     let mut refs = Vec::new();

@@ -112,7 +112,18 @@ impl<'a> Run<'a> {
         let dispersive = sample.media.iter().any(|m| m.model.is_dispersive()) || scattering;
         // A coating's coefficients depend on the wavelength even with constant indices.
         let coated = sample.interfaces.iter().any(|i| !i.coating.is_empty());
-        let sharing = cfg.path_sharing.unwrap_or(!dispersive && !coated);
+        // So do those of a thin absorbing film, which the tracer hands to the transfer
+        // matrix (`trace::film`) wherever one lies behind a lossless medium.
+        let lambdas: Vec<f64> = cfg.wavelengths.values_nm().to_vec();
+        let absorbing = sample.media.iter().any(|m| {
+            m.scattering.is_none()
+                && lambdas
+                    .iter()
+                    .any(|&l| m.model.eval(l).is_ok_and(|(_, k)| k > 0.0))
+        });
+        let sharing = cfg
+            .path_sharing
+            .unwrap_or(!dispersive && !coated && !absorbing);
         if sharing && dispersive {
             return Err(SimError::Config(
                 "path sharing needs non-dispersive media: this sample's indices change with wavelength"
@@ -125,8 +136,13 @@ impl<'a> Run<'a> {
                     .into(),
             ));
         }
+        if sharing && absorbing {
+            return Err(SimError::Config(
+                "path sharing needs wavelength-independent interfaces: this sample has an absorbing medium, whose thin films are taken by the transfer matrix, which changes with wavelength"
+                    .into(),
+            ));
+        }
         // Every wavelength the run evaluates must be inside every medium's range.
-        let lambdas: Vec<f64> = cfg.wavelengths.values_nm().to_vec();
         media_in_range(sample, &lambdas)?;
         // Particle media tabulated over the run's wavelengths (each whole nm between the
         // extremes; a Mie table refuses an absorbing host at any of them too).

@@ -140,9 +140,11 @@ pub struct SimStats {
     pub created: Vec<f64>,
     /// Per cell: the summed power per tree that met energy-limited events inside absorbers
     /// (`trace::Tree::limited_power`): facets that change the wave by a good part of its
-    /// index (film faces meeting at more than about 0.1 degree, ridge tips, flake edges;
-    /// `trace::recombination_weight`). There R and T come from a model that conserves
-    /// energy, not from exact amplitudes.
+    /// index (ridge tips, flake edges, the faces of absorbing wedges and of layers thicker
+    /// than the wavelength; `trace::recombination_weight`), and the share of thin films
+    /// whose faces meet at 20-30 degrees that their ray series take rather than the local
+    /// film (`trace::film`). There R and T come from a model that conserves energy, not
+    /// from exact amplitudes.
     pub limited: Vec<f64>,
     /// The diffraction method, per cell: the ray method's totals beside the diffracted
     /// ones (empty cells for other methods).

@@ -2,6 +2,7 @@
 //! transmitted waves (Fresnel, or a coating's transfer matrices), the energy checks, and
 //! the children pushed for the walk to trace.
 
+use super::film::{self, FilmBack};
 use super::{ALL, C64, Field, Lane, RayState, Scene, TraceLimits, TraceStack, Tree, drop_all};
 use crate::optics::fresnel::{self, field_power};
 use crate::optics::tmm;
@@ -57,6 +58,21 @@ impl Scene<'_> {
         } else {
             (1.0, 1.0)
         };
+        // A thin absorbing film entered from a lossless medium: its far face, for the
+        // local film's hand-off (`film`). One probe serves every lane; it reaches one
+        // wavelength deep, the longest of the lanes that enter an absorber here.
+        let mut reach = 0.0f64;
+        if self.sample.media[to].scattering.is_none() {
+            for (k, f) in cur.iter().enumerate() {
+                let l = &lanes[first + k];
+                if f.is_some() && l.indices[from].im == 0.0 && l.indices[to].im > 0.0 {
+                    reach = reach.max(l.lambda_nm);
+                }
+            }
+        }
+        let back = (reach > 0.0)
+            .then(|| self.film_back(&r, nf, to, reach))
+            .flatten();
         for (k, f) in cur.iter().enumerate() {
             if let Some(e) = f {
                 let j = first + k;
@@ -66,6 +82,7 @@ impl Scene<'_> {
                     nf,
                     (from, to),
                     (w, w0),
+                    back.as_ref(),
                     e,
                     &lanes[j],
                     &mut trees[j],
@@ -75,14 +92,25 @@ impl Scene<'_> {
         }
         let coherent = r.coherent * w;
         self.push_children(
-            &r, prim, nf, from, to, coherent, lanes, limits, stack, trees,
+            &r,
+            prim,
+            nf,
+            from,
+            to,
+            back.as_ref(),
+            coherent,
+            lanes,
+            limits,
+            stack,
+            trees,
         );
     }
 
     /// Pushes the children of ray `r` split at facet `prim` (normal `nf` facing the ray,
     /// from medium `from` to `to`), from the lanes' splits in `stack.splits`: the
     /// transmitted ones first (one per lane into a medium whose index varies between the
-    /// lanes, else one shared ray), then the reflected one; each carries `coherent`, the
+    /// lanes, else one shared ray), then those a thin film hands on from its far face
+    /// `back` ([`super::film`]), then the reflected one; each carries `coherent`, the
     /// product of the recombination weights on its path ([`recombination_weight`]). A
     /// child below the power cutoff or past the depth limit is dropped and recorded in its
     /// lane's tree.
@@ -94,6 +122,7 @@ impl Scene<'_> {
         nf: DVec3,
         from: usize,
         to: usize,
+        back: Option<&FilmBack>,
         coherent: f64,
         lanes: &[Lane],
         limits: &TraceLimits,
@@ -203,6 +232,71 @@ impl Scene<'_> {
                 fields.truncate(at);
             }
         }
+        // The light a thin film hands on (`super::film`): it leaves the film's far face,
+        // into the medium beyond, at the point the probe found. Its phase there is the
+        // incident wave's at the entry point: the transfer matrix's transmitted amplitude
+        // is referred to the far face, and the probe ran along the entry face's normal,
+        // so no tangential phase is gained.
+        if let Some(b) = back {
+            let beyond = b.beyond;
+            let child2 = |dir: DVec3, wave: (DVec3, DVec3), lane, at: usize, e: [Field; 2]| {
+                let offset = nf * -self.eps;
+                let shift = C64::new(wave.0.dot(offset), wave.1.dot(offset));
+                let mix = |h: u64, x: u64| (h ^ x).wrapping_mul(0x0000_0100_0000_01B3);
+                RayState {
+                    e,
+                    pos: b.pos + offset,
+                    dir,
+                    n_re: wave.0,
+                    n_im: wave.1,
+                    off: b.off,
+                    medium: beyond,
+                    opl: r.opl + shift,
+                    depth,
+                    lane,
+                    at: at as u32,
+                    group: r.group,
+                    tube: r.tube * dir.dot(nf).abs() / r.dir.dot(nf).abs().max(1e-300),
+                    path: mix(
+                        mix(r.path, u64::from(prim) << 1 | 1),
+                        u64::from(b.prim) << 1 | 1,
+                    ),
+                    killed: false,
+                    coherent,
+                    last_facet: b.normal,
+                }
+            };
+            if r.lane != ALL || varies[beyond] {
+                for (k, s) in lane_splits().enumerate() {
+                    let Some(g) = s else { continue };
+                    let Some(dt) = g.dir_t2 else { continue };
+                    let j = first + k;
+                    if keep(&mut trees[j], &g.et2, j) {
+                        rays.push(child2(dt, g.n_t2, j as u32, 0, g.et2));
+                    }
+                }
+            } else if let Some((dt, wave)) = lane_splits()
+                .flatten()
+                .find_map(|g| g.dir_t2.map(|d| (d, g.n_t2)))
+            {
+                // Every lane that hands on leaves in the same direction (the outer media
+                // have the same index in each).
+                let at = fields.len();
+                let mut any = false;
+                for (j, s) in lane_splits().enumerate() {
+                    let kept = s.and_then(|g| {
+                        (g.dir_t2.is_some() && keep(&mut trees[j], &g.et2, j)).then_some(g.et2)
+                    });
+                    any |= kept.is_some();
+                    fields.push(kept);
+                }
+                if any {
+                    rays.push(child2(dt, wave, ALL, at, [[C64::ZERO; 3]; 2]));
+                } else {
+                    fields.truncate(at);
+                }
+            }
+        }
         // The reflected wave stays in `from`, whose index is the same in every lane the
         // ray carries, and its direction does not depend on the far side's index.
         let Some(g) = lane_splits().flatten().next() else {
@@ -232,7 +326,9 @@ impl Scene<'_> {
     /// One lane's split of ray `r` (field `e`) at interface `itf` (normal `nf` facing the
     /// ray, from medium `from` to `to`, the event's weights `(w, w0)` of [`event_weights`]):
     /// the coefficients (coated where the interface carries thin layers), the energy checks,
-    /// and the children's fields; notes absorption and faults in the lane's `tree`.
+    /// and the children's fields; where `to` is a thin absorbing film with the far face
+    /// `back`, the local film's share of them ([`super::film`]); notes absorption and
+    /// faults in the lane's `tree`.
     #[allow(clippy::too_many_arguments)]
     fn lane_split(
         &self,
@@ -241,6 +337,7 @@ impl Scene<'_> {
         nf: DVec3,
         (from, to): (usize, usize),
         (w, w0): (f64, f64),
+        back: Option<&FilmBack>,
         e: &[Field; 2],
         lane: &Lane,
         tree: &mut Tree,
@@ -316,6 +413,80 @@ impl Scene<'_> {
         out.n_r = g.n_r;
         out.dir_t = g.dir_t;
         out.n_t = g.n_t;
+        out.dir_t2 = None;
+        let Some(b) = back else { return };
+        // A homogeneous wave from a lossless medium into an absorber. (An evanescent wave
+        // in a lossless medium, which left an absorber through a face steeply tilted
+        // against the one it entered by, is bound to that face: its transfer-matrix
+        // amplitudes, which no energy bound holds for, describe nothing at the next film,
+        // and its events stay energy-limited, `fresnel::limit_excess`.)
+        if n1.im != 0.0 || n2.im <= 0.0 || r.n_im != DVec3::ZERO {
+            return;
+        }
+        let depth_weight = film::depth_weight(b.depth_nm, lambda_nm);
+        let h = b.tilt_weight * depth_weight;
+        if h <= 0.0 {
+            return;
+        }
+        if b.tilt_weight < 1.0 {
+            // A thin film too steep for the local film alone: the share its ray series
+            // take (whose error is linear in it, as the blend is one of amplitudes) is
+            // reported as limited, where the plane-wave model is stretched.
+            tree.limited += 1;
+            let mut p = field_power(&e[0]).max(field_power(&e[1]));
+            if r.opl.im != 0.0 {
+                p *= (-4.0 * std::f64::consts::PI / lambda_nm * r.opl.im).exp();
+            }
+            tree.limited_power += p * depth_weight * (1.0 - b.tilt_weight);
+        }
+        // The local film: the outer media's split with the stack's transfer-matrix
+        // amplitudes (the entry face's coating, the film at its local thickness, the far
+        // face's coating, in the order the light crosses them).
+        let n3 = indices[b.beyond];
+        let far = &self.sample.interfaces[self.owner[b.prim as usize] as usize];
+        let mut g2 = fresnel::split_wave(r.dir, r.n_re, r.n_im, nf, n1, n3);
+        tree.n_buf.clear();
+        tree.d_buf.clear();
+        tree.n_buf.push(n1);
+        let nc = itf.coating.len();
+        for i in 0..nc {
+            let (m, d) = itf.coating[if from == itf.front { i } else { nc - 1 - i }];
+            tree.n_buf.push(indices[m]);
+            tree.d_buf.push(d);
+        }
+        tree.n_buf.push(n2);
+        tree.d_buf.push(b.depth_nm);
+        let nc = far.coating.len();
+        for i in 0..nc {
+            let (m, d) = far.coating[if to == far.front { i } else { nc - 1 - i }];
+            tree.n_buf.push(indices[m]);
+            tree.d_buf.push(d);
+        }
+        tree.n_buf.push(n3);
+        let amp = tmm::amplitudes(&tree.n_buf, &tree.d_buf, g2.kappa, lambda_nm);
+        g2.c = fresnel::coated(&g2.c, amp);
+        // A homogeneous wave from a lossless medium: an absorbing film may only take power
+        // away.
+        let [es, ep] = fresnel::balance_excess(&g2.c, n1, n3);
+        let ok = es <= 1e-9 && ep <= 1e-9;
+        debug_assert!(ok, "energy fault in a film: {n1} | {n2} | {n3}, {:?}", g2.c);
+        if !ok {
+            tree.energy_faults += 1;
+        }
+        tree.absorbing = true;
+        for (k, ek) in e.iter().enumerate() {
+            let (er, et) = fresnel::split_field(ek, &g2);
+            for c in 0..3 {
+                out.er[k][c] = out.er[k][c] * (1.0 - h) + er[c] * h;
+                out.et[k][c] *= 1.0 - h;
+                out.et2[k][c] = et[c] * h;
+            }
+        }
+        if h >= 1.0 {
+            out.dir_t = None;
+        }
+        out.dir_t2 = g2.dir_t;
+        out.n_t2 = g2.n_t;
     }
 }
 
@@ -450,4 +621,8 @@ pub(super) struct LaneSplit {
     n_t: (DVec3, DVec3),
     er: [Field; 2],
     et: [Field; 2],
+    /// The wave a thin film hands on from its far face ([`super::film`]), where one does.
+    dir_t2: Option<DVec3>,
+    n_t2: (DVec3, DVec3),
+    et2: [Field; 2],
 }

@@ -28,6 +28,7 @@ use crate::sample::Sample;
 use glam::DVec3;
 
 mod events;
+mod film;
 mod random;
 mod tree;
 mod walk;
@@ -36,6 +37,7 @@ pub use random::{ROULETTE_AFTER_SEGMENTS, ROULETTE_BELOW};
 
 use events::LaneSplit;
 pub use events::{PLANE_WAVE_TILT, deflection, event_weights, recombination_weight};
+pub use film::{FILM_TILT_FULL, FILM_TILT_NONE, depth_weight, tilt_weight};
 pub use tree::{Dropped, DroppedPower, Exit, Tree};
 
 /// Limits of a tree.

@@ -205,7 +205,7 @@ impl Scene<'_> {
 
     /// Distances (nm) along the ray to the nearest tile side and to the exit plane it
     /// heads for: `(t_side, axis of that side, t_plane)`, infinite where it runs parallel.
-    fn bounds(&self, r: &RayState) -> (f64, usize, f64) {
+    pub(super) fn bounds(&self, r: &RayState) -> (f64, usize, f64) {
         let [lx, ly] = self.sample.tile_nm;
         let (mut t_side, mut axis) = (f64::INFINITY, 0usize);
         for (a, l) in [(0usize, lx), (1, ly)] {
@@ -234,7 +234,7 @@ impl Scene<'_> {
     /// The closest surface within `t_lim` nm: the triangle and, when hit, the distance
     /// refined in f64 against the triangle's plane (the accelerator finds in f32) and the
     /// plane's unit normal.
-    fn surface(&self, r: &RayState, t_lim: f64) -> (u32, Option<(f64, DVec3)>) {
+    pub(super) fn surface(&self, r: &RayState, t_lim: f64) -> (u32, Option<(f64, DVec3)>) {
         let ray = Ray {
             origin: r.pos.as_vec3().to_array(),
             tmin: 0.0,
@@ -261,7 +261,7 @@ impl Scene<'_> {
     /// Wraps the ray around the tile side it reached on `axis`, re-entering a little
     /// outside the opposite side. The unwrapped position steps back by the re-entry
     /// margin: the plane wave's phase stays exact there too.
-    fn wrap(&self, r: &mut RayState, axis: usize) {
+    pub(super) fn wrap(&self, r: &mut RayState, axis: usize) {
         let l = self.sample.tile_nm[axis];
         let before = r.pos[axis] + r.off[axis];
         if r.dir[axis] > 0.0 {
