@@ -59,14 +59,18 @@ impl Scene<'_> {
             (1.0, 1.0)
         };
         // A thin absorbing film entered from a lossless medium: its far face, for the
-        // local film's hand-off (`film`). One probe serves every lane; it reaches one
-        // wavelength deep, the longest of the lanes that enter an absorber here.
+        // local film's hand-off (`film`). One probe serves every lane, as deep as the
+        // deepest lane that enters an absorber here needs (`film::reach_nm`).
         let mut reach = 0.0f64;
-        if self.sample.media[to].scattering.is_none() {
+        let side = if cos < 0.0 { 1 } else { 2 };
+        if self.film_faces[prim as usize] & side != 0
+            && self.sample.media[to].scattering.is_none()
+            && r.n_im == DVec3::ZERO
+        {
             for (k, f) in cur.iter().enumerate() {
                 let l = &lanes[first + k];
                 if f.is_some() && l.indices[from].im == 0.0 && l.indices[to].im > 0.0 {
-                    reach = reach.max(l.lambda_nm);
+                    reach = reach.max(film::reach_nm(l.indices[to], l.lambda_nm));
                 }
             }
         }
@@ -353,13 +357,7 @@ impl Scene<'_> {
             tree.n_buf.clear();
             tree.d_buf.clear();
             tree.n_buf.push(n1);
-            let nc = itf.coating.len();
-            for i in 0..nc {
-                let (m, d) = itf.coating[if from == itf.front { i } else { nc - 1 - i }];
-                tree.n_buf.push(indices[m]);
-                tree.d_buf.push(d);
-                coating_absorbs |= indices[m].im > 0.0;
-            }
+            coating_absorbs = push_layers(itf, from, indices, tree);
             tree.n_buf.push(n2);
             let amp = tmm::amplitudes(&tree.n_buf, &tree.d_buf, g.kappa, lambda_nm);
             g.c = fresnel::coated(&g.c, amp);
@@ -448,20 +446,10 @@ impl Scene<'_> {
         tree.n_buf.clear();
         tree.d_buf.clear();
         tree.n_buf.push(n1);
-        let nc = itf.coating.len();
-        for i in 0..nc {
-            let (m, d) = itf.coating[if from == itf.front { i } else { nc - 1 - i }];
-            tree.n_buf.push(indices[m]);
-            tree.d_buf.push(d);
-        }
+        push_layers(itf, from, indices, tree);
         tree.n_buf.push(n2);
         tree.d_buf.push(b.depth_nm);
-        let nc = far.coating.len();
-        for i in 0..nc {
-            let (m, d) = far.coating[if to == far.front { i } else { nc - 1 - i }];
-            tree.n_buf.push(indices[m]);
-            tree.d_buf.push(d);
-        }
+        push_layers(far, to, indices, tree);
         tree.n_buf.push(n3);
         let amp = tmm::amplitudes(&tree.n_buf, &tree.d_buf, g2.kappa, lambda_nm);
         g2.c = fresnel::coated(&g2.c, amp);
@@ -488,6 +476,26 @@ impl Scene<'_> {
         out.dir_t2 = g2.dir_t;
         out.n_t2 = g2.n_t;
     }
+}
+
+/// Appends the coating of interface `itf` to the tree's transfer-matrix buffers, in the
+/// order light coming from medium `from` crosses its layers (front to back: outermost layer
+/// first); returns whether a layer absorbs.
+fn push_layers(
+    itf: &crate::sample::Interface,
+    from: usize,
+    indices: &[C64],
+    tree: &mut Tree,
+) -> bool {
+    let nc = itf.coating.len();
+    let mut absorbs = false;
+    for i in 0..nc {
+        let (m, d) = itf.coating[if from == itf.front { i } else { nc - 1 - i }];
+        tree.n_buf.push(indices[m]);
+        tree.d_buf.push(d);
+        absorbs |= indices[m].im > 0.0;
+    }
+    absorbs
 }
 
 /// How far this facet's tilt turns the reflected wave, against a facet parallel to the

@@ -75,6 +75,84 @@ pub fn depth_weight(depth_nm: f64, lambda_nm: f64) -> f64 {
     step_down(depth_nm / lambda_nm, 0.5, 1.0)
 }
 
+/// The power a far face's reflection must keep, after the round trip through the film, for
+/// the film to differ from bulk: 1e-12 (an amplitude of 1e-6, below the default power
+/// cutoff's effect on R, `TraceLimits::CUTOFF`).
+const FAR_FACE_POWER: f64 = 1e-12;
+
+/// How deep the probe looks, nm, for a film of complex index `n` at vacuum wavelength
+/// `lambda_nm`: one wavelength (where [`depth_weight`] reaches 0), or less where the film
+/// is opaque sooner. Behind a facet at any angle the wave's normal attenuation is at least
+/// the medium's `Im(n)` (`Im q = Re(n) Im(n) / Re(q)` grows as the tangential index grows),
+/// so past `d = ln(1 / FAR_FACE_POWER) lambda / (4 pi Im n)` the light that reaches the far
+/// face and comes back carries less than `FAR_FACE_POWER` of the incident power, and the
+/// film is bulk to within that (gold: 250 nm at 550 nm, 230 at 650). The probe's cost is
+/// a ray cast per entry into an absorber; the shorter reach keeps it small on bulk metals.
+pub(super) fn reach_nm(n: C64, lambda_nm: f64) -> f64 {
+    let opaque = (1.0 / FAR_FACE_POWER).ln() * lambda_nm / (4.0 * std::f64::consts::PI * n.im);
+    lambda_nm.min(opaque)
+}
+
+/// Per face: whether a probe from it into the medium behind could find a far face, that
+/// is, whether some face bounding that medium could face it within [`FILM_TILT_NONE`] (a
+/// film, a flake, a fin). Bit 0 is for light entering the face's back medium (through its
+/// front side), bit 1 for light entering its front medium. Where no face could (a metal
+/// substrate under a height field's gentle facets, V-grooves whose walls meet at 60
+/// degrees), the probe is never cast: it would find nothing, and it costs a ray cast per
+/// entry into the absorber.
+///
+/// `faces` holds each face's unit normal, pointing into its front medium, and its front
+/// and back media. Each face's outward normal (out of a medium) goes to a cell of a
+/// 5-degree latitude-longitude grid; two faces face each other within `beta` when one's
+/// outward normal is within `beta` of the other's reversed. Taken between the cells'
+/// centres, with the cells' angular radius (at most 3.6 degrees) added twice, the test can
+/// only err towards casting.
+pub(super) fn film_faces(media: usize, faces: &[(DVec3, usize, usize)]) -> Vec<u8> {
+    const BANDS: usize = 36;
+    const SECTORS: usize = 72;
+    const CELLS: usize = BANDS * SECTORS;
+    let cell = |o: DVec3| -> usize {
+        let theta = o.z.clamp(-1.0, 1.0).acos();
+        let phi = o.y.atan2(o.x) + std::f64::consts::PI;
+        let i = ((theta / std::f64::consts::PI * BANDS as f64) as usize).min(BANDS - 1);
+        let j = ((phi / std::f64::consts::TAU * SECTORS as f64) as usize).min(SECTORS - 1);
+        i * SECTORS + j
+    };
+    let centre = |c: usize| -> DVec3 {
+        let (i, j) = (c / SECTORS, c % SECTORS);
+        let theta = (i as f64 + 0.5) / BANDS as f64 * std::f64::consts::PI;
+        let phi = (j as f64 + 0.5) / SECTORS as f64 * std::f64::consts::TAU - std::f64::consts::PI;
+        DVec3::new(
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+        )
+    };
+    // Per medium, the cells of its faces' outward normals.
+    let mut occupied = vec![vec![false; CELLS]; media];
+    for &(n, front, back) in faces {
+        occupied[back][cell(n)] = true;
+        occupied[front][cell(-n)] = true;
+    }
+    // Per medium and cell: whether a face of the medium could face one in that cell.
+    let limit = (FILM_TILT_NONE + 2.0 * 3.6).to_radians().cos();
+    let facing: Vec<Vec<bool>> = occupied
+        .iter()
+        .map(|cells| {
+            let dirs: Vec<DVec3> = (0..CELLS).filter(|&c| cells[c]).map(centre).collect();
+            (0..CELLS)
+                .map(|c| cells[c] && dirs.iter().any(|&b| centre(c).dot(-b) >= limit))
+                .collect()
+        })
+        .collect();
+    faces
+        .iter()
+        .map(|&(n, front, back)| {
+            u8::from(facing[back][cell(n)]) | u8::from(facing[front][cell(-n)]) << 1
+        })
+        .collect()
+}
+
 impl Scene<'_> {
     /// The far face of the medium `film` that the ray `r`, at its entry point on a facet of
     /// normal `nf` (facing the ray), enters: the first surface along `-nf` within `max_nm`,
@@ -171,5 +249,50 @@ mod tests {
         };
         check(&tilt_weight, FILM_TILT_FULL, FILM_TILT_NONE);
         check(&|x| depth_weight(x, 1.0), 0.5, 1.0);
+    }
+
+    /// Media 0 (air), 1 (gold), 2 (glass). A film's two faces face each other; the walls of
+    /// 60-degree V-grooves (60 degrees from the vertical either way) and a height field's
+    /// facets up to 60 degrees steep do not, and neither does a ridge whose faces are 50
+    /// degrees from facing each other (beyond FILM_TILT_NONE and the grid's margin). Among
+    /// a rough surface's facets, only steep ones that face each other are probed.
+    #[test]
+    fn only_faces_that_could_face_another_are_probed() {
+        let tilted = |deg: f64, az: f64| {
+            let (t, a) = (deg.to_radians(), az.to_radians());
+            DVec3::new(t.sin() * a.cos(), t.sin() * a.sin(), t.cos())
+        };
+        // A gold film on glass, its back face tilted by 5 degrees: light entering the gold
+        // through either face, and nothing else.
+        let film = film_faces(3, &[(DVec3::Z, 0, 1), (tilted(5.0, 30.0), 1, 2)]);
+        assert_eq!(film, [0b01, 0b10]);
+        // Gold V-grooves and a rough gold height field: every face has gold behind it.
+        let grooves = film_faces(3, &[(tilted(60.0, 0.0), 0, 1), (tilted(60.0, 180.0), 0, 1)]);
+        assert_eq!(grooves, [0, 0]);
+        let gentle: Vec<_> = (0..360)
+            .step_by(7)
+            .flat_map(|az| [0.0, 20.0, 40.0, 60.0].map(|t| (tilted(t, az as f64), 0, 1)))
+            .collect();
+        assert!(film_faces(3, &gentle).iter().all(|&f| f == 0));
+        // A gold ridge whose faces' outward normals lean `t` from the vertical either way
+        // face each other within `180 - 2 t` degrees: at 65 (50 from facing) it is not
+        // probed, at 77.5 (25 from facing) it is, from either side (the air between two
+        // such ridges absorbs nothing and is never probed).
+        let ridge = |t: f64| film_faces(2, &[(tilted(t, 0.0), 0, 1), (tilted(t, 180.0), 0, 1)]);
+        assert_eq!(ridge(65.0), [0, 0]);
+        assert_eq!(ridge(77.5), [0b11, 0b11]);
+        // Facets up to 40 degrees steep with two 80 degree ones facing each other added:
+        // only the steep ones (a 60 degree facet would face an 80 degree one within 40
+        // degrees, and be probed within the grid's margin).
+        let mut rough: Vec<_> = gentle
+            .iter()
+            .copied()
+            .filter(|&(n, _, _)| n.z > 0.7)
+            .collect();
+        let m = rough.len();
+        rough.extend([(tilted(80.0, 0.0), 0, 1), (tilted(80.0, 180.0), 0, 1)]);
+        let flags = film_faces(3, &rough);
+        assert!(flags[..m].iter().all(|&f| f == 0));
+        assert_eq!(flags[m..], [0b11, 0b11]);
     }
 }

@@ -97,6 +97,10 @@ pub struct Scene<'a> {
     scatter: Vec<Option<ScatterModel>>,
     /// Whether some medium scatters.
     scatters: bool,
+    /// Per triangle: whether light entering its back (bit 0) or front (bit 1) medium
+    /// through it could find a far face there (`film::film_faces`); only there is one
+    /// probed for.
+    film_faces: Vec<u8>,
     /// Whether long trees play Russian roulette: samples with bodies (flakes, pigments) or
     /// scattering media only. A meshed multilayer's long series is one coherent sum whose
     /// deep terms matter (its cross terms are not small): it keeps every branch and is
@@ -155,10 +159,21 @@ impl<'a> Scene<'a> {
             ambient: 0,
             substrate: 0,
             scatter: Vec::new(),
+            film_faces: Vec::new(),
             scatters: sample.media.iter().any(|m| m.scattering.is_some()),
             roulette: sample.media.iter().any(|m| m.scattering.is_some())
                 || sample.interfaces.iter().any(|i| i.closed),
         };
+        let faces: Vec<_> = scene
+            .owner
+            .iter()
+            .zip(&scene.plane)
+            .map(|(&o, &(_, n))| {
+                let itf = &sample.interfaces[o as usize];
+                (n, itf.front, itf.back)
+            })
+            .collect();
+        scene.film_faces = film::film_faces(sample.media.len(), &faces);
         scene.ambient = scene.outer_medium(true)?;
         scene.substrate = scene.outer_medium(false)?;
         Ok(scene)
