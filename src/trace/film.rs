@@ -75,19 +75,19 @@ pub fn depth_weight(depth_nm: f64, lambda_nm: f64) -> f64 {
     step_down(depth_nm / lambda_nm, 0.5, 1.0)
 }
 
-/// The power a far face's reflection must keep, after the round trip through the film, for
-/// the film to differ from bulk: 1e-12 (an amplitude of 1e-6, below the default power
-/// cutoff's effect on R, `TraceLimits::CUTOFF`).
+/// The power a film must transmit for its far face to matter: 1e-12. Below it the film is
+/// bulk (what its far face sends back is smaller still), and the light it would transmit
+/// is far below the default power cutoff (`TraceLimits::CUTOFF`).
 const FAR_FACE_POWER: f64 = 1e-12;
 
 /// How deep the probe looks, nm, for a film of complex index `n` at vacuum wavelength
 /// `lambda_nm`: one wavelength (where [`depth_weight`] reaches 0), or less where the film
 /// is opaque sooner. Behind a facet at any angle the wave's normal attenuation is at least
 /// the medium's `Im(n)` (`Im q = Re(n) Im(n) / Re(q)` grows as the tangential index grows),
-/// so past `d = ln(1 / FAR_FACE_POWER) lambda / (4 pi Im n)` the light that reaches the far
-/// face and comes back carries less than `FAR_FACE_POWER` of the incident power, and the
-/// film is bulk to within that (gold: 250 nm at 550 nm, 230 at 650). The probe's cost is
-/// a ray cast per entry into an absorber; the shorter reach keeps it small on bulk metals.
+/// so a film thicker than `ln(1 / FAR_FACE_POWER) lambda / (4 pi Im n)` transmits less than
+/// `FAR_FACE_POWER` (gold: 490 nm at 550 nm, 450 at 650; aluminium 180 nm at 450). The
+/// probe's cost is a ray cast per entry into an absorber; the shorter reach keeps it small
+/// on bulk metals.
 pub(super) fn reach_nm(n: C64, lambda_nm: f64) -> f64 {
     let opaque = (1.0 / FAR_FACE_POWER).ln() * lambda_nm / (4.0 * std::f64::consts::PI * n.im);
     lambda_nm.min(opaque)
