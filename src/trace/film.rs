@@ -91,7 +91,7 @@ const FAR_FACE_POWER: f64 = 1e-12;
 /// is opaque sooner. Behind a facet at any angle the wave's normal attenuation is at least
 /// the medium's `Im(n)` (`Im q = Re(n) Im(n) / Re(q)` grows as the tangential index grows),
 /// so a film thicker than `ln(1 / FAR_FACE_POWER) lambda / (4 pi Im n)` transmits less than
-/// `FAR_FACE_POWER` (gold: 490 nm at 550 nm, 450 at 650; aluminium 180 nm at 450). The
+/// `FAR_FACE_POWER` (gold: 490 nm at 550 nm, 450 at 650; aluminium 207 nm at 450). The
 /// probe's cost is a ray cast per entry into an absorber; the shorter reach keeps it small
 /// on bulk metals.
 pub(super) fn reach_nm(n: C64, lambda_nm: f64) -> f64 {
