@@ -153,7 +153,8 @@ pub struct SimSettings {
     /// Largest number of rays per incident direction with --tolerance.
     #[arg(long, default_value_t = defaults::MAX_RAYS)]
     pub max_rays: u64,
-    /// Trace every wavelength separately even when no medium is dispersive.
+    /// Trace every wavelength separately even when no medium is dispersive or absorbing
+    /// and no interface is coated (where one tree would otherwise serve them all).
     #[arg(long)]
     pub no_path_sharing: bool,
     /// Trace each wavelength of a tree on its own instead of all at once. By default,

@@ -13,7 +13,8 @@
 //! plane; the current medium is tracked and every mismatch (a leak) is counted.
 //!
 //! Propagation phases are kept out of the fields: a tree's exit amplitude at wavelength
-//! `lambda` is `E * exp(i 2 pi OPL / lambda)`. When no medium is dispersive the Fresnel
+//! `lambda` is `E * exp(i 2 pi OPL / lambda)`. When no medium is dispersive or absorbing
+//! (thin absorbing films take wavelength-dependent transfer-matrix amplitudes, `film`) the
 //! coefficients do not depend on wavelength either, so one traced tree serves every
 //! wavelength (spectral path sharing). Otherwise [`Scene::trace_lanes`] traces every
 //! wavelength of a tree at once, sharing each ray until it refracts into a dispersive
