@@ -31,6 +31,8 @@ pub struct Settings {
     pub phi_i_deg: f64,
     /// Bins (values are the bin edges) or monochromatic (values are the wavelengths).
     pub wavelength_mode: WavelengthMode,
+    /// The sampling's values, nm: bin edges, or exact wavelengths (not the bins' centres,
+    /// which every output names `lambda_nm`).
     pub wavelengths_nm: Vec<f64>,
     pub coherence: Coherence,
     /// Beamlet radius, nm; `inf` for the plane-wave limit.
@@ -298,6 +300,18 @@ pub struct ReflectanceRow {
     pub r_stderr: Option<f64>,
 }
 
+/// An incident direction the accumulator was not simulated at (degrees).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NotSimulated {
+    #[error("simulated at phi_i = {simulated_deg} deg, not {asked_deg}")]
+    Azimuth { asked_deg: f64, simulated_deg: f64 },
+    #[error("no incident angle {asked_deg} deg (it has {simulated_deg:?})")]
+    Polar {
+        asked_deg: f64,
+        simulated_deg: Vec<f64>,
+    },
+}
+
 /// The directional reflectance at one incident angle.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Reflectance {
@@ -313,22 +327,23 @@ impl Accumulator {
         &self,
         theta_i_deg: f64,
         phi_i_deg: Option<f64>,
-    ) -> Result<Reflectance, String> {
+    ) -> Result<Reflectance, NotSimulated> {
         let s = &self.header.settings;
         if let Some(p) = phi_i_deg
             && (p - s.phi_i_deg).abs() > 1e-9
         {
-            return Err(format!("simulated at phi_i = {} deg, not {p}", s.phi_i_deg));
+            return Err(NotSimulated::Azimuth {
+                asked_deg: p,
+                simulated_deg: s.phi_i_deg,
+            });
         }
         let i = s
             .theta_i_deg
             .iter()
             .position(|t| (t - theta_i_deg).abs() < 1e-9)
-            .ok_or_else(|| {
-                format!(
-                    "no incident angle {theta_i_deg} deg (it has {:?})",
-                    s.theta_i_deg
-                )
+            .ok_or_else(|| NotSimulated::Polar {
+                asked_deg: theta_i_deg,
+                simulated_deg: s.theta_i_deg.clone(),
             })?;
         let mode = s.coherence_mode();
         let buckets = s.buckets();

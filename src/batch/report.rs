@@ -233,7 +233,7 @@ fn material_entry(
     let mut ys = Vec::new();
     let mut all = Vec::new();
     for &t in &thetas {
-        let refl = acc.reflectance(t, None).map_err(fail)?;
+        let refl = acc.reflectance(t, None).map_err(|e| fail(e.to_string()))?;
         let r: Vec<f64> = refl.rows.iter().map(|row| row.r).collect();
         if let Some(bad) = r.iter().find(|v| !v.is_finite() || **v < 0.0 || **v > 1.0) {
             return Err(fail(format!(

@@ -179,6 +179,23 @@ pub struct Stack {
 }
 
 impl Sample {
+    /// Each medium's complex index `n + i k` at `lambda_nm` (nm), into `out` in medium
+    /// order (cleared first, so a run reuses one buffer per thread).
+    ///
+    /// # Panics
+    /// When a medium's model does not cover `lambda_nm`: a run checks every medium's range
+    /// before it traces (`simulate`'s refusals).
+    pub fn indices_into(&self, lambda_nm: f64, out: &mut Vec<crate::optics::C64>) {
+        out.clear();
+        out.extend(self.media.iter().map(|m| {
+            let (n, k) = m
+                .model
+                .eval(lambda_nm)
+                .expect("a run checks the media's ranges before tracing");
+            crate::optics::C64::new(n, k)
+        }));
+    }
+
     /// Every interface's triangles in one soup for an accelerator, and for each interface
     /// the index of its first triangle (so `prim` maps back to its interface).
     pub fn triangle_soup(&self) -> (TriangleSoup, Vec<u32>) {

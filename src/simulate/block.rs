@@ -7,7 +7,7 @@ use std::sync::atomic::Ordering;
 use glam::DVec3;
 
 use super::launch::{entry_point, lattice_point};
-use super::run::{Run, Tracing, Worker, absorbed_power, indices_into};
+use super::run::{Run, Tracing, Worker, absorbed_power};
 use crate::accumulate::block::BlockCell;
 use crate::accumulate::{Scratch, diffraction};
 use crate::optics::fresnel::Field;
@@ -160,7 +160,7 @@ impl Run<'_> {
             )),
             Tracing::Lanes => {
                 for (j, v) in w.indices.iter_mut().enumerate() {
-                    indices_into(self.sample, w.lambdas[j], v);
+                    self.sample.indices_into(w.lambdas[j], v);
                 }
                 let lanes: Vec<Lane> = (w.indices.iter().zip(&w.lambdas))
                     .map(|(v, &l)| Lane {
@@ -197,7 +197,7 @@ impl Run<'_> {
             }
             Tracing::PerWavelength => {
                 let lambda = w.lambdas[j];
-                indices_into(self.sample, lambda, &mut w.indices[0]);
+                self.sample.indices_into(lambda, &mut w.indices[0]);
                 // Volume scattering's own stream for this tree and wavelength.
                 w.stack.set_stream(
                     self.cfg.seed ^ 0x5CA7_7E2E_D000_0000,

@@ -4,7 +4,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::run::{Run, indices_into};
+use super::run::Run;
 use super::{DiffractionCell, SimError};
 use crate::accumulate::{Cell, diffraction};
 
@@ -29,7 +29,7 @@ impl Run<'_> {
                 let lambda = self.settings.wavelength(j);
                 let k = 2.0 * std::f64::consts::PI / lambda;
                 let mut idx = Vec::new();
-                indices_into(self.sample, lambda, &mut idx);
+                self.sample.indices_into(lambda, &mut idx);
                 let n_sub = idx[self.scene.substrate];
                 let h = diffraction::Hemisphere {
                     tile_nm: self.sample.tile_nm,

@@ -2,7 +2,6 @@
 //! a medium's range, an absorbing or dispersive ambient medium, and diffraction runs too
 //! large for memory.
 
-use super::run::indices_into;
 use super::{DIFFRACTION_MAX_BYTES, SimConfig, SimError};
 use crate::accumulate::{Coherence, diffraction};
 use crate::optics::C64;
@@ -12,7 +11,7 @@ use crate::trace::Scene;
 /// The media's indices at `lambda_nm`.
 fn index_at(sample: &Sample, lambda_nm: f64) -> Vec<C64> {
     let mut v = Vec::new();
-    indices_into(sample, lambda_nm, &mut v);
+    sample.indices_into(lambda_nm, &mut v);
     v
 }
 

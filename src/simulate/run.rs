@@ -153,7 +153,7 @@ impl<'a> Run<'a> {
         }
         let index_at = |l: f64| -> Vec<C64> {
             let mut v = Vec::new();
-            indices_into(sample, l, &mut v);
+            sample.indices_into(l, &mut v);
             v
         };
         let nl = cfg.wavelengths.count();
@@ -436,19 +436,6 @@ impl<'a> Run<'a> {
         }
         Ok((acc, stats))
     }
-}
-
-/// Every medium's complex index at `lambda_nm`, into `out` (reused: no allocation per
-/// tree).
-pub(super) fn indices_into(sample: &Sample, lambda_nm: f64, out: &mut Vec<C64>) {
-    out.clear();
-    out.extend(sample.media.iter().map(|m| {
-        let (n, k) = m
-            .model
-            .eval(lambda_nm)
-            .expect("range checked in Run::prepare");
-        C64::new(n, k)
-    }));
 }
 
 /// Absorbed power of one tree at one wavelength: what entered absorbing media and did not

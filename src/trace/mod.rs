@@ -28,6 +28,7 @@ use crate::rng::Rng;
 use crate::sample::Sample;
 use glam::DVec3;
 
+mod children;
 mod events;
 mod film;
 mod random;
@@ -36,7 +37,6 @@ mod walk;
 
 pub use random::{ROULETTE_AFTER_SEGMENTS, ROULETTE_BELOW};
 
-use events::LaneSplit;
 pub use events::{PLANE_WAVE_TILT, deflection, event_weights, recombination_weight};
 pub use film::{FILM_TILT_FULL, FILM_TILT_NONE, depth_weight, tilt_weight};
 pub use tree::{Dropped, DroppedPower, Exit, Tree};
@@ -286,6 +286,22 @@ impl TraceStack {
 /// [`Exit::path`] of a launched ray (the FNV-1a offset basis; each event is mixed in as
 /// FNV-1a mixes a byte, `(h ^ x) * 0x100000001b3`).
 const PATH_START: u64 = 0xCBF2_9CE4_8422_2325;
+
+/// One lane's split at an interface: the children's directions and complex index
+/// vectors, and their fields of the two polarisations.
+#[derive(Default)]
+struct LaneSplit {
+    dir_r: DVec3,
+    n_r: (DVec3, DVec3),
+    dir_t: Option<DVec3>,
+    n_t: (DVec3, DVec3),
+    er: [Field; 2],
+    et: [Field; 2],
+    /// The wave a thin film hands on from its far face ([`super::film`]), where one does.
+    dir_t2: Option<DVec3>,
+    n_t2: (DVec3, DVec3),
+    et2: [Field; 2],
+}
 
 /// A ray in flight.
 #[derive(Clone, Copy, Debug)]

@@ -43,15 +43,8 @@ pub(super) fn media(cx: &Ctx, raw: &RawSample) -> Result<Vec<Medium>, SampleErro
         });
     }
     for (name, m) in &raw.media {
-        let scattering = scattering_of(raw, &media, name, m.get_ref()).map_err(|message| {
-            cx.at(
-                m.span(),
-                SampleErrorKind::BadMedium {
-                    name: name.clone(),
-                    message,
-                },
-            )
-        })?;
+        let scattering =
+            scattering_of(raw, &media, name, m.get_ref()).map_err(|kind| cx.at(m.span(), kind))?;
         if let Some(s) = scattering
             && let Some(m) = media.iter_mut().find(|x| &x.name == name)
         {
@@ -68,14 +61,20 @@ fn scattering_of(
     media: &[Medium],
     name: &str,
     m: &RawMedium,
-) -> Result<Option<Scattering>, String> {
+) -> Result<Option<Scattering>, SampleErrorKind> {
     use crate::optics::particles::{Radius, ScatterModel};
+    let bad = |message: String| SampleErrorKind::BadMedium {
+        name: name.to_string(),
+        message,
+    };
     match (&m.particles, &m.henyey_greenstein) {
         (None, None) => Ok(None),
-        (Some(_), Some(_)) => Err("has both particles and henyey_greenstein; give one".into()),
+        (Some(_), Some(_)) => Err(bad(
+            "has both particles and henyey_greenstein; give one".into()
+        )),
         (Some(p), None) => {
             let Some(pm) = media.iter().position(|x| x.name == p.medium) else {
-                return Err(format!("particles of unknown medium '{}'", p.medium));
+                return Err(bad(format!("particles of unknown medium '{}'", p.medium)));
             };
             if pm
                 == media
@@ -83,36 +82,36 @@ fn scattering_of(
                     .position(|x| x.name == name)
                     .unwrap_or(usize::MAX)
             {
-                return Err("particles cannot be of the medium they are in".into());
+                return Err(bad("particles cannot be of the medium they are in".into()));
             }
             if raw.media[&p.medium].get_ref().particles.is_some()
                 || raw.media[&p.medium].get_ref().henyey_greenstein.is_some()
             {
-                return Err(format!(
+                return Err(bad(format!(
                     "particles of '{}', itself a scattering medium: a particle is one homogeneous medium",
                     p.medium
-                ));
+                )));
             }
             let radius = match (p.radius_nm, &p.log_normal) {
                 (Some(r), None) => {
                     if !(r.is_finite() && r > 0.0 && r <= 1e6) {
-                        return Err(format!(
+                        return Err(bad(format!(
                             "particles: radius_nm must be between 0 and 1e6 nm, got {r}"
-                        ));
+                        )));
                     }
                     Radius::Fixed { radius_nm: r }
                 }
                 (None, Some(ln)) => {
                     let (r, sg) = (ln.median_radius_nm, ln.sigma);
                     if !(r.is_finite() && r > 0.0 && r <= 1e6) {
-                        return Err(format!(
+                        return Err(bad(format!(
                             "particles: median_radius_nm must be between 0 and 1e6 nm, got {r}"
-                        ));
+                        )));
                     }
                     if !(sg.is_finite() && sg > 0.0 && sg <= 1.0) {
-                        return Err(format!(
+                        return Err(bad(format!(
                             "particles: the log-normal sigma (of ln r) must lie in (0, 1], got {sg}"
-                        ));
+                        )));
                     }
                     Radius::LogNormal {
                         median_nm: r,
@@ -120,17 +119,17 @@ fn scattering_of(
                     }
                 }
                 _ => {
-                    return Err(
+                    return Err(bad(
                         "particles need radius_nm or log_normal = { median_radius_nm, sigma }, not both"
                             .into(),
-                    );
+                    ));
                 }
             };
             let f = p.volume_fraction;
             if !(f.is_finite() && f > 0.0 && f < 0.74) {
-                return Err(format!(
+                return Err(bad(format!(
                     "particles: volume_fraction must lie in (0, 0.74), got {f}"
-                ));
+                )));
             }
             Ok(Some(Scattering::Particles {
                 medium: pm,
@@ -140,7 +139,7 @@ fn scattering_of(
         }
         (None, Some(h)) => {
             ScatterModel::henyey_greenstein(h.g, h.scattering_per_um, h.absorption_per_um)
-                .map_err(|e| format!("henyey_greenstein: {e}"))?;
+                .map_err(|e| bad(format!("henyey_greenstein: {e}")))?;
             Ok(Some(Scattering::HenyeyGreenstein {
                 g: h.g,
                 scattering_per_um: h.scattering_per_um,

@@ -164,15 +164,10 @@ fn measured_surfaces(
                 }
                 None
             }
-            Some(h) => Some(load_heightmap(ri, h, cx.base, cx.scale, open).map_err(|m| {
-                cx.at(
-                    h.span(),
-                    SampleErrorKind::Invalid(format!(
-                        "height map {}: {m}",
-                        cx.base.join(h.get_ref()).display()
-                    )),
-                )
-            })?),
+            Some(h) => Some(
+                load_heightmap(ri, h, cx.base, cx.scale, open)
+                    .map_err(|kind| cx.at(h.span(), kind))?,
+            ),
         });
     }
     Ok(measured)
@@ -185,8 +180,9 @@ fn load_heightmap(
     base: &Path,
     nm_per_unit: f64,
     open: bool,
-) -> Result<Measured, String> {
+) -> Result<Measured, SampleErrorKind> {
     let file = base.join(h.get_ref());
+    let bad = |m: String| SampleErrorKind::Invalid(format!("height map {}: {m}", file.display()));
     let scale = match (ri.pixel_size.as_ref(), ri.height_scale.as_ref()) {
         (None, None) => None,
         (Some(p), Some(z)) => {
@@ -196,12 +192,14 @@ fn load_heightmap(
             };
             let z = *z.get_ref();
             if !(dx.is_finite() && dy.is_finite() && dx > 0.0 && dy > 0.0) {
-                return Err(format!(
+                return Err(bad(format!(
                     "pixel_size must be positive and finite, got [{dx}, {dy}]"
-                ));
+                )));
             }
             if !(z.is_finite() && z != 0.0) {
-                return Err(format!("height_scale must be finite and non-zero, got {z}"));
+                return Err(bad(format!(
+                    "height_scale must be finite and non-zero, got {z}"
+                )));
             }
             Some(heightmap::Scale {
                 dx_nm: dx * nm_per_unit,
@@ -209,24 +207,28 @@ fn load_heightmap(
                 dz_nm: z * nm_per_unit,
             })
         }
-        _ => return Err("give both pixel_size and height_scale, or neither".into()),
+        _ => {
+            return Err(bad(
+                "give both pixel_size and height_scale, or neither".into()
+            ));
+        }
     };
-    let mut map = heightmap::read(&file, scale).map_err(|e| e.to_string())?;
+    let mut map = heightmap::read(&file, scale).map_err(|e| bad(e.to_string()))?;
     let filled = map
         .resolve_missing(ri.missing.unwrap_or_default())
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| bad(e.to_string()))?;
     let edges = match (ri.edges, open) {
         (None, true) => heightmap::Edges::Guard,
         (None, false) => heightmap::Edges::default(),
         (Some(e @ (heightmap::Edges::Mirror | heightmap::Edges::Periodic)), true) => {
-            return Err(format!(
+            return Err(bad(format!(
                 "edges = \"{}\" makes the patch periodic, but [sample] guard opens the sample's sides: use edges = \"guard\" (the default with a guard band) or remove guard",
                 e.name()
-            ));
+            )));
         }
         (Some(e), _) => e,
     };
-    let (mesh, tile) = map.mesh(edges).map_err(|e| e.to_string())?;
+    let (mesh, tile) = map.mesh(edges).map_err(|e| bad(e.to_string()))?;
     let desc = format!(
         "height map {} ({} x {} points, {} x {} nm apart{}, edges {})",
         file.display(),
