@@ -29,8 +29,12 @@ test: deps
 	$(CARGO) test --all-targets
 	./scripts/slurm-test.sh $(or $(CARGO_TARGET_DIR),target)/debug/goniospec
 
-## Formatting and lints, as CI applies them: the Embree build and the build without it.
+## The house gate (scripts/house-figures.py --check: function and file lengths, import
+## cycles, the floors of docs/design.md §9, string errors; limits in
+## scripts/house-limits.toml), then formatting and lints, as CI applies them: the Embree
+## build and the build without it.
 lint: deps
+	python3 scripts/house-figures.py --check
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --all-targets -- -D warnings
 	GONIOSPEC_NO_EMBREE=1 CARGO_TARGET_DIR=$(or $(CARGO_TARGET_DIR),target)/no-embree $(CARGO) clippy --all-targets -- -D warnings
