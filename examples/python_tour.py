@@ -22,7 +22,7 @@ os.makedirs(out, exist_ok=True)
 
 # 1. The wavy film and its lobe in the plane of incidence at 30 degrees.
 film = gs.Sample.load("meshes/thin-film-600nm.toml")
-acc = gs.simulate(film, theta_i=list(range(0, 90, 10)), wavelengths="380:780:20", rays=2048)
+acc = gs.simulate(film, theta_i_deg=list(range(0, 90, 10)), wavelengths="380:780:20", rays=2048)
 brdf = acc.build("table")
 theta_o = np.linspace(-85, 85, 171)
 f = brdf.eval(30, 0, np.abs(theta_o), np.where(theta_o >= 0, 180.0, 0.0))  # [171, n_lambda]
@@ -34,8 +34,8 @@ try:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(subplot_kw={"projection": "polar"})
-    for j in range(0, len(brdf.wavelengths_nm), 4):
-        ax.plot(np.radians(theta_o), f[:, j] * np.cos(np.radians(theta_o)), label=f"{brdf.wavelengths_nm[j]:.0f} nm")
+    for j in range(0, len(brdf.lambda_nm), 4):
+        ax.plot(np.radians(theta_o), f[:, j] * np.cos(np.radians(theta_o)), label=f"{brdf.lambda_nm[j]:.0f} nm")
     ax.set_thetamin(-90)
     ax.set_thetamax(90)
     ax.set_theta_zero_location("N")

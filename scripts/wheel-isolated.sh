@@ -61,7 +61,7 @@ print(f"embree_mapped_from_wheel: 1 bool")
 import tmm
 s = gs.Sample.load(os.path.join(sys.argv[2], "meshes", "flat-soap-film.toml"))
 t0 = time.monotonic()
-acc = gs.simulate(s, theta_i=[30], wavelengths="450,550,650", monochromatic=True, rays=64,
+acc = gs.simulate(s, theta_i_deg=[30], wavelengths="450,550,650", monochromatic=True, rays=64,
                   coherence_radius_nm=float("inf"), backend="embree", progress=False)
 print(f"simulate_s: {time.monotonic() - t0:.3f} s")
 r = acc.reflectance(30)

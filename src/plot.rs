@@ -80,7 +80,7 @@ pub struct Lobe {
 /// The lobe of `brdf` for incidence `(theta_i, phi_i)` (degrees) at every degree from -89
 /// to 89, for `count` wavelength bins spread over the BRDF's range.
 pub fn lobe(brdf: &(dyn Brdf + Sync), theta_i_deg: f64, phi_i_deg: f64, count: usize) -> Lobe {
-    let lambdas = &brdf.meta().wavelengths_nm;
+    let lambdas = &brdf.meta().lambda_nm;
     let nl = lambdas.len();
     let picks: Vec<usize> = if nl <= count {
         (0..nl).collect()
@@ -122,7 +122,7 @@ pub fn hemisphere_colours(
     phi_i_deg: f64,
     n: usize,
 ) -> Vec<Option<[f64; 3]>> {
-    let lambdas = &brdf.meta().wavelengths_nm;
+    let lambdas = &brdf.meta().lambda_nm;
     let weights = colour::bin_weights(lambdas);
     let wi = from_spherical(theta_i_deg.to_radians(), phi_i_deg.to_radians());
     let forward = (phi_i_deg + 180.0).to_radians();

@@ -163,7 +163,7 @@ fn subdivided_hemisphere_conserves_flux() {
         phi_bins: 24,
     });
     let sub = SubdividedBrdf::build(&data, 0.05);
-    let nl = data.wavelengths_nm.len();
+    let nl = data.lambda_nm.len();
     for i in 0..data.theta_i_rad.len() {
         let leaves: Vec<usize> = sub.leaves(i).collect();
         assert!(
@@ -212,7 +212,7 @@ fn representations_agree_and_integrate_to_the_simulated_reflectance() {
         theta_bins: 45,
         phi_bins: 36,
     });
-    let nl = data.wavelengths_nm.len();
+    let nl = data.lambda_nm.len();
     let reps: Vec<(&str, Box<dyn Brdf>)> = vec![
         ("kdtree", Box::new(KdTreeBrdf::build(&data, 4, true, false))),
         ("subdivided", Box::new(SubdividedBrdf::build(&data, 0.05))),
@@ -525,7 +525,7 @@ fn gsb_files_carry_the_whole_wavelength_sampling() {
     // A file from before: no spectrum; bins rebuilt from the centres.
     let old = file::read(&root().join("fuzz/corpus/gsb/table.gsb")).unwrap();
     assert_eq!(old.meta().spectrum, None);
-    let c = &old.meta().wavelengths_nm;
+    let c = &old.meta().lambda_nm;
     let rebuilt = old.meta().sampling();
     assert_eq!(rebuilt.count(), c.len());
     for (j, &cj) in c.iter().enumerate() {

@@ -363,7 +363,7 @@ fn build_eval_and_info() {
     let pairs = d.join("pairs.csv");
     std::fs::write(
         &pairs,
-        "theta_i,phi_i,theta_o,phi_o\n30,0,30,180\n10,45,20,200\n",
+        "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n30,0,30,180\n10,45,20,200\n",
     )
     .unwrap();
     for repr in ["kdtree", "subdivided", "table"] {

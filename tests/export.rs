@@ -408,7 +408,7 @@ fn merl_export_round_trips_through_the_readers_indexing() {
         ]
     };
     let r = file::read(std::path::Path::new(&gsb)).unwrap();
-    let weights = colour::bin_weights(&r.meta().wavelengths_nm);
+    let weights = colour::bin_weights(&r.meta().lambda_nm);
     let mut rng = goniospec::rng::Rng::new(5, 0);
     let mut cases = Vec::new();
     for _ in 0..2000 {

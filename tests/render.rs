@@ -40,7 +40,7 @@ fn lambert(albedo: f64) -> Lambert {
         albedo,
         meta: Meta {
             repr: goniospec::brdf::Kind::Analytic,
-            wavelengths_nm: centres(),
+            lambda_nm: centres(),
             spectrum: None,
             sample_name: "white".into(),
             sample_hash: String::new(),
@@ -48,6 +48,7 @@ fn lambert(albedo: f64) -> Lambert {
             isotropic: true,
             reciprocal: true,
             median_rel_stderr: None,
+            trees_per_direction: None,
         },
     }
 }

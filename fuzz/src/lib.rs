@@ -114,7 +114,7 @@ pub fn gsb(data: &[u8]) {
     use goniospec::geom::from_spherical;
     let b = with_checksum(data, &goniospec::brdf::file::FORMAT);
     if let Ok(r) = goniospec::brdf::file::from_bytes(&b, "fuzz.gsb") {
-        let mut out = vec![0.0; r.meta().wavelengths_nm.len()];
+        let mut out = vec![0.0; r.meta().lambda_nm.len()];
         for (ti, to, p) in [(0.0, 0.3, 1.0), (0.7, 0.7, 3.1), (1.5, 0.1, 6.0)] {
             r.eval(from_spherical(ti, 0.0), from_spherical(to, p), &mut out);
         }

@@ -16,12 +16,22 @@ class Sample:
     def name(self) -> str: ...
     def check(self) -> dict[str, list[str]]:
         """`goniospec check`: {"facts": [...], "warnings": [...], "defects": [...]}."""
+    def __repr__(self) -> str:
+        """Sample('name': media, interfaces, triangles, tile in nm, sides, file)."""
 
 class Brdf:
     def eval(self, theta_i_deg: _Angles, phi_i_deg: _Angles, theta_o_deg: _Angles, phi_o_deg: _Angles) -> npt.NDArray[np.float64]:
         """BRDF in 1/sr at angles in degrees (broadcast); shape [..., n_lambda]."""
     @property
-    def wavelengths_nm(self) -> npt.NDArray[np.float64]: ...
+    def lambda_nm(self) -> npt.NDArray[np.float64]:
+        """Centre of each wavelength bin (or each exact wavelength), nm: eval's last axis."""
+    @property
+    def wavelengths_nm(self) -> npt.NDArray[np.float64]:
+        """The old name of lambda_nm, kept for one release."""
+    @property
+    def theta_i_deg(self) -> list[float]: ...
+    def __repr__(self) -> str:
+        """Brdf('sample': representation, theta_i_deg, wavelengths, trees, method, symmetry)."""
     def save(self, path: _Path, force: bool = False) -> None: ...
     def export(self, path: _Path, format: Literal["npz", "merl", "rgl"] = "npz", sample: Sample | None = None, resolution: int = 65, force: bool = False) -> None:
         """npz: NumPy arrays; merl: sRGB (loses the spectrum); rgl: Mitsuba 3 / pbrt-v4 .bsdf (needs sample; odd resolution)."""
@@ -33,12 +43,22 @@ class Accumulator:
     def build(self, repr: Literal["table", "kdtree", "subdivided"] = "table") -> Brdf: ...
     @property
     def theta_i_deg(self) -> list[float]: ...
+    @property
+    def phi_i_deg(self) -> float: ...
+    @property
+    def lambda_nm(self) -> npt.NDArray[np.float64]:
+        """Centre of each wavelength bin (or each exact wavelength), nm."""
+    @property
+    def trees(self) -> list[int]:
+        """Trees traced per incident direction."""
+    def __repr__(self) -> str:
+        """Accumulator('sample': theta_i_deg, phi_i_deg, wavelengths, trees, method)."""
 
 def load(path: _Path) -> Accumulator: ...
 def load_brdf(path: _Path) -> Brdf: ...
 def simulate(
     sample: Sample,
-    theta_i: Sequence[float],
+    theta_i_deg: Sequence[float],
     wavelengths: str = "380:780:10",
     rays: int = 4096,
     *,
@@ -47,7 +67,7 @@ def simulate(
     coherence_radius_nm: float = 5000.0,
     cutoff: float = 1e-10,
     monochromatic: bool = False,
-    phi_i: float = 0.0,
+    phi_i_deg: float = 0.0,
     threads: int = 0,
     backend: Literal["embree", "obvhs"] | None = None,
     theta_o_bins: int = 45,
@@ -61,10 +81,11 @@ def simulate(
     progress: bool | None = None,
 ) -> Accumulator:
     """goniospec simulate's flags as keywords (the same settings type, defaults and checks;
-    an unknown keyword is a ValueError): theta_i and phi_i in degrees, wavelengths in nm as
+    an unknown keyword is a ValueError): theta_i_deg and phi_i_deg in degrees (their old
+    names theta_i and phi_i, the flags', are still taken for one release), wavelengths in nm as
     --wavelengths, coherence_radius_nm in nm, cutoff a fraction of launched power.
     progress: a bar on sys.stderr when it is a terminal (None), always (True), never (False)."""
-def analytic(sample: Sample, theta_i: float, wavelengths: str = "380:780:10", monochromatic: bool = False) -> dict[str, npt.NDArray[np.float64]]:
-    """Transfer-matrix lambda_nm, Rs, Rp, R, Ts, Tp, T of a [stack] sample; theta_i in degrees."""
+def analytic(sample: Sample, theta_i_deg: float, wavelengths: str = "380:780:10", monochromatic: bool = False) -> dict[str, npt.NDArray[np.float64]]:
+    """Transfer-matrix lambda_nm, Rs, Rp, R, Ts, Tp, T of a [stack] sample; theta_i_deg in degrees."""
 def backends() -> list[dict[str, object]]:
     """The acceleration backends of this build: name, available, version, detail."""

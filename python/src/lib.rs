@@ -38,6 +38,28 @@ impl Sample {
         self.inner.name.clone()
     }
 
+    /// `Sample('name': media, interfaces, triangles, tile in nm, sides, file)`.
+    fn __repr__(&self) -> String {
+        let s = &self.inner;
+        let triangles: usize = s.interfaces.iter().map(|i| i.mesh.triangles.len()).sum();
+        let media: Vec<&str> = s.media.iter().map(|m| m.name.as_str()).collect();
+        format!(
+            "Sample('{}': media [{}], {} interfaces, {} triangles, tile {} x {} nm, {}{}, from {})",
+            s.name,
+            media.join(", "),
+            s.interfaces.len(),
+            triangles,
+            s.tile_nm[0],
+            s.tile_nm[1],
+            match s.guard_nm {
+                Some(g) => format!("open sides with a {g} nm guard band"),
+                None => "periodic".into(),
+            },
+            if s.stack.is_some() { ", a [stack]" } else { "" },
+            s.path.display()
+        )
+    }
+
     /// `goniospec check`: a dict with `facts`, `warnings` and `defects` (lists of str).
     fn check<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let r = py
@@ -127,6 +149,62 @@ impl Accumulator {
     fn theta_i_deg(&self) -> Vec<f64> {
         self.inner.header.settings.theta_i_deg.clone()
     }
+
+    /// The simulated incident azimuth, degrees.
+    #[getter]
+    fn phi_i_deg(&self) -> f64 {
+        self.inner.header.settings.phi_i_deg
+    }
+
+    /// Centre wavelength of each bin (or each exact wavelength), nm: the `lambda_nm` of
+    /// `reflectance()` and of the CLI's CSV.
+    #[getter]
+    fn lambda_nm<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let s = &self.inner.header.settings;
+        (0..s.wavelength_count())
+            .map(|j| s.wavelength(j))
+            .collect::<Vec<f64>>()
+            .into_pyarray(py)
+    }
+
+    /// Trees traced per incident direction (summed over merged runs).
+    #[getter]
+    fn trees(&self) -> Vec<u64> {
+        self.inner.header.rays_per_direction.clone()
+    }
+
+    /// `Accumulator('sample': theta_i_deg, phi_i_deg, wavelengths, trees, method)`.
+    fn __repr__(&self) -> String {
+        let h = &self.inner.header;
+        let s = &h.settings;
+        let n = s.wavelength_count();
+        format!(
+            "Accumulator('{}': theta_i_deg {:?}, phi_i_deg {}, {} wavelengths {}-{} nm ({}), trees {:?}, method {}{})",
+            s.sample_name,
+            s.theta_i_deg,
+            s.phi_i_deg,
+            n,
+            if n > 0 { s.wavelength(0) } else { 0.0 },
+            if n > 0 { s.wavelength(n - 1) } else { 0.0 },
+            s.wavelength_mode,
+            h.rays_per_direction,
+            s.coherence,
+            method_radius(s.coherence, s.coherence_radius_nm)
+        )
+    }
+}
+
+/// The coherence radius a method's description names: ", radius 5000 nm", or the
+/// plane-wave limit; nothing for the methods that take none.
+fn method_radius(c: goniospec::accumulate::Coherence, rho_nm: f64) -> String {
+    use goniospec::accumulate::Coherence;
+    match c {
+        Coherence::Beamlet | Coherence::Diffraction if rho_nm.is_infinite() => {
+            " (plane-wave limit)".into()
+        }
+        Coherence::Beamlet | Coherence::Diffraction => format!(" (radius {rho_nm} nm)"),
+        _ => String::new(),
+    }
 }
 
 /// A built BRDF (a `.gsb`).
@@ -177,7 +255,7 @@ impl Brdf {
         // Four angle columns, two directions and the result per query: refused as a
         // MemoryError before anything is allocated when it cannot fit (a broadcast view of
         // 10^11 angles aborted the interpreter).
-        let nl = self.inner.meta().wavelengths_nm.len();
+        let nl = self.inner.meta().lambda_nm.len();
         let bytes = n
             .checked_mul(4 + 6 + nl)
             .and_then(|v| v.checked_mul(8))
@@ -238,10 +316,57 @@ impl Brdf {
             .map_err(value_err)
     }
 
-    /// Centre wavelength of each bin, nm.
+    /// Centre wavelength of each bin (or each exact wavelength), nm: the last axis of
+    /// `eval`, and the `lambda_nm` of every CSV and NPZ.
+    #[getter]
+    fn lambda_nm<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.inner.meta().lambda_nm.clone().into_pyarray(py)
+    }
+
+    /// The old name of `lambda_nm` (before 0.x, issue 45), kept for one release.
     #[getter]
     fn wavelengths_nm<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        self.inner.meta().wavelengths_nm.clone().into_pyarray(py)
+        self.lambda_nm(py)
+    }
+
+    /// The simulated incident angles, degrees (from the simulation's settings).
+    #[getter]
+    fn theta_i_deg(&self) -> PyResult<Vec<f64>> {
+        Ok(self.settings()?.theta_i_deg)
+    }
+
+    /// `Brdf('sample': representation, theta_i_deg, wavelengths, trees, method, symmetry)`.
+    fn __repr__(&self) -> String {
+        let m = self.inner.meta();
+        let n = m.lambda_nm.len();
+        let (angles, trees, method) = match self.settings() {
+            Ok(s) => (
+                format!("{:?}", s.theta_i_deg),
+                match &m.trees_per_direction {
+                    Some(v) => format!("trees {v:?}"),
+                    None => "trees not recorded".into(),
+                },
+                format!(
+                    "{}{}",
+                    s.coherence,
+                    method_radius(s.coherence, s.coherence_radius_nm)
+                ),
+            ),
+            Err(_) => ("?".into(), "?".into(), "?".into()),
+        };
+        format!(
+            "Brdf('{}': {}, theta_i_deg {}, {} wavelengths {}-{} nm, {}, method {}{}{})",
+            m.sample_name,
+            m.repr.name(),
+            angles,
+            n,
+            m.lambda_nm.first().unwrap_or(&0.0),
+            m.lambda_nm.last().unwrap_or(&0.0),
+            trees,
+            method,
+            if m.isotropic { ", isotropic" } else { "" },
+            if m.reciprocal { ", reciprocal" } else { "" },
+        )
     }
 
     /// Writes the BRDF as a `.gsb` (atomically). It never replaces a file it came from,
@@ -307,6 +432,13 @@ impl Brdf {
     }
 }
 
+impl Brdf {
+    /// The simulation's settings, from the `.gsb`'s metadata.
+    fn settings(&self) -> PyResult<goniospec::accumulate::file::Settings> {
+        toml::from_str(&self.inner.meta().simulation).map_err(value_err)
+    }
+}
+
 /// The output policy (`goniospec::output::guard`): refusals are `FileExistsError`.
 fn guard(path: &Path, inputs: &[PathBuf], kind: OutputKind, force: bool) -> PyResult<()> {
     let inputs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
@@ -338,7 +470,8 @@ fn load_brdf(path: PathBuf) -> PyResult<Brdf> {
 
 /// Simulates the virtual goniospectrometer (`goniospec simulate`, with its flags as
 /// keywords of the same names, `_` for `-`, and the same defaults): `rays` coherent ray
-/// trees per incident direction `theta_i` (degrees) at azimuth `phi_i` (degrees);
+/// trees per incident direction `theta_i_deg` (degrees) at azimuth `phi_i_deg` (degrees;
+/// `theta_i` and `phi_i`, the flags' names, are still taken for one release);
 /// `wavelengths` as `--wavelengths` (nm: "A:B:STEP" bins, or a comma list of edges; exact
 /// wavelengths with `monochromatic=True`); the estimator `coherence` with
 /// `coherence_radius_nm` (float("inf"): the plane-wave limit); `theta_o_bins` x
@@ -351,17 +484,34 @@ fn load_brdf(path: PathBuf) -> PyResult<Brdf> {
 /// nothing otherwise (`None`, the default); `True` draws it always, `False` never;
 /// `threads=0` uses all cores and results do not depend on it.
 #[pyfunction]
-#[pyo3(signature = (sample, theta_i, wavelengths = None, rays = None, *, threads = 0, progress = None, **settings))]
+#[pyo3(signature = (sample, theta_i_deg = None, wavelengths = None, rays = None, *, threads = 0, progress = None, theta_i = None, **settings))]
+#[allow(clippy::too_many_arguments)]
 fn simulate(
     py: Python<'_>,
     sample: &Sample,
-    theta_i: Vec<f64>,
+    theta_i_deg: Option<Vec<f64>>,
     wavelengths: Option<&str>,
     rays: Option<u64>,
     threads: usize,
     progress: Option<bool>,
+    theta_i: Option<Vec<f64>>,
     settings: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Accumulator> {
+    // `theta_i` and `phi_i` are the names before issue 45 (the CLI's flags), kept for a
+    // release beside `theta_i_deg` and `phi_i_deg`, the names every output uses.
+    let theta_i = match (theta_i_deg, theta_i) {
+        (Some(t), None) | (None, Some(t)) => t,
+        (Some(_), Some(_)) => {
+            return Err(value_err(
+                "simulate(): give theta_i_deg, or its old name theta_i, not both",
+            ));
+        }
+        (None, None) => {
+            return Err(pyo3::exceptions::PyTypeError::new_err(
+                "simulate() needs the incident angles theta_i_deg (degrees), e.g. [0, 30, 60]",
+            ));
+        }
+    };
     // The keywords become the CLI's settings (`SimSettings`, deserialised with its
     // defaults and its checks), resolved into the run's configuration in one place.
     let mut table = toml::Table::new();
@@ -383,7 +533,16 @@ fn simulate(
     if let Some(kw) = settings {
         for (k, v) in kw.iter() {
             if !v.is_none() {
-                table.insert(k.extract::<String>()?, to_toml(&v)?);
+                let mut k = k.extract::<String>()?;
+                if k == "phi_i_deg" {
+                    if kw.get_item("phi_i")?.is_some_and(|p| !p.is_none()) {
+                        return Err(value_err(
+                            "simulate(): give phi_i_deg, or its old name phi_i, not both",
+                        ));
+                    }
+                    k = "phi_i".into();
+                }
+                table.insert(k, to_toml(&v)?);
             }
         }
     }
@@ -582,18 +741,32 @@ fn backends<'py>(py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
     Ok(out)
 }
 
-/// The transfer-matrix reflectance and transmittance of a `[stack]` sample at `theta_i`
-/// (degrees): a dict of numpy arrays `lambda_nm`, `Rs`, `Rp`, `R`, `Ts`, `Tp`, `T`
-/// (`goniospec analytic`).
+/// The transfer-matrix reflectance and transmittance of a `[stack]` sample at
+/// `theta_i_deg` (degrees; `theta_i`, its old name, still taken for one release): a dict of
+/// numpy arrays `lambda_nm`, `Rs`, `Rp`, `R`, `Ts`, `Tp`, `T` (`goniospec analytic`).
 #[pyfunction]
-#[pyo3(signature = (sample, theta_i, wavelengths = goniospec::spectrum::DEFAULT_WAVELENGTHS, monochromatic = false))]
+#[pyo3(signature = (sample, theta_i_deg = None, wavelengths = goniospec::spectrum::DEFAULT_WAVELENGTHS, monochromatic = false, *, theta_i = None))]
 fn analytic<'py>(
     py: Python<'py>,
     sample: &Sample,
-    theta_i: f64,
+    theta_i_deg: Option<f64>,
     wavelengths: &str,
     monochromatic: bool,
+    theta_i: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let theta_i = match (theta_i_deg, theta_i) {
+        (Some(t), None) | (None, Some(t)) => t,
+        (Some(_), Some(_)) => {
+            return Err(value_err(
+                "analytic(): give theta_i_deg, or its old name theta_i, not both",
+            ));
+        }
+        (None, None) => {
+            return Err(pyo3::exceptions::PyTypeError::new_err(
+                "analytic() needs the incident angle theta_i_deg (degrees)",
+            ));
+        }
+    };
     let w = goniospec::spectrum::Wavelengths::parse(wavelengths, monochromatic)
         .map_err(|e| value_err(format!("wavelengths: {e}")))?;
     let rows = goniospec::reference::analytic(&sample.inner, theta_i, &w).map_err(value_err)?;

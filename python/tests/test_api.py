@@ -25,7 +25,7 @@ def mesh(name):
 
 def test_reflectance_is_the_clis(tmp_path):
     s = gs.Sample.load(mesh("rough-gold.toml"))
-    acc = gs.simulate(s, theta_i=[0, 30], wavelengths="400:700:50", rays=256, seed=3)
+    acc = gs.simulate(s, theta_i_deg=[0, 30], wavelengths="400:700:50", rays=256, seed=3)
     gsa = tmp_path / "gold.gsa"
     subprocess.run([CLI, "simulate", mesh("rough-gold.toml"), "--theta-i", "0,30", "--wavelengths",
                     "400:700:50", "--rays", "256", "--seed", "3", "-o", str(gsa)], check=True, cwd=ROOT,
@@ -59,13 +59,13 @@ def test_every_simulate_flag_is_a_keyword(tmp_path):
 
 def test_eval_matches_cli_and_vectorises(tmp_path):
     s = gs.Sample.load(mesh("rough-gold.toml"))
-    brdf = gs.simulate(s, theta_i=[0, 30, 60], wavelengths="400:700:50", rays=256).build("table")
+    brdf = gs.simulate(s, theta_i_deg=[0, 30, 60], wavelengths="400:700:50", rays=256).build("table")
     brdf.save(tmp_path / "g.gsb")
     ti = np.array([10.0, 30.0, 50.0])
     to = np.array([20.0, 35.0, 60.0])
     po = np.array([180.0, 170.0, 90.0])
     v = brdf.eval(ti, 0.0, to, po)
-    assert v.shape == (3, len(brdf.wavelengths_nm))
+    assert v.shape == (3, len(brdf.lambda_nm))
     for k in range(3):
         assert np.array_equal(v[k], brdf.eval(ti[k], 0, to[k], po[k]))
         rows = cli("eval", str(tmp_path / "g.gsb"), "--theta-i", str(ti[k]), "--theta-o", str(to[k]),
@@ -73,7 +73,7 @@ def test_eval_matches_cli_and_vectorises(tmp_path):
         # The CLI prints 9 significant digits.
         assert np.allclose(v[k], [float(x["brdf"]) for x in rows], rtol=1e-8, atol=0)
     grid = brdf.eval(30, 0, np.linspace(0, 80, 12).reshape(3, 4), 180)
-    assert grid.shape == (3, 4, len(brdf.wavelengths_nm))
+    assert grid.shape == (3, 4, len(brdf.lambda_nm))
 
 
 def tmm_reference(n, d, lam, theta_deg):
@@ -92,7 +92,7 @@ def test_flat_soap_film_matches_the_tmm_package():
     for lam, r in zip(a["lambda_nm"], a["R"]):
         want = tmm_reference([1.0, 1.33, 1.0], [np.inf, 600.0, np.inf], lam, 30)
         assert abs(r - want) < 1e-12, (lam, r, want)
-    acc = gs.simulate(s, theta_i=[30], wavelengths="450,550,650", monochromatic=True, rays=64,
+    acc = gs.simulate(s, theta_i_deg=[30], wavelengths="450,550,650", monochromatic=True, rays=64,
                       coherence_radius_nm=float("inf"))
     sim = acc.reflectance(30)["R"]
     # The plane-wave limit equals the TMM up to the power dropped below the cutoff (1e-10).
@@ -104,18 +104,18 @@ def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
         gs.Sample.load("nowhere.toml")
     s = gs.Sample.load(mesh("rough-gold.toml"))
     with pytest.raises(ValueError, match="coherence"):
-        gs.simulate(s, theta_i=[0], coherence="laser")
+        gs.simulate(s, theta_i_deg=[0], coherence="laser")
     with pytest.raises(ValueError, match="wavelength"):
-        gs.simulate(s, theta_i=[0], wavelengths="700:400:10")
-    for bad in [dict(rays=0), dict(theta_i=[95]), dict(phi_i=float("inf")), dict(cutoff=float("nan")),
+        gs.simulate(s, theta_i_deg=[0], wavelengths="700:400:10")
+    for bad in [dict(rays=0), dict(theta_i_deg=[95]), dict(phi_i_deg=float("inf")), dict(cutoff=float("nan")),
                 dict(coherence_radius_nm=-1.0), dict(tolerance=-1.0), dict(theta_o_bins=0),
                 dict(max_depth=0), dict(threads=100000), dict(coherence_radius_nm=float("nan")),
                 dict(colour=1), dict(seed="one")]:
-        kw = dict(theta_i=[0], rays=16, wavelengths="500:600:50")
+        kw = dict(theta_i_deg=[0], rays=16, wavelengths="500:600:50")
         kw.update(bad)
         with pytest.raises(ValueError):
             gs.simulate(s, **kw)
-    acc = gs.simulate(s, theta_i=[0], wavelengths="400:700:100", rays=16)
+    acc = gs.simulate(s, theta_i_deg=[0], wavelengths="400:700:100", rays=16)
     with pytest.raises(ValueError, match="no incident angle 45"):
         acc.reflectance(45)
     with pytest.raises(ValueError, match="unknown representation"):
@@ -151,7 +151,7 @@ def test_ctrl_c_interrupts_a_long_run_and_returns_nothing(tmp_path):
     timer.start()
     with pytest.raises(KeyboardInterrupt):
         # About a minute of work uninterrupted.
-        acc = gs.simulate(s, theta_i=[0, 30, 60], rays=3_000_000)
+        acc = gs.simulate(s, theta_i_deg=[0, 30, 60], rays=3_000_000)
         acc.save(out)
     timer.cancel()
     assert time.monotonic() - t0 < 10
@@ -167,7 +167,7 @@ def test_outputs_never_replace_inputs_or_foreign_files(tmp_path):
     sample_toml = tmp_path / "m" / "flat-soap-film.toml"
     original = sample_toml.read_bytes()
     s = gs.Sample.load(str(sample_toml))
-    acc = gs.simulate(s, theta_i=[30], wavelengths="500", monochromatic=True, rays=4)
+    acc = gs.simulate(s, theta_i_deg=[30], wavelengths="500", monochromatic=True, rays=4)
     with pytest.raises(FileExistsError, match="is the input"):
         acc.save(sample_toml, force=True)
     assert sample_toml.read_bytes() == original
@@ -206,7 +206,7 @@ def test_ctrl_c_is_prompt_on_trees_of_thousands_of_segments(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         t0 = time.monotonic()
         try:
-            gs.simulate(s, theta_i=[60], rays=1_000_000, max_segments=20000)
+            gs.simulate(s, theta_i_deg=[60], rays=1_000_000, max_segments=20000)
         finally:
             stopped = time.monotonic()
     timer.cancel()
@@ -247,7 +247,7 @@ def test_progress_is_a_bar_on_a_terminal_and_nothing_in_a_pipe():
     """Issue 29: a bar on a terminal, nothing when stderr is not one, progress=False silences
     it and progress=True forces it."""
     run = ("import goniospec as gs; s = gs.Sample.load('meshes/rough-gold.toml'); "
-           "gs.simulate(s, theta_i=[0, 30], wavelengths='500:600:50', rays=512{})")
+           "gs.simulate(s, theta_i_deg=[0, 30], wavelengths='500:600:50', rays=512{})")
     tty = _run_child(run.format(""), terminal=True)
     assert "goniospec 100% |" in tty and "1024/1024 trees" in tty, tty
     assert "\u2588" * 24 in tty, tty
@@ -272,12 +272,12 @@ def test_validity_warnings_and_the_diffraction_method():
     method does not, keeps R, and check() lists the warning beside the grating's scales."""
     s = gs.Sample.load(os.path.join(ROOT, "studies", "samples", "grating-5um.toml"))
     with pytest.warns(UserWarning, match="--coherence diffraction"):
-        rays = gs.simulate(s, theta_i=[0], wavelengths="550", monochromatic=True, rays=1024)
+        rays = gs.simulate(s, theta_i_deg=[0], wavelengths="550", monochromatic=True, rays=1024)
     import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        diff = gs.simulate(s, theta_i=[0], wavelengths="550", monochromatic=True, rays=4096,
+        diff = gs.simulate(s, theta_i_deg=[0], wavelengths="550", monochromatic=True, rays=4096,
                            coherence="diffraction")
     # The diffraction method's R is the ray field's (at the same entry points it would be
     # the same bits; here the lattice and the R2 set differ by their sampling noise).
@@ -287,3 +287,48 @@ def test_validity_warnings_and_the_diffraction_method():
     c = s.check()
     assert any("period 5000 nm" in f for f in c["facts"])
     assert any("--coherence diffraction" in w for w in c["warnings"])
+
+
+def test_one_name_for_one_thing_and_reprs_that_say_what_they_hold(tmp_path):
+    """Issue 45: the wavelengths are `lambda_nm` in reflectance()'s dict, on Accumulator and
+    Brdf, in the CLI's CSV and in the NPZ; angles are `*_deg`. The old names (`theta_i`,
+    `phi_i`, `Brdf.wavelengths_nm`) still give the same results for a release; giving
+    both is an error. Printed objects name what they hold."""
+    s = gs.Sample.load(mesh("rough-gold.toml"))
+    new = gs.simulate(s, theta_i_deg=[0, 30], phi_i_deg=10.0, wavelengths="400:700:100", rays=64)
+    old = gs.simulate(s, theta_i=[0, 30], phi_i=10.0, wavelengths="400:700:100", rays=64)
+    new.save(tmp_path / "new.gsa")
+    old.save(tmp_path / "old.gsa")
+    assert (tmp_path / "new.gsa").read_bytes() == (tmp_path / "old.gsa").read_bytes()
+    with pytest.raises(ValueError, match="not both"):
+        gs.simulate(s, theta_i_deg=[0], theta_i=[0], rays=16)
+    with pytest.raises(ValueError, match="not both"):
+        gs.simulate(s, theta_i_deg=[0], phi_i_deg=5.0, phi_i=5.0, rays=16)
+    with pytest.raises(TypeError, match="theta_i_deg"):
+        gs.simulate(s, rays=16)
+    # The bin centres: 400-500 and 600-700 nm bins centred at 450, 550, 650 nm.
+    assert list(new.lambda_nm) == [450.0, 550.0, 650.0]
+    assert list(new.reflectance(30)["lambda_nm"]) == list(new.lambda_nm)
+    assert new.theta_i_deg == [0.0, 30.0] and new.phi_i_deg == 10.0
+    assert new.trees == [64, 64]
+    brdf = new.build("table")
+    assert list(brdf.lambda_nm) == list(new.lambda_nm)
+    assert list(brdf.wavelengths_nm) == list(brdf.lambda_nm)
+    assert brdf.theta_i_deg == [0.0, 30.0]
+    brdf.export(tmp_path / "b.npz", format="npz")
+    z = np.load(tmp_path / "b.npz")
+    assert list(z["lambda_nm"]) == list(brdf.lambda_nm)
+    assert list(z["theta_i_deg"]) == [0.0, 30.0]
+    brdf.save(tmp_path / "b.gsb")
+    rows = cli("eval", str(tmp_path / "b.gsb"), "--theta-i", "30", "--phi-i", "10", "--theta-o", "30",
+               "--phi-o", "190")
+    assert [float(r["lambda_nm"]) for r in rows] == list(brdf.lambda_nm)
+    again = gs.load_brdf(tmp_path / "b.gsb")
+    for text in [repr(s), repr(new), repr(brdf), repr(again)]:
+        assert "rough" in text.lower(), text
+    assert "Sample(" in repr(s) and "media [" in repr(s) and "triangles" in repr(s)
+    for text in [repr(new), repr(again)]:
+        for part in ["theta_i_deg [0.0, 30.0]", "3 wavelengths 450-650 nm", "trees [64, 64]",
+                     "method beamlet (radius 5000 nm)"]:
+            assert part in text, (part, text)
+    assert repr(again).startswith("Brdf(") and "table" in repr(again)

@@ -60,11 +60,11 @@ pub fn analytic_buckets(ni: usize, tb: u32, pb: u32, lambdas: &[f64]) -> crate::
         theta_i_rad: theta_i,
         phi_i_rad: 0.0,
         buckets: b,
-        wavelengths_nm: lambdas.to_vec(),
+        lambda_nm: lambdas.to_vec(),
         samples,
         meta: Meta {
             repr: crate::brdf::Kind::Analytic,
-            wavelengths_nm: lambdas.to_vec(),
+            lambda_nm: lambdas.to_vec(),
             spectrum: Some(crate::spectrum::Wavelengths::Monochromatic(
                 lambdas.to_vec(),
             )),
@@ -74,13 +74,14 @@ pub fn analytic_buckets(ni: usize, tb: u32, pb: u32, lambdas: &[f64]) -> crate::
             isotropic: false,
             reciprocal: false,
             median_rel_stderr: None,
+            trees_per_direction: None,
         },
     }
 }
 
 /// Median and 99th percentile of query times (ns) of `eval` over `queries`.
 fn query_times(b: &dyn crate::brdf::Brdf, queries: &[(DVec3, DVec3)]) -> (f64, f64) {
-    let mut out = vec![0.0; b.meta().wavelengths_nm.len()];
+    let mut out = vec![0.0; b.meta().lambda_nm.len()];
     let mut t: Vec<f64> = queries
         .iter()
         .map(|&(wi, wo)| {
@@ -202,7 +203,7 @@ pub fn eval_bench(
             ("subdivided", Box::new(SubdividedBrdf::build(low, 0.05))),
             ("table", Box::new(TableBrdf::build(low))),
         ];
-        let nb = low.wavelengths_nm.len();
+        let nb = low.lambda_nm.len();
         let (mut a, mut r) = (vec![0.0; nb], vec![0.0; nb]);
         for (name, b) in &reps {
             let (mut num, mut den) = (0.0, 0.0);

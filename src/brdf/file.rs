@@ -177,7 +177,7 @@ pub fn from_bytes(bytes: &[u8], path: &str) -> Result<Representation, FileError>
 /// Builds the representation the arrays describe; sizes are checked with checked
 /// arithmetic, and grid values are converted only when they are exact integers.
 fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, BrdfError> {
-    let nl = header.meta.wavelengths_nm.len();
+    let nl = header.meta.lambda_nm.len();
     let pr = &header.params;
     let need = |k: usize| -> Result<(), String> {
         if arrays.len() == k {
@@ -327,7 +327,7 @@ fn validate(r: &Representation) -> Result<(), BrdfError> {
         Representation::Table(t) => &t.meta,
         Representation::Subdivided(s) => &s.meta,
     };
-    let w = &meta.wavelengths_nm;
+    let w = &meta.lambda_nm;
     if w.is_empty() || w.len() > 100_001 || w.iter().any(|l| !(l.is_finite() && *l > 0.0)) {
         return Err(BrdfError::from(format!(
             "{} wavelengths: need 1 to 100001 positive finite values",

@@ -102,8 +102,11 @@ impl Default for BuildOptions {
 pub struct Meta {
     /// Which representation this is.
     pub repr: Kind,
-    /// Representative wavelength of each bin, nm.
-    pub wavelengths_nm: Vec<f64>,
+    /// Representative wavelength of each bin (its centre, or the exact wavelength), nm: the
+    /// `lambda_nm` of every CSV, NPZ and Python output. Written `wavelengths_nm` before
+    /// issue 45, which is still read.
+    #[serde(alias = "wavelengths_nm")]
+    pub lambda_nm: Vec<f64>,
     /// The whole sampling these are the cells of (bin edges, or exact wavelengths);
     /// absent in files written before it was stored.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -119,6 +122,10 @@ pub struct Meta {
     /// Typical relative standard error of the buckets that went in (median over
     /// populated buckets), where known.
     pub median_rel_stderr: Option<f64>,
+    /// Trees traced per incident direction (the `.gsa`'s, summed over merged runs);
+    /// absent in files written before it was stored.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub trees_per_direction: Option<Vec<u64>>,
 }
 
 impl Meta {
@@ -129,7 +136,7 @@ impl Meta {
         if let Some(w) = &self.spectrum {
             return w.clone();
         }
-        let c = &self.wavelengths_nm;
+        let c = &self.lambda_nm;
         let nl = c.len();
         if nl == 0 {
             return crate::spectrum::Wavelengths::Bins(Vec::new());
@@ -155,7 +162,7 @@ pub trait Brdf {
 
     /// Many pairs at once: `out` holds `pairs.len() * bins` values, pair-major.
     fn eval_batch(&self, pairs: &[(DVec3, DVec3)], out: &mut [f64]) {
-        let n = self.meta().wavelengths_nm.len();
+        let n = self.meta().lambda_nm.len();
         for (i, &(wi, wo)) in pairs.iter().enumerate() {
             self.eval(wi, wo, &mut out[i * n..(i + 1) * n]);
         }
@@ -193,7 +200,7 @@ pub struct BucketData {
     /// Incident azimuth, radians.
     pub phi_i_rad: f64,
     pub buckets: Buckets,
-    pub wavelengths_nm: Vec<f64>,
+    pub lambda_nm: Vec<f64>,
     /// `samples[i]` holds every reflection bucket of incident direction `i`, bucket order.
     pub samples: Vec<Vec<BucketSample>>,
     pub meta: Meta,
@@ -249,11 +256,11 @@ impl BucketData {
             theta_i_rad: s.theta_i_deg.iter().map(|t| t.to_radians()).collect(),
             phi_i_rad: s.phi_i_deg.to_radians(),
             buckets: b,
-            wavelengths_nm: (0..nl).map(|j| s.wavelength(j)).collect(),
+            lambda_nm: (0..nl).map(|j| s.wavelength(j)).collect(),
             samples,
             meta: Meta {
                 repr: Kind::Table,
-                wavelengths_nm: (0..nl).map(|j| s.wavelength(j)).collect(),
+                lambda_nm: (0..nl).map(|j| s.wavelength(j)).collect(),
                 spectrum: Some(s.spectrum()),
                 sample_name: s.sample_name.clone(),
                 sample_hash: s.sample_hash.clone(),
@@ -261,6 +268,7 @@ impl BucketData {
                 isotropic: false,
                 reciprocal: false,
                 median_rel_stderr: rel.get(rel.len() / 2).copied(),
+                trees_per_direction: Some(acc.header.rays_per_direction.clone()),
             },
         }
     }
@@ -275,7 +283,7 @@ pub fn hemispherical_reflectance(
     nt: usize,
     np: usize,
 ) -> Vec<f64> {
-    let nl = b.meta().wavelengths_nm.len();
+    let nl = b.meta().lambda_nm.len();
     let mut acc = vec![0.0; nl];
     let mut v = vec![0.0; nl];
     let (dt, dp) = (
@@ -373,9 +381,9 @@ impl Representation {
         let mut s = format!("sample: '{}' (hash {})\n", m.sample_name, m.sample_hash);
         s += &format!(
             "wavelengths: {} ({}..{} nm)\n",
-            m.wavelengths_nm.len(),
-            m.wavelengths_nm.first().unwrap_or(&0.0),
-            m.wavelengths_nm.last().unwrap_or(&0.0)
+            m.lambda_nm.len(),
+            m.lambda_nm.first().unwrap_or(&0.0),
+            m.lambda_nm.last().unwrap_or(&0.0)
         );
         s += &format!(
             "isotropic {}, reciprocal {}, median relative stderr of the buckets {}\n",

@@ -46,7 +46,7 @@ pub struct SubdividedBrdf {
 impl SubdividedBrdf {
     /// Builds with relative RMS tolerance `tolerance` (e.g. 0.05).
     pub fn build(data: &BucketData, tolerance: f64) -> SubdividedBrdf {
-        let nl = data.wavelengths_nm.len();
+        let nl = data.lambda_nm.len();
         let b = data.buckets;
         let (tb, pb) = (b.theta_bins, b.phi_bins);
         let mut order: Vec<usize> = (0..data.theta_i_rad.len()).collect();

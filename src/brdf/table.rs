@@ -37,7 +37,7 @@ fn bracket(xs: &[f64], x: f64) -> (usize, usize, f64) {
 
 impl TableBrdf {
     pub fn build(data: &BucketData) -> TableBrdf {
-        let nl = data.wavelengths_nm.len();
+        let nl = data.lambda_nm.len();
         let (tb, pb) = (
             data.buckets.theta_bins as usize,
             data.buckets.phi_bins as usize,

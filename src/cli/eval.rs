@@ -18,7 +18,8 @@ pub(super) struct EvalArgs {
     /// Outgoing azimuth, degrees.
     #[arg(long, value_parser = finite, default_value_t = 180.0)]
     phi_o: f64,
-    /// CSV of pairs with the header theta_i,phi_i,theta_o,phi_o (degrees).
+    /// CSV of pairs with the header theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg (degrees;
+    /// the header without `_deg` is still read).
     #[arg(long)]
     pairs: Option<PathBuf>,
 }
@@ -26,7 +27,7 @@ pub(super) struct EvalArgs {
 pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, Brdf};
     let r = brdf::file::read(&a.file)?;
-    let lambdas = r.meta().wavelengths_nm.clone();
+    let lambdas = r.meta().lambda_nm.clone();
     let d = |t: f64, p: f64| -> Result<glam::DVec3> {
         if !(0.0..=90.0).contains(&t) {
             bail!("polar angles must be in [0, 90] degrees, got {t}");
@@ -54,10 +55,17 @@ pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {
                 .lines()
                 .enumerate()
                 .filter(|(_, l)| !l.trim().is_empty());
+            // The angles' names everywhere else (NPZ, Python, .gsa); the header without
+            // `_deg` was this file's before issue 45 and is still read.
             match lines.next() {
-                Some((_, h)) if h.replace(' ', "") == "theta_i,phi_i,theta_o,phi_o" => {}
+                Some((_, h))
+                    if matches!(
+                        h.replace(' ', "").as_str(),
+                        "theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg"
+                            | "theta_i,phi_i,theta_o,phi_o"
+                    ) => {}
                 _ => bail!(
-                    "{}: the first line must be the header theta_i,phi_i,theta_o,phi_o",
+                    "{}: the first line must be the header theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg",
                     p.display()
                 ),
             }

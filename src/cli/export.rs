@@ -124,7 +124,7 @@ fn export_npz(a: ExportArgs) -> Result<ExitCode> {
         grid.phi_i_deg.len(),
         grid.theta_o_deg.len(),
         grid.phi_o_deg.len(),
-        r.meta().wavelengths_nm.len(),
+        r.meta().lambda_nm.len(),
         bytes.len() as f64 / 1e6
     );
     Ok(ExitCode::SUCCESS)

@@ -144,7 +144,7 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
         (None, None) => bail!("give a .gsb file or --simulate SAMPLE.toml"),
     };
     // The image holds RGB and a spectrum per pixel (f32): refuse what cannot fit.
-    let bins = r.meta().wavelengths_nm.len() as f64;
+    let bins = r.meta().lambda_nm.len() as f64;
     let bytes = f64::from(a.width) * f64::from(a.height) * 4.0 * (3.0 + bins) * 2.0;
     if let Some(avail) = goniospec::io::available_memory_bytes()
         && bytes > avail as f64
@@ -184,7 +184,7 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
         a.width,
         a.height,
         a.spp,
-        r.meta().wavelengths_nm.len(),
+        r.meta().lambda_nm.len(),
         r.meta().repr,
         a.output.display(),
         png.display()

@@ -62,7 +62,7 @@ pub fn merl_bytes(r: &Representation) -> Result<Vec<u8>, ExportError> {
             "the MERL format holds isotropic BRDFs only; build the BRDF without --anisotropic",
         ));
     }
-    let weights = colour::bin_weights(&r.meta().wavelengths_nm);
+    let weights = colour::bin_weights(&r.meta().lambda_nm);
     let nl = weights.len();
     let n = THETA_H * THETA_D * PHI_D;
     let cells: Vec<[f64; 3]> = (0..n)

@@ -87,7 +87,7 @@ pub fn rgl_for(
             env!("CARGO_PKG_VERSION"),
             r.meta().sample_name,
             r.meta().repr,
-            r.meta().wavelengths_nm.len()
+            r.meta().lambda_nm.len()
         ),
     };
     rgl::rgl_fields(r, &d, &opts)

@@ -79,7 +79,7 @@ impl Grid {
 /// `[theta_i, phi_i, theta_o, phi_o, lambda]` values of `r` on `grid`, C order.
 pub fn tabulate(r: &(dyn Brdf + Sync), grid: &Grid) -> Result<Vec<f64>, ExportError> {
     grid.check()?;
-    let nl = r.meta().wavelengths_nm.len();
+    let nl = r.meta().lambda_nm.len();
     let (ni, np, no, nq) = (
         grid.theta_i_deg.len(),
         grid.phi_i_deg.len(),
@@ -155,7 +155,7 @@ pub fn npz_bytes(r: &Representation, grid: &Grid) -> Result<Vec<u8>, ExportError
         len(&grid.phi_i_deg),
         len(&grid.theta_o_deg),
         len(&grid.phi_o_deg),
-        len(&m.wavelengths_nm),
+        len(&m.lambda_nm),
     ];
     let io = |e: std::io::Error| e.to_string();
     let arrays: Vec<(&str, Vec<u8>)> = vec![
@@ -170,10 +170,7 @@ pub fn npz_bytes(r: &Representation, grid: &Grid) -> Result<Vec<u8>, ExportError
             npy(&[shape[2]], &grid.theta_o_deg).map_err(io)?,
         ),
         ("phi_o_deg", npy(&[shape[3]], &grid.phi_o_deg).map_err(io)?),
-        (
-            "lambda_nm",
-            npy(&[shape[4]], &m.wavelengths_nm).map_err(io)?,
-        ),
+        ("lambda_nm", npy(&[shape[4]], &m.lambda_nm).map_err(io)?),
         (
             "settings_json",
             npy(&[settings.len() as u64], settings.as_bytes()).map_err(io)?,

@@ -423,7 +423,7 @@ pub fn rgl_fields(
         ));
     }
     let meta = brdf.meta();
-    let lambdas = &meta.wavelengths_nm;
+    let lambdas = &meta.lambda_nm;
     let nl = lambdas.len();
     let isotropic = meta.isotropic;
     let phi_i: Vec<f64> = if isotropic {

@@ -311,8 +311,8 @@ pub fn render(
     albedo: Option<&[Vec<f64>]>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Image {
-    let nl = brdf.meta().wavelengths_nm.len();
-    let weights = colour::bin_weights(&brdf.meta().wavelengths_nm);
+    let nl = brdf.meta().lambda_nm.len();
+    let weights = colour::bin_weights(&brdf.meta().lambda_nm);
     let (_, radius) = shape.bounds();
     let cam = camera_frame(shape, cfg);
     let rows = AtomicU64::new(0);

@@ -309,7 +309,7 @@ pub fn run(st: &Study, mut log: impl FnMut(&str)) -> Result<(Vec<Point>, String)
             for &repr in &st.representation {
                 let rep = Representation::build(repr, &data, &crate::brdf::BuildOptions::default())
                     .expect("the study's kinds are stored kinds with default options");
-                let mut out = vec![0.0; data.wavelengths_nm.len()];
+                let mut out = vec![0.0; data.lambda_nm.len()];
                 let q0 = Instant::now();
                 let m = 2000;
                 for k in 0..m {

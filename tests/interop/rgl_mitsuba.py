@@ -174,7 +174,7 @@ def gonio_eval(gsb, pairs, tag):
     p = os.path.join(WORK, f"{tag}-pairs.csv")
     expanded = [variants(q) for q in pairs]
     with open(p, "w") as fh:
-        fh.write("theta_i,phi_i,theta_o,phi_o\n")
+        fh.write("theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n")
         for vs in expanded:
             for q in vs:
                 fh.write(",".join(f"{v:.17g}" for v in q) + "\n")
@@ -311,7 +311,7 @@ def check_npz(name, gsb):
     idx = [(rng.integers(len(THETA_I)), rng.integers(30), rng.integers(24)) for _ in range(200)]
     p = os.path.join(WORK, f"{name}-npz-pairs.csv")
     with open(p, "w") as fh:
-        fh.write("theta_i,phi_i,theta_o,phi_o\n")
+        fh.write("theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n")
         for i, o, q in idx:
             fh.write(f"{THETA_I[i]},0,{float(z['theta_o_deg'][o])!r},{float(z['phi_o_deg'][q])!r}\n")
     rows = list(csv.reader(io.StringIO(run("eval", gsb, "--pairs", p))))[1:]

@@ -548,7 +548,7 @@ impl KdTreeBrdf {
     /// Builds from buckets. `isotropic` stores `phi_o - phi_i` with `phi_i = 0`;
     /// `reciprocal` also enters every bucket as `(wo, wi)`.
     pub fn build(data: &BucketData, k: usize, isotropic: bool, reciprocal: bool) -> KdTreeBrdf {
-        let nl = data.wavelengths_nm.len();
+        let nl = data.lambda_nm.len();
         let mut pts = Vec::new();
         let mut values = Vec::new();
         for per in &data.samples {
