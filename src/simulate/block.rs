@@ -7,7 +7,7 @@ use std::sync::atomic::Ordering;
 use glam::DVec3;
 
 use super::launch::{entry_point, lattice_point};
-use super::run::{Run, Tracing, Worker, absorbed_power};
+use super::run::{Overflow, Run, Tracing, Worker, absorbed_power};
 use crate::accumulate::block::BlockCell;
 use crate::accumulate::{Scratch, diffraction};
 use crate::optics::fresnel::Field;
@@ -19,6 +19,8 @@ use crate::trace::{DroppedPower, Lane, Tree, launch_fields};
 /// and in the world (nm), direction of travel, launch fields, and its random-event stream.
 struct Launch {
     i: u64,
+    /// The direction's index in the run.
+    di: usize,
     origin: DVec3,
     world_origin: DVec3,
     d: DVec3,
@@ -68,6 +70,7 @@ impl Run<'_> {
             );
             let launch = Launch {
                 i,
+                di,
                 origin,
                 world_origin: origin + cfg.origin_nm,
                 d,
@@ -239,6 +242,19 @@ impl Run<'_> {
             &mut w.glob,
         );
         let (r, t) = w.dense.add_tree(j, &w.deps, &w.glob);
+        // Each tree on its own: its exits and dropped power hold no more than it was
+        // launched with and its events were allowed to add (issue 46).
+        if !self.global {
+            let over = tree.overflow(lambda);
+            if over > super::run::OVERFLOW_ROUNDING {
+                self.note_overflow(Overflow {
+                    power: over,
+                    direction: l.di,
+                    bin: j,
+                    tree: l.i,
+                });
+            }
+        }
         if self.diffraction {
             let k_in = k * est.n_up;
             let k_in = [k_in * l.d.x, k_in * l.d.y];
@@ -267,9 +283,13 @@ impl Run<'_> {
         cell.absorbed += absorbed;
         // A tree that met particles or Russian roulette carries importance weights: its
         // R + T may exceed 1 while the mean over trees conserves energy, which
-        // check_physical judges. Only deterministic ray series count as created.
+        // check_physical judges. Only deterministic ray series count as created, and only
+        // up to what their events inside absorbers added (`Tree::excess`): the rest of a
+        // tree's excess is the beamlet estimator's partial coherence between paths that
+        // left far apart (a clear coat's reflection and the light of a flake below it),
+        // noise that averages out over trees, not power a series created.
         if tree.absorbing && !self.global && tree.random_events == 0 {
-            cell.created += (-absorbed).max(0.0);
+            cell.created += (-absorbed).max(0.0).min(tree.excess);
         }
         cell.limited += tree.limited_power;
         cell.limit_bound += 2.0 * (dropped_limit * (r + t).max(0.0)).sqrt() + dropped_limit;
@@ -279,5 +299,17 @@ impl Run<'_> {
         self.counters
             .energy_faults
             .fetch_add(u64::from(tree.energy_faults), Ordering::Relaxed);
+    }
+
+    /// Counts a tree that carried out more power than it may ([`Overflow`]), keeping the
+    /// worst.
+    fn note_overflow(&self, o: Overflow) {
+        let c = &self.counters;
+        c.overflow_trees.fetch_add(1, Ordering::Relaxed);
+        let mut worst = c
+            .worst_overflow
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        *worst = Some(worst.map_or(o, |w| w.worse(o)));
     }
 }

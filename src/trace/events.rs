@@ -94,6 +94,9 @@ impl Scene<'_> {
                     &mut trees[j],
                     &mut splits[k],
                 );
+                if lanes[j].indices[from].im > 0.0 {
+                    note_split(&r, e, &splits[k], lanes[j].lambda_nm, &mut trees[j]);
+                }
             }
         }
         let coherent = r.coherent * w;
@@ -192,12 +195,49 @@ impl Scene<'_> {
         // Field by field: no temporary of the whole split.
         (out.er[0], out.et[0]) = fresnel::split_field(&e[0], &g);
         (out.er[1], out.et[1]) = fresnel::split_field(&e[1], &g);
+        // An inhomogeneous wave in a lossless medium left an absorber through a face tilted
+        // against the one it entered by (a flake's edge) and is evanescent across its
+        // front; its Fresnel coefficients have a pole where `q1 + q2` vanishes (r_s = 1306
+        // at a paint's binder under a clear coat, issue 46), and its complex s/p basis is
+        // not unit in |E|^2, so no bound on the coefficients holds its power. Its events
+        // conserve |E|^2 at most, whatever their tilt (`fresnel::limit_field_excess`):
+        // a lossless medium adds no power.
+        if n1.im == 0.0 && r.n_im != DVec3::ZERO {
+            for ((ek, er), et) in e.iter().zip(&mut out.er).zip(&mut out.et) {
+                fresnel::limit_field_excess(ek, er, et, 0.0);
+            }
+        }
         out.dir_r = g.dir_r;
         out.n_r = g.n_r;
         out.dir_t = g.dir_t;
         out.n_t = g.n_t;
         out.dir_t2 = None;
-        let Some(b) = back else { return };
+        if let Some(b) = back {
+            self.hand_off(itf, r, nf, (from, to), b, e, lane, tree, out);
+        }
+    }
+
+    /// The local film's share of a split ([`super::film`]): where the field `e` of a
+    /// homogeneous wave enters a thin absorbing film (medium `to`) from a lossless medium
+    /// and the probe found its far face `b`, the outer media's split with the stack's
+    /// transfer-matrix amplitudes (the entry face's coating, the film at its local
+    /// thickness, the far face's coating) is blended into `out`'s children by the
+    /// hand-off's weight, and the transmitted wave handed on from the far face.
+    #[allow(clippy::too_many_arguments)]
+    fn hand_off(
+        &self,
+        itf: &crate::sample::Interface,
+        r: &RayState,
+        nf: DVec3,
+        (from, to): (usize, usize),
+        b: &FilmBack,
+        e: &[Field; 2],
+        lane: &Lane,
+        tree: &mut Tree,
+        out: &mut LaneSplit,
+    ) {
+        let (indices, lambda_nm) = (lane.indices, lane.lambda_nm);
+        let (n1, n2) = (indices[from], indices[to]);
         // A homogeneous wave from a lossless medium into an absorber. (An evanescent wave
         // in a lossless medium, which left an absorber through a face steeply tilted
         // against the one it entered by, is bound to that face: its transfer-matrix
@@ -402,4 +442,29 @@ fn weight_against(n_re: DVec3, n_im: DVec3, normal: DVec3, m0: DVec3) -> f64 {
     let a2 = PLANE_WAVE_TILT * PLANE_WAVE_TILT;
     let x = evanescence * d2 / (2.0 * a2);
     (-x * x).exp()
+}
+
+/// Notes in `tree` what the split `g` of the field `e` (of ray `r`, at `lambda_nm`) added to
+/// the power that entered the event: the children that are pushed (reflected; transmitted
+/// where a wave propagates; handed on by a thin film), against the incident field, both
+/// polarisations averaged ([`Tree::note_event`]). Called for events from inside an
+/// absorber only, the one place where a single event may add power (the interference flux
+/// of the incident and reflected waves, `optics::fresnel`, "Power"); every event from a
+/// lossless medium conserves `|E|^2` or is limited to it, so power created there is not
+/// excess but overflow ([`Tree::overflow`]).
+fn note_split(r: &RayState, e: &[Field; 2], g: &LaneSplit, lambda_nm: f64, tree: &mut Tree) {
+    let p = |f: &[Field; 2]| 0.5 * (field_power(&f[0]) + field_power(&f[1]));
+    let mut p_out = p(&g.er);
+    if g.dir_t.is_some() {
+        p_out += p(&g.et);
+    }
+    if g.dir_t2.is_some() {
+        p_out += p(&g.et2);
+    }
+    let att = if r.opl.im != 0.0 {
+        (-4.0 * std::f64::consts::PI / lambda_nm * r.opl.im).exp()
+    } else {
+        1.0
+    };
+    tree.note_event(p(e), p_out, att);
 }

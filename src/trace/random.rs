@@ -116,7 +116,15 @@ impl<'a> Scene<'a> {
         if albedo < 1.0 {
             tree.absorbing = true;
         }
+        let power = |e: &[Field; 2]| 0.5 * (field_power(&e[0]) + field_power(&e[1]));
+        let p_in = power(&e);
         let d2 = model.scatter(lambda, r.dir, &mut e, &mut stack.rng);
+        let att = if r.opl.im != 0.0 {
+            (-4.0 * std::f64::consts::PI / lambda * r.opl.im).exp()
+        } else {
+            1.0
+        };
+        tree.note_event(p_in, power(&e), att);
         tree.random_events += 1;
         stack.groups += 1;
         r.group = stack.groups;
@@ -210,6 +218,8 @@ pub(super) fn roulette(from: usize, lanes: &[Lane], stack: &mut TraceStack, tree
                 }
             }
         };
+        // A survivor's added weight counts as the tree's excess (`Tree::note_event`).
+        let gain = 1.0 / q - 1.0;
         if r.lane == ALL {
             for (j, f) in fields[r.at as usize..]
                 .iter_mut()
@@ -217,13 +227,18 @@ pub(super) fn roulette(from: usize, lanes: &[Lane], stack: &mut TraceStack, tree
                 .enumerate()
             {
                 if let Some(e) = f {
+                    let before = power(e);
                     grow(e);
                     trees[j].random_events += 1;
+                    trees[j].note_event(before, before * (1.0 + gain), att(j));
                 }
             }
         } else {
+            let before = power(&r.e);
             grow(&mut r.e);
-            trees[r.lane as usize].random_events += 1;
+            let lane = r.lane as usize;
+            trees[lane].random_events += 1;
+            trees[lane].note_event(before, before * (1.0 + gain), att(lane));
         }
         *groups += 1;
         r.group = *groups;

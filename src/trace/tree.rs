@@ -89,6 +89,14 @@ pub struct Tree {
     /// Random events: volume scattering and Russian roulette survivals (each started a
     /// coherence group of its own). A tree with any carries importance weights.
     pub random_events: u32,
+    /// Power (fraction of launched, attenuated along the path) that events allowed to add
+    /// it added beyond what entered them: events from inside absorbers (where `|r|^2 + T`
+    /// exceeds 1 and the series' coherent sum takes it back), the weights of Russian
+    /// roulette's survivors, and volume scattering's rounding. Events from lossless media
+    /// conserve `|E|^2` or are limited to it (`fresnel::limit_field_excess`), so a tree's
+    /// exits and dropped power never hold more than `1 + excess` incoherently
+    /// ([`Tree::overflow`]).
+    pub excess: f64,
     /// Scratch for coated interfaces (indices and thicknesses of one event's stack).
     pub(super) n_buf: Vec<C64>,
     pub(super) d_buf: Vec<f64>,
@@ -105,6 +113,25 @@ impl Tree {
         self.leaks = 0;
         self.segments = 0;
         self.random_events = 0;
+        self.excess = 0.0;
+    }
+
+    /// Records an event that took a field of power `p_in` (fraction of launched, both
+    /// polarisations averaged, unattenuated) into children of `p_out` where the path so
+    /// far attenuates by `att`: what it added goes to [`Tree::excess`].
+    pub(super) fn note_event(&mut self, p_in: f64, p_out: f64, att: f64) {
+        if p_out > p_in {
+            self.excess += (p_out - p_in) * att;
+        }
+    }
+
+    /// How far the tree's exits and dropped power at `lambda_nm` exceed what it was launched
+    /// with and what its events were allowed to add, `exits + dropped - 1 - excess` (at most
+    /// rounding for a tree whose every event conserved or limited its power; positive
+    /// beyond that only where an event created power that nothing accounted for, which the
+    /// run refuses: issue 46).
+    pub fn overflow(&self, lambda_nm: f64) -> f64 {
+        self.exit_power(lambda_nm) + self.dropped(lambda_nm).all - 1.0 - self.excess
     }
 
     /// Records the power of a field dropped at optical path `opl` (see [`Dropped`]).

@@ -296,3 +296,62 @@ fn split_wave_geometry() {
     assert!(g.dir_t.is_none());
     assert!((g.c.r_s.norm() - 1.0).abs() < 1e-12);
 }
+
+/// Issue 46: an evanescent wave in a lossless medium (as one that left an aluminium
+/// flake's edge into a paint's binder: `N' = (-5.685, 0.239, 0.018)`, `N'' = (-0.018,
+/// 0.001, -5.492)`, `N . N = 1.49^2`) meeting the binder/coat plane (1.49 -> 1.52) sits
+/// near a pole of its Fresnel coefficients, `q1 + q2 = 0`: `r_s` is above 1000 and the
+/// reflected field holds more than 10^5 times the incident `|E|^2`, though the boundary
+/// conditions hold (the plane-wave event is exact, and meaningless for a ray). Limited at
+/// weight 0 the children hold exactly the incident `|E|^2`, with the split's phases and
+/// ratio kept; at weight 1 nothing changes, and between, the factor is continuous.
+#[test]
+fn an_evanescent_wave_at_a_pole_is_held_to_its_power() {
+    let n_re = DVec3::new(
+        -5.685073996428919,
+        0.23939222831767548,
+        0.018222369889560497,
+    );
+    let n_im = DVec3::new(
+        -0.017558480233080376,
+        0.0010363261144005834,
+        -5.491566048443345,
+    );
+    let (n1, n2) = (C64::new(1.49, 0.0), C64::new(1.52, 0.0));
+    // A wave of the binder: N . N = n1^2 (to the digits given).
+    let nn = n_re.length_squared() - n_im.length_squared();
+    assert!((nn - 1.49f64.powi(2)).abs() < 1e-3, "{nn}");
+    assert!(n_re.dot(n_im).abs() < 1e-3);
+    let g = split_wave(n_re.normalize(), n_re, n_im, -DVec3::Z, n1, n2);
+    assert!(g.c.r_s.norm() > 1000.0, "{:?}", g.c);
+    // A field transverse to N, of unit |E|^2: the TE part along u = N' x N''.
+    let u = n_re.cross(n_im).normalize();
+    let e: Field = std::array::from_fn(|k| C64::new(u[k], 0.0));
+    let (r0, t0) = split_field(&e, &g);
+    let grown = (field_power(&r0) + field_power(&t0)) / field_power(&e);
+    assert!(grown > 1e5, "{grown}");
+    let limited = |w: f64| {
+        let (mut r, mut t) = (r0, t0);
+        limit_field_excess(&e, &mut r, &mut t, w);
+        (r, t)
+    };
+    let (r, t) = limited(0.0);
+    let held = field_power(&r) + field_power(&t);
+    assert!((held - field_power(&e)).abs() < 1e-12, "{held}");
+    // The same field, scaled: phases and the reflected/transmitted split are kept.
+    let f = r[0] / r0[0];
+    assert!(f.im.abs() < 1e-15 && f.re > 0.0);
+    for k in 0..3 {
+        assert!((r[k] - r0[k] * f).norm() <= 1e-12 * r0[k].norm().max(1e-300));
+    }
+    assert_eq!(limited(1.0), (r0, t0));
+    // Continuous in w: half-way, the factor is the average of 1 and the full limit's.
+    let (r_half, _) = limited(0.5);
+    let half = r_half[0] / r0[0];
+    assert!((half.re - 0.5 * (1.0 + f.re)).abs() < 1e-12);
+    // A field that does not grow is left alone.
+    let (mut r1, mut t1) = ([C64::new(0.5, 0.0); 3], [C64::ZERO; 3]);
+    let e1 = [C64::new(1.0, 0.0); 3];
+    assert!(!limit_field_excess(&e1, &mut r1, &mut t1, 0.0));
+    assert_eq!(r1, [C64::new(0.5, 0.0); 3]);
+}
