@@ -29,6 +29,9 @@ pub enum OutputKind {
     /// The JSON figures of a run (`simulate --report-json`): an object with
     /// `traced_trees` and `segments_per_second`.
     RunReport,
+    /// A Mitsuba 3 or pbrt-v4 scene `goniospec export --scene` writes (its mark in the
+    /// first lines).
+    Scene,
 }
 
 /// Why an output was refused.
@@ -124,6 +127,12 @@ pub fn guard(
         OutputKind::RunReport => (
             json_object_with(out, &["traced_trees", "segments_per_second"]),
             "a run report written by goniospec simulate --report-json",
+        ),
+        OutputKind::Scene => (
+            head.windows(crate::export::scene::MARK.len())
+                .take(256)
+                .any(|w| w == crate::export::scene::MARK.as_bytes()),
+            "a scene written by goniospec export --scene",
         ),
     };
     if ok {

@@ -54,9 +54,39 @@ pub(super) struct ExportArgs {
     /// Worker threads (0: all cores). The file does not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// rgl: also write a scene that shows the material as `goniospec render` does with the
+    /// same flags (shape, camera, light, environment, image; radiance factors relative to
+    /// D65): mitsuba (Mitsuba 3 XML, OUTPUT.xml), pbrt (pbrt-v4, OUTPUT.pbrt rendering to
+    /// OUTPUT-pbrt.exr), or both, comma-separated. The scene names the .bsdf by its file
+    /// name, so keep them together.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    scene: Vec<SceneFormat>,
+    /// With --scene: the view, as `goniospec render` takes it (sphere or plane).
+    #[command(flatten)]
+    view: super::render::ViewArgs,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(super) enum SceneFormat {
+    /// Mitsuba 3 scene XML (measured BSDF, direct integrator).
+    Mitsuba,
+    /// pbrt-v4 scene (measured material, path integrator at depth 1).
+    Pbrt,
+}
+
+impl SceneFormat {
+    fn extension(self) -> &'static str {
+        match self {
+            SceneFormat::Mitsuba => "xml",
+            SceneFormat::Pbrt => "pbrt",
+        }
+    }
 }
 
 pub(super) fn export(a: ExportArgs) -> Result<ExitCode> {
+    if !a.scene.is_empty() && a.format != ExportFormat::Rgl {
+        bail!("--scene writes a renderer's scene around an RGL .bsdf: use it with --format rgl");
+    }
     match a.format {
         ExportFormat::Rgl => export_rgl(a),
         ExportFormat::Npz => export_npz(a),
@@ -144,6 +174,8 @@ fn export_rgl(a: ExportArgs) -> Result<ExitCode> {
         OutputKind::Tensor,
         a.force,
     )?;
+    // The scenes are checked, and their view resolved, before any work.
+    let scenes = scene_plan(&a, &sample_path)?;
     let r = brdf::file::read(&a.input)?;
     let theta_i =
         (!a.theta_i.is_empty()).then(|| a.theta_i.iter().map(|t| t.to_radians()).collect());
@@ -161,6 +193,11 @@ fn export_rgl(a: ExportArgs) -> Result<ExitCode> {
             report.negative, report.values, report.most_negative
         );
     }
+    if let Some((dtheta, dphi)) = report.mirror_aperture_deg {
+        eprintln!(
+            "note: the sample's surface facing the light is flat (a clear coat, a film): its mirror reflection is written as the simulation measured it, spread over the outgoing bucket around the mirror direction ({dtheta:.1} x {dphi:.1} degrees in theta_o x phi_o), as a goniospectrometer of that aperture measures it; a finer bucket grid (simulate --theta-o-bins, --phi-o-bins) gives a sharper mirror"
+        );
+    }
     outln!(
         "wrote {} (RGL tensor file, {n} x {n} warped grid, {} fields, {:.1} MB, {:.2} s)",
         a.output.display(),
@@ -168,5 +205,85 @@ fn export_rgl(a: ExportArgs) -> Result<ExitCode> {
         tensor::to_bytes(&fields).len() as f64 / 1e6,
         t0.elapsed().as_secs_f64()
     );
+    write_scenes(&a, &scenes)?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// The scenes `--scene` asks for: each format with its path, checked against the output
+/// policy, and the render configuration of the view.
+fn scene_plan(
+    a: &ExportArgs,
+    sample_path: &std::path::Path,
+) -> Result<Vec<(SceneFormat, PathBuf, goniospec::render::RenderConfig)>> {
+    use goniospec::render::Shape;
+    let mut out = Vec::new();
+    for &f in &a.scene {
+        let path = a.output.with_extension(f.extension());
+        if path == a.output {
+            bail!(
+                "the scene {} would replace the .bsdf: give the .bsdf another extension",
+                path.display()
+            );
+        }
+        guard_output(
+            &path,
+            &[a.input.as_path(), sample_path],
+            OutputKind::Scene,
+            a.force,
+        )?;
+        let shape = match &a.view.shape {
+            super::render::ShapeArg::Sphere => Shape::Sphere,
+            super::render::ShapeArg::Plane => Shape::Plane,
+            super::render::ShapeArg::Obj(p) => bail!(
+                "--scene writes a sphere or a plane (--shape), not {}: put the .bsdf on your own mesh in the renderer",
+                p.display()
+            ),
+        };
+        out.push((f, path, a.view.config(&shape)?));
+    }
+    Ok(out)
+}
+
+/// Writes the planned scenes beside the .bsdf (atomically), naming it by its file name.
+fn write_scenes(
+    a: &ExportArgs,
+    scenes: &[(SceneFormat, PathBuf, goniospec::render::RenderConfig)],
+) -> Result<()> {
+    use goniospec::export::scene::{self, SceneShape};
+    let shape = match a.view.shape {
+        super::render::ShapeArg::Plane => SceneShape::Plane,
+        _ => SceneShape::Sphere,
+    };
+    let bsdf = a
+        .output
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    for (f, path, cfg) in scenes {
+        let text = match f {
+            SceneFormat::Mitsuba => scene::mitsuba_xml(cfg, shape, &bsdf)?,
+            SceneFormat::Pbrt => {
+                let stem = a
+                    .output
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default();
+                scene::pbrt_scene(cfg, shape, &bsdf, &format!("{stem}-pbrt.exr"))?
+            }
+        };
+        goniospec::io::write_atomic(path, |w| w.write_all(text.as_bytes()))
+            .with_context(|| format!("writing {}", path.display()))?;
+        outln!(
+            "wrote {} ({} scene: {}x{} at {} spp, the view of goniospec render with the same flags)",
+            path.display(),
+            match f {
+                SceneFormat::Mitsuba => "Mitsuba 3",
+                SceneFormat::Pbrt => "pbrt-v4",
+            },
+            cfg.width,
+            cfg.height,
+            cfg.spp
+        );
+    }
+    Ok(())
 }

@@ -34,38 +34,9 @@ pub(super) struct RenderArgs {
     /// Output EXR; the PNG preview goes beside it.
     #[arg(short, long)]
     output: PathBuf,
-    /// sphere, plane (a flat square panel facing up), or an OBJ file (smooth normals are
-    /// computed from its triangles).
-    #[arg(long, default_value = "sphere", value_parser = parse_shape)]
-    shape: ShapeArg,
-    /// Image width, pixels (1 to 16384).
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    width: u32,
-    /// Image height, pixels (1 to 16384).
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
-    height: u32,
-    /// Samples per pixel (1 to 65536).
-    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=65536))]
-    spp: u32,
-    /// dir:THETA,PHI (degrees, towards the light), point:X,Y,Z, or none.
-    #[arg(long, default_value = "dir:50,-120", value_parser = goniospec::render::Light::parse)]
-    light: goniospec::render::Light,
-    #[arg(long, value_parser = finite, default_value_t = 0.8)]
-    light_strength: f64,
-    /// constant, sky or none.
-    #[arg(long, default_value = "constant", value_parser = goniospec::render::Env::parse)]
-    env: goniospec::render::Env,
-    #[arg(long, value_parser = finite, default_value_t = 0.6)]
-    env_strength: f64,
-    /// Camera position X,Y,Z; it looks at the shape's centre (default: in front of it,
-    /// slightly above).
-    #[arg(long, value_parser = finite, value_delimiter = ',')]
-    camera: Vec<f64>,
-    /// Vertical field of view, degrees.
-    #[arg(long, value_parser = finite, default_value_t = 30.0)]
-    fov: f64,
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
+    /// The shape, image, camera, light and environment.
+    #[command(flatten)]
+    view: ViewArgs,
     /// Worker threads (0: all cores). Images do not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -77,6 +48,91 @@ pub(super) struct RenderArgs {
     /// environment and report the difference (relative RMSE, mean CIE DE2000).
     #[arg(long, value_name = "SAMPLE.toml")]
     analytic: Option<PathBuf>,
+}
+
+/// What an image shows and how it is lit: `render`'s flags, shared with `export --scene`,
+/// which writes a Mitsuba 3 or pbrt-v4 scene of the same view (docs/design.md §10, "Light
+/// and units"). Radiometry is in radiance factors relative to illuminant D65.
+#[derive(Args)]
+pub(super) struct ViewArgs {
+    /// sphere (radius 1 at the origin), plane (the square [-1, 1]^2 at z = 0, facing up), or
+    /// an OBJ file (smooth normals are computed from its triangles).
+    #[arg(long, default_value = "sphere", value_parser = parse_shape)]
+    pub(super) shape: ShapeArg,
+    /// Image width, pixels (1 to 16384).
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub(super) width: u32,
+    /// Image height, pixels (1 to 16384).
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    pub(super) height: u32,
+    /// Samples per pixel (1 to 65536).
+    #[arg(long, default_value_t = 16, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub(super) spp: u32,
+    /// dir:THETA,PHI (degrees, the direction towards the light), point:X,Y,Z, or none.
+    #[arg(long, default_value = "dir:50,-120", value_parser = goniospec::render::Light::parse)]
+    pub(super) light: goniospec::render::Light,
+    /// The light's irradiance on a surface facing it, in units of pi x D65: a white
+    /// Lambertian surface facing the light has radiance factor STRENGTH (a point light: at
+    /// the distance of the origin, falling off as 1/r^2).
+    #[arg(long, value_parser = finite, default_value_t = 0.8)]
+    pub(super) light_strength: f64,
+    /// constant (uniform over the sphere of directions), sky (0.25 + 0.75 max(0, z)) or
+    /// none.
+    #[arg(long, default_value = "constant", value_parser = goniospec::render::Env::parse)]
+    pub(super) env: goniospec::render::Env,
+    /// The environment's radiance, in units of D65: a white Lambertian surface under the
+    /// constant environment has radiance factor STRENGTH.
+    #[arg(long, value_parser = finite, default_value_t = 0.6)]
+    pub(super) env_strength: f64,
+    /// Camera position X,Y,Z; it looks at the shape's centre with z up (default: the
+    /// centre plus (0, -4.2 r, 1.6 r), r the shape's bounding radius: 0,-4.2,1.6 for the
+    /// sphere, 0,-5.94,2.26 for the plane).
+    #[arg(long, value_parser = finite, value_delimiter = ',')]
+    pub(super) camera: Vec<f64>,
+    /// Vertical field of view, degrees.
+    #[arg(long, value_parser = finite, default_value_t = 30.0)]
+    pub(super) fov: f64,
+    /// Seed of the pixels' random streams.
+    #[arg(long, default_value_t = 1)]
+    pub(super) seed: u64,
+}
+
+impl ViewArgs {
+    /// The renderer's configuration for `shape` (the default camera from its bounds),
+    /// checked: a field of view in (0, 180) degrees, strengths not negative.
+    pub(super) fn config(
+        &self,
+        shape: &goniospec::render::Shape,
+    ) -> Result<goniospec::render::RenderConfig> {
+        let (centre, radius) = shape.bounds();
+        let camera = match self.camera.len() {
+            0 => [
+                centre[0],
+                centre[1] - 4.2 * radius,
+                centre[2] + 1.6 * radius,
+            ],
+            3 => [self.camera[0], self.camera[1], self.camera[2]],
+            _ => bail!("--camera needs X,Y,Z"),
+        };
+        if !(self.fov > 0.0 && self.fov < 180.0) {
+            bail!("--fov must be between 0 and 180 degrees, got {}", self.fov);
+        }
+        if self.light_strength < 0.0 || self.env_strength < 0.0 {
+            bail!("--light-strength and --env-strength must not be negative");
+        }
+        Ok(goniospec::render::RenderConfig {
+            width: self.width as usize,
+            height: self.height as usize,
+            spp: self.spp as usize,
+            light: self.light,
+            light_strength: self.light_strength,
+            env: self.env,
+            env_strength: self.env_strength,
+            camera: camera.into(),
+            fov_deg: self.fov,
+            seed: self.seed,
+        })
+    }
 }
 
 /// `--shape`: a built-in shape or an OBJ file.
@@ -98,45 +154,16 @@ pub(super) fn parse_shape(s: &str) -> Result<ShapeArg, String> {
 
 pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, Brdf};
-    use goniospec::render::{self, Env, RenderConfig};
-    if a.width == 0 || a.height == 0 || a.spp == 0 {
-        bail!("--width, --height and --spp must be positive");
-    }
-    let (light, env) = (a.light, a.env);
-    let shape = shape_of(&a.shape)?;
-    let (centre, radius) = shape.bounds();
-    let camera = match a.camera.len() {
-        0 => [
-            centre[0],
-            centre[1] - 4.2 * radius,
-            centre[2] + 1.6 * radius,
-        ],
-        3 => [a.camera[0], a.camera[1], a.camera[2]],
-        _ => bail!("--camera needs X,Y,Z"),
-    };
+    use goniospec::render::{self, Env};
+    let v = &a.view;
+    let shape = shape_of(&v.shape)?;
     // The output folder is made, and checked writable, before any work.
     if let Some(dir) = a.output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
     guard_outputs(&a)?;
-    if !(a.fov > 0.0 && a.fov < 180.0) {
-        bail!("--fov must be between 0 and 180 degrees, got {}", a.fov);
-    }
-    if a.light_strength < 0.0 || a.env_strength < 0.0 {
-        bail!("--light-strength and --env-strength must not be negative");
-    }
-    let cfg = RenderConfig {
-        width: a.width as usize,
-        height: a.height as usize,
-        spp: a.spp as usize,
-        light,
-        light_strength: a.light_strength,
-        env,
-        env_strength: a.env_strength,
-        camera: camera.into(),
-        fov_deg: a.fov,
-        seed: a.seed,
-    };
+    let cfg = v.config(&shape)?;
+    let env = cfg.env;
     let pool = thread_pool(a.threads)?;
     let r = match (&a.file, &a.simulate) {
         (Some(f), _) => brdf::file::read(f)?,
@@ -145,14 +172,14 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     };
     // The image holds RGB and a spectrum per pixel (f32): refuse what cannot fit.
     let bins = r.meta().lambda_nm.len() as f64;
-    let bytes = f64::from(a.width) * f64::from(a.height) * 4.0 * (3.0 + bins) * 2.0;
+    let bytes = f64::from(a.view.width) * f64::from(a.view.height) * 4.0 * (3.0 + bins) * 2.0;
     if let Some(avail) = goniospec::io::available_memory_bytes()
         && bytes > avail as f64
     {
         bail!(
             "--width {} x --height {} with {bins} wavelength bins needs about {:.1} GB, more than the {:.1} GB available",
-            a.width,
-            a.height,
+            a.view.width,
+            a.view.height,
             bytes / 1e9,
             avail as f64 / 1e9
         );
@@ -163,7 +190,7 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     } else {
         None
     };
-    let bar = progress_bar(u64::from(a.height), "rows");
+    let bar = progress_bar(u64::from(a.view.height), "rows");
     let img = pool.install(|| {
         render::render(&r, &shape, &cfg, albedo.as_deref(), &|n| {
             bar.set_position(n)
@@ -181,9 +208,9 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
         .with_context(|| format!("replacing {} and {}", a.output.display(), png.display()))?;
     outln!(
         "rendered {}x{} at {} spp, {} wavelength bins ({} representation) in {secs:.2} s: {} and {}",
-        a.width,
-        a.height,
-        a.spp,
+        a.view.width,
+        a.view.height,
+        a.view.spp,
         r.meta().lambda_nm.len(),
         r.meta().repr,
         a.output.display(),
@@ -302,7 +329,7 @@ pub(super) fn scene_driven(
         rays: a.rays,
         max_rays: a.max_rays,
         tolerance: a.tolerance,
-        seed: a.seed,
+        seed: a.view.seed,
         wavelengths: a.wavelengths.parse()?,
     };
     let plan = budget.plan(shape, cfg)?;

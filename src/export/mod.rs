@@ -1,11 +1,14 @@
 //! Taking a simulated material into other tools: the RGL tensor format (`.bsdf`) read by
-//! Mitsuba 3 and pbrt-v4 ([`rgl`], [`tensor`]), NumPy arrays ([`npz`]), and the MERL format
-//! of fitting tools ([`merl`], sRGB only).
+//! Mitsuba 3 and pbrt-v4 ([`rgl`], [`tensor`]) with a scene for each that shows it as
+//! `goniospec render` does ([`scene`]), NumPy arrays ([`npz`]), and the MERL format of
+//! fitting tools ([`merl`], sRGB only).
 
 pub mod merl;
 pub mod npz;
 pub mod rgl;
+pub mod scene;
 pub mod tensor;
+mod warp;
 
 use crate::brdf::{Brdf, Representation};
 
@@ -77,10 +80,14 @@ pub fn rgl_for(
     };
     let scene = crate::trace::Scene::new(sample, crate::accel::Backend::default_available())
         .map_err(|e| e.to_string())?;
-    let d =
+    let mut d =
         rgl::FacetDistribution::from_sample(sample, scene.ambient, resolution, r.meta().isotropic)?;
+    if d.flat_fraction > 0.99 {
+        d.add_brdf_lobe(r, r.meta().isotropic);
+    }
     let opts = rgl::RglOptions {
         resolution,
+        prefilter: if d.flat_fraction > 0.99 { 3 } else { 1 },
         theta_i,
         description: format!(
             "goniospec {} export of '{}' ({} representation, {} wavelengths)",
