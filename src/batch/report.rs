@@ -12,6 +12,7 @@
 //! The page holds no date or timing, so the same library gives the same bytes (images
 //! included) whatever the thread count.
 
+use crate::fit::{BaseKind, CoatChoice};
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Component, Path, PathBuf};
@@ -304,7 +305,7 @@ fn material_entry(
 
     let fit = if opts.fit {
         let data = crate::fit::Data::from_accumulator(&acc);
-        let f = crate::fit::fit(&data, crate::fit::BaseKind::Auto, true);
+        let f = crate::fit::fit(&data, BaseKind::Auto, true, CoatChoice::Auto);
         let p = folder.join(&fit_name);
         crate::fit::write_json(&p, &crate::fit::to_json(&f, &data)).map_err(|source| {
             ReportError::Write {
@@ -401,12 +402,17 @@ fn summarise_fit(f: &crate::fit::Fit) -> FitSummary {
                 n[n.len() - 1].im
             ),
         },
-        film: match f.film {
-            Some(m) => format!(
+        film: match (f.film, f.coat) {
+            (Some(m), None) => format!(
                 "{:.1} nm of ior {:.3}, weight {:.2}",
                 m.thickness_nm, m.n, m.weight
             ),
-            None => "none".to_string(),
+            (Some(m), Some(c)) => format!(
+                "{:.1} nm of ior {:.3}, weight {:.2}; under a clear coat of ior {:.3}",
+                m.thickness_nm, m.n, m.weight, c.ior
+            ),
+            (None, Some(c)) => format!("none; under a clear coat of ior {:.3}", c.ior),
+            (None, None) => "none".to_string(),
         },
         rms_reflectance_error: f.rms_residual,
         max_delta_e2000: f.delta_e2000.iter().copied().fold(0.0, f64::max),

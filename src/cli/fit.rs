@@ -20,9 +20,29 @@ pub(super) struct FitArgs {
     /// Do not try a thin film.
     #[arg(long)]
     no_film: bool,
+    /// A clear coat over base and film: auto (where the simulation shows a mirror lobe
+    /// beyond the lobe around it, a coat of fitted index, kept where it matches better),
+    /// none, or the coat's index (a sample with a known clear coat, e.g. 1.52).
+    #[arg(long, default_value = "auto", value_parser = parse_coat)]
+    coat: goniospec::fit::CoatChoice,
     /// Replace PREFIX.json or PREFIX.gltf even when they are not files goniospec fit wrote.
     #[arg(long)]
     force: bool,
+}
+
+/// `--coat`: auto, none, or an index in (1, 3].
+fn parse_coat(s: &str) -> Result<goniospec::fit::CoatChoice, String> {
+    use goniospec::fit::CoatChoice;
+    match s {
+        "auto" => Ok(CoatChoice::Auto),
+        "none" => Ok(CoatChoice::None),
+        v => match v.parse::<f64>() {
+            Ok(n) if n > 1.0 && n <= 3.0 => Ok(CoatChoice::Ior(n)),
+            _ => Err(format!(
+                "--coat takes auto, none or the coat's index in (1, 3], got '{v}'"
+            )),
+        },
+    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -58,7 +78,7 @@ pub(super) fn fit(a: FitArgs) -> Result<ExitCode> {
         FitBase::Dielectric => fit::BaseKind::Dielectric,
         FitBase::Conductor => fit::BaseKind::Conductor,
     };
-    let f = fit::fit(&data, kind, !a.no_film);
+    let f = fit::fit(&data, kind, !a.no_film, a.coat);
     fit::write_json(&json_path, &fit::to_json(&f, &data))
         .with_context(|| format!("writing {}", json_path.display()))?;
     let name = acc.header.settings.sample_name.clone();
@@ -83,6 +103,14 @@ pub(super) fn fit(a: FitArgs) -> Result<ExitCode> {
             m.weight
         ),
         None => outln!("film: none"),
+    }
+    match f.coat {
+        Some(c) => outln!(
+            "coat: clear, ior {:.4}, ggx_alpha {:.3} (OpenPBR coat_weight 1; glTF KHR_materials_clearcoat, whose index is 1.5)",
+            c.ior,
+            c.alpha
+        ),
+        None => outln!("coat: none"),
     }
     outln!("rms_reflectance_error: {:.2e}", f.rms_residual);
     for (t, de) in data.theta_i_rad.iter().zip(&f.delta_e2000) {

@@ -1,6 +1,6 @@
 //! A fit written for renderers: the parameter sets as JSON (the fit itself, OpenPBR,
 //! Standard Surface) and a glTF 2.0 material (`KHR_materials_iridescence`,
-//! `KHR_materials_ior`).
+//! `KHR_materials_ior`, `KHR_materials_clearcoat`).
 
 use std::path::Path;
 
@@ -58,6 +58,7 @@ pub fn to_json(fit: &Fit, data: &Data) -> serde_json::Value {
                 }),
             },
             "film": fit.film.map(|f| json!({"thickness_nm": f.thickness_nm, "ior": f.n, "weight": f.weight})),
+            "coat": fit.coat.map(|c| json!({"ior": c.ior, "ggx_alpha": c.alpha, "weight": 1.0})),
             "rms_reflectance_error": fit.rms_residual,
             "delta_e2000_per_incident_angle": fit.delta_e2000,
             "theta_i_deg": data.theta_i_rad.iter().map(|t| t.to_degrees()).collect::<Vec<_>>(),
@@ -74,6 +75,10 @@ pub fn to_json(fit: &Fit, data: &Data) -> serde_json::Value {
             "thin_film_weight": film.weight,
             "thin_film_thickness": film.thickness_nm / 1000.0,
             "thin_film_ior": film.n,
+            "coat_weight": if fit.coat.is_some() { 1.0 } else { 0.0 },
+            "coat_color": [1.0, 1.0, 1.0],
+            "coat_roughness": fit.coat.map_or(0.0, |c| c.alpha.sqrt()),
+            "coat_ior": fit.coat.map_or(1.6, |c| c.ior),
         },
         "standard_surface": {
             "base": 1.0,
@@ -85,6 +90,10 @@ pub fn to_json(fit: &Fit, data: &Data) -> serde_json::Value {
             "specular_IOR": ior,
             "thin_film_thickness": film.thickness_nm * film.weight.signum(),
             "thin_film_IOR": film.n,
+            "coat": if fit.coat.is_some() { 1.0 } else { 0.0 },
+            "coat_color": [1.0, 1.0, 1.0],
+            "coat_roughness": fit.coat.map_or(0.1, |c| c.alpha.sqrt()),
+            "coat_IOR": fit.coat.map_or(1.5, |c| c.ior),
         },
     })
 }
@@ -136,6 +145,15 @@ pub fn to_gltf(fit: &Fit, data: &Data, name: &str) -> serde_json::Value {
             "iridescenceThicknessMaximum": f.thickness_nm,
         });
         used.push("KHR_materials_iridescence");
+    }
+    if let Some(c) = fit.coat {
+        // glTF's clear coat has index 1.5 (KHR_materials_clearcoat); the fitted index is in
+        // the JSON.
+        ext["KHR_materials_clearcoat"] = json!({
+            "clearcoatFactor": 1.0,
+            "clearcoatRoughnessFactor": c.alpha.sqrt().clamp(0.0, 1.0),
+        });
+        used.push("KHR_materials_clearcoat");
     }
     json!({
         "asset": { "version": "2.0", "generator": "goniospec fit" },

@@ -1,7 +1,8 @@
 //! Fits a parametric real-time material to a simulated one: GGX roughness, a base
-//! (dielectric index, or a conductor's complex index per wavelength) and an optional thin
-//! film (thickness, index, weight), and writes them for glTF 2.0
-//! (`KHR_materials_iridescence`, `KHR_materials_ior`), OpenPBR and Autodesk Standard Surface.
+//! (dielectric index, or a conductor's complex index per wavelength), an optional thin
+//! film (thickness, index, weight) and an optional clear coat over them (index), and writes
+//! them for glTF 2.0 (`KHR_materials_iridescence`, `KHR_materials_ior`,
+//! `KHR_materials_clearcoat`), OpenPBR and Autodesk Standard Surface.
 //!
 //! Model: the single-scattering GGX microfacet BRDF with height-correlated Smith masking
 //! (Walter, Marschner, Li & Torrance, EGSR 2007, eqs. 20, 33, 34; Heitz 2014, JCGT 3(2),
@@ -31,9 +32,14 @@
 //!    reflectance error so highlights and colour both count (1 unit of Delta E weighs as
 //!    0.01 of reflectance).
 
+mod coat;
 mod export;
+mod film;
 
+pub use coat::{Coat, CoatChoice};
+use coat::{fit_coated, mirror_excess, represents};
 pub use export::{to_gltf, to_json, write_json};
+use film::{fit_film, implausible_film};
 
 use crate::accumulate::file::Accumulator;
 use crate::geom::from_spherical;
@@ -52,6 +58,13 @@ pub struct Data {
     /// `lobe[i][b]`: wavelength-averaged power fraction in reflection bucket b.
     pub lobe: Vec<Vec<f64>>,
     pub buckets: crate::accumulate::Buckets,
+    /// `t[i][j]`: directional transmittance (a conductor transmits nothing).
+    pub t: Vec<Vec<f64>>,
+    /// `mirror[i][j]`: the power in the bucket of the mirror direction beyond what the
+    /// lobe around it puts there ([`mirror_excess`]): a smooth coat's or film's reflection.
+    pub mirror: Vec<Vec<f64>>,
+    /// The bucket of the mirror direction at each incident angle.
+    pub mirror_bucket: Vec<usize>,
 }
 
 impl Data {
@@ -60,19 +73,30 @@ impl Data {
         let mode = s.coherence_mode();
         let buckets = s.buckets();
         let nl = s.wavelength_count();
-        let mut r = Vec::new();
-        let mut lobe = Vec::new();
-        for i in 0..s.theta_i_deg.len() {
-            let mut row = Vec::new();
+        let (mut r, mut t, mut lobe, mut mirror, mut mirror_bucket) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for (i, th) in s.theta_i_deg.iter().enumerate() {
+            let wi = from_spherical(th.to_radians(), s.phi_i_deg.to_radians());
+            // `+ 0.0` makes a negative zero positive: at normal incidence the tracer's
+            // reflection is (0, 0, 1), whose azimuth is 0, not -pi.
+            let wm = DVec3::new(-wi.x + 0.0, -wi.y + 0.0, wi.z);
+            let b = buckets.index(wm);
+            let (mut row, mut trow, mut mrow) = (Vec::new(), Vec::new(), Vec::new());
             let mut l = vec![0.0; buckets.len()];
             for j in 0..nl {
                 let c = acc.cell(i, j);
-                row.push(c.totals(mode, &buckets).0);
-                for (b, v) in l.iter_mut().enumerate() {
-                    *v += c.fraction(2 * b, mode) / nl as f64;
+                let (rr, tt) = c.totals(mode, &buckets);
+                row.push(rr);
+                trow.push(tt);
+                mrow.push(mirror_excess(c, mode, &buckets, b, wm));
+                for (k, v) in l.iter_mut().enumerate() {
+                    *v += c.fraction(2 * k, mode) / nl as f64;
                 }
             }
             r.push(row);
+            t.push(trow);
+            mirror.push(mrow);
+            mirror_bucket.push(b);
             lobe.push(l);
         }
         Data {
@@ -82,6 +106,9 @@ impl Data {
             r,
             lobe,
             buckets,
+            t,
+            mirror,
+            mirror_bucket,
         }
     }
 }
@@ -110,6 +137,8 @@ pub struct Fit {
     pub alpha: f64,
     pub base: Base,
     pub film: Option<Film>,
+    /// A clear coat over base and film, where the simulation shows one.
+    pub coat: Option<Coat>,
     /// RMS of `R_model - R_sim` over incident angles and wavelengths.
     pub rms_residual: f64,
     /// CIEDE2000 between the model's and the simulation's reflected colour under D65, per
@@ -167,8 +196,19 @@ pub fn fit_alpha(data: &Data) -> f64 {
         let alpha = log_a.exp();
         let mut e = 0.0;
         for (i, &th) in data.theta_i_rad.iter().enumerate() {
-            let m = lobe_model(data, alpha, th);
+            let mut m = lobe_model(data, alpha, th);
             let obs = &data.lobe[i];
+            // Buckets marked NaN (a coat's mirror, [`fit_coated`]) take no part.
+            for (x, y) in m.iter_mut().zip(obs) {
+                if y.is_nan() {
+                    *x = 0.0;
+                }
+            }
+            let obs: Vec<f64> = obs
+                .iter()
+                .map(|y| if y.is_nan() { 0.0 } else { *y })
+                .collect();
+            let obs = &obs;
             // Best scale per incident angle (linear least squares).
             let (mo, mm) = m
                 .iter()
@@ -388,8 +428,112 @@ pub enum BaseKind {
     Auto,
 }
 
-/// Runs the three stages.
-pub fn fit(data: &Data, base_kind: BaseKind, try_film: bool) -> Fit {
+/// Runs the three stages on the whole material, and again on the base under a clear coat
+/// where the simulation shows a mirror lobe a coat could make ([`fit_coated`]). The coated
+/// fit is kept where it is closer to the simulation (reflectance and colour, the stages'
+/// own cost), where the user gave the coat's index, or where a coat's Fresnel reflection
+/// explains the mirror lobe and the coated fit represents the material (RMS at most 0.02,
+/// CIEDE2000 at most 2): a conductor without a coat, its n and k free per wavelength, can
+/// match a coated gold more closely by bending them (to k at its bound of 20 in the red)
+/// than the coat over a plain base does, and is no material.
+///
+/// A conductor transmits nothing: where the sample transmits (mean T above 0.05), only a
+/// dielectric base is tried.
+pub fn fit(data: &Data, base_kind: BaseKind, try_film: bool, coat: CoatChoice) -> Fit {
+    let transmits = mean(&data.t) > 0.05;
+    let kind = if transmits && base_kind == BaseKind::Auto {
+        BaseKind::Dielectric
+    } else {
+        base_kind
+    };
+    let (mut best, mut cost) = fit_layer(data, kind, try_film);
+    if coat == CoatChoice::None {
+        return finish_notes(best, data, base_kind, transmits);
+    }
+    let coated = fit_coated(data, kind, try_film, coat);
+    if let Some((coated, c, fresnel_like)) = coated
+        && (c < cost || matches!(coat, CoatChoice::Ior(_)) || (fresnel_like && represents(&coated)))
+    {
+        (best, cost) = (coated, c);
+    }
+    let _ = cost;
+    finish_notes(best, data, base_kind, transmits)
+}
+
+/// The notes on transmission of [`fit`].
+fn finish_notes(mut best: Fit, data: &Data, base_kind: BaseKind, transmits: bool) -> Fit {
+    if transmits && base_kind == BaseKind::Auto {
+        best.warnings.push(format!(
+            "the sample transmits (mean T {:.2}): only a dielectric base was tried, a conductor transmitting nothing",
+            mean(&data.t)
+        ));
+    }
+    if transmits && base_kind == BaseKind::Conductor {
+        best.warnings.push(format!(
+            "the sample transmits (mean T {:.2}), which a conductor cannot: a dielectric base represents it",
+            mean(&data.t)
+        ));
+    }
+    best
+}
+
+/// The mean of a table.
+fn mean(v: &[Vec<f64>]) -> f64 {
+    let n: usize = v.iter().map(|r| r.len()).sum();
+    v.iter().flatten().sum::<f64>() / n.max(1) as f64
+}
+
+/// The model's reflectance table of a fitted (coatless) layer on `data`'s angles.
+fn model_table(data: &Data, fit: &Fit) -> Vec<Vec<f64>> {
+    let e = Albedo::new(data, fit.alpha);
+    model_r(data, &e, &fit.base, fit.film)
+}
+
+/// RMS reflectance error and CIEDE2000 per incident angle of the model `m` against `data`.
+fn errors(data: &Data, m: &[Vec<f64>]) -> (f64, Vec<f64>) {
+    let weights = colour::bin_weights(&data.lambda_nm);
+    let white = colour::xyz(&vec![1.0; data.lambda_nm.len()], &weights);
+    let (mut s2, mut n) = (0.0, 0.0);
+    for (mr, dr) in m.iter().zip(&data.r) {
+        for (a, b) in mr.iter().zip(dr) {
+            s2 += (a - b).powi(2);
+            n += 1.0;
+        }
+    }
+    let de = m
+        .iter()
+        .zip(&data.r)
+        .map(|(mr, dr)| {
+            colour::delta_e2000(
+                colour::lab(colour::xyz(mr, &weights), white),
+                colour::lab(colour::xyz(dr, &weights), white),
+            )
+        })
+        .collect();
+    ((s2 / n).sqrt(), de)
+}
+
+/// What the fit says of its own quality: a poor match, a lobe at the roughness bound, a
+/// film at the bounds of its parameters.
+fn quality_warnings(rms: f64, delta_e2000: &[f64], alpha: f64, film: &Option<Film>) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let worst = delta_e2000.iter().copied().fold(0.0, f64::max);
+    if worst > 2.0 || rms > 0.02 {
+        warnings.push(format!(
+            "the model cannot represent this material well (RMS reflectance error {rms:.3}, worst Delta E2000 {worst:.1}): multilayers, flakes, pigments or strong multiple scattering are beyond one GGX lobe with one film and a clear coat"
+        ));
+    }
+    if alpha <= 0.0105 {
+        warnings.push(
+            "the lobe is narrower than the buckets resolve: alpha is at its lower bound 0.01 (a smooth or flat sample)".into(),
+        );
+    }
+    let _ = film;
+    warnings
+}
+
+/// Runs the three stages on `data` as one layer (no coat); returns the fit and its cost.
+fn fit_layer(data: &Data, base_kind: BaseKind, try_film: bool) -> (Fit, f64) {
     let alpha = fit_alpha(data);
     let e = Albedo::new(data, alpha);
     let weights = colour::bin_weights(&data.lambda_nm);
@@ -442,6 +586,7 @@ pub fn fit(data: &Data, base_kind: BaseKind, try_film: bool) -> Fit {
     // Stage 3: on each base, a film started on a grid and refined by Nelder-Mead; the film
     // is kept only where it explains clearly more than the bare base (half the cost).
     let mut best: Option<(f64, Base, Option<Film>)> = None;
+    let mut rejected: Option<String> = None;
     for cand in candidates {
         let bare = total(&cand, None);
         let mut choice = (bare, cand.clone(), None);
@@ -456,6 +601,11 @@ pub fn fit(data: &Data, base_kind: BaseKind, try_film: bool) -> Fit {
             for st in &starts {
                 let (c, b, f) = fit_film(st, &total);
                 if c < 0.5 * bare && c < choice.0 {
+                    // A film the fit would keep, but one no material is: refused, and said.
+                    if let Some(why) = implausible_film(&b, &f, mean(&data.t)) {
+                        rejected = Some(why);
+                        continue;
+                    }
                     choice = (c, b, Some(f));
                 }
             }
@@ -464,103 +614,27 @@ pub fn fit(data: &Data, base_kind: BaseKind, try_film: bool) -> Fit {
             best = Some(choice);
         }
     }
-    let (_, base, film) = best.expect("at least one base kind");
+    let (c, base, film) = best.expect("at least one base kind");
     let m = model_r(data, &e, &base, film);
-    let (mut s2, mut n) = (0.0, 0.0);
-    for (mr, dr) in m.iter().zip(&data.r) {
-        for (a, b) in mr.iter().zip(dr) {
-            s2 += (a - b).powi(2);
-            n += 1.0;
-        }
-    }
-    let delta_e2000: Vec<f64> = m
-        .iter()
-        .zip(&data.r)
-        .map(|(mr, dr)| {
-            colour::delta_e2000(
-                colour::lab(colour::xyz(mr, &weights), white),
-                colour::lab(colour::xyz(dr, &weights), white),
-            )
-        })
-        .collect();
-    let rms = (s2 / n).sqrt();
-    let mut warnings = Vec::new();
-    let worst = delta_e2000.iter().copied().fold(0.0, f64::max);
-    if worst > 2.0 || rms > 0.02 {
+    let (rms, delta_e2000) = errors(data, &m);
+    let mut warnings = quality_warnings(rms, &delta_e2000, alpha, &film);
+    if film.is_none()
+        && let Some(why) = rejected
+    {
         warnings.push(format!(
-            "the model cannot represent this material well (RMS reflectance error {rms:.3}, worst Delta E2000 {worst:.1}): multilayers, pigments or strong multiple scattering are beyond one GGX lobe with one film"
+            "no thin film explains this material's colour: the closest one is {why}, at the bounds of the model, which is what flakes, pigments or several layers look like to it; the fit is the base alone"
         ));
     }
-    if alpha <= 0.0105 {
-        warnings.push(
-            "the lobe is narrower than the buckets resolve: alpha is at its lower bound 0.01 (a smooth or flat sample)".into(),
-        );
-    }
-    Fit {
-        alpha,
-        base,
-        film,
-        rms_residual: rms,
-        delta_e2000,
-        warnings,
-    }
-}
-
-/// A film on `base`: the best start on a thickness x index grid, refined with the
-/// dielectric base's index free. Returns (cost, base, film).
-fn fit_film(base: &Base, total: &dyn Fn(&Base, Option<Film>) -> f64) -> (f64, Base, Film) {
-    let mut start = (f64::INFINITY, 0.0, 0.0);
-    let mut d = 20.0;
-    while d <= 2000.0 {
-        let mut nf = 1.2;
-        while nf <= 2.6 + 1e-9 {
-            let c = total(
-                base,
-                Some(Film {
-                    thickness_nm: d,
-                    n: nf,
-                    weight: 1.0,
-                }),
-            );
-            if c < start.0 {
-                start = (c, d, nf);
-            }
-            nf += 0.05;
-        }
-        d += 5.0;
-    }
-    let dielectric = matches!(base, Base::Dielectric { .. });
-    let nb0 = match base {
-        Base::Dielectric { n } => *n,
-        Base::Conductor { .. } => 1.0,
-    };
-    let make = |p: &[f64]| -> (Base, Film) {
-        let b = if dielectric {
-            Base::Dielectric {
-                n: p[3].clamp(1.0, 3.0),
-            }
-        } else {
-            base.clone()
-        };
-        (
-            b,
-            Film {
-                thickness_nm: p[0].abs(),
-                n: p[1].clamp(1.0, 3.0),
-                weight: p[2].clamp(0.0, 1.0),
-            },
-        )
-    };
-    let f = |p: &[f64]| {
-        let (b, fm) = make(p);
-        total(&b, Some(fm))
-    };
-    let p = nelder_mead(
-        &f,
-        &[start.1, start.2, 1.0, nb0],
-        &[5.0, 0.03, 0.1, 0.05],
-        600,
-    );
-    let (b, fm) = make(&p);
-    (f(&p), b, fm)
+    (
+        Fit {
+            alpha,
+            base,
+            film,
+            coat: None,
+            rms_residual: rms,
+            delta_e2000,
+            warnings,
+        },
+        c,
+    )
 }
