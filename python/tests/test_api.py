@@ -318,7 +318,7 @@ def test_one_name_for_one_thing_and_reprs_that_say_what_they_hold(tmp_path):
     brdf.export(tmp_path / "b.npz", format="npz")
     z = np.load(tmp_path / "b.npz")
     assert list(z["lambda_nm"]) == list(brdf.lambda_nm)
-    assert list(z["theta_i_deg"]) == [0.0, 30.0]
+    assert np.allclose(z["theta_i_deg"], [0.0, 30.0], rtol=0, atol=1e-12)
     brdf.save(tmp_path / "b.gsb")
     rows = cli("eval", str(tmp_path / "b.gsb"), "--theta-i", "30", "--phi-i", "10", "--theta-o", "30",
                "--phi-o", "190")
