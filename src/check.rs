@@ -88,8 +88,16 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
     let tol = 1e-6 * lx.max(ly);
     // Every sheet's feature scales, measured once for the facts and the validity warnings.
     let sheets = crate::sample::validity::sheet_scales(sample);
+    // Coatings are judged against the run's beamlet, or the default one for a plane wave
+    // (under which a thick coating's transfer matrix is exact, but a unit slip is not).
+    let coating_rho = opts
+        .validity
+        .as_ref()
+        .map(|c| c.rho_nm)
+        .filter(|r| r.is_finite())
+        .unwrap_or(crate::sample::validity::DEFAULT_COHERENCE_RADIUS_NM);
     for (i, itf) in sample.interfaces.iter().enumerate() {
-        check_interface(sample, i, itf, sheets[i], tol, &mut r);
+        check_interface(sample, i, itf, sheets[i], tol, coating_rho, &mut r);
     }
 
     let (soup, first) = sample.triangle_soup();
@@ -146,6 +154,47 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
     Ok(r)
 }
 
+/// A coating's layers as facts (medium and thickness in nm, outermost first), and a warning
+/// for a layer too thick for the coating model: it applies the layers' transfer-matrix
+/// amplitudes at the interface, exact for layers thin against the beamlet and flat across
+/// it, where every reflection inside overlaps the others. A layer thicker than the beamlet
+/// radius, or whose round trip at 60 degrees walks `2 d tan(theta_t)` more than half of it
+/// sideways, is not: its partial waves separate (issue 47: `thickness = 300` in a sample
+/// whose unit is um is a 300 um "thin" layer).
+fn coating_facts(
+    sample: &Sample,
+    name: &str,
+    itf: &crate::sample::Interface,
+    rho_nm: f64,
+    r: &mut CheckReport,
+) {
+    let layers: Vec<String> = itf
+        .coating
+        .iter()
+        .map(|&(m, d)| format!("{} {d} nm", sample.media[m].name))
+        .collect();
+    r.facts.push(format!(
+        "{name}: coating of {} layers on its front ({}), outermost first: {}",
+        itf.coating.len(),
+        sample.media[itf.front].name,
+        layers.join(", ")
+    ));
+    for &(m, d) in &itf.coating {
+        let n = sample.media[m]
+            .model
+            .eval(550.0)
+            .map_or(1.0, |(n, _)| n.max(1.0));
+        let sin_t = 60f64.to_radians().sin() / n;
+        let walk = 2.0 * d * sin_t / (1.0 - sin_t * sin_t).max(1e-12).sqrt();
+        if d > rho_nm || walk > 0.5 * rho_nm {
+            r.warnings.push(format!(
+                "{name}: its coating layer of '{}' is {d} nm thick: a coating is applied as thin layers whose reflections all overlap, which holds for layers thin against the beamlet ({rho_nm} nm); at 60 degrees this one walks light {walk:.0} nm sideways per round trip. A coating's thickness is in the sample's unit: was it meant in nm (thickness = 300 in a sample of unit = \"um\" is 300 um)? A layer this thick belongs in the mesh: a [stack] with mode = \"mesh\", or interfaces",
+                sample.media[m].name,
+            ));
+        }
+    }
+}
+
 /// The facts and defects of interface `i`: its bounds against the tile, and a closed
 /// body's orientation and watertightness or a sheet's orientation, feature scales
 /// (`scales`, measured once for the validity warnings too) and periodicity.
@@ -155,6 +204,7 @@ fn check_interface(
     itf: &crate::sample::Interface,
     scales: Option<crate::sample::validity::Scales>,
     tol: f64,
+    coating_rho_nm: f64,
     r: &mut CheckReport,
 ) {
     let [lx, ly] = sample.tile_nm;
@@ -173,6 +223,9 @@ fn check_interface(
         hi.y,
         hi.z
     ));
+    if !itf.coating.is_empty() {
+        coating_facts(sample, &name, itf, coating_rho_nm, r);
+    }
     if lo.x < -tol || lo.y < -tol || hi.x > lx + tol || hi.y > ly + tol {
         r.defects.push(format!(
             "{name} reaches outside the tile [0, {lx}] x [0, {ly}] nm; geometry must lie within one tile"

@@ -4,12 +4,10 @@
 
 use std::process::ExitCode;
 
-use clap::Parser;
-
 mod cli;
 
 fn main() -> ExitCode {
-    let cli = cli::Cli::parse();
+    let cli = cli::Cli::parse_args();
     match cli::run(cli) {
         Ok(code) => code,
         // `goniospec reflectance f.gsa | head`: the reader has what it wanted. End quietly,

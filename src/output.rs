@@ -3,6 +3,7 @@
 //! new file, and replaces an existing file only when it is of its own kind, unless forced.
 //! Writes are atomic (`io::write_atomic`), so a refused run changes nothing.
 
+use std::io::Write;
 use std::path::Path;
 
 /// The first line of every page `batch report` writes; the output policy recognises it.
@@ -49,6 +50,91 @@ pub enum OutputError {
         "refusing to overwrite {out}: it is not {what}; remove it, choose another name, or pass --force"
     )]
     Foreign { out: String, what: &'static str },
+    #[error("output folder {0} is a file; give a folder (it is made when missing)")]
+    NotAFolder(String),
+    #[error(
+        "refusing to write into {dir}: {files} would be replaced, and goniospec did not write them (they are not in {dir}/{WRITTEN_LIST}); move them, choose another folder, or pass --force"
+    )]
+    Unlisted { dir: String, files: String },
+}
+
+/// The list of the files goniospec wrote into a folder it writes several files into (a
+/// study's folder, a report page's folder), one name per line. A file of one of those
+/// names that the list does not hold is the user's (issue 47: `study -o FOLDER` replaced a
+/// user's `report.md`, `batch report` a user's PNG named as a material's image).
+pub const WRITTEN_LIST: &str = ".goniospec-written";
+
+/// Checks, before any work, that writing the files `names` into folder `dir` replaces none
+/// the user did not name: `dir` is a folder or does not exist yet (nor is its parent
+/// missing), and each of `names` that exists there is in `dir`'s [`WRITTEN_LIST`], unless
+/// `force`.
+pub fn guard_folder(dir: &Path, names: &[String], force: bool) -> Result<(), OutputError> {
+    let shown = || dir.display().to_string();
+    if dir.exists() && !dir.is_dir() {
+        return Err(OutputError::NotAFolder(shown()));
+    }
+    if !dir.exists() {
+        let parent = dir.parent().filter(|p| !p.as_os_str().is_empty());
+        if let Some(p) = parent.filter(|p| !p.is_dir()) {
+            return Err(OutputError::NotWritable {
+                out: shown(),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    format!("its parent folder {} does not exist", p.display()),
+                ),
+            });
+        }
+        return Ok(());
+    }
+    crate::io::check_writable(&dir.join(WRITTEN_LIST)).map_err(|source| {
+        OutputError::NotWritable {
+            out: shown(),
+            source,
+        }
+    })?;
+    if force {
+        return Ok(());
+    }
+    let listed = written_list(dir);
+    let foreign: Vec<&str> = names
+        .iter()
+        .filter(|n| std::fs::symlink_metadata(dir.join(n)).is_ok() && !listed.contains(*n))
+        .map(String::as_str)
+        .collect();
+    if foreign.is_empty() {
+        Ok(())
+    } else {
+        Err(OutputError::Unlisted {
+            dir: shown(),
+            files: foreign.join(", "),
+        })
+    }
+}
+
+/// The names in `dir`'s [`WRITTEN_LIST`] (none when it is missing or unreadable).
+fn written_list(dir: &Path) -> std::collections::BTreeSet<String> {
+    crate::io::read_input(&dir.join(WRITTEN_LIST), 16 << 20)
+        .ok()
+        .map(|t| {
+            String::from_utf8_lossy(&t)
+                .lines()
+                .filter(|l| !l.is_empty())
+                .map(str::to_string)
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Adds `names` to `dir`'s [`WRITTEN_LIST`] (atomically), after they were written.
+pub fn record_folder(dir: &Path, names: &[String]) -> std::io::Result<()> {
+    let mut listed = written_list(dir);
+    listed.extend(names.iter().cloned());
+    crate::io::write_atomic(&dir.join(WRITTEN_LIST), |w| {
+        for n in &listed {
+            writeln!(w, "{n}")?;
+        }
+        Ok(())
+    })
 }
 
 /// Checks `out` against the policy (see the module docs); `inputs` are every file the run

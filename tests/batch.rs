@@ -347,10 +347,40 @@ fn bad_plans_fail_at_plan_time() {
             "[defaults]\ntheta_i = [0]\ncolour = 1\n[[material]]\nsample = \"SAMPLE\"\n",
             "colour",
         ),
+        // Issue 47: what every unit would refuse, refused now, in simulate's words.
+        (
+            "[defaults]\ntheta_i = [0]\ncoherence = \"diffraction\"\n[[material]]\nsample = \"PAINT\"\n",
+            "closed bodies",
+        ),
+        (
+            "[defaults]\ntheta_i = [0]\ncoherence = \"diffraction\"\n[[material]]\nsample = \"WHITE\"\n",
+            "random phases",
+        ),
+        (
+            "[defaults]\ntheta_i = [0]\ntolerance = 0.05\n[[material]]\nsample = \"SAMPLE\"\n",
+            "tolerance makes each direction's number of trees adaptive",
+        ),
+        (
+            "[defaults]\ntheta_i = [0]\ncoherence = \"diffraction\"\nrays = 400000000\n[[material]]\nsample = \"SAMPLE\"\n",
+            "GB",
+        ),
+        (
+            "[defaults]\ntheta_i = [0]\n[[material]]\nsample = \"SAMPLE\"\nname = \"LONG\"\n",
+            "at most 200",
+        ),
     ] {
         let sample = format!("{}/meshes/rough-gold.toml", root().display());
+        let paint = format!("{}/meshes/metallic-paint.toml", root().display());
+        let white = format!("{}/meshes/paint-pigments.toml", root().display());
         let p = d.join("plan.toml");
-        std::fs::write(&p, body.replace("SAMPLE", &sample)).unwrap();
+        std::fs::write(
+            &p,
+            body.replace("SAMPLE", &sample)
+                .replace("PAINT", &paint)
+                .replace("WHITE", &white)
+                .replace("LONG", &"n".repeat(250)),
+        )
+        .unwrap();
         let (code, _, err) = goniospec(&[
             "batch",
             "plan",
@@ -533,4 +563,94 @@ fn a_non_utf8_sample_folder_is_named() {
         err.contains("not valid UTF-8") && err.contains("f.toml") && err.contains("rename"),
         "{err}"
     );
+}
+
+/// Issue 47, the user's walk: a three-material library with one material its simulation
+/// refuses (a meshed 5-pair quarter-wave mirror, whose ray series diverges: "did not
+/// converge"). `batch run` runs the others, keeps the refusal beside the unit and exits 1
+/// naming it; every unit's warnings are kept beside it (the wavy film's validity warning)
+/// and counted by `status`; `merge` merges the two others, carries their warnings into
+/// `out/NAME.warnings` and leaves the mirror out with its reason in `out/mirror.failed`;
+/// `report` writes the page for the rest, the mirror's row marked with that reason, and
+/// exits 1. A rerun skips the refused unit unless asked.
+#[test]
+fn one_bad_material_is_marked_and_the_library_is_written() {
+    let d = scratch("batch-walk");
+    let (media, layers) = quarter_wave_mirror(5);
+    std::fs::write(
+        d.join("mirror.toml"),
+        stack_toml("mirror", "mesh", media, &layers, "glass"),
+    )
+    .unwrap();
+    let r = root().display().to_string();
+    let p = d.join("plan.toml");
+    std::fs::write(
+        &p,
+        format!(
+            "[defaults]\ntheta_i = [0, 30]\nwavelengths = \"400:700:50\"\nrays = 16\n\n\
+             [[material]]\nsample = \"{r}/meshes/rough-gold.toml\"\nname = \"gold\"\n\n\
+             [[material]]\nsample = \"{r}/meshes/thin-film-600nm.toml\"\nname = \"film\"\n\n\
+             [[material]]\nsample = \"mirror.toml\"\nname = \"mirror\"\n"
+        ),
+    )
+    .unwrap();
+    let b = d.join("b");
+    let bs = b.to_str().unwrap();
+    plan_into(&p, &b);
+    let (code, out, err) = goniospec(&["batch", "run", bs]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(
+        out.contains("ran 4 units") && out.contains("2 refused"),
+        "{out}"
+    );
+    assert!(
+        err.contains("refused: unit 4 (mirror at 0 deg)") && err.contains("did not converge"),
+        "{err}"
+    );
+    assert!(err.contains("warning: unit 2 (film)"), "{err}");
+    assert!(b.join("units/mirror/0000.refused").is_file());
+    assert!(b.join("units/film/0000.warnings").is_file());
+    let (code, out, _) = goniospec(&["batch", "status", bs]);
+    assert_eq!(code, 1);
+    assert!(
+        out.contains("6 units: 4 done, 0 missing, 2 failed") && out.contains("done with warnings"),
+        "{out}"
+    );
+    assert!(out.contains("refused by the simulation"), "{out}");
+    // A rerun skips what was refused (and says so), unless asked.
+    let (code, _, err) = goniospec(&["batch", "run", bs]);
+    assert_eq!(code, 1);
+    assert!(err.contains("refused before (--retry-refused"), "{err}");
+    let (code, out, err) = goniospec(&["batch", "merge", bs]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(out.contains("merged 2 of 3 materials"), "{out}");
+    assert!(
+        err.contains("mirror") && err.contains("out/NAME.failed"),
+        "{err}"
+    );
+    assert!(err.contains("warning: film: theta_i 0 deg:"), "{err}");
+    assert!(b.join("out/gold.gsa").is_file() && b.join("out/film.gsa").is_file());
+    assert!(b.join("out/mirror.failed").is_file() && !b.join("out/mirror.gsa").exists());
+    let warnings = std::fs::read_to_string(b.join("out/film.warnings")).unwrap();
+    assert!(warnings.starts_with("theta_i 0 deg: "), "{warnings}");
+    let (code, out, err) = goniospec(&["batch", "report", bs, "--no-fit"]);
+    assert_eq!(code, 1, "{out}{err}");
+    assert!(out.contains("3 materials, 1 left out"), "{out}");
+    assert!(err.contains("left out: mirror: not merged"), "{err}");
+    let html = std::fs::read_to_string(b.join("report/index.html")).unwrap();
+    assert!(html.contains("1 left out"), "{html}");
+    let row = &html[html.find("data-name=\"mirror\"").unwrap()..];
+    let row = &row[..row.find("</tr>").unwrap()];
+    assert!(
+        row.contains("left out of the library") && row.contains("did not converge"),
+        "{row}"
+    );
+    for name in ["gold", "film"] {
+        assert!(
+            b.join(format!("report/{name}-sphere.png")).is_file(),
+            "{name}"
+        );
+    }
+    let film = &html[html.find("data-name=\"film\"").unwrap()..];
+    assert!(film[..film.find("</tr>").unwrap()].contains("&#9888;"));
 }

@@ -375,3 +375,50 @@ fn a_body_can_carry_thin_layers_and_keeps_its_meshed_shell_form() {
         .to_string();
     assert!(e.contains("tiO2"), "{e}");
 }
+
+/// `check` lists every coating layer with its thickness in nm, and warns where a layer is
+/// too thick for the coating model: `thickness = 300` in a sample of unit "um" (meant as
+/// 300 nm) is a 300 um layer, 60 beamlet radii thick (issue 47). The quarter-wave layer
+/// (100 nm, walking 2 d tan(theta_t) = 152 nm at 60 degrees in n 1.38, under half the
+/// 5000 nm beamlet) is not warned of.
+#[test]
+fn check_lists_coatings_in_nm_and_warns_of_a_unit_slip() {
+    let media = "[media.air]\nn = 1.0\n[media.f]\nn = 1.38\n[media.glass]\nn = 1.52\n";
+    let opts = goniospec::check::CheckOptions {
+        leak_rays: 200,
+        ..Default::default()
+    };
+    let thin = coated_stack("thin-coat", media, &[("f", 100.0)], "glass");
+    let r = goniospec::check::check(&thin, &opts).unwrap();
+    assert!(
+        r.facts
+            .iter()
+            .any(|f| f.contains("coating of 1 layers") && f.contains("f 100 nm")),
+        "{:#?}",
+        r.facts
+    );
+    assert!(
+        !r.warnings.iter().any(|w| w.contains("coating layer")),
+        "{:#?}",
+        r.warnings
+    );
+
+    let toml = stack_toml("slip", "coating", media, &[("f", 300.0)], "glass").replace(
+        "unit = \"nm\"\ntile = [20000.0, 20000.0]",
+        "unit = \"um\"\ntile = [20.0, 20.0]",
+    );
+    let slip = sample_from("slip", &toml);
+    let r = goniospec::check::check(&slip, &opts).unwrap();
+    assert!(
+        r.facts.iter().any(|f| f.contains("f 300000 nm")),
+        "{:#?}",
+        r.facts
+    );
+    assert!(
+        r.warnings
+            .iter()
+            .any(|w| w.contains("300000 nm thick") && w.contains("unit = \"um\"")),
+        "{:#?}",
+        r.warnings
+    );
+}

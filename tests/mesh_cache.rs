@@ -70,6 +70,24 @@ fn the_cache_gives_the_parsed_mesh_and_is_never_stale() {
     assert_eq!((how, &m), (Loaded::ParsedAndCached, &changed));
 }
 
+/// A file of the cache's name that is not a mesh cache is the user's: it is never replaced,
+/// and the mesh is parsed (issue 47).
+#[test]
+fn a_users_file_at_the_cache_path_is_kept() {
+    let d = scratch("mesh-cache-foreign");
+    let obj = d.join("m.obj");
+    std::fs::copy(root().join("meshes/rough-gold-ggx.obj"), &obj).unwrap();
+    let mine = b"my notes on this mesh\n";
+    std::fs::write(cache_path(&obj), mine).unwrap();
+    let always = opts(CachePolicy::Always);
+    for _ in 0..2 {
+        let (m, how) = load_mesh_with(&obj, 1000.0, always).unwrap();
+        assert_eq!(how, Loaded::Parsed);
+        assert!(!m.triangles.is_empty());
+        assert_eq!(std::fs::read(cache_path(&obj)).unwrap(), mine);
+    }
+}
+
 #[test]
 fn the_cache_is_off_when_asked_and_for_small_files_by_default() {
     let d = scratch("mesh-cache-off");

@@ -237,7 +237,11 @@ fn the_report_is_the_same_bytes_whatever_the_threads() {
         ]);
     }
     let (a, c) = (files(one.parent().unwrap()), files(two.parent().unwrap()));
-    assert_eq!(a.len(), 7, "a page, a lobe and a sphere per material");
+    assert_eq!(
+        a.len(),
+        8,
+        "a page, a lobe and a sphere per material, and the list of what goniospec wrote"
+    );
     assert!(a == c, "the report differs between 1 and 2 threads");
     assert!(
         std::fs::read_to_string(&one)
@@ -269,6 +273,20 @@ fn the_report_refuses_unmerged_libraries_and_foreign_files() {
     assert_eq!(report(&["--no-fit", "--force"], &page).0, 0);
     // A report it wrote is replaced without --force.
     assert_eq!(report(&["--no-fit"], &page).0, 0);
+    // A user's own image of a material's image name beside the page is kept (issue 47),
+    // unless --force; a second report into the same folder replaces its own images.
+    let photos = dir.join("photos");
+    std::fs::create_dir(&photos).unwrap();
+    let photo = photos.join("gold-sphere.png");
+    std::fs::write(&photo, b"\x89PNG\r\n\x1a\nmy photo").unwrap();
+    let (code, err) = report(&["--no-fit"], &photos.join("page.html"));
+    assert_ne!(code, 0);
+    assert!(err.contains("gold-sphere.png would be replaced"), "{err}");
+    assert_eq!(std::fs::read(&photo).unwrap(), b"\x89PNG\r\n\x1a\nmy photo");
+    assert!(!photos.join("page.html").exists() && !photos.join("gold-lobe.png").exists());
+    std::fs::remove_file(&photo).unwrap();
+    assert_eq!(report(&["--no-fit"], &photos.join("page.html")).0, 0);
+    assert_eq!(report(&["--no-fit"], &photos.join("page.html")).0, 0);
     // The page is never an input.
     let gsa = b.join("out").join("gold.gsa");
     let before = std::fs::read(&gsa).unwrap();

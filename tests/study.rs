@@ -229,3 +229,79 @@ fn the_grating_study_charts_the_angular_distribution_of_both_methods() {
         "{written:?}"
     );
 }
+
+/// The study's folder (issue 47): `-o FILE` is refused before the study runs; a user's own
+/// report.md or chart in the folder is never replaced (unless --force), other files of
+/// theirs stay, and a second run into the study's own folder replaces what it wrote.
+#[test]
+fn a_study_replaces_only_what_it_wrote() {
+    let d = scratch("study-outputs");
+    std::fs::write(
+        d.join("s.toml"),
+        format!(
+            "[study]\nname = \"flat\"\nsample = \"{}\"\ntheta_i = [0.0]\nwavelengths = \"400:700:100\"\n[sweep]\nrays = [16]\ncoherence_radius_nm = [inf]\n",
+            root().join("studies/samples/flat-soap-film-meshed.toml").display()
+        ),
+    )
+    .unwrap();
+    let study = d.join("s.toml");
+    let file = d.join("a-file");
+    std::fs::write(&file, "mine").unwrap();
+    let t0 = std::time::Instant::now();
+    let (code, _, err) = goniospec(&[
+        "study",
+        study.to_str().unwrap(),
+        "-o",
+        file.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("is a file; give a folder"), "{err}");
+    assert!(!err.contains("points"), "refused before the run: {err}");
+    assert!(t0.elapsed().as_secs_f64() < 5.0);
+
+    let out = d.join("out");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("report.md"), "my own report").unwrap();
+    std::fs::write(out.join("error-vs-rays.png"), "my chart").unwrap();
+    std::fs::write(out.join("notes.txt"), "notes").unwrap();
+    let (code, _, err) = goniospec(&[
+        "study",
+        study.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("report.md, error-vs-rays.png would be replaced"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("report.md")).unwrap(),
+        "my own report"
+    );
+    assert!(!out.join("points.csv").exists());
+
+    std::fs::remove_file(out.join("report.md")).unwrap();
+    std::fs::remove_file(out.join("error-vs-rays.png")).unwrap();
+    for _ in 0..2 {
+        let (code, _, err) = goniospec(&[
+            "study",
+            study.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+    }
+    assert!(
+        std::fs::read_to_string(out.join("report.md"))
+            .unwrap()
+            .starts_with("# Study: flat")
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "notes"
+    );
+    let listed = std::fs::read_to_string(out.join(".goniospec-written")).unwrap();
+    assert!(listed.lines().any(|l| l == "points.csv"), "{listed}");
+    assert!(!listed.contains("notes.txt"), "{listed}");
+}

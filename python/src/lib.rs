@@ -229,28 +229,34 @@ impl Brdf {
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
         // Numbers, lists and arrays alike, as numpy.asarray(x, float64) sees them.
         let np = py.import("numpy")?;
-        let as_array =
-            |name: &str, x: &Bound<'py, PyAny>| -> PyResult<PyReadonlyArrayDyn<'py, f64>> {
-                if x.is_none() {
-                    // numpy makes None a NaN, which read as "got NaN".
-                    return Err(pyo3::exceptions::PyTypeError::new_err(format!(
-                        "{name} is None: give an angle in degrees, or an array of them"
-                    )));
-                }
-                np.call_method1("asarray", (x, "float64"))?.extract()
-            };
-        let (a0, a1, a2, a3) = (
+        let as_array = |name: &str, x: &Bound<'py, PyAny>| -> PyResult<Bound<'py, PyAny>> {
+            if x.is_none() {
+                // numpy makes None a NaN, which read as "got NaN".
+                return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                    "{name} is None: give an angle in degrees, or an array of them"
+                )));
+            }
+            np.call_method1("asarray", (x, "float64"))
+        };
+        let given = (
             as_array("theta_i_deg", theta_i_deg)?,
             as_array("phi_i_deg", phi_i_deg)?,
             as_array("theta_o_deg", theta_o_deg)?,
             as_array("phi_o_deg", phi_o_deg)?,
         );
-        let arrays = [&a0, &a1, &a2, &a3];
-        let shape: Vec<usize> = arrays
-            .iter()
-            .map(|a| a.shape().to_vec())
-            .max_by_key(|s| s.iter().product::<usize>())
-            .unwrap_or_default();
+        // NumPy's own broadcasting rules (views, nothing copied yet): shapes (2, 3) and
+        // (3, 2) are refused as NumPy refuses them, not matched by their sizes (issue 47).
+        let views = np.call_method1("broadcast_arrays", given).map_err(|e| {
+            value_err(format!(
+                "the four angle arrays must broadcast together as NumPy's rules say: {}",
+                e.value(py)
+            ))
+        })?;
+        let arrays: Vec<PyReadonlyArrayDyn<'py, f64>> = views
+            .try_iter()?
+            .map(|v| v?.extract())
+            .collect::<PyResult<_>>()?;
+        let shape: Vec<usize> = arrays[0].shape().to_vec();
         let n: usize = shape.iter().product();
         // Four angle columns, two directions and the result per query: refused as a
         // MemoryError before anything is allocated when it cannot fit (a broadcast view of
@@ -267,22 +273,10 @@ impl Brdf {
                 "evaluating {n} angle sets at {nl} wavelengths needs more memory than this machine has available: evaluate in chunks"
             )));
         };
-        let mut cols: Vec<Vec<f64>> = Vec::new();
-        for a in arrays {
-            let v = a.as_array();
-            let flat: Vec<f64> = v.iter().copied().collect();
-            if flat.len() == n {
-                cols.push(flat);
-            } else if flat.len() == 1 {
-                cols.push(vec![flat[0]; n]);
-            } else {
-                return Err(value_err(format!(
-                    "angle arrays must share one shape or be scalars; got {:?} against {:?}",
-                    a.shape(),
-                    shape
-                )));
-            }
-        }
+        let cols: Vec<Vec<f64>> = arrays
+            .iter()
+            .map(|a| a.as_array().iter().copied().collect())
+            .collect();
         for (name, c) in ["theta_i_deg", "theta_o_deg"]
             .iter()
             .zip([&cols[0], &cols[2]])

@@ -129,8 +129,15 @@ def test_errors_are_exceptions_with_the_clis_messages(tmp_path):
     assert not any(tmp_path.iterdir())
     with pytest.raises(ValueError, match="polar angles"):
         brdf.eval(95, 0, 10, 0)
-    with pytest.raises(ValueError, match="share one shape"):
+    with pytest.raises(ValueError, match="broadcast together"):
         brdf.eval([1, 2], 0, [1, 2, 3], 0)
+    # Issue 47: shapes NumPy refuses to broadcast are refused, though their sizes match; a
+    # row against a column broadcasts as NumPy does.
+    with pytest.raises(ValueError, match="broadcast together"):
+        brdf.eval(np.full((2, 3), 30.0), 0, np.full((3, 2), 30.0), 0)
+    outer = brdf.eval(np.array([[10.0], [40.0]]), 0, np.array([20.0, 30.0, 50.0]), 180)
+    assert outer.shape == (2, 3, len(brdf.lambda_nm))
+    assert np.array_equal(outer[1, 2], brdf.eval(40.0, 0, 50.0, 180))
     # Issue 30: None names itself (it read "got NaN"); a broadcast view of 10^11 angles is a
     # MemoryError (it aborted the interpreter).
     with pytest.raises(TypeError, match="phi_o_deg is None"):
@@ -144,6 +151,10 @@ def test_ctrl_c_interrupts_a_long_run_and_returns_nothing(tmp_path):
     import threading
     import time
 
+    # Python installs its KeyboardInterrupt handler only where SIGINT was not ignored when it
+    # started (a job started in the background of a non-interactive shell inherits it
+    # ignored): installed here, the test does not depend on how it was launched.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     s = gs.Sample.load(mesh("rough-gold.toml"))
     out = tmp_path / "never.gsa"
     timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
@@ -201,6 +212,7 @@ def test_ctrl_c_is_prompt_on_trees_of_thousands_of_segments(tmp_path):
         '[sample]\nname = "steep"\nunit = "um"\ntile = [20.0, 20.0]\n[media.air]\nn = 1.0\n'
         '[media.glass]\nn = 1.5\n[[interface]]\nmesh = "steep.obj"\nfront = "air"\nback = "glass"\n')
     s = gs.Sample.load(str(tmp_path / "steep.toml"))
+    signal.signal(signal.SIGINT, signal.default_int_handler)  # as in the test above
     timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
     timer.start()
     with pytest.raises(KeyboardInterrupt):

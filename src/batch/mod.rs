@@ -84,6 +84,10 @@ impl From<String> for BatchError {
 pub enum UnitProblem {
     #[error("missing")]
     Missing,
+    /// `batch run` ran it and the simulation refused it (the reason, as `simulate` gave it,
+    /// is kept beside the unit: [`Unit::failure_path`]).
+    #[error("refused by the simulation: {0}")]
+    Refused(String),
     #[error("unreadable: {0}")]
     Unreadable(crate::container::FileError),
     #[error("from another plan or sample (its header does not match the unit)")]
@@ -132,6 +136,20 @@ pub struct Unit {
     pub output: PathBuf,
 }
 
+impl Unit {
+    /// Where `batch run` keeps the unit's warnings (one a line; absent where it had
+    /// none), relative to the batch folder.
+    pub fn log_path(&self) -> PathBuf {
+        self.output.with_extension("warnings")
+    }
+
+    /// Where `batch run` keeps why the simulation refused the unit, relative to the batch
+    /// folder (absent where it ran).
+    pub fn failure_path(&self) -> PathBuf {
+        self.output.with_extension("refused")
+    }
+}
+
 /// The manifest `plan` writes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -147,9 +165,20 @@ pub struct Manifest {
 /// The most units a plan may hold.
 pub const MAX_UNITS: usize = 1_000_000;
 
+/// The longest material name: it names files (`NAME-subdivided.gsb`, `NAME-sphere.png`,
+/// `NAME.warnings`) that most file systems limit to 255 bytes.
+pub const MAX_NAME: usize = 200;
+
 /// A material's name names files and folders: letters, digits, '-', '_' or '.', not
-/// starting with '.'.
+/// starting with '.', at most [`MAX_NAME`] characters.
 fn check_name(name: &str) -> Result<(), BatchError> {
+    if name.len() > MAX_NAME {
+        return Err(BatchError::from(format!(
+            "name '{}...' is {} characters: at most {MAX_NAME}, as it names files ('NAME-kdtree.gsb', 'NAME-sphere.png') that most file systems limit to 255 bytes",
+            &name[..name.char_indices().nth(40).map_or(name.len(), |(i, _)| i)],
+            name.len()
+        )));
+    }
     if name.is_empty()
         || !name
             .chars()
@@ -278,6 +307,15 @@ impl Manifest {
             }
             let sample =
                 sample::load(&path, MeshOptions::default()).map_err(|e| at(e.to_string()))?;
+            // Refused now what every unit would refuse on a node (issue 47), in simulate's
+            // words; and what only a batch cannot hold.
+            if settings.tolerance.is_some() {
+                return Err(BatchError::from(at(
+                    "tolerance makes each direction's number of trees adaptive, which a batch's units cannot be checked and merged by: give a fixed rays (and split the spectrum or angles into more units for more trees)".into(),
+                )));
+            }
+            let whole = settings.resolve().map_err(|e| at(e.to_string()))?;
+            crate::simulate::preflight(&sample, &whole).map_err(|e| at(e.to_string()))?;
             let name = match name {
                 Some(n) => n,
                 None => path
@@ -393,6 +431,10 @@ impl Manifest {
     pub fn read_unit(&self, dir: &Path, u: &Unit) -> Result<Accumulator, UnitProblem> {
         let p = dir.join(&u.output);
         if !p.exists() {
+            let refused = dir.join(u.failure_path());
+            if let Ok(why) = std::fs::read_to_string(&refused) {
+                return Err(UnitProblem::Refused(why.trim().to_string()));
+            }
             return Err(UnitProblem::Missing);
         }
         let acc = Accumulator::read(&p).map_err(UnitProblem::Unreadable)?;
@@ -409,22 +451,18 @@ impl Manifest {
         Ok(acc)
     }
 
-    /// Runs one unit and writes its output atomically.
+    /// Runs one unit and writes its output atomically, with its warnings (the sample's
+    /// validity findings for the unit's settings and the run's own, as `simulate` prints
+    /// them) beside it ([`Unit::log_path`]), which it also returns. A simulation that
+    /// refuses the unit leaves its reason beside it ([`Unit::failure_path`]), so `status`,
+    /// `merge` and `report` can name it, and is returned as the error.
     pub fn run_unit(
         &self,
         dir: &Path,
         u: &Unit,
         sample: &crate::sample::Sample,
-    ) -> Result<(), BatchError> {
+    ) -> Result<Vec<String>, BatchError> {
         let cfg = self.unit_config(u)?;
-        let (acc, _) = crate::simulate::simulate(sample, &cfg, &|_| {}).map_err(|source| {
-            BatchError::Simulation {
-                id: u.id,
-                material: u.material.clone(),
-                theta_i_deg: u.theta_i_deg,
-                source,
-            }
-        })?;
         let p = dir.join(&u.output);
         if let Some(parent) = p.parent() {
             std::fs::create_dir_all(parent).map_err(|source| BatchError::Io {
@@ -432,8 +470,54 @@ impl Manifest {
                 source,
             })?;
         }
+        let write = |rel: PathBuf, text: String| {
+            let q = dir.join(rel);
+            crate::io::write_atomic(&q, |w| w.write_all(text.as_bytes()))
+                .map_err(|source| BatchError::Io { path: q, source })
+        };
+        let remove = |rel: PathBuf| {
+            let q = dir.join(rel);
+            match std::fs::remove_file(&q) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    Err(BatchError::Io { path: q, source: e })
+                }
+                _ => Ok(()),
+            }
+        };
+        let mut warnings: Vec<String> =
+            crate::sample::validity::findings(sample, &crate::simulate::validity_context(&cfg))
+                .into_iter()
+                .map(|f| f.message)
+                .collect();
+        let (acc, stats) = match crate::simulate::simulate(sample, &cfg, &|_| {}) {
+            Ok(r) => r,
+            Err(source) => {
+                write(u.failure_path(), format!("{source}\n"))?;
+                return Err(BatchError::Simulation {
+                    id: u.id,
+                    material: u.material.clone(),
+                    theta_i_deg: u.theta_i_deg,
+                    source,
+                });
+            }
+        };
+        warnings.extend(crate::simulate::run_warnings(sample, &acc, &stats));
+        if warnings.is_empty() {
+            remove(u.log_path())?;
+        } else {
+            write(u.log_path(), warnings.join("\n") + "\n")?;
+        }
+        remove(u.failure_path())?;
         acc.write(&p)
-            .map_err(|e| BatchError::Plan(format!("{}: {e}", p.display())))
+            .map_err(|e| BatchError::Plan(format!("{}: {e}", p.display())))?;
+        Ok(warnings)
+    }
+
+    /// A unit's kept warnings (none where it had none or did not run).
+    pub fn unit_warnings(&self, dir: &Path, u: &Unit) -> Vec<String> {
+        std::fs::read_to_string(dir.join(u.log_path()))
+            .map(|t| t.lines().map(str::to_string).collect())
+            .unwrap_or_default()
     }
 
     /// Assembles one material's units into its whole-run accumulator; refuses, naming

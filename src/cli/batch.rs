@@ -95,6 +95,10 @@ pub(super) struct BatchRunArgs {
     /// Worker threads per unit (0: all cores). Results do not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// Run again the units the simulation refused before (their reason is kept beside
+    /// them); by default they are skipped, as a rerun refuses them again.
+    #[arg(long)]
+    retry_refused: bool,
 }
 
 #[derive(Args)]
@@ -170,8 +174,12 @@ fn plan(a: BatchPlanArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// `batch run`: runs this shard's units, skipping those already done.
+/// `batch run`: runs this shard's units, skipping those already done (and those refused
+/// before, unless --retry-refused). A unit the simulation refuses does not stop the shard:
+/// its reason is kept beside it, the others run, and the shard exits 1 naming it. Each
+/// unit's warnings are kept beside it and printed.
 fn run(a: BatchRunArgs) -> Result<ExitCode> {
+    use goniospec::batch::UnitProblem;
     let m = Manifest::read(&a.dir)?;
     let (i, n) = match (a.shard, batch::shard_from_env()) {
         (Some(s), _) => s,
@@ -181,60 +189,105 @@ fn run(a: BatchRunArgs) -> Result<ExitCode> {
     let units = m.shard(i, n)?;
     let pool = thread_pool(a.threads)?;
     let bar = progress_bar(units.len() as u64, "units");
-    let (mut ran, mut skipped) = (0usize, 0usize);
+    let (mut ran, mut skipped, mut refused, mut warned) = (0usize, 0usize, Vec::new(), 0usize);
     let t0 = std::time::Instant::now();
     let mut loaded: Option<(String, sample::Sample)> = None;
     for u in units {
-        if m.verify(&a.dir, u).is_none() {
-            skipped += 1;
-        } else {
-            let mat = m.material(&u.material);
-            if loaded.as_ref().is_none_or(|(name, _)| *name != mat.name) {
-                let s = sample::load(&mat.sample, MeshOptions::default())?;
-                if goniospec::simulate::sample_hash(&s) != mat.sample_hash {
-                    bail!(
-                        "{}: the sample changed since the plan was made; plan again",
-                        mat.sample.display()
-                    );
-                }
-                loaded = Some((mat.name.clone(), s));
+        match m.verify(&a.dir, u) {
+            None => skipped += 1,
+            Some(UnitProblem::Refused(why)) if !a.retry_refused => {
+                refused.push(format!(
+                    "unit {} ({} at {} deg), refused before (--retry-refused runs it again): {why}",
+                    u.id, u.material, u.theta_i_deg
+                ));
             }
-            let s = &loaded.as_ref().expect("loaded").1;
-            pool.install(|| m.run_unit(&a.dir, u, s))?;
-            ran += 1;
+            Some(_) => {
+                let mat = m.material(&u.material);
+                if loaded.as_ref().is_none_or(|(name, _)| *name != mat.name) {
+                    let s = sample::load(&mat.sample, MeshOptions::default())?;
+                    if goniospec::simulate::sample_hash(&s) != mat.sample_hash {
+                        bail!(
+                            "{}: the sample changed since the plan was made; plan again",
+                            mat.sample.display()
+                        );
+                    }
+                    loaded = Some((mat.name.clone(), s));
+                }
+                let s = &loaded.as_ref().expect("loaded").1;
+                bar.suspend(|| {
+                    eprintln!(
+                        "unit {} ({} at {} deg): running",
+                        u.id, u.material, u.theta_i_deg
+                    )
+                });
+                match pool.install(|| m.run_unit(&a.dir, u, s)) {
+                    Ok(warnings) => {
+                        ran += 1;
+                        if !warnings.is_empty() {
+                            warned += 1;
+                        }
+                        bar.suspend(|| {
+                            for w in &warnings {
+                                eprintln!("warning: unit {} ({}): {w}", u.id, u.material);
+                            }
+                        });
+                    }
+                    Err(e @ batch::BatchError::Simulation { .. }) => {
+                        bar.suspend(|| eprintln!("refused: {e}"));
+                        refused.push(e.to_string());
+                    }
+                    Err(e) => return Err(e.into()),
+                }
+            }
         }
         bar.inc(1);
     }
     bar.finish_and_clear();
     outln!(
-        "shard {i}/{n}: ran {ran} units, skipped {skipped} already done, in {:.2} s",
+        "shard {i}/{n}: ran {ran} units, skipped {skipped} already done, {} refused, {warned} with warnings (kept beside each unit as NNNN.warnings), in {:.2} s",
+        refused.len(),
         t0.elapsed().as_secs_f64()
     );
-    Ok(ExitCode::SUCCESS)
+    if refused.is_empty() {
+        Ok(ExitCode::SUCCESS)
+    } else {
+        for r in &refused {
+            eprintln!("refused: {r}");
+        }
+        Ok(ExitCode::from(1))
+    }
 }
 
-/// `batch merge`: assembles each material's accumulator and its representations.
+/// `batch merge`: assembles each material's accumulator and its representations, with its
+/// units' warnings (`out/NAME.warnings`, each line prefixed with its incident angle). A
+/// material whose units are not all done is left out with its reasons in
+/// `out/NAME.failed`, which `batch report` shows; the others are merged, and the command
+/// exits 1 naming what was left out.
 fn merge(a: BatchDirArgs) -> Result<ExitCode> {
     let m = Manifest::read(&a.dir)?;
     let out = a.dir.join("out");
     std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
     let t0 = std::time::Instant::now();
+    let bar = progress_bar(m.materials.len() as u64, "materials");
     let mut problems = Vec::new();
-    let mut merged = Vec::new();
+    let mut merged = 0usize;
+    let mut warned = 0usize;
     for mat in &m.materials {
-        match m.merge_material(&a.dir, &mat.name) {
-            Ok(acc) => merged.push((mat, acc)),
-            Err(e) => problems.push(e.to_string()),
-        }
-    }
-    if !problems.is_empty() {
-        bail!("cannot merge:\n{}", problems.join("\n"));
-    }
-    for (mat, acc) in &merged {
+        let failed = out.join(format!("{}.failed", mat.name));
+        let acc = match m.merge_material(&a.dir, &mat.name) {
+            Ok(acc) => acc,
+            Err(e) => {
+                goniospec::io::write_atomic(&failed, |w| w.write_all(format!("{e}\n").as_bytes()))
+                    .with_context(|| format!("writing {}", failed.display()))?;
+                problems.push(e.to_string());
+                bar.inc(1);
+                continue;
+            }
+        };
         let p = out.join(format!("{}.gsa", mat.name));
         acc.write(&p)
             .with_context(|| format!("writing {}", p.display()))?;
-        let data = goniospec::brdf::BucketData::from_accumulator(acc);
+        let data = goniospec::brdf::BucketData::from_accumulator(&acc);
         for &kind in &mat.representations {
             let r = goniospec::brdf::Representation::build(kind, &data, &Default::default())
                 .map_err(anyhow::Error::msg)?;
@@ -242,23 +295,65 @@ fn merge(a: BatchDirArgs) -> Result<ExitCode> {
             goniospec::brdf::file::write(&r, &g)
                 .with_context(|| format!("writing {}", g.display()))?;
         }
+        let warnings: Vec<String> = m
+            .units
+            .iter()
+            .filter(|u| u.material == mat.name)
+            .flat_map(|u| {
+                m.unit_warnings(&a.dir, u)
+                    .into_iter()
+                    .map(move |w| format!("theta_i {} deg: {w}", u.theta_i_deg))
+            })
+            .collect();
+        let log = out.join(format!("{}.warnings", mat.name));
+        if warnings.is_empty() {
+            std::fs::remove_file(&log).ok();
+        } else {
+            warned += 1;
+            goniospec::io::write_atomic(&log, |w| {
+                w.write_all((warnings.join("\n") + "\n").as_bytes())
+            })
+            .with_context(|| format!("writing {}", log.display()))?;
+            bar.suspend(|| {
+                for w in &warnings {
+                    eprintln!("warning: {}: {w}", mat.name);
+                }
+            });
+        }
+        std::fs::remove_file(&failed).ok();
+        merged += 1;
+        bar.inc(1);
     }
+    bar.finish_and_clear();
     outln!(
-        "merged {} units into {} materials in {}, {:.2} s",
+        "merged {} of {} materials ({} units) in {}, {warned} with warnings (out/NAME.warnings), {:.2} s",
+        merged,
+        m.materials.len(),
         m.units.len(),
-        merged.len(),
         out.display(),
         t0.elapsed().as_secs_f64()
     );
-    Ok(ExitCode::SUCCESS)
+    if problems.is_empty() {
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprintln!(
+            "cannot merge (left out, the reasons in out/NAME.failed):\n{}",
+            problems.join("\n")
+        );
+        Ok(ExitCode::from(1))
+    }
 }
 
 /// `batch status`: units done, missing and failed; exit 1 unless all are done.
 fn status(a: BatchDirArgs) -> Result<ExitCode> {
     let m = Manifest::read(&a.dir)?;
     let (done, missing, failed) = m.status(&a.dir);
+    let warned = done
+        .iter()
+        .filter(|&&id| !m.unit_warnings(&a.dir, &m.units[id]).is_empty())
+        .count();
     outln!(
-        "{} units: {} done, {} missing, {} failed",
+        "{} units: {} done, {} missing, {} failed; {warned} done with warnings (units/MATERIAL/NNNN.warnings)",
         m.units.len(),
         done.len(),
         missing.len(),
@@ -321,13 +416,31 @@ fn report(a: BatchReportArgs) -> Result<ExitCode> {
     let entries =
         pool.install(|| write_report(&a.dir, &page, &opts, a.force, &|n| bar.set_position(n)))?;
     bar.finish_and_clear();
+    let gone: Vec<&goniospec::batch::report::Entry> =
+        entries.iter().filter(|e| e.failure.is_some()).collect();
+    let marked = if gone.is_empty() {
+        String::new()
+    } else {
+        format!(", {} left out and marked", gone.len())
+    };
     outln!(
-        "wrote {} ({} materials) in {:.2} s",
+        "wrote {} ({} materials{marked}) in {:.2} s",
         page.display(),
         entries.len(),
         t0.elapsed().as_secs_f64()
     );
-    Ok(ExitCode::SUCCESS)
+    for e in &gone {
+        eprintln!(
+            "left out: {}: {}",
+            e.name,
+            e.failure.as_deref().unwrap_or_default()
+        );
+    }
+    Ok(if gone.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
 }
 
 /// `batch parallel`: prints the GNU parallel command line.

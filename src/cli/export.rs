@@ -142,9 +142,11 @@ fn export_npz(a: ExportArgs) -> Result<ExitCode> {
         grid.theta_i_deg = a.theta_i.clone();
     }
     let pool = thread_pool(a.threads)?;
+    let bar = super::progress_spinner("evaluating the NPZ grid");
     let bytes = pool
         .install(|| npz::npz_bytes(&r, &grid))
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?;
+    bar.finish_and_clear();
     goniospec::io::write_atomic(&a.output, |w| w.write_all(&bytes))
         .with_context(|| format!("writing {}", a.output.display()))?;
     outln!(
@@ -183,9 +185,11 @@ fn export_rgl(a: ExportArgs) -> Result<ExitCode> {
     let pool = thread_pool(a.threads)?;
     let n = usize::from(a.resolution);
     let t0 = std::time::Instant::now();
+    let bar = super::progress_spinner("tabulating the RGL grid");
     let (fields, report) = pool
         .install(|| export::rgl_for(&r, &s, n, theta_i))
         .map_err(|m| anyhow::anyhow!("{} ({}): {m}", a.input.display(), sample_path.display()))?;
+    bar.finish_and_clear();
     tensor::write(&fields, &a.output).with_context(|| format!("writing {}", a.output.display()))?;
     if report.negative > 0 {
         eprintln!(

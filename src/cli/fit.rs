@@ -78,7 +78,9 @@ pub(super) fn fit(a: FitArgs) -> Result<ExitCode> {
         FitBase::Dielectric => fit::BaseKind::Dielectric,
         FitBase::Conductor => fit::BaseKind::Conductor,
     };
+    let bar = super::progress_spinner("fitting (roughness, base, film, coat)");
     let f = fit::fit(&data, kind, !a.no_film, a.coat);
+    bar.finish_and_clear();
     fit::write_json(&json_path, &fit::to_json(&f, &data))
         .with_context(|| format!("writing {}", json_path.display()))?;
     let name = acc.header.settings.sample_name.clone();

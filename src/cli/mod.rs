@@ -248,6 +248,32 @@ pub(crate) fn broken_pipe(e: &anyhow::Error) -> bool {
     })
 }
 
+impl Cli {
+    /// Parses the process's arguments (exiting with clap's usage error, status 2, on bad
+    /// usage). Negative numbers are values, not flags: `--phi-i -30`, `--theta-i -30,0`,
+    /// `mie --x -1` reach the value parsers, whose range errors name the value (issue 47:
+    /// they failed as "unexpected argument '-3'").
+    pub(crate) fn parse_args() -> Cli {
+        use clap::{CommandFactory, FromArgMatches};
+        let matches = negative_numbers_are_values(Cli::command()).get_matches();
+        Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
+    }
+}
+
+/// `cmd` and its subcommands with every option's negative numbers taken as values, and a
+/// comma list's leading `-` too (clap sees `-30,0` as a flag, not a number).
+fn negative_numbers_are_values(cmd: clap::Command) -> clap::Command {
+    cmd.allow_negative_numbers(true)
+        .mut_args(|a| {
+            if a.get_value_delimiter() == Some(',') {
+                a.allow_hyphen_values(true)
+            } else {
+                a
+            }
+        })
+        .mut_subcommands(negative_numbers_are_values)
+}
+
 pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Backends => backends(),
@@ -306,16 +332,64 @@ fn flag_error(e: goniospec::simulate::SimError) -> anyhow::Error {
 }
 
 /// The progress bar of a long run: `len` units of `what` (trees, rows), with rate and
-/// time left, on standard error (indicatif draws nothing when that is not a terminal).
+/// time left, on standard error. On a terminal it redraws twice a second, so a step that
+/// takes long still shows its elapsed time; elsewhere (a log, a pipe, a batch node), where
+/// indicatif draws nothing, a line every [`PROGRESS_LINE_SECONDS`] says how far the run is
+/// (issue 47: `export`, `fit`, `batch report` and `batch run` were silent for tens of
+/// seconds).
 fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(len);
     bar.set_style(
         indicatif::ProgressStyle::with_template(&format!(
-            "{{bar:40}} {{pos}}/{{len}} {what}  {{per_sec}}  eta {{eta}}"
+            "{{bar:40}} {{pos}}/{{len}} {what}  {{per_sec}}  eta {{eta}}  ({{elapsed}})"
         ))
         .expect("a valid template"),
     );
+    keep_alive(&bar, what);
     bar
+}
+
+/// A bar for a run of one step whose progress is not counted (a fit, a tabulation): its
+/// elapsed time, as [`progress_bar`] shows it.
+fn progress_spinner(what: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!("{{spinner}} {what}  ({{elapsed}})"))
+            .expect("a valid template"),
+    );
+    keep_alive(&bar, what);
+    bar
+}
+
+/// Seconds between the progress lines written where standard error is not a terminal.
+const PROGRESS_LINE_SECONDS: u64 = 5;
+
+/// Redraws `bar` on a terminal; elsewhere writes a progress line every
+/// [`PROGRESS_LINE_SECONDS`] until it is finished.
+fn keep_alive(bar: &indicatif::ProgressBar, what: &str) {
+    use std::io::IsTerminal;
+    if std::io::stderr().is_terminal() {
+        bar.enable_steady_tick(std::time::Duration::from_millis(500));
+        return;
+    }
+    let (bar, what) = (bar.clone(), what.to_string());
+    std::thread::spawn(move || {
+        let t0 = std::time::Instant::now();
+        loop {
+            std::thread::sleep(std::time::Duration::from_secs(PROGRESS_LINE_SECONDS));
+            if bar.is_finished() {
+                break;
+            }
+            let done = match bar.length() {
+                Some(n) => format!(": {} of {n}", bar.position()),
+                None => String::new(),
+            };
+            eprintln!(
+                "progress: {what}{done}, {:.0} s so far",
+                t0.elapsed().as_secs_f64()
+            );
+        }
+    });
 }
 
 /// The requested backend, or the default; refuses one this build lacks.

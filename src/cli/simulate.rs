@@ -111,75 +111,27 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     if cfg.coherence == Coherence::Diffraction {
         diffraction_summary(&stats, &s, &acc, a.settings.rays);
     }
-    let cut = stats.worst_limit_dropped(&acc);
-    if cut > 1e-6 {
-        let (bound, _) = stats.worst_limit_bound(&acc);
-        eprintln!(
-            "warning: up to {cut:.1e} of the launched power per tree was cut by --max-depth or --max-segments before the ray series converged; R and T change by about {cut:.1e} when the cut light adds incoherently to the rest (the usual case) and by at most {bound:.1e} if it all added in phase (raise the limits, or model thin layers as a flat [stack])"
-        );
-    }
-    // A cell's incident angle (deg) and wavelength bin (from 1), for the warnings.
-    let where_ = |cell: usize| {
-        let nl = acc.header.settings.wavelength_count().max(1);
-        let theta = acc.header.settings.theta_i_deg.get(cell / nl);
-        (theta.copied().unwrap_or(f64::NAN), cell % nl + 1)
-    };
-    let (limited, cell) = stats.worst_limited(&acc);
-    if limited > goniospec::simulate::LIMITED_WARN {
-        let (theta, bin) = where_(cell);
-        eprintln!(
-            "warning: {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets that change the wave by a good part of its index (ridge tips, flake edges, absorbing wedges, thin films whose faces meet at more than 20 degrees, which the local transfer-matrix film does not take alone); there the plane-wave model of those events is stretched or replaced by one that conserves energy. R may be off by up to {edge} times that and the power created by ray series together at ridge tips and flake edges (gold V-grooves against geometric optics and a rigorous solver), and by up to {film} times that on thin absorbing films whose faces meet at 20 degrees or more (gold roofs against the local transfer-matrix film). Check such a sample against a rigorous solver (RCWA) (docs/physics.md, \"Thin absorbing films\" and \"Where the ray model stops\")",
-            edge = goniospec::simulate::LIMITED_EDGE_FACTOR,
-            film = goniospec::simulate::LIMITED_FILM_FACTOR,
-        );
-    }
-    let (created, cell) = stats.worst_created(&acc);
-    if created > goniospec::simulate::CREATED_WARN {
-        let (theta, bin) = where_(cell);
-        eprintln!(
-            "warning: {created:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) came from ray series that created energy: light crossed absorbing features thinner than their decay length (ridge tips at grazing light, sub-skin-depth wedges), where the partial waves of one region leave in directions that cannot interfere and no ray model holds; R is uncertain by up to about {edge} times that and the limited power together there (gold V-grooves against geometric optics and a rigorous solver). Check such a sample against a rigorous solver (RCWA), or use less grazing light or rounder ridges (docs/physics.md, \"Where the ray model stops\")",
-            edge = goniospec::simulate::LIMITED_EDGE_FACTOR,
-        );
-    }
-    if let Some(g) = s.guard_nm {
-        // Open sides: what left through them is reported, never silently lost.
-        let (worst, cell) = stats.worst_escaped(&acc);
-        let (theta, bin) = where_(cell);
-        eprintln!(
-            "open sides (guard band {g:.0} nm): up to {worst:.2e} of the launched power per tree escaped through the sides (theta_i {theta} deg, wavelength bin {bin}); it is counted with the dropped power{}",
-            if worst > 0.01 {
-                ": widen the guard band or use a larger scan to keep it small"
-            } else {
-                ""
-            }
-        );
-    }
-    if stats.envelope_violations > 0 {
-        eprintln!(
-            "warning: {} particle scattering angles were drawn where the Mie phase function exceeded its tabulated envelope; those draws are slightly biased (please report the sample)",
-            stats.envelope_violations
-        );
-    }
-    if stats.leaks > 0 {
-        eprintln!(
-            "warning: {} rays met an interface from the wrong medium (leaky geometry); their power is counted as dropped. Run goniospec check.",
-            stats.leaks
-        );
+    for w in goniospec::simulate::run_warnings(&s, &acc, &stats) {
+        if w.starts_with("open sides") {
+            eprintln!("{w}");
+        } else {
+            eprintln!("warning: {w}");
+        }
     }
     outln!("wrote {}", a.output.display());
     Ok(ExitCode::SUCCESS)
 }
 
 /// What the diffraction method did: the launch lattice, the orders, and how much of the
-/// ray field's power its transform kept in propagating orders (warned outside
-/// `DIFFRACTION_RATIO_WARN`).
+/// ray field's power its transform kept in propagating orders (the warning outside
+/// `DIFFRACTION_RATIO_WARN` is `simulate::run_warnings`').
 fn diffraction_summary(
     stats: &goniospec::simulate::SimStats,
     s: &goniospec::sample::Sample,
     acc: &goniospec::accumulate::file::Accumulator,
     rays: u64,
 ) {
-    use goniospec::simulate::{DIFFRACTION_RATIO_WARN, diffraction_lattice};
+    use goniospec::simulate::diffraction_lattice;
     let [nx, ny] = diffraction_lattice(rays, s.tile_nm);
     let cells: Vec<_> = stats
         .diffraction
@@ -212,11 +164,4 @@ fn diffraction_summary(
             String::new()
         }
     );
-    let r = worst.ratio();
-    if !(DIFFRACTION_RATIO_WARN..=1.0 / DIFFRACTION_RATIO_WARN).contains(&r) {
-        eprintln!(
-            "warning: the diffraction transform kept {r:.3} of the ray field's power (theta_i {theta} deg, {lambda} nm); the rest fell beyond the horizon or was not resolved, so the angular distribution is uncertain by about {:.2}: raise --rays, or check the sample against a rigorous solver where its structure nears the wavelength (docs/physics.md, \"Diffraction\")",
-            (1.0 - r).abs()
-        );
-    }
 }

@@ -6,13 +6,22 @@ use super::{Args, Context, ExitCode, PathBuf, Result};
 pub(super) struct StudyArgs {
     /// The study description (TOML).
     study: PathBuf,
-    /// Output folder.
+    /// Output folder (made when missing): points.csv, report.md and the charts. Files of
+    /// those names that goniospec did not write there are not replaced.
     #[arg(short, long)]
     output: PathBuf,
+    /// Replace files of the study's names in the folder even where goniospec did not write
+    /// them.
+    #[arg(long)]
+    force: bool,
 }
 
 pub(super) fn study(a: StudyArgs) -> Result<ExitCode> {
     let st = goniospec::study::load(&a.study)?;
+    // Before the run: the folder takes the study's files (issue 47: `-o FILE` failed after
+    // the whole study, and a user's report.md in the folder was replaced).
+    let names = goniospec::study::output_names();
+    goniospec::output::guard_folder(&a.output, &names, a.force)?;
     let (points, reference) =
         goniospec::study::run(&st, |l| eprintln!("{l}")).map_err(|e| anyhow::anyhow!(e))?;
     goniospec::study::write(&st, &points, &reference, &a.output)
@@ -25,6 +34,14 @@ pub(super) fn study(a: StudyArgs) -> Result<ExitCode> {
         goniospec::study::write_area(&area, &a.output)
             .map_err(|e| anyhow::anyhow!("sampled-area chart: {e}"))?,
     );
+    let mut written = vec!["points.csv".to_string(), "report.md".to_string()];
+    written.extend(
+        charts
+            .iter()
+            .filter_map(|c| c.file_name().map(|n| n.to_string_lossy().into_owned())),
+    );
+    goniospec::output::record_folder(&a.output, &written)
+        .with_context(|| format!("writing into {}", a.output.display()))?;
     for c in &charts {
         outln!("wrote {}", c.display());
     }

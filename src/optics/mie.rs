@@ -26,7 +26,7 @@ use super::C64;
 /// Why the Mie series cannot be summed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum MieError {
-    #[error("the size parameter x = {0} must be finite and in (0, {MAX_X}]")]
+    #[error("the size parameter x = {0:e} must be finite and in [{MIN_X:e}, {MAX_X:e}]")]
     SizeParameter(f64),
     #[error("the relative index m = {0} must have a positive real part and k >= 0, finite")]
     Index(C64),
@@ -38,6 +38,11 @@ pub enum MieError {
 
 /// The largest size parameter (and `|m x|`) summed: 1e5 orders of memory and time.
 pub const MAX_X: f64 = 1e5;
+/// The smallest size parameter: there the scattering efficiency, Rayleigh's
+/// `8/3 x^4 |(m^2 - 1)/(m^2 + 2)|^2` (BH eq. 5.8), is below 3e-24 for a dielectric
+/// sphere (`|(m^2 - 1)/(m^2 + 2)| < 1`), so it does not scatter measurably; far below, the
+/// series' powers of `x` underflow (NaN at `x = 1e-300`, issue 47).
+pub const MIN_X: f64 = 1e-6;
 
 /// The Mie coefficients `a_n`, `b_n` (BH eq. 4.88) of one sphere, orders 1 to N.
 #[derive(Clone, Debug)]
@@ -60,7 +65,7 @@ pub fn orders(x: f64) -> usize {
 impl Mie {
     /// The coefficients of a sphere of relative index `m` and size parameter `x`.
     pub fn new(m: C64, x: f64) -> Result<Mie, MieError> {
-        if !(x.is_finite() && x > 0.0 && x <= MAX_X) {
+        if !(x.is_finite() && (MIN_X..=MAX_X).contains(&x)) {
             return Err(MieError::SizeParameter(x));
         }
         if !(m.re.is_finite() && m.im.is_finite() && m.re > 0.0 && m.im >= 0.0) {

@@ -154,6 +154,21 @@ pub fn decode(bytes: &[u8], key: &str) -> Option<Mesh> {
     sane.then_some(mesh)
 }
 
+/// Whether `cache` exists and is not a goniospec mesh cache (its magic), or is not a file.
+fn is_foreign(cache: &Path) -> bool {
+    use std::io::Read;
+    match std::fs::symlink_metadata(cache) {
+        Err(_) => false,
+        Ok(m) if !m.is_file() => true,
+        Ok(_) => {
+            let mut head = Vec::new();
+            std::fs::File::open(cache)
+                .and_then(|f| f.take(FORMAT.magic.len() as u64).read_to_end(&mut head))
+                .map_or(true, |_| head != FORMAT.magic)
+        }
+    }
+}
+
 /// Loads `source` through its cache: the cached mesh when it matches, otherwise
 /// `parse()`'s, then written to the cache.
 pub fn load(
@@ -183,6 +198,12 @@ pub fn load(
         return Ok((mesh, Loaded::FromCache));
     }
     let mesh = parse()?;
+    // A file of the cache's name that is not a goniospec mesh cache is the user's: it is
+    // kept, and the mesh is not cached (issue 47: a user's own MESH.obj.gsmesh was
+    // replaced).
+    if is_foreign(&cache) {
+        return Ok((mesh, Loaded::Parsed));
+    }
     let bytes = encode(&key, &mesh);
     let written = crate::io::write_atomic(&cache, |w| std::io::Write::write_all(w, &bytes));
     Ok((

@@ -61,6 +61,10 @@ impl Context {
     }
 }
 
+/// The illumination's transverse coherence radius a run assumes unless told (the beamlet
+/// radius of `simulate --coherence-radius-nm` and `check`'s), nm.
+pub const DEFAULT_COHERENCE_RADIUS_NM: f64 = 5000.0;
+
 /// Below this Rayleigh parameter `g` the coherent specular order (`exp(-g)` of the power,
 /// 1.8 % here) is one the ray method does not produce.
 pub const RAYLEIGH_MIN_FOR_RAYS: f64 = 4.0;

@@ -33,6 +33,7 @@ mod prepare;
 mod run;
 mod settings;
 mod stats;
+mod warnings;
 
 pub use hash::sample_hash;
 pub use launch::diffraction_lattice;
@@ -40,6 +41,7 @@ pub use physical::*;
 use run::{Lost, LostSums, Run};
 pub use settings::*;
 pub use stats::*;
+pub use warnings::run_warnings;
 
 /// What can stop a simulation.
 #[derive(Debug, thiserror::Error)]
@@ -58,6 +60,26 @@ pub enum SimError {
     /// Stopped through `SimConfig::cancel`.
     #[error("the simulation was cancelled")]
     Cancelled,
+}
+
+/// Everything [`simulate`] refuses before it traces, without tracing: the settings, the
+/// methods the sample cannot take, the media's ranges, the ambient medium, the diffraction
+/// method's memory (what [`Run::prepare`] checks; it builds the sample's scene to do so).
+/// `batch plan` runs it for every material, so a plan refuses what its units would.
+pub fn preflight(sample: &Sample, cfg: &SimConfig) -> Result<(), SimError> {
+    validate(cfg)?;
+    let lattice_cfg;
+    let cfg = if cfg.coherence == Coherence::Diffraction {
+        let [nx, ny] = diffraction_lattice(cfg.rays, sample.tile_nm);
+        lattice_cfg = SimConfig {
+            rays: nx * ny,
+            ..cfg.clone()
+        };
+        &lattice_cfg
+    } else {
+        cfg
+    };
+    Run::prepare(sample, cfg).map(|_| ())
 }
 
 /// Runs the simulation. `progress` receives the number of trees finished so far.

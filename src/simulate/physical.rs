@@ -61,6 +61,11 @@ pub const LIMITED_FILM_FACTOR: f64 = 3.0;
 /// is refused: a tenth of the light came out of a model that does not hold.
 pub const CREATED_REFUSED: f64 = 0.1;
 
+/// Optical depth of a scattering sample above which a series cut by the limits is put down
+/// to diffusion: light that crosses `tau` mean free paths scatters about `tau^2` times,
+/// past the default `--max-depth` from a few tens of mean free paths.
+const DIFFUSION_DEPTH: f64 = 20.0;
+
 /// Refuses impossible and unconverged results (docs/design.md §4, "never clamp silently"):
 /// non-finite totals, a cell that lost more than [`NOT_CONVERGED`] of its power to limits,
 /// and in every cell
@@ -163,7 +168,20 @@ pub fn check_physical(
                 None
             };
             if let Some(what) = what {
-                let causes = if created > CREATED_WARN {
+                let diffusing = stats
+                    .and_then(|st| st.densest_scatterer.as_ref())
+                    .filter(|(_, depth)| *depth > DIFFUSION_DEPTH && d_limit > 1e-6);
+                let causes = if let Some((medium, depth)) = diffusing {
+                    format!(
+                        " The cause: the medium '{medium}' scatters so densely that the sample is \
+                         about {depth:.1e} mean free paths deep; light diffusing through that many \
+                         takes about their square in scattering events (a random walk), beyond \
+                         --max-depth. A layer this deep is opaque, and its light leaves from its \
+                         top few mean free paths: check the medium's scattering_per_um or \
+                         volume_fraction and the layer's thickness (and their units), or raise \
+                         --max-depth (docs/physics.md, \"Particle media\")."
+                    )
+                } else if created > CREATED_WARN {
                     format!(
                         " The cause: {created:.3} of the launched power per tree came from ray series \
                          that created energy, where light crossed absorbing features thinner than \

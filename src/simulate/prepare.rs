@@ -91,8 +91,31 @@ pub(super) fn ambient_lossless(
         .iter()
         .find(|&&l| index_at(sample, l)[scene.ambient].im != 0.0)
     {
+        // Which sheets face up into it: where the user meant another medium in front (air
+        // over a gold film), one of them rises above the rest somewhere (issue 47: a gold
+        // roof film of 0 nm at its ridge read as if the user had put gold in front).
+        let fronts: Vec<String> = sample
+            .interfaces
+            .iter()
+            .enumerate()
+            .filter(|(_, itf)| !itf.closed && itf.front == scene.ambient)
+            .map(|(i, itf)| format!("interface {i} ({})", itf.mesh_path.display()))
+            .collect();
+        let other_fronts = sample
+            .interfaces
+            .iter()
+            .any(|itf| !itf.closed && itf.front != scene.ambient);
+        let hint = if other_fronts && !fronts.is_empty() {
+            format!(
+                "; vertical rays from above meet {} first, whose front is '{}'. If another medium was meant in front, that sheet rises above the others somewhere (a layer of zero or negative thickness, or sheets that cross): run goniospec check",
+                fronts.join(" and "),
+                sample.media[scene.ambient].name
+            )
+        } else {
+            String::new()
+        };
         return Err(SimError::Config(format!(
-            "the medium above the sample ('{}') absorbs at {l} nm: reflectance is defined in a lossless ambient medium",
+            "the medium above the sample ('{}') absorbs at {l} nm: reflectance is defined in a lossless ambient medium{hint}",
             sample.media[scene.ambient].name
         )));
     }

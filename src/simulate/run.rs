@@ -435,6 +435,13 @@ impl<'a> Run<'a> {
             limited: lost.limited,
             diffraction: lost.diffraction,
             envelope_violations: self.scene.scatter_violations(),
+            densest_scatterer: {
+                let s = &self.settings;
+                let mid = s.wavelength(s.wavelength_count() / 2);
+                self.scene
+                    .densest_scatterer(mid)
+                    .map(|(m, depth)| (self.sample.media[m].name.clone(), depth))
+            },
         };
         let header = Header {
             settings: self.settings,

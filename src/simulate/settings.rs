@@ -26,7 +26,7 @@ pub mod defaults {
     /// The most trees per direction of an adaptive run (`--tolerance`).
     pub const MAX_RAYS: u64 = 1_000_000;
     /// Beamlet radius: the illumination's transverse coherence length, nm.
-    pub const COHERENCE_RADIUS_NM: f64 = 5000.0;
+    pub const COHERENCE_RADIUS_NM: f64 = crate::sample::validity::DEFAULT_COHERENCE_RADIUS_NM;
     /// Outgoing buckets per hemisphere, in theta and in phi.
     pub const THETA_O_BINS: u32 = 45;
     pub const PHI_O_BINS: u32 = 36;

@@ -153,6 +153,10 @@ pub struct SimStats {
     /// tabulated envelope (`optics::particles`; each such draw is slightly biased). 0 in a
     /// correct table.
     pub envelope_violations: u64,
+    /// The medium that scatters most in volume and its optical depth over the sample's
+    /// height at the run's middle wavelength (`Scene::densest_scatterer`): a refusal for
+    /// series cut by the limits names it where light diffuses through many mean free paths.
+    pub densest_scatterer: Option<(String, f64)>,
 }
 
 impl SimStats {

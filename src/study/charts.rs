@@ -102,6 +102,15 @@ pub(super) fn draw_chart<DB: plotters::prelude::DrawingBackend>(
     Ok(())
 }
 
+/// The file stems of the charts `charts` draws (the last only where points measured the
+/// angular distribution).
+pub(super) const STEMS: [&str; 4] = [
+    "error-vs-time",
+    "error-vs-rays",
+    "eval-time-vs-accuracy",
+    "distribution-vs-time",
+];
+
 /// Draws the charts as PNG and SVG into `dir`: error against time (the Pareto view) and
 /// error against rays with the 1/sqrt(N) slope.
 pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, StudyError> {
@@ -167,7 +176,7 @@ pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, StudyError> 
         });
     let mut written = Vec::new();
     let spread_chart = (
-        "distribution-vs-time",
+        STEMS[3],
         "Angular distribution against the reference's (L1) and wall time",
         "wall time (s)",
         &by_spread,
@@ -175,21 +184,21 @@ pub fn charts(points: &[Point], dir: &Path) -> Result<Vec<PathBuf>, StudyError> 
     );
     let charts = [
         (
-            "error-vs-time",
+            STEMS[0],
             "Error against wall time (lower left is better)",
             "wall time (s)",
             &by_time,
             None,
         ),
         (
-            "error-vs-rays",
+            STEMS[1],
             "Error against rays per direction",
             "rays per direction",
             &by_rays,
             guide.clone(),
         ),
         (
-            "eval-time-vs-accuracy",
+            STEMS[2],
             "BRDF query time against the error of its hemispherical integral",
             "query time (ns)",
             &by_repr,

@@ -22,6 +22,17 @@ mod report;
 mod run;
 
 pub use charts::charts;
+
+/// Every file a study may write into its folder (`write`, `charts`, `write_area`), for the
+/// output policy's check before the run (`output::guard_folder`).
+pub fn output_names() -> Vec<String> {
+    let mut v = vec!["points.csv".to_string(), "report.md".to_string()];
+    for stem in charts::STEMS.iter().chain([&"reflectance-vs-area"]) {
+        v.push(format!("{stem}.png"));
+        v.push(format!("{stem}.svg"));
+    }
+    v
+}
 use charts::*;
 pub use file::{AreaSweep, Tiling, parse};
 use report::*;

@@ -70,6 +70,21 @@ impl<'a> Scene<'a> {
         self.scatter.iter().flatten().map(|m| m.violations()).sum()
     }
 
+    /// The medium that scatters most at `lambda_nm`, and its optical depth over the
+    /// sample's height (extinction coefficient times the height of the scene's box), or
+    /// `None` where nothing scatters in volume.
+    pub fn densest_scatterer(&self, lambda_nm: f64) -> Option<(usize, f64)> {
+        let height = self.z_top - self.z_bottom;
+        self.scatter
+            .iter()
+            .enumerate()
+            .filter_map(|(i, m)| {
+                m.as_ref()
+                    .map(|m| (i, m.coefficients(lambda_nm).0 * height))
+            })
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
     /// Whether some medium of the sample scatters light in its volume.
     pub fn scatters(&self) -> bool {
         self.scatters

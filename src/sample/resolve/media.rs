@@ -8,6 +8,14 @@ use crate::sample::media::{RawMedium, build_model};
 use crate::sample::raw::{RawLayer, RawSample};
 use crate::sample::{Medium, SampleError, SampleErrorKind, Scattering};
 
+/// The radii a particle medium holds, nm: from an atom's size to where a sphere is many
+/// wavelengths across (size parameter about 250 at 380 nm in a binder of n 1.5). Above it,
+/// ray optics holds for the sphere itself, and the Mie set-up (growing as the square of
+/// the size parameter at every tabulated wavelength) takes longer than the run: 1e6 nm
+/// gave no answer in 30 s (issue 47).
+pub const PARTICLE_RADIUS_NM: [f64; 2] = [0.1, 1e4];
+const PARTICLE_RADIUS_WHY: &str = "below 0.1 nm a particle is smaller than an atom; above 10 um a sphere is many wavelengths across, where ray optics holds: mesh it as bodies instead (goniospec generate pigment-spheres)";
+
 /// Stage 5: every medium's index model (sorted by name, so ids are deterministic), then
 /// its volume scattering.
 pub(super) fn media(cx: &Ctx, raw: &RawSample) -> Result<Vec<Medium>, SampleError> {
@@ -94,29 +102,52 @@ fn scattering_of(
             }
             let radius = match (p.radius_nm, &p.log_normal) {
                 (Some(r), None) => {
-                    if !(r.is_finite() && r > 0.0 && r <= 1e6) {
+                    if !(r.is_finite()
+                        && (PARTICLE_RADIUS_NM[0]..=PARTICLE_RADIUS_NM[1]).contains(&r))
+                    {
                         return Err(bad(format!(
-                            "particles: radius_nm must be between 0 and 1e6 nm, got {r}"
+                            "particles: radius_nm must lie in [{}, {}] nm, got {}: {}",
+                            PARTICLE_RADIUS_NM[0],
+                            PARTICLE_RADIUS_NM[1],
+                            crate::sample::limits::show(r),
+                            PARTICLE_RADIUS_WHY
                         )));
                     }
                     Radius::Fixed { radius_nm: r }
                 }
                 (None, Some(ln)) => {
                     let (r, sg) = (ln.median_radius_nm, ln.sigma);
-                    if !(r.is_finite() && r > 0.0 && r <= 1e6) {
-                        return Err(bad(format!(
-                            "particles: median_radius_nm must be between 0 and 1e6 nm, got {r}"
-                        )));
-                    }
                     if !(sg.is_finite() && sg > 0.0 && sg <= 1.0) {
                         return Err(bad(format!(
                             "particles: the log-normal sigma (of ln r) must lie in (0, 1], got {sg}"
                         )));
                     }
-                    Radius::LogNormal {
+                    let ln = Radius::LogNormal {
                         median_nm: r,
                         sigma: sg,
+                    };
+                    // The radii the size integral samples, not only the median, must be
+                    // in range.
+                    let nodes = if r.is_finite() && r > 0.0 {
+                        ln.nodes()
+                    } else {
+                        vec![(r, 1.0)]
+                    };
+                    let lo = nodes.iter().map(|n| n.0).fold(f64::INFINITY, f64::min);
+                    let hi = nodes.iter().map(|n| n.0).fold(0.0, f64::max);
+                    if !(r.is_finite()
+                        && lo >= PARTICLE_RADIUS_NM[0]
+                        && hi <= PARTICLE_RADIUS_NM[1])
+                    {
+                        return Err(bad(format!(
+                            "particles: median_radius_nm {} with sigma {sg} samples radii from {lo:.3e} to {hi:.3e} nm (the median times e^(+-3.5 sigma)), which must lie in [{}, {}] nm: {}",
+                            crate::sample::limits::show(r),
+                            PARTICLE_RADIUS_NM[0],
+                            PARTICLE_RADIUS_NM[1],
+                            PARTICLE_RADIUS_WHY
+                        )));
                     }
+                    ln
                 }
                 _ => {
                     return Err(bad(

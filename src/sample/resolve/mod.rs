@@ -53,6 +53,18 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
     for (axis, v, nm) in [("x", tx, tile_nm[0]), ("y", ty, tile_nm[1])] {
         check_length(&format!("tile side {axis}"), v, cx.unit, nm)
             .map_err(|m| cx.at(tile_span.clone(), m))?;
+        if nm < crate::sample::limits::MIN_TILE_NM {
+            return Err(cx.at(
+                tile_span.clone(),
+                SampleErrorKind::from(format!(
+                    "tile side {axis} is {} {} ({} nm), below the {} nm a tile needs: rays start 1e-4 nm off the surfaces they leave, which must stay a small fraction of the period (and nothing is periodic on a shorter scale than an atom)",
+                    crate::sample::limits::show(v),
+                    cx.unit,
+                    crate::sample::limits::show(nm),
+                    crate::sample::limits::MIN_TILE_NM
+                )),
+            ));
+        }
     }
     let guard_nm = guard(&cx, &raw, [tx, ty], open)?;
     let names = Names {

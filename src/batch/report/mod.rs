@@ -13,7 +13,6 @@
 //! included) whatever the thread count.
 
 use crate::fit::{BaseKind, CoatChoice};
-use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Component, Path, PathBuf};
 
@@ -24,7 +23,9 @@ use crate::render::{self, Env, Light, RenderConfig, Shape, colour};
 
 use super::Manifest;
 
-use crate::output::HTML_MARK;
+mod html;
+pub use html::page_html;
+use html::percent_encode;
 
 /// What the report spends on each material.
 #[derive(Clone, Debug)]
@@ -56,8 +57,6 @@ impl Default for ReportOptions {
 /// Why a report could not be made.
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
-    #[error("{material}: {path} is missing; run `goniospec batch merge` on the batch folder first")]
-    NotMerged { material: String, path: String },
     #[error("{path}: {message}")]
     Read { path: String, message: String },
     #[error("{material}: {message}")]
@@ -112,6 +111,31 @@ pub struct Entry {
     pub fit: Option<FitSummary>,
     /// (label, link relative to the page).
     pub files: Vec<(String, String)>,
+    /// The warnings its simulation left (`out/NAME.warnings`, kept by `batch run` and
+    /// `batch merge`) and the report's own notes (a representation missing).
+    pub warnings: Vec<String>,
+    /// Why the material is left out of the library (not merged, refused by its simulation,
+    /// or not readable as this material), where it is: the page marks its row with it.
+    pub failure: Option<String>,
+}
+
+impl Entry {
+    /// The marked row of a material left out, with `why`.
+    fn left_out(mat: &super::Material, why: String) -> Entry {
+        Entry {
+            name: mat.name.clone(),
+            sample: mat.sample.display().to_string(),
+            settings: String::new(),
+            swatches: Vec::new(),
+            mean_y: -1.0,
+            lobe_theta_deg: 0.0,
+            brdf_source: String::new(),
+            fit: None,
+            files: Vec::new(),
+            warnings: Vec::new(),
+            failure: Some(why),
+        }
+    }
 }
 
 /// The files the report writes for one material, relative to the page's folder.
@@ -121,6 +145,23 @@ fn image_names(name: &str) -> [String; 3] {
         format!("{name}-sphere.png"),
         format!("{name}-fit.json"),
     ]
+}
+
+/// The images a goniospec page at `page` shows (its `src` attributes, unescaped), or none
+/// where `page` is missing or not a goniospec page.
+fn images_of_page(page: &Path) -> std::collections::BTreeSet<String> {
+    let Ok(text) = crate::io::read_input(page, 64 << 20) else {
+        return Default::default();
+    };
+    let text = String::from_utf8_lossy(&text);
+    if !text.starts_with(output::HTML_MARK) {
+        return Default::default();
+    }
+    text.split("src=\"")
+        .skip(1)
+        .filter_map(|rest| rest.split('"').next())
+        .map(html::unescape_src)
+        .collect()
 }
 
 /// Writes the report of the merged library in `dir` to `page` (an `.html` file; its images
@@ -159,46 +200,93 @@ pub fn write_report(
         source,
     })?;
     let out = dir.join("out");
+    // Which materials are in the library: merged, and not refused since (a material left
+    // out keeps a marked row with its reason; the rest make the page).
+    let left_out: Vec<Option<String>> = m
+        .materials
+        .iter()
+        .map(|mat| {
+            let gsa = out.join(format!("{}.gsa", mat.name));
+            let failed = out.join(format!("{}.failed", mat.name));
+            if let Ok(why) = std::fs::read_to_string(&failed) {
+                Some(format!("not merged: {}", why.trim()))
+            } else if !gsa.is_file() {
+                Some(format!(
+                    "not merged: {} is missing (run goniospec batch merge)",
+                    gsa.display()
+                ))
+            } else {
+                None
+            }
+        })
+        .collect();
     // Every input, and every output checked against them, before any work.
     let mut inputs: Vec<PathBuf> = vec![dir.join("manifest.toml")];
     for mat in &m.materials {
-        let gsa = out.join(format!("{}.gsa", mat.name));
-        if !gsa.is_file() {
-            return Err(ReportError::NotMerged {
-                material: mat.name.clone(),
-                path: gsa.display().to_string(),
-            });
-        }
-        inputs.push(gsa);
+        inputs.push(out.join(format!("{}.gsa", mat.name)));
         inputs.extend(
             mat.representations
                 .iter()
                 .map(|k| out.join(format!("{}-{k}.gsb", mat.name))),
         );
     }
+    inputs.retain(|p| p.exists());
     let input_refs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
     output::guard(page, &input_refs, OutputKind::Report, force)?;
-    for mat in &m.materials {
+    // The images beside the page: a PNG of a material's image name is replaced only where
+    // goniospec wrote it (the folder's list, or a goniospec page there that shows it; issue
+    // 47: a user's photos/gold-sphere.png was replaced).
+    let shown_by_page = images_of_page(page);
+    let mut images = Vec::new();
+    for (mat, gone) in m.materials.iter().zip(&left_out) {
+        if gone.is_some() {
+            continue;
+        }
         let [lobe, sphere, fit] = image_names(&mat.name);
-        output::guard(&folder.join(lobe), &input_refs, OutputKind::Image, force)?;
-        output::guard(&folder.join(sphere), &input_refs, OutputKind::Image, force)?;
+        output::guard(&folder.join(&lobe), &input_refs, OutputKind::Image, force)?;
+        output::guard(&folder.join(&sphere), &input_refs, OutputKind::Image, force)?;
         if opts.fit {
             output::guard(&folder.join(fit), &input_refs, OutputKind::FitJson, force)?;
         }
+        images.extend([lobe, sphere]);
     }
+    let unshown: Vec<String> = images
+        .iter()
+        .filter(|n| !shown_by_page.contains(*n))
+        .cloned()
+        .collect();
+    output::guard_folder(&folder, &unshown, force)?;
     // Materials in parallel (each writes only its own files); rows in the plan's order.
     use rayon::prelude::*;
     let done = std::sync::atomic::AtomicU64::new(0);
-    let entries = m
+    let entries: Vec<Entry> = m
         .materials
         .par_iter()
-        .map(|mat| {
-            let e = material_entry(dir, &folder, mat, opts);
+        .zip(&left_out)
+        .map(|(mat, gone)| {
+            let e = match gone {
+                Some(why) => Entry::left_out(mat, why.clone()),
+                // A material that cannot be shown is marked, not the end of the page.
+                None => material_entry(dir, &folder, mat, opts)
+                    .unwrap_or_else(|e| Entry::left_out(mat, e.to_string())),
+            };
             progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1);
             e
         })
-        .collect::<Result<Vec<Entry>, ReportError>>()?;
+        .collect();
     let html = page_html(&entries, opts);
+    let written: Vec<String> = entries
+        .iter()
+        .filter(|e| e.failure.is_none())
+        .flat_map(|e| {
+            let [lobe, sphere, _] = image_names(&e.name);
+            [lobe, sphere]
+        })
+        .collect();
+    output::record_folder(&folder, &written).map_err(|source| ReportError::Write {
+        path: folder.join(output::WRITTEN_LIST).display().to_string(),
+        source,
+    })?;
     crate::io::write_atomic(page, |w| w.write_all(html.as_bytes())).map_err(|source| {
         ReportError::Write {
             path: page.display().to_string(),
@@ -226,6 +314,16 @@ fn material_entry(
         message,
     };
     let s = &acc.header.settings;
+    if s.sample_hash != mat.sample_hash {
+        return Err(fail(format!(
+            "{} is not this material's: it was simulated from '{}' (hash {}), the plan's sample is {} (hash {}); run goniospec batch merge again",
+            gsa.display(),
+            s.sample_name,
+            s.sample_hash,
+            mat.sample.display(),
+            mat.sample_hash
+        )));
+    }
     let thetas = s.theta_i_deg.clone();
     let centres: Vec<f64> = (0..s.wavelength_count()).map(|j| s.wavelength(j)).collect();
     let weights = colour::bin_weights(&centres);
@@ -275,33 +373,7 @@ fn material_entry(
     plot.write(&folder.join(&lobe_name))
         .map_err(|e| fail(e.to_string()))?;
 
-    // The sphere, with `goniospec render`'s default light and environment.
-    let shape = Shape::Sphere;
-    let (centre, radius) = shape.bounds();
-    let cfg = RenderConfig {
-        width: opts.sphere_px,
-        height: opts.sphere_px,
-        spp: opts.spp,
-        light: Light::parse("dir:50,-120").expect("a valid light"),
-        light_strength: 0.8,
-        env: Env::Constant,
-        env_strength: 0.6,
-        camera: [
-            centre[0],
-            centre[1] - 4.2 * radius,
-            centre[2] + 1.6 * radius,
-        ]
-        .into(),
-        fov_deg: 30.0,
-        seed: 1,
-    };
-    let albedo = render::albedo_table(&brdf, 90);
-    let img = render::render(&brdf, &shape, &cfg, Some(&albedo), &|_| {});
-    let sphere_path = folder.join(&sphere_name);
-    render::write_png(&img, &sphere_path).map_err(|source| ReportError::Write {
-        path: sphere_path.display().to_string(),
-        source,
-    })?;
+    write_sphere(&brdf, &folder.join(&sphere_name), opts)?;
 
     let fit = if opts.fit {
         let data = crate::fit::Data::from_accumulator(&acc);
@@ -318,17 +390,7 @@ fn material_entry(
         None
     };
 
-    let mut files = vec![(
-        format!("{}.gsa", mat.name),
-        link(folder, &out.join(format!("{}.gsa", mat.name))),
-    )];
-    for k in &mat.representations {
-        let name = format!("{}-{k}.gsb", mat.name);
-        files.push((name.clone(), link(folder, &out.join(&name))));
-    }
-    if opts.fit {
-        files.push((fit_name.clone(), fit_name));
-    }
+    let (files, warnings) = entry_files(folder, &out, mat, opts.fit.then_some(&fit_name));
     Ok(Entry {
         name: mat.name.clone(),
         sample: mat.sample.display().to_string(),
@@ -356,7 +418,80 @@ fn material_entry(
         brdf_source,
         fit,
         files,
+        warnings,
+        failure: None,
     })
+}
+
+/// Renders the sphere of `brdf` with `goniospec render`'s default light and environment
+/// to the PNG `path`.
+fn write_sphere(
+    brdf: &Representation,
+    path: &Path,
+    opts: &ReportOptions,
+) -> Result<(), ReportError> {
+    let shape = Shape::Sphere;
+    let (centre, radius) = shape.bounds();
+    let cfg = RenderConfig {
+        width: opts.sphere_px,
+        height: opts.sphere_px,
+        spp: opts.spp,
+        light: Light::parse("dir:50,-120").expect("a valid light"),
+        light_strength: 0.8,
+        env: Env::Constant,
+        env_strength: 0.6,
+        camera: [
+            centre[0],
+            centre[1] - 4.2 * radius,
+            centre[2] + 1.6 * radius,
+        ]
+        .into(),
+        fov_deg: 30.0,
+        seed: 1,
+    };
+    let albedo = render::albedo_table(brdf, 90);
+    let img = render::render(brdf, &shape, &cfg, Some(&albedo), &|_| {});
+    render::write_png(&img, path).map_err(|source| ReportError::Write {
+        path: path.display().to_string(),
+        source,
+    })?;
+
+    Ok(())
+}
+
+/// The files of a material's row (its `.gsa`, each representation merge wrote, the fit's
+/// JSON when `fit_name` is given) and its warnings: the unit logs merge kept in
+/// `out/NAME.warnings`, and a representation merge did not write (no dead links).
+fn entry_files(
+    folder: &Path,
+    out: &Path,
+    mat: &super::Material,
+    fit_name: Option<&String>,
+) -> (Vec<(String, String)>, Vec<String>) {
+    let mut files = vec![(
+        format!("{}.gsa", mat.name),
+        link(folder, &out.join(format!("{}.gsa", mat.name))),
+    )];
+    let mut warnings: Vec<String> =
+        std::fs::read_to_string(out.join(format!("{}.warnings", mat.name)))
+            .map(|t| t.lines().map(str::to_string).collect())
+            .unwrap_or_default();
+    for k in &mat.representations {
+        let name = format!("{}-{k}.gsb", mat.name);
+        // No dead links: a representation merge did not write is said.
+        if out.join(&name).is_file() {
+            files.push((name.clone(), link(folder, &out.join(&name))));
+        } else {
+            warnings.push(format!(
+                "{name} is missing from {}: run goniospec batch merge",
+                out.display()
+            ));
+        }
+    }
+    if let Some(f) = fit_name {
+        files.push((f.clone(), f.clone()));
+    }
+    (files, warnings)
 }
 
 /// The swatch of XYZ `xyz` (D65 white): linear sRGB (IEC 61966-2-1), clipped to [0, 1]
@@ -452,189 +587,6 @@ fn relative(from: &Path, to: &Path) -> PathBuf {
     p
 }
 
-/// Percent-encodes every byte outside RFC 3986's unreserved set.
-fn percent_encode(s: &str) -> String {
-    let mut out = String::new();
-    for b in s.bytes() {
-        if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
-            out.push(b as char);
-        } else {
-            let _ = write!(out, "%{b:02X}");
-        }
-    }
-    out
-}
-
-/// Escapes text for HTML content and quoted attribute values.
-fn esc(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&#39;"),
-            c => out.push(c),
-        }
-    }
-    out
-}
-
-const STYLE: &str = "body{font-family:system-ui,sans-serif;margin:1.5em;color:#222}
-table{border-collapse:collapse;width:100%}
-th,td{border-bottom:1px solid #ddd;padding:.4em;vertical-align:top;text-align:left}
-th button{font:inherit;font-weight:bold;background:none;border:0;padding:0;cursor:pointer}
-th button::after{content:' \\2195';color:#888}
-.refl{min-width:15em}
-.sw{display:inline-block;margin:0 .4em .4em 0;text-align:center;font-size:.8em}
-.sw span{display:block;width:3.2em;height:3.2em;border:1px solid #999}
-.small{font-size:.85em;color:#555}
-img{display:block}
-.lobe{width:360px;height:auto}
-";
-
-/// Sorts the table's rows by the clicked column's `data-KEY` attribute of each row,
-/// numerically for `y`; clicking again reverses the order.
-const SCRIPT: &str = "'use strict';
-document.querySelectorAll('th button[data-key]').forEach(function (b) {
-  b.addEventListener('click', function () {
-    var key = b.getAttribute('data-key');
-    var th = b.parentElement;
-    var asc = th.getAttribute('aria-sort') !== 'ascending';
-    document.querySelectorAll('th[aria-sort]').forEach(function (h) { h.setAttribute('aria-sort', 'none'); });
-    th.setAttribute('aria-sort', asc ? 'ascending' : 'descending');
-    var body = document.getElementById('materials');
-    var rows = Array.prototype.slice.call(body.rows);
-    rows.sort(function (r1, r2) {
-      var a = r1.getAttribute('data-' + key), c = r2.getAttribute('data-' + key);
-      var d = key === 'y' ? parseFloat(a) - parseFloat(c) : (a < c ? -1 : a > c ? 1 : 0);
-      return asc ? d : -d;
-    });
-    rows.forEach(function (r) { body.appendChild(r); });
-  });
-});
-";
-
-/// The page: a header saying what each column means and what the report spent, then one
-/// row per material.
-pub fn page_html(entries: &[Entry], opts: &ReportOptions) -> String {
-    let mut h = String::new();
-    let _ = write!(
-        h,
-        "{HTML_MARK}\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
-         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
-         <title>goniospec material library ({n} materials)</title>\n\
-         <link rel=\"icon\" href=\"data:,\">\n<style>\n{STYLE}</style>\n</head>\n<body>\n\
-         <h1>Material library: {n} materials</h1>\n",
-        n = entries.len()
-    );
-    let _ = write!(
-        h,
-        "<p class=\"small\">Colour: the directional-hemispherical reflectance R(&lambda;) at the \
-         incident angle shown, under CIE illuminant D65 with the CIE 1931 2&deg; observer, \
-         displayed in sRGB; Y is the luminous reflectance (a perfect white has Y = 1). A swatch \
-         marked &dagger; lies outside the sRGB gamut and is shown clipped. Lobe: f cos&theta;<sub>o</sub> \
-         in the plane of incidence (1/sr) and the reflected colour over the hemisphere, at the \
-         simulated incident angle nearest 30&deg;. Sphere: <code>goniospec render</code> of the \
-         table BRDF at a small budget ({px}&times;{px} pixels, {spp} samples per pixel: expect \
-         noise), light from &theta; = 50&deg;, &phi; = &minus;120&deg; and a constant environment. \
-         Fit: <code>goniospec fit</code> (GGX, base, thin film) with its RMS reflectance error and \
-         its largest CIE &Delta;E2000 over the incident angles. Click a column's name to sort.</p>",
-        px = opts.sphere_px,
-        spp = opts.spp
-    );
-    h.push('\n');
-    h.push_str(
-        "<table>\n<thead>\n<tr>\
-         <th aria-sort=\"none\"><button type=\"button\" data-key=\"name\">Material</button></th>\
-         <th aria-sort=\"none\"><button type=\"button\" data-key=\"y\">Reflectance</button></th>\
-         <th>Lobe</th><th>Sphere</th><th>Fit</th><th>Files</th></tr>\n</thead>\n\
-         <tbody id=\"materials\">\n",
-    );
-    for e in entries {
-        row_html(&mut h, e);
-    }
-    let _ = write!(
-        h,
-        "</tbody>\n</table>\n<script>\n{SCRIPT}</script>\n</body>\n</html>\n"
-    );
-    h
-}
-
-fn row_html(h: &mut String, e: &Entry) {
-    let [lobe, sphere, _] = image_names(&e.name);
-    let _ = write!(
-        h,
-        "<tr data-name=\"{name}\" data-y=\"{y:.6}\">\n<td><strong>{name}</strong>\
-         <div class=\"small\">sample {sample}</div><div class=\"small\">{settings}</div></td>\n\
-         <td class=\"refl\">",
-        name = esc(&e.name),
-        y = e.mean_y,
-        sample = esc(&e.sample),
-        settings = esc(&e.settings)
-    );
-    for s in &e.swatches {
-        let [r, g, b] = s.srgb8;
-        let _ = write!(
-            h,
-            "<div class=\"sw\"><span style=\"background:#{r:02x}{g:02x}{b:02x}\" \
-             title=\"XYZ {x:.4}, {y:.4}, {z:.4}{clip}\"></span>{t}&deg;: Y {y:.3}{mark}</div>",
-            x = s.xyz[0],
-            y = s.xyz[1],
-            z = s.xyz[2],
-            t = s.theta_i_deg,
-            clip = if s.clipped {
-                " (outside sRGB, clipped)"
-            } else {
-                ""
-            },
-            mark = if s.clipped { "&dagger;" } else { "" }
-        );
-    }
-    let _ = write!(
-        h,
-        "<div class=\"small\">mean Y over the simulated angles {:.4}</div></td>",
-        e.mean_y
-    );
-    h.push('\n');
-    let _ = write!(
-        h,
-        "<td><img class=\"lobe\" src=\"{lobe}\" width=\"1200\" height=\"600\" \
-         alt=\"lobe of {name} at {t} degrees\"><div class=\"small\">from {src}</div></td>\n\
-         <td><img src=\"{sphere}\" alt=\"sphere of {name}\"></td>\n",
-        lobe = percent_encode(&lobe),
-        sphere = percent_encode(&sphere),
-        name = esc(&e.name),
-        t = e.lobe_theta_deg,
-        src = esc(&e.brdf_source)
-    );
-    match &e.fit {
-        Some(f) => {
-            let _ = write!(
-                h,
-                "<td>GGX &alpha; {:.3}<br>base {}<br>film {}<br>RMS R error {:.2e}<br>\
-                 &Delta;E2000 up to {:.2}",
-                f.ggx_alpha,
-                esc(&f.base),
-                esc(&f.film),
-                f.rms_reflectance_error,
-                f.max_delta_e2000
-            );
-            for w in &f.warnings {
-                let _ = write!(h, "<div class=\"small\">{}</div>", esc(w));
-            }
-            h.push_str("</td>\n");
-        }
-        None => h.push_str("<td>not fitted</td>\n"),
-    }
-    h.push_str("<td>");
-    for (label, href) in &e.files {
-        let _ = write!(h, "<a href=\"{}\">{}</a><br>", esc(href), esc(label));
-    }
-    h.push_str("</td>\n</tr>\n");
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -664,7 +616,7 @@ mod tests {
     #[test]
     fn text_is_escaped() {
         assert_eq!(
-            esc("<a href=\"x\">&'</a>"),
+            html::esc("<a href=\"x\">&'</a>"),
             "&lt;a href=&quot;x&quot;&gt;&amp;&#39;&lt;/a&gt;"
         );
     }
