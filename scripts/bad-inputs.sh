@@ -218,5 +218,105 @@ for hostile in 'inj$(touch INJECTED)x' 'inj$(touch INJECTED)x "q'"'"; do
 done
 [ -e INJECTED ] && { echo "BAD: a folder name ran as shell code"; bad=$((bad+1)); }
 run $G study /dev/null -o st; run $G merge good.gsa good.gsa -o m.gsa
+# --- Issue 47. ---
+# refuse WORDS CMD...: CMD must fail (exit 1 or 2, not a crash or a timeout) within 30 s
+# and say WORDS (a grep -E pattern) on standard error.
+refuse(){ w=$1; shift; n=$((n+1)); timeout 30 "$@" > o.txt 2> e.txt; rc=$?
+  if [ $rc -ne 1 ] && [ $rc -ne 2 ] || ! grep -qE -- "$w" e.txt; then
+    echo "BAD (expected a refusal saying '$w', rc=$rc): $*"; head -c 400 e.txt; echo; bad=$((bad+1)); fi; }
+# says WORDS CMD...: CMD must succeed within 30 s and say WORDS on standard error.
+says(){ w=$1; shift; n=$((n+1)); timeout 30 "$@" > o.txt 2> e.txt; rc=$?
+  if [ $rc -ne 0 ] || ! grep -qE -- "$w" e.txt; then
+    echo "BAD (expected success saying '$w', rc=$rc): $*"; head -c 400 e.txt; echo; bad=$((bad+1)); fi; }
+# never WORDS CMD...: CMD must succeed within 30 s and not say WORDS.
+never(){ w=$1; shift; n=$((n+1)); timeout 30 "$@" > o.txt 2> e.txt; rc=$?
+  if [ $rc -ne 0 ] || grep -qE -- "$w" e.txt o.txt; then
+    echo "BAD (expected success without '$w', rc=$rc): $*"; head -c 400 e.txt; echo; bad=$((bad+1)); fi; }
+pm(){ printf '[sample]\nname = "p"\nunit = "um"\ntile = [5.0, 5.0]\n[media.air]\nn = 1.0\n[media.tio2]\nn = 2.6\n[media.paint]\nn = 1.49\n%s\n[stack]\nambient = "air"\nlayers = [{ medium = "paint", thickness = %s }]\nsubstrate = "air"\n' "$1" "${2:-20.0}" > pm.toml; }
+for r in 1e-120 0 0.01 2e4 1e6; do
+  pm "particles = { medium = \"tio2\", radius_nm = $r, volume_fraction = 0.05 }"
+  refuse "radius_nm must lie in \[0.1, 10000\] nm" $G simulate pm.toml --theta-i 0 --rays 1 -o x.gsa
+done
+for m in 1e-100 5000; do
+  pm "particles = { medium = \"tio2\", log_normal = { median_radius_nm = $m, sigma = 0.7 }, volume_fraction = 0.05 }"
+  refuse "samples radii from .* must lie in" $G simulate pm.toml --theta-i 0 --rays 1 -o x.gsa
+done
+pm "particles = { medium = \"tio2\", radius_nm = 1e4, volume_fraction = 0.05 }"
+run $G simulate pm.toml --theta-i 0 --rays 1 --wavelengths 550 --monochromatic -o x.gsa --force
+for x in 1e-300 0 -1 1e6; do refuse "size parameter x = .* must be finite and in" $G mie --n 1.5 --x $x; done
+refuse "size parameter" $G mie --n 1.5 --radius-nm 1e-200 --wavelength-nm 500
+# A densely scattering layer: the refusal names diffusion, not thin layers or a bug; a
+# moderately dense one runs and says nothing of leaks.
+pm "henyey_greenstein = { g = 0.6, scattering_per_um = 1e6, absorption_per_um = 0.01 }"
+refuse "mean free paths deep" $G simulate pm.toml --theta-i 0 --rays 16 -o x.gsa
+pm "henyey_greenstein = { g = 0.6, scattering_per_um = 30, absorption_per_um = 0.01 }" 2.0
+never "leak|wrong medium" $G simulate pm.toml --theta-i 0 --rays 64 -o x.gsa --force
+# A tile under 1 nm; the cutoff's dropped power is said.
+sed "s/tile = \[20, 20\]/tile = [0.000001, 0.000001]/" v.toml > w.toml
+refuse "below the 1 nm a tile needs" $G simulate w.toml --rays 16 -o x.gsa
+says "weaker than --cutoff 0.5" $G simulate v.toml --theta-i 30 --cutoff 0.5 --rays 16 -o x.gsa --force
+# Negative numbers are values: accepted where the range holds, refused by it elsewhere.
+run $G simulate v.toml --theta-i 30 --phi-i -30 --rays 4 -o x.gsa --force
+[ "$rc" = 0 ] || { echo "BAD: --phi-i -30 refused"; bad=$((bad+1)); }
+refuse "incident angle -30 deg is outside" $G simulate v.toml --theta-i -30,0 --rays 4 -o x.gsa --force
+# A 0 nm gold film whose back face rises above its top: the refusal names that sheet.
+printf 'v 0 0 0\nv 1000 0 0\nv 1000 1000 0\nv 0 1000 0\nf 1 2 3\nf 1 3 4\n' > top.obj
+printf 'v 0 0 10\nv 500 0 0\nv 1000 0 10\nv 0 1000 10\nv 500 1000 0\nv 1000 1000 10\nf 1 2 5\nf 1 5 4\nf 2 3 6\nf 2 6 5\n' > back.obj
+printf '[sample]\nname = "roof"\nunit = "nm"\ntile = [1000.0, 1000.0]\n[media.air]\nn = 1.0\n[media.gold]\nn = 0.2\nk = 3.0\n[media.glass]\nn = 1.5\n[[interface]]\nmesh = "top.obj"\nfront = "air"\nback = "gold"\n[[interface]]\nmesh = "back.obj"\nfront = "gold"\nback = "glass"\n' > roof.toml
+refuse "interface 1 \(back.obj\) first.*rises above the others" $G simulate roof.toml --rays 4 -o x.gsa
+# A coating in the wrong unit is warned of by check, with its thickness in nm.
+sed 's/mode = "mesh"/mode = "coating"/; s/thickness = 1.0/thickness = 300/' v.toml > w.toml
+n=$((n+1)); $G check w.toml > o.txt 2>&1
+grep -q "300000 nm thick" o.txt || { echo "BAD: check did not warn of a 300 um coating"; bad=$((bad+1)); }
+# Studies: -o FILE before the run; a user's own files in the folder are kept.
+printf '[study]\nname = "s"\nsample = "%s/studies/samples/flat-soap-film-meshed.toml"\ntheta_i = [0.0]\nwavelengths = "400:700:100"\n[sweep]\nrays = [8]\ncoherence_radius_nm = [inf]\n' "$R" > st.toml
+echo mine > notes.txt
+refuse "is a file; give a folder" $G study st.toml -o notes.txt
+mkdir -p stout; echo mine > stout/report.md; echo mine > stout/points.csv; echo mine > stout/error-vs-rays.png
+for f in report.md points.csv error-vs-rays.png; do keep stout/$f $G study st.toml -o stout; done
+# The mesh cache keeps a user's own file of its name.
+# (Meshes of 16 MiB and more are cached by default: a 700 x 700 height field is about 20.)
+$G generate gaussian -p rms=0.1 -p correlation_length=2 -p resolution=700 -o big.obj --force >/dev/null 2>&1
+echo mine > big.obj.gsmesh
+sed "s/MESH/big.obj/" mesh.tpl > cm.toml
+keep big.obj.gsmesh $G check cm.toml --leak-rays 10
+# A library with a material whose .gsa was swapped with another's, a missing .gsb, and a
+# user's PNG of a material's image name beside the page: the page is written, the
+# swapped materials are marked, no link is dead, the PNG is kept.
+printf '[defaults]\ntheta_i = [0]\nrays = 4\nwavelengths = "500"\nmonochromatic = true\nrepresentations = ["table"]\n[[material]]\nsample = "%s/v.toml"\nname = "a"\n[[material]]\nsample = "%s/meshes/flat-soap-film.toml"\nname = "b"\n' "$PWD" "$R" > lib.toml
+$G batch plan lib.toml -o lib >/dev/null 2>&1; $G batch run lib >/dev/null 2>&1; $G batch merge lib >/dev/null 2>&1
+mv lib/out/a.gsa t.gsa; mv lib/out/b.gsa lib/out/a.gsa; mv t.gsa lib/out/b.gsa; rm -f lib/out/a-table.gsb
+mkdir -p photos; printf '\x89PNG\r\n\x1a\nmine' > photos/a-sphere.png
+keep photos/a-sphere.png $G batch report lib --no-fit -o photos/page.html
+n=$((n+1)); $G batch report lib --no-fit > o.txt 2> e.txt; rc=$?
+if [ $rc -ne 1 ] || [ ! -f lib/report/index.html ] || ! grep -q "is not this material" lib/report/index.html; then
+  echo "BAD: a swapped .gsa was not marked on a written page (rc=$rc)"; head -c 300 e.txt; bad=$((bad+1)); fi
+for l in $(grep -oE '(src|href)="[^"]*"' lib/report/index.html | sed -E 's/^[a-z]+="//; s/"$//' | grep -v '^data:'); do
+  [ -e "lib/report/$l" ] || { echo "BAD: dead link $l on the page"; bad=$((bad+1)); }
+done
+# Plans refuse what runs would.
+for e in 'coherence = "diffraction"' 'tolerance = 0.05'; do
+  pm "particles = { medium = \"tio2\", radius_nm = 120, volume_fraction = 0.05 }"
+  printf '[defaults]\ntheta_i = [0]\nrays = 4\n%s\n[[material]]\nsample = "%s/pm.toml"\nname = "p"\n' "$e" "$PWD" > bp.toml
+  rm -rf bpo; refuse "." $G batch plan bp.toml -o bpo
+  [ -e bpo ] && { echo "BAD: a refused plan left bpo"; bad=$((bad+1)); }
+done
+long=$(printf 'x%.0s' $(seq 1 250))
+printf '[defaults]\ntheta_i = [0]\nrays = 4\n[[material]]\nsample = "%s/v.toml"\nname = "%s"\n' "$PWD" "$long" > bp.toml
+rm -rf bpo; refuse "name" $G batch plan bp.toml -o bpo
+# Python: shapes NumPy refuses to broadcast (where the project's venv is built).
+if [ -x "$R/.venv-python/bin/python" ] && "$R/.venv-python/bin/python" -c "import goniospec" 2>/dev/null; then
+  n=$((n+1))
+  "$R/.venv-python/bin/python" - "$PWD/good.gsb" > o.txt 2>&1 <<'P' || { echo "BAD: Brdf.eval broadcast (2,3) against (3,2)"; cat o.txt; bad=$((bad+1)); }
+import sys, numpy as np, goniospec as gs
+b = gs.load_brdf(sys.argv[1])
+try:
+    b.eval(np.full((2, 3), 30.0), 0, np.full((3, 2), 30.0), 0)
+except ValueError as e:
+    assert "broadcast" in str(e), e
+else:
+    raise SystemExit("no error")
+P
+fi
 echo "$n runs, $bad bad, $slow still running after 30 s"
 [ "$bad" -eq 0 ]
