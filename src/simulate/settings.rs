@@ -479,6 +479,29 @@ pub fn validate(cfg: &SimConfig) -> Result<(), SimError> {
             format!("must be positive (or inf), got {}", cfg.rho_nm),
         );
     }
+    // The diffraction method spreads each order by the illumination's transverse wave
+    // vectors (standard deviation 1/(k rho) in direction sines) through a 5 x 5
+    // Gauss-Hermite rule. Its outer nodes, 2.86 standard deviations out, leave the horizon
+    // once 1/(k rho) > 0.35, i.e. rho < 0.455 lambda / n: then the centre node alone is left
+    // and the spread vanishes (issue 48: 1 nm and 30 nm gave the BRDF of rho = inf, byte
+    // for byte). Refused below half the run's longest vacuum wavelength.
+    let lambda_max = cfg
+        .wavelengths
+        .values_nm()
+        .iter()
+        .copied()
+        .fold(0.0, f64::max);
+    if cfg.coherence == Coherence::Diffraction && cfg.rho_nm < 0.5 * lambda_max {
+        return bad(
+            "coherence_radius_nm",
+            format!(
+                "{} nm is below half the run's longest wavelength ({lambda_max} nm) for --coherence diffraction: so short a coherence radius spreads the illumination over more directions than propagate (1/(k rho) = {:.2} in direction sines), which the method's spread cannot hold; give at least {} nm, or inf",
+                cfg.rho_nm,
+                lambda_max / (2.0 * std::f64::consts::PI * cfg.rho_nm),
+                0.5 * lambda_max
+            ),
+        );
+    }
     if !(cfg.limits.cutoff >= 0.0 && cfg.limits.cutoff < 1.0) {
         return bad(
             "cutoff",
