@@ -9,8 +9,11 @@ start=$(date +%s.%N)
 echo "== checking meshes/thin-film-600nm.toml"
 $G check meshes/thin-film-600nm.toml --leak-rays 5000 | tail -2
 echo "== simulating (incident angles 0..85 deg every 5 deg, 40 bins 380..780 nm)"
+# The run's warnings go to the terminal as they come and into warnings.txt, which the
+# summary repeats (issue 48: summary.txt recorded none of them).
 $G simulate meshes/thin-film-600nm.toml --theta-i 0,5,10,15,20,25,30,35,40,45,50,55,60,65,70,75,80,85 \
-  --rays 4096 -o "$OUT/thin-film-600nm.gsa"
+  --rays 4096 -o "$OUT/thin-film-600nm.gsa" 2> >(tee "$OUT/warnings.txt" >&2)
+sleep 0.2  # the tee of standard error finishes writing
 $G build "$OUT/thin-film-600nm.gsa" --repr table -o "$OUT/thin-film-600nm.gsb"
 echo "== rendering a sphere (512 x 512, 16 spp)"
 $G render "$OUT/thin-film-600nm.gsb" -o "$OUT/thin-film-600nm-sphere.exr" --env constant --light dir:50,-120
@@ -22,8 +25,16 @@ end=$(date +%s.%N)
   awk -F, 'NR > 1 { if (min == "" || $2 < min) { min = $2; lmin = $1 } if ($2 > max) { max = $2; lmax = $1 } }
     END { printf "reflectance at 30 deg: %.4f (at %s nm) to %.4f (at %s nm)\n", min, lmin, max, lmax }' "$OUT/reflectance-30deg.csv"
   awk -v s="$start" -v e="$end" 'BEGIN { printf "wall time: %.1f s\n", e - s }'
+  w=$(grep -c '^warning: ' "$OUT/warnings.txt" || true)
+  if [ "$w" -gt 0 ]; then
+    echo "the simulation's warnings ($w, also in warnings.txt):"
+    grep '^warning: ' "$OUT/warnings.txt" | sed 's/^/  /'
+  else
+    echo "the simulation gave no warnings"
+  fi
   echo "files: thin-film-600nm.gsa (accumulator), thin-film-600nm.gsb (BRDF table),"
-  echo "       thin-film-600nm-sphere.exr (linear sRGB), thin-film-600nm-sphere.png (preview), reflectance-30deg.csv"
+  echo "       thin-film-600nm-sphere.exr (linear sRGB), thin-film-600nm-sphere.png (preview), reflectance-30deg.csv,"
+  echo "       warnings.txt (the simulation's warnings)"
 } > "$OUT/summary.txt"
 cat "$OUT/summary.txt"
 echo "== the demo wrote its output to $OUT/"
