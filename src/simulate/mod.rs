@@ -121,22 +121,31 @@ pub fn simulate(
     let mut created = vec![0.0; cells.len()];
     let mut limited = vec![0.0; cells.len()];
     let mut diffraction = vec![DiffractionCell::default(); cells.len()];
-    let directions = cfg
-        .theta_i_deg
-        .iter()
-        .enumerate()
-        .map(|(di, &theta_deg)| {
-            let lost = Lost {
-                diffraction: &mut diffraction,
-                limit_dropped: &mut limit_dropped,
-                escaped: &mut escaped,
-                limit_bound: &mut limit_bound,
-                created: &mut created,
-                limited: &mut limited,
-            };
-            run.direction(di, theta_deg, &mut cells, lost, progress)
-        })
-        .collect::<Result<Vec<_>, SimError>>()?;
+    // Every direction draws its own random streams and fills its own cells, so the order
+    // they are traced in changes no byte. The diffraction method traces the most oblique
+    // first: it is where the rays sample the field most coarsely, and a direction its
+    // transform cannot hold is refused as soon as it is done (`diffraction_refusal`).
+    let mut order: Vec<usize> = (0..cfg.theta_i_deg.len()).collect();
+    if cfg.coherence == Coherence::Diffraction {
+        order.sort_by(|&a, &b| cfg.theta_i_deg[b].total_cmp(&cfg.theta_i_deg[a]));
+    }
+    let mut done: Vec<Option<DirectionStats>> = (0..order.len()).map(|_| None).collect();
+    for di in order {
+        let lost = Lost {
+            diffraction: &mut diffraction,
+            limit_dropped: &mut limit_dropped,
+            escaped: &mut escaped,
+            limit_bound: &mut limit_bound,
+            created: &mut created,
+            limited: &mut limited,
+        };
+        done[di] = Some(run.direction(di, cfg.theta_i_deg[di], &mut cells, lost, progress)?);
+        run.diffraction_refusal(&diffraction, di * run.nl..(di + 1) * run.nl)?;
+    }
+    let directions: Vec<DirectionStats> = done
+        .into_iter()
+        .map(|d| d.expect("every direction was traced"))
+        .collect();
     if cfg
         .cancel
         .as_ref()
