@@ -68,18 +68,21 @@ pub enum SimError {
 /// `batch plan` runs it for every material, so a plan refuses what its units would.
 pub fn preflight(sample: &Sample, cfg: &SimConfig) -> Result<(), SimError> {
     validate(cfg)?;
-    let lattice_cfg;
-    let cfg = if cfg.coherence == Coherence::Diffraction {
+    Run::prepare(sample, &traced_config(sample, cfg)).map(|_| ())
+}
+
+/// The configuration a run traces: the diffraction method launches on a lattice
+/// (`diffraction_lattice`), so it traces that lattice's `nx * ny` trees per direction.
+fn traced_config<'a>(sample: &Sample, cfg: &'a SimConfig) -> std::borrow::Cow<'a, SimConfig> {
+    if cfg.coherence == Coherence::Diffraction {
         let [nx, ny] = diffraction_lattice(cfg.rays, sample.tile_nm);
-        lattice_cfg = SimConfig {
+        std::borrow::Cow::Owned(SimConfig {
             rays: nx * ny,
             ..cfg.clone()
-        };
-        &lattice_cfg
+        })
     } else {
-        cfg
-    };
-    Run::prepare(sample, cfg).map(|_| ())
+        std::borrow::Cow::Borrowed(cfg)
+    }
 }
 
 /// Runs the simulation. `progress` receives the number of trees finished so far.
@@ -94,20 +97,9 @@ pub fn simulate(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Accumulator, SimStats), SimError> {
     validate(cfg)?;
-    // The diffraction method launches on a lattice (`diffraction_lattice`): the run traces
-    // its `nx * ny` trees per direction.
-    let lattice_cfg;
     let lattice = diffraction_lattice(cfg.rays, sample.tile_nm);
-    let cfg = if cfg.coherence == Coherence::Diffraction {
-        let [nx, ny] = lattice;
-        lattice_cfg = SimConfig {
-            rays: nx * ny,
-            ..cfg.clone()
-        };
-        &lattice_cfg
-    } else {
-        cfg
-    };
+    let traced = traced_config(sample, cfg);
+    let cfg = traced.as_ref();
     let start_time = Instant::now();
     let mut run = Run::prepare(sample, cfg)?;
     run.lattice = lattice;
