@@ -199,10 +199,12 @@ impl Accumulator {
 fn method_radius(c: goniospec::accumulate::Coherence, rho_nm: f64) -> String {
     use goniospec::accumulate::Coherence;
     match c {
-        Coherence::Beamlet | Coherence::Diffraction if rho_nm.is_infinite() => {
+        Coherence::Auto | Coherence::Beamlet | Coherence::Diffraction if rho_nm.is_infinite() => {
             " (plane-wave limit)".into()
         }
-        Coherence::Beamlet | Coherence::Diffraction => format!(" (radius {rho_nm} nm)"),
+        Coherence::Auto | Coherence::Beamlet | Coherence::Diffraction => {
+            format!(" (radius {rho_nm} nm)")
+        }
         _ => String::new(),
     }
 }

@@ -128,7 +128,9 @@ impl Estimator {
             s.amp.push([x.e[0].map(|c| c * f), x.e[1].map(|c| c * f)]);
         }
         match self.mode {
-            Coherence::Beamlet | Coherence::Diffraction => unreachable!("handled above"),
+            Coherence::Auto | Coherence::Beamlet | Coherence::Diffraction => {
+                unreachable!("the run gives the estimator beamlet for these")
+            }
             Coherence::Bucket => {
                 // Gondek et al. / the seed: phases relative to a plane through the global
                 // origin perpendicular to each exit direction, `exp(-i k n0 w . x)` with

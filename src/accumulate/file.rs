@@ -62,6 +62,11 @@ pub struct Settings {
     /// omitted when 0.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub first_direction: u64,
+    /// `coherence = "auto"`: each cell's method, one string per incident direction with
+    /// one letter per wavelength cell: `r` (rays, the beamlet estimator) or `d` (the
+    /// diffraction method). Empty otherwise. Runs whose choices differ do not merge.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub methods: Vec<String>,
 }
 
 fn is_zero(v: &u64) -> bool {
@@ -135,6 +140,13 @@ impl Header {
             "estimator: {}, coherence radius {} nm, cutoff {:e}, max depth {}\n",
             st.coherence, st.coherence_radius_nm, st.cutoff, st.max_depth
         );
+        if st.coherence == Coherence::Auto {
+            let (r, d) = st.method_counts();
+            s += &format!("methods (auto): rays in {r} cells, the diffraction method in {d}\n");
+            for (i, t) in st.theta_i_deg.iter().enumerate() {
+                s += &format!("  theta_i {t} deg: {}\n", st.methods_of(i));
+            }
+        }
         s += &format!(
             "buckets: {} x {} per hemisphere\n",
             st.theta_o_bins, st.phi_o_bins
@@ -205,6 +217,23 @@ impl Header {
         if self.rays == 0 || self.seeds.is_empty() {
             return Err("no rays or no seeds recorded".into());
         }
+        let nl = s.wavelength_count();
+        let methods_ok = if s.coherence == Coherence::Auto {
+            s.methods.len() == s.theta_i_deg.len()
+                && s.methods
+                    .iter()
+                    .all(|m| m.len() == nl && m.bytes().all(|b| b == b'r' || b == b'd'))
+        } else {
+            s.methods.is_empty()
+        };
+        if !methods_ok {
+            return Err(InvalidHeader::from(format!(
+                "methods must be, for coherence = \"auto\" only, one string per incident direction ({}) of one letter per wavelength cell ({nl}), r or d; got {} strings for coherence = \"{}\"",
+                s.theta_i_deg.len(),
+                s.methods.len(),
+                s.coherence
+            )));
+        }
         if self.rays_per_direction.len() != s.theta_i_deg.len()
             || self.rays_per_direction.contains(&0)
             || self.rays_per_direction.iter().max() != Some(&self.rays)
@@ -231,6 +260,67 @@ impl Header {
 impl Settings {
     pub fn coherence_mode(&self) -> Coherence {
         self.coherence
+    }
+    /// The method that gave the buckets of cell (direction `i`, wavelength `j`):
+    /// `Beamlet` or `Diffraction` for an auto run ([`Settings::methods`]), the run's mode
+    /// otherwise.
+    pub fn cell_mode(&self, i: usize, j: usize) -> Coherence {
+        if self.coherence != Coherence::Auto {
+            return self.coherence;
+        }
+        match self.methods.get(i).and_then(|m| m.as_bytes().get(j)) {
+            Some(b'd') => Coherence::Diffraction,
+            _ => Coherence::Beamlet,
+        }
+    }
+    /// Direction `i`'s methods as wavelength ranges ("rays 380-500 nm, diffraction
+    /// 500-780 nm"), each range from its first cell's lower edge to its last cell's upper
+    /// edge (bins) or its first to last wavelength (monochromatic).
+    pub fn methods_of(&self, i: usize) -> String {
+        let nl = self.wavelength_count();
+        let name = |j: usize| match self.cell_mode(i, j) {
+            Coherence::Diffraction => "diffraction",
+            _ => "rays",
+        };
+        let bins = self.wavelength_mode == WavelengthMode::Bins;
+        let edges = |j: usize| -> (f64, f64) {
+            if bins {
+                (self.wavelengths_nm[j], self.wavelengths_nm[j + 1])
+            } else {
+                (self.wavelengths_nm[j], self.wavelengths_nm[j])
+            }
+        };
+        let mut parts = Vec::new();
+        let mut start = 0;
+        for j in 1..=nl {
+            if j == nl || name(j) != name(start) {
+                parts.push(format!(
+                    "{} {}-{} nm",
+                    name(start),
+                    edges(start).0,
+                    edges(j - 1).1
+                ));
+                start = j;
+            }
+        }
+        parts.join(", ")
+    }
+    /// How many cells each method gave, `(rays, diffraction)` (all of one kind for a run
+    /// that is not auto).
+    pub fn method_counts(&self) -> (usize, usize) {
+        let cells = self.theta_i_deg.len() * self.wavelength_count();
+        match self.coherence {
+            Coherence::Auto => {
+                let d: usize = self
+                    .methods
+                    .iter()
+                    .map(|m| m.bytes().filter(|&b| b == b'd').count())
+                    .sum();
+                (cells - d.min(cells), d)
+            }
+            Coherence::Diffraction => (0, cells),
+            _ => (cells, 0),
+        }
     }
     pub fn buckets(&self) -> Buckets {
         Buckets {

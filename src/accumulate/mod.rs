@@ -42,11 +42,16 @@ use crate::optics::C64;
 use crate::optics::fresnel::Field;
 use glam::DVec3;
 
-/// How contributions interfere (written by name in files: "beamlet", "bucket", "global";
-/// an unknown name is refused).
+/// How contributions interfere (written by name in files: "auto", "beamlet", "bucket",
+/// "global", "diffraction"; an unknown name is refused).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Coherence {
+    /// Each (incident direction, wavelength) cell takes the method its scales call for:
+    /// the beamlet estimator's rays, or the diffraction method (`simulate::auto`). The
+    /// estimator itself never runs in this mode; a `.gsa` records each cell's choice
+    /// (`Settings::methods`).
+    Auto,
     Beamlet,
     Bucket,
     Global,
@@ -56,6 +61,7 @@ pub enum Coherence {
 impl Coherence {
     pub fn name(self) -> &'static str {
         match self {
+            Coherence::Auto => "auto",
             Coherence::Beamlet => "beamlet",
             Coherence::Bucket => "bucket",
             Coherence::Global => "global",
@@ -64,6 +70,7 @@ impl Coherence {
     }
     pub fn parse(s: &str) -> Option<Coherence> {
         match s {
+            "auto" => Some(Coherence::Auto),
             "beamlet" => Some(Coherence::Beamlet),
             "bucket" => Some(Coherence::Bucket),
             "global" => Some(Coherence::Global),

@@ -550,6 +550,11 @@ impl Manifest {
         let mut header = first.clone();
         header.settings.theta_i_deg = m.settings.theta_i_deg.clone();
         header.settings.first_direction = 0;
+        // An auto run's methods, direction by direction (each unit holds one).
+        header.settings.methods = parts
+            .iter()
+            .flat_map(|p| p.header.settings.methods.clone())
+            .collect();
         header.rays_per_direction = parts
             .iter()
             .flat_map(|p| p.header.rays_per_direction.clone())

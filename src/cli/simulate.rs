@@ -108,7 +108,13 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
             eprintln!("{d}");
         }
     }
-    if cfg.coherence == Coherence::Diffraction {
+    let (ray_cells, diffraction_cells) = acc.header.settings.method_counts();
+    if cfg.coherence == Coherence::Auto {
+        eprintln!(
+            "methods (auto): rays in {ray_cells} cells, the diffraction method in {diffraction_cells} (goniospec info lists them per angle)"
+        );
+    }
+    if diffraction_cells > 0 {
         diffraction_summary(&stats, &s, &acc, a.settings.rays);
     }
     for w in goniospec::simulate::run_warnings(&s, &acc, &stats) {
@@ -137,7 +143,7 @@ fn diffraction_summary(
         .diffraction
         .iter()
         .enumerate()
-        .filter(|(_, d)| d.rays_r + d.rays_t > 0.0)
+        .filter(|(_, d)| d.rays_r + d.rays_t > 0.0 && !d.fell_back)
         .collect();
     let Some(&(worst_cell, worst)) = cells.iter().max_by(|a, b| {
         (a.1.ratio() - 1.0)

@@ -5,16 +5,20 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::run::Run;
-use super::{DiffractionCell, SimError};
+use super::{DIFFRACTION_RATIO_REFUSED, DiffractionCell, SimError};
 use crate::accumulate::{Cell, diffraction};
 
 impl Run<'_> {
-    /// The diffraction method for one incident direction (towards the light `wi`): each
-    /// wavelength's contributions transformed into Floquet orders (`diffraction::diffract`),
-    /// which replace the cell's bucket sums and totals; the beamlet estimator's totals are
-    /// kept in `out` for the energy check.
+    /// The diffraction method for incident direction `di` (towards the light `wi`): each
+    /// of its diffraction cells' contributions transformed into Floquet orders
+    /// (`diffraction::diffract`), which replace the cell's bucket sums and totals; the
+    /// beamlet estimator's totals are kept in `out` for the energy check. Under
+    /// `--coherence auto` a cell whose transform holds a share of the ray field's power
+    /// outside `[DIFFRACTION_RATIO_REFUSED, 1 / DIFFRACTION_RATIO_REFUSED]` keeps the rays'
+    /// buckets instead (`DiffractionCell::fell_back`), where an explicit run is refused.
     pub(super) fn diffract(
         &self,
+        di: usize,
         wi: DVec3,
         contribs: Vec<Vec<diffraction::Contribution>>,
         cells: &mut [Cell],
@@ -25,6 +29,9 @@ impl Run<'_> {
             .into_par_iter()
             .enumerate()
             .map(|(j, list)| {
+                if !self.cell_diffracts(di, j) {
+                    return Ok(None);
+                }
                 // Every tree of the bin took its centre (`block`).
                 let lambda = self.settings.wavelength(j);
                 let k = 2.0 * std::f64::consts::PI / lambda;
@@ -53,14 +60,34 @@ impl Run<'_> {
                 } else {
                     diffraction::Pattern::default()
                 };
-                Ok((up, down))
+                Ok(Some((up, down)))
             })
             .collect();
         for (j, res) in results.into_iter().enumerate() {
-            let (up, down) = res.map_err(|e| SimError::Config(e.to_string()))?;
+            let Some((up, down)) = res.map_err(|e| SimError::Config(e.to_string()))? else {
+                continue;
+            };
             let cell = &mut cells[j];
             let n = cell.trees as f64;
             let (r_ray, t_ray) = (cell.r_sum / n, cell.t_sum / n);
+            out[j] = DiffractionCell {
+                rays_r: r_ray,
+                rays_t: t_ray,
+                r: up.total,
+                t: down.total,
+                orders: up.orders + down.orders,
+                fallback_tubes: up.fallback_tubes + down.fallback_tubes,
+                flipped_tubes: up.flipped_tubes + down.flipped_tubes,
+                fell_back: false,
+            };
+            let ratio = out[j].ratio();
+            if self.auto
+                && r_ray + t_ray > 0.0
+                && !(DIFFRACTION_RATIO_REFUSED..=1.0 / DIFFRACTION_RATIO_REFUSED).contains(&ratio)
+            {
+                out[j].fell_back = true;
+                continue;
+            }
             cell.sum.fill(0.0);
             cell.sumsq.fill(0.0);
             cell.count.fill(0);
@@ -80,15 +107,6 @@ impl Run<'_> {
                 cell.sumsq[kk as usize] = p * p * n;
                 cell.count[kk as usize] = cell.trees;
             }
-            out[j] = DiffractionCell {
-                rays_r: r_ray,
-                rays_t: t_ray,
-                r: up.total,
-                t: down.total,
-                orders: up.orders + down.orders,
-                fallback_tubes: up.fallback_tubes + down.fallback_tubes,
-                flipped_tubes: up.flipped_tubes + down.flipped_tubes,
-            };
         }
         Ok(())
     }

@@ -24,6 +24,7 @@ const MIN_CHUNK_BLOCKS: u64 = 16;
 
 pub use crate::spectrum::Wavelengths;
 
+pub mod auto;
 mod block;
 mod diffract;
 mod hash;
@@ -72,7 +73,8 @@ pub fn preflight(sample: &Sample, cfg: &SimConfig) -> Result<(), SimError> {
 }
 
 /// The configuration a run traces: the diffraction method launches on a lattice
-/// (`diffraction_lattice`), so it traces that lattice's `nx * ny` trees per direction.
+/// (`diffraction_lattice`), so it traces that lattice's `nx * ny` trees per direction (an
+/// auto run does so in the directions that have a diffraction cell: `Run::rays_of`).
 fn traced_config<'a>(sample: &Sample, cfg: &'a SimConfig) -> std::borrow::Cow<'a, SimConfig> {
     if cfg.coherence == Coherence::Diffraction {
         let [nx, ny] = diffraction_lattice(cfg.rays, sample.tile_nm);

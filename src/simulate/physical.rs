@@ -91,8 +91,10 @@ pub fn check_physical(
     let buckets = s.buckets();
     let nl = s.wavelength_count();
     // The diffraction method's totals are the beamlet estimator's on the same trees.
-    let slack = if matches!(mode, Coherence::Beamlet | Coherence::Diffraction)
-        && s.coherence_radius_nm.is_finite()
+    let slack = if matches!(
+        mode,
+        Coherence::Auto | Coherence::Beamlet | Coherence::Diffraction
+    ) && s.coherence_radius_nm.is_finite()
     {
         BEAMLET_ENERGY_SLACK
     } else {

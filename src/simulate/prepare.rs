@@ -27,9 +27,9 @@ pub(super) fn method_refusals(
     // so every wavelength is traced on its own; scattered light has random phases, so
     // only the beamlet estimator (which pairs exits of one coherence group) applies.
     if scattering {
-        if cfg.coherence != Coherence::Beamlet {
+        if !matches!(cfg.coherence, Coherence::Beamlet | Coherence::Auto) {
             return Err(SimError::Config(format!(
-                "--coherence {} sums the fields of every path in a bucket, but light scattered by this sample's particle media has random phases; use --coherence beamlet (the default)",
+                "--coherence {} sums the fields of every path in a bucket, but light scattered by this sample's particle media has random phases; use --coherence beamlet (the default) or auto",
                 cfg.coherence
             )));
         }

@@ -121,9 +121,16 @@ pub(super) struct Run<'a> {
     pub(super) sharing: bool,
     pub(super) tracing: Tracing,
     pub(super) global: bool,
-    /// `Coherence::Diffraction`: exits are kept for the far-field transform, and trees
-    /// launch on this lattice (`diffraction_lattice`).
-    pub(super) diffraction: bool,
+    /// Each cell's method (direction-major; `true`: the diffraction method, whose
+    /// direction's trees launch on `lattice` and whose exits are kept for the far-field
+    /// transform): all of them with `Coherence::Diffraction`, the choice of
+    /// `auto::choose` with `Coherence::Auto`.
+    pub(super) cell_diffraction: Vec<bool>,
+    /// `Coherence::Auto`: a diffraction cell whose transform cannot hold the ray field
+    /// takes rays (`diffract`) instead of refusing the run.
+    pub(super) auto: bool,
+    /// What `auto::choose` had to say.
+    pub(super) auto_notes: Vec<String>,
     pub(super) lattice: [u64; 2],
     pub(super) nl: usize,
     pub(super) lambda_max: f64,
@@ -140,7 +147,7 @@ impl<'a> Run<'a> {
     pub(super) fn prepare(sample: &'a Sample, cfg: &'a SimConfig) -> Result<Run<'a>, SimError> {
         let mut scene = Scene::new(sample, cfg.backend)?;
         let scattering = scene.scatters();
-        let diffraction = cfg.coherence == Coherence::Diffraction;
+        let explicit = cfg.coherence == Coherence::Diffraction;
         method_refusals(sample, cfg, scattering)?;
         let dispersive = sample.media.iter().any(|m| m.model.is_dispersive()) || scattering;
         // A coating's coefficients depend on the wavelength even with constant indices.
@@ -194,7 +201,7 @@ impl<'a> Run<'a> {
         let est = Estimator {
             // The diffraction method keeps the beamlet estimator's totals as the ray
             // method's, which its own are checked against.
-            mode: if diffraction {
+            mode: if explicit || cfg.coherence == Coherence::Auto {
                 Coherence::Beamlet
             } else {
                 cfg.coherence
@@ -208,9 +215,26 @@ impl<'a> Run<'a> {
             reference: cfg.reference_estimator,
         };
         ambient_lossless(sample, &scene, &lambdas, dispersive)?;
-        if diffraction {
-            diffraction_budget(sample, cfg, &scene, &lambdas, est.n_up)?;
-        }
+        let cells = cfg.theta_i_deg.len() * nl;
+        let choice = match cfg.coherence {
+            Coherence::Diffraction => {
+                diffraction_budget(sample, cfg, &scene, &lambdas, est.n_up)?;
+                super::auto::Choice {
+                    diffraction: vec![true; cells],
+                    notes: Vec::new(),
+                }
+            }
+            Coherence::Auto => super::auto::choose(sample, cfg, &|l| {
+                diffraction_budget(sample, cfg, &scene, &[l], est.n_up).map_err(|e| {
+                    e.to_string()
+                        .replacen("--coherence diffraction", "the diffraction method", 1)
+                })
+            }),
+            _ => super::auto::Choice {
+                diffraction: vec![false; cells],
+                notes: Vec::new(),
+            },
+        };
         let settings = Settings {
             sample_name: sample.name.clone(),
             sample_hash: sample_hash(sample),
@@ -236,6 +260,7 @@ impl<'a> Run<'a> {
             tolerance: cfg.tolerance,
             max_rays: cfg.tolerance.map(|_| cfg.max_rays),
             first_direction: cfg.first_direction,
+            methods: Vec::new(),
         };
         Ok(Run {
             sample,
@@ -251,7 +276,9 @@ impl<'a> Run<'a> {
                 Tracing::PerWavelength
             },
             global: cfg.coherence == Coherence::Global,
-            diffraction,
+            cell_diffraction: choice.diffraction,
+            auto: cfg.coherence == Coherence::Auto,
+            auto_notes: choice.notes,
             lattice: [cfg.rays, 1],
             nl,
             lambda_max,
@@ -260,6 +287,31 @@ impl<'a> Run<'a> {
             setup_seconds: 0.0,
             scene,
         })
+    }
+
+    /// Whether direction `di` has a cell of the diffraction method (its trees launch on
+    /// the lattice).
+    pub(super) fn diffracts(&self, di: usize) -> bool {
+        self.cell_diffraction[di * self.nl..(di + 1) * self.nl]
+            .iter()
+            .any(|&d| d)
+    }
+
+    /// The trees of direction `di`: the lattice's `nx * ny` where an auto run's cells take
+    /// the diffraction method (which an explicit run's configuration already holds:
+    /// `traced_config`), `--rays` elsewhere. A direction's count depends on its own cells
+    /// only, so a batch unit traces as the whole run's direction does.
+    pub(super) fn rays_of(&self, di: usize) -> u64 {
+        if self.auto && self.diffracts(di) {
+            self.lattice[0] * self.lattice[1]
+        } else {
+            self.cfg.rays
+        }
+    }
+
+    /// Whether cell (`di`, `j`) takes the diffraction method.
+    pub(super) fn cell_diffracts(&self, di: usize, j: usize) -> bool {
+        self.cell_diffraction[di * self.nl + j]
     }
 
     fn worker(&self) -> Worker {
@@ -285,7 +337,7 @@ impl<'a> Run<'a> {
         diffraction: &[DiffractionCell],
         range: std::ops::Range<usize>,
     ) -> Result<(), SimError> {
-        if !self.diffraction {
+        if self.cfg.coherence != Coherence::Diffraction {
             return Ok(());
         }
         let Some((k, d)) = diffraction[range.clone()]
@@ -336,12 +388,12 @@ impl<'a> Run<'a> {
         let batch = if adaptive {
             cfg.rays.div_ceil(BLOCK) * BLOCK
         } else {
-            cfg.rays
+            self.rays_of(di)
         };
         let target = if adaptive {
             cfg.max_rays.max(batch)
         } else {
-            cfg.rays
+            self.rays_of(di)
         };
         let mut start = 0u64;
         // The diffraction method's contributions per wavelength, in block order.
@@ -404,8 +456,9 @@ impl<'a> Run<'a> {
             let achieved = achieved_error(cells, di, nl, cfg.coherence);
             let converged = adaptive && achieved.is_some_and(|a| a <= cfg.tolerance.unwrap_or(0.0));
             if !adaptive || converged || start >= target {
-                if self.diffraction {
+                if self.diffracts(di) {
                     self.diffract(
+                        di,
                         wi,
                         contribs,
                         &mut cells[di * nl..(di + 1) * nl],
@@ -475,6 +528,7 @@ impl<'a> Run<'a> {
             limited: lost.limited,
             diffraction: lost.diffraction,
             envelope_violations: self.scene.scatter_violations(),
+            auto_notes: self.auto_notes.clone(),
             densest_scatterer: {
                 let s = &self.settings;
                 let mid = s.wavelength(s.wavelength_count() / 2);
@@ -483,8 +537,12 @@ impl<'a> Run<'a> {
                     .map(|(m, depth)| (self.sample.media[m].name.clone(), depth))
             },
         };
+        let mut settings = self.settings;
+        if self.auto {
+            settings.methods = method_strings(&self.cell_diffraction, &stats.diffraction, self.nl);
+        }
         let header = Header {
-            settings: self.settings,
+            settings,
             seeds: vec![cfg.seed],
             // Adaptive runs: the most trees any direction used; each direction's own
             // count too.
@@ -515,6 +573,22 @@ impl<'a> Run<'a> {
         }
         Ok((acc, stats))
     }
+}
+
+/// `Settings::methods` of a `--coherence auto` run: per direction, one letter per
+/// wavelength cell, `d` where the diffraction method gave the buckets and `r` where rays did
+/// (chosen so, or fallen back: `DiffractionCell::fell_back`).
+fn method_strings(chosen: &[bool], diffraction: &[DiffractionCell], nl: usize) -> Vec<String> {
+    chosen
+        .chunks(nl.max(1))
+        .zip(diffraction.chunks(nl.max(1)))
+        .map(|(c, d)| {
+            c.iter()
+                .zip(d)
+                .map(|(&c, d)| if c && !d.fell_back { 'd' } else { 'r' })
+                .collect()
+        })
+        .collect()
 }
 
 /// Absorbed power of one tree at one wavelength: what entered absorbing media and did not

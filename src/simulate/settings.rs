@@ -72,7 +72,7 @@ pub fn radius(s: &str) -> Result<f64, BadValue> {
 pub fn coherence(s: &str) -> Result<Coherence, BadValue> {
     Coherence::parse(s).ok_or_else(|| {
         BadValue(format!(
-            "unknown coherence '{s}' (beamlet, diffraction, bucket or global)"
+            "unknown coherence '{s}' (auto, beamlet, diffraction, bucket or global)"
         ))
     })
 }
@@ -114,13 +114,19 @@ pub struct SimSettings {
     /// Seed of entry points and wavelength jitter.
     #[arg(long, default_value_t = defaults::SEED)]
     pub seed: u64,
-    /// How contributions interfere. beamlet (default): each tree is coherent within
-    /// itself (films, coatings) and incoherent with the others: the ray method.
-    /// diffraction: every tree's exits add as fields over the periodic tile (physical
-    /// optics on the ray field: grating orders, the coherent specular order of slightly
-    /// rough surfaces); trees launch on a lattice, R and T stay the rays', and the power
-    /// its transform kept is reported (docs/physics.md, "Diffraction"; where each holds:
-    /// docs/validity.md). bucket and global: the failing comparison modes of the seed.
+    /// How contributions interfere. auto: each (incident angle, wavelength)
+    /// cell takes the method its scales call for, recorded in the .gsa (goniospec info
+    /// lists them): the diffraction method where a coherent specular order or grating
+    /// orders matter at the coherence radius and the tangent plane holds
+    /// (k r_c cos^3 theta >= 10), rays (beamlet) elsewhere; the run says where a cell
+    /// needed the diffraction method and could not have it. beamlet (default): each tree is
+    /// coherent within itself (films, coatings) and incoherent with the others: the ray
+    /// method. diffraction: every tree's exits add as fields over the periodic tile
+    /// (physical optics on the ray field: grating orders, the coherent specular order of
+    /// slightly rough surfaces); trees launch on a lattice, R and T stay the rays', and
+    /// the power its transform kept is reported (docs/physics.md, "Diffraction"; where
+    /// each holds: docs/validity.md). bucket and global: the failing comparison modes of
+    /// the seed.
     #[arg(long, default_value = "beamlet", value_parser = coherence)]
     #[serde(deserialize_with = "coherence_name")]
     pub coherence: Coherence,
@@ -401,10 +407,10 @@ pub fn validity_context(cfg: &SimConfig) -> crate::sample::validity::Context {
         theta_i_deg: cfg.theta_i_deg.clone(),
         rho_nm: cfg.rho_nm,
         bucket_rad: std::f64::consts::FRAC_PI_2 / f64::from(cfg.buckets.theta_bins),
-        method: if cfg.coherence == Coherence::Diffraction {
-            Method::Diffraction
-        } else {
-            Method::Rays
+        method: match cfg.coherence {
+            Coherence::Diffraction => Method::Diffraction,
+            Coherence::Auto => Method::Auto,
+            _ => Method::Rays,
         },
     }
 }

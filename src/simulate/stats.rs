@@ -82,6 +82,10 @@ pub struct DiffractionCell {
     /// exit), and tubes that passed a line focus.
     pub fallback_tubes: usize,
     pub flipped_tubes: usize,
+    /// `--coherence auto`: the transform could not hold the ray field (its ratio outside
+    /// `[DIFFRACTION_RATIO_REFUSED, 1 / DIFFRACTION_RATIO_REFUSED]`), so the cell kept the
+    /// rays' buckets.
+    pub fell_back: bool,
 }
 
 impl DiffractionCell {
@@ -157,6 +161,9 @@ pub struct SimStats {
     /// height at the run's middle wavelength (`Scene::densest_scatterer`): a refusal for
     /// series cut by the limits names it where light diffuses through many mean free paths.
     pub densest_scatterer: Option<(String, f64)>,
+    /// `--coherence auto`: the cells that needed the diffraction method and took rays,
+    /// and why (`auto::choose`).
+    pub auto_notes: Vec<String>,
 }
 
 impl SimStats {

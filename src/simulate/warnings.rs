@@ -85,10 +85,41 @@ pub fn run_warnings(sample: &Sample, acc: &Accumulator, stats: &SimStats) -> Vec
     if stats.leaks > 0 {
         out.push(leak_warning(stats));
     }
+    out.extend(stats.auto_notes.iter().cloned());
+    if let Some(w) = fell_back_warning(acc, stats) {
+        out.push(w);
+    }
     if let Some(w) = diffraction_warning(acc, stats) {
         out.push(w);
     }
     out
+}
+
+/// `--coherence auto`: the cells whose diffraction transform could not hold the ray field
+/// and took rays (`DiffractionCell::fell_back`), with the worst of them.
+fn fell_back_warning(acc: &Accumulator, stats: &SimStats) -> Option<String> {
+    let fell: Vec<(usize, &super::DiffractionCell)> = stats
+        .diffraction
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| d.fell_back)
+        .collect();
+    let &(k, d) = fell.iter().max_by(|a, b| {
+        (a.1.ratio() - 1.0)
+            .abs()
+            .total_cmp(&(b.1.ratio() - 1.0).abs())
+    })?;
+    let s = &acc.header.settings;
+    let nl = s.wavelength_count().max(1);
+    let theta = s.theta_i_deg.get(k / nl).copied().unwrap_or(f64::NAN);
+    Some(format!(
+        "in {} cells the diffraction transform held a share of the ray field's power in propagating orders outside [{}, {:.2}] (at worst {:.3}, theta_i {theta} deg, {} nm), so those cells took rays: their angular distribution misses the interference the method was chosen for (their total R is the rays'). More --rays sample the field more finely; where the ratio does not improve, the tangent plane fails and a rigorous solver holds these cells (docs/validity.md)",
+        fell.len(),
+        super::DIFFRACTION_RATIO_REFUSED,
+        1.0 / super::DIFFRACTION_RATIO_REFUSED,
+        d.ratio(),
+        s.wavelength(k % nl)
+    ))
 }
 
 /// The rays that met an interface from the wrong medium, in proportion to the run, and
@@ -120,7 +151,7 @@ fn diffraction_warning(acc: &Accumulator, stats: &SimStats) -> Option<String> {
         .diffraction
         .iter()
         .enumerate()
-        .filter(|(_, d)| d.rays_r + d.rays_t > 0.0)
+        .filter(|(_, d)| d.rays_r + d.rays_t > 0.0 && !d.fell_back)
         .max_by(|a, b| {
             (a.1.ratio() - 1.0)
                 .abs()

@@ -296,7 +296,7 @@ impl Axes {
             .map(|c| {
                 Coherence::parse(c).ok_or_else(|| {
                     StudyError::from(format!(
-                        "unknown coherence '{c}' (beamlet, diffraction, bucket or global)"
+                        "unknown coherence '{c}' (auto, beamlet, diffraction, bucket or global)"
                     ))
                 })
             })
@@ -333,7 +333,10 @@ impl Axes {
         let mut variants = Vec::new();
         for &backend in &self.backend {
             for &coherence in &self.coherence {
-                let radii = if matches!(coherence, Coherence::Beamlet | Coherence::Diffraction) {
+                let radii = if matches!(
+                    coherence,
+                    Coherence::Auto | Coherence::Beamlet | Coherence::Diffraction
+                ) {
                     &sw.coherence_radius_nm[..]
                 } else {
                     &sw.coherence_radius_nm[..1]

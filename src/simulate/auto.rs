@@ -1,0 +1,243 @@
+//! `--coherence auto`, the default: the method each (incident direction, wavelength) cell
+//! takes, chosen before tracing from the sample's scales (`sample::validity`, measured limits
+//! in docs/validity.md) and recorded in the `.gsa` (`Settings::methods`).
+//!
+//! A cell takes the diffraction method where its angular distribution holds interference
+//! that rays do not give (a coherent specular order narrower than the rays' lobe, or a
+//! grating's resolved orders: `cell_needs`) and the method can hold it: the
+//! sample is periodic with deterministic trees (`diffraction_refused`), the tangent plane
+//! holds (`physical_optics_margin` at least `PHYSICAL_OPTICS_MIN`), and its grid
+//! and kept exits fit in memory. Every other cell takes rays with the beamlet estimator.
+//! Where a cell needed the diffraction method and could not have it, the run says which
+//! cells, what they miss, and why (`Choice::notes`); no such note advises another of the
+//! run's methods, since the run already took the one that holds.
+//!
+//! The choice depends only on the sample, the cell's angle and wavelength and the settings,
+//! so a batch unit (one direction) chooses as the whole run does.
+
+use super::SimConfig;
+use crate::sample::Sample;
+use crate::sample::validity::{self, PHYSICAL_OPTICS_MIN};
+
+/// Each cell's method (direction-major; `true`: the diffraction method) and what the run
+/// must say about cells that needed the diffraction method and took rays.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Choice {
+    pub diffraction: Vec<bool>,
+    pub notes: Vec<String>,
+}
+
+/// Why the diffraction method cannot take `sample` under `cfg` at all (`None` where it
+/// can): the conditions `prepare::method_refusals` refuses an explicit
+/// `--coherence diffraction` for.
+pub fn diffraction_refused(sample: &Sample, cfg: &SimConfig) -> Option<&'static str> {
+    if sample.media.iter().any(|m| m.scattering.is_some()) {
+        Some("its particle media scatter with random phases")
+    } else if sample.guard_nm.is_some() {
+        Some(
+            "its sides are open (a guard band), and the method takes the far field of a periodic tile",
+        )
+    } else if sample.interfaces.iter().any(|i| i.closed) {
+        Some("its closed bodies end long trees by Russian roulette with random weights")
+    } else if cfg.tolerance.is_some() {
+        Some(
+            "--tolerance stops on the per-tree error, which a transform of all trees at once does not have",
+        )
+    } else {
+        None
+    }
+}
+
+/// The run's choice for every cell. `grid_fits(lambda_nm)` says whether the diffraction
+/// method's grid and kept exits fit at that wavelength (`Err` with the reason where not).
+pub fn choose(
+    sample: &Sample,
+    cfg: &SimConfig,
+    grid_fits: &dyn Fn(f64) -> Result<(), String>,
+) -> Choice {
+    let nl = cfg.wavelengths.count();
+    let centres = cfg.wavelengths.centres();
+    let sheets = validity::sheet_scales(sample);
+    let bucket_rad = std::f64::consts::FRAC_PI_2 / f64::from(cfg.buckets.theta_bins);
+    let refused = diffraction_refused(sample, cfg);
+    let mut out = Choice {
+        diffraction: vec![false; cfg.theta_i_deg.len() * nl],
+        notes: Vec::new(),
+    };
+    // Cells that needed the method and took rays, per reason: (count, worst cell's need,
+    // its angle and wavelength, the reason's figure).
+    let mut missed: std::collections::BTreeMap<u8, Missed> = Default::default();
+    let mut fits: Vec<Option<Result<(), String>>> = vec![None; nl];
+    for (di, &theta) in cfg.theta_i_deg.iter().enumerate() {
+        for (j, &lambda) in centres.iter().enumerate() {
+            let Some(need) = cell_needs(sample, &sheets, theta, lambda, cfg.rho_nm, bucket_rad)
+            else {
+                continue;
+            };
+            let margin = physical_optics_margin(sample, &sheets, theta, lambda);
+            let fit = fits[j].get_or_insert_with(|| grid_fits(lambda)).clone();
+            let why = if let Some(r) = refused {
+                Some((0, r.to_string()))
+            } else if cfg.rho_nm < 0.5 * cfg.wavelengths.max() {
+                Some((
+                    1,
+                    format!(
+                        "the coherence radius {} nm is below half the longest wavelength, which the method's spread of the orders cannot hold",
+                        cfg.rho_nm
+                    ),
+                ))
+            } else if margin < PHYSICAL_OPTICS_MIN {
+                Some((
+                    2,
+                    format!(
+                        "the tangent plane the method rests on fails there (k r_c cos^3 theta = {margin:.1}, below {PHYSICAL_OPTICS_MIN}; Ogilvy 1991, §4.2)"
+                    ),
+                ))
+            } else if let Err(e) = fit {
+                Some((3, e))
+            } else {
+                None
+            };
+            match why {
+                None => out.diffraction[di * nl + j] = true,
+                Some((kind, reason)) => {
+                    let m = missed.entry(kind).or_insert_with(|| Missed {
+                        cells: 0,
+                        need: need.clone(),
+                        theta,
+                        lambda,
+                        reason,
+                        theta_min: theta,
+                    });
+                    m.cells += 1;
+                    m.theta_min = m.theta_min.min(theta);
+                }
+            }
+        }
+    }
+    let total = out.diffraction.len();
+    for m in missed.into_values() {
+        out.notes.push(m.note(sample, total));
+    }
+    out
+}
+
+/// The cells of one reason that needed the diffraction method and took rays.
+struct Missed {
+    cells: usize,
+    /// The first such cell's need, angle (deg) and wavelength (nm).
+    need: Need,
+    theta: f64,
+    lambda: f64,
+    reason: String,
+    theta_min: f64,
+}
+
+impl Missed {
+    fn note(&self, sample: &Sample, total: usize) -> String {
+        let name = |i: usize| {
+            format!(
+                "interface {i} ({})",
+                sample.interfaces[i].mesh_path.display()
+            )
+        };
+        let what = match self.need {
+            Need::Specular { interface, g } => format!(
+                "{} is smooth against the wavelength (Rayleigh g = {g:.2} at {:.0} deg and {:.0} nm): a coherent specular order holds about exp(-g) = {:.2} of the reflected power, which rays spread over the slope lobe",
+                name(interface),
+                self.theta,
+                self.lambda,
+                (-g).exp()
+            ),
+            Need::Orders { interface, spacing } => format!(
+                "{} is a grating whose orders are {spacing:.3} apart in direction sines at {:.0} deg and {:.0} nm, which rays give only as their envelope",
+                name(interface),
+                self.theta,
+                self.lambda
+            ),
+        };
+        format!(
+            "{what}. The diffraction method holds that, but {}; so {} of the run's {total} cells (from {:.0} deg) took rays, and their angular distribution misses it (their total R is the rays'). Neither method holds these cells' angular distribution; a rigorous solver does (docs/validity.md)",
+            self.reason, self.cells, self.theta_min
+        )
+    }
+}
+
+/// What interference a cell's angular distribution holds that rays do not give.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Need {
+    /// A coherent specular order of `exp(-g)` of the reflected power, from the sheet
+    /// `interface`, narrower than the rays' slope lobe at the coherence radius.
+    Specular { interface: usize, g: f64 },
+    /// The orders of a grating (sheet `interface`) that the coherence radius spans and the
+    /// buckets resolve, `spacing` apart in direction sines.
+    Orders { interface: usize, spacing: f64 },
+}
+
+/// What cell (`theta_deg`, vacuum `lambda_nm`) needs beyond rays, judged per sheet as the
+/// warnings of [`validity::assess_scales`] judge the run: a grating whose orders are coherent across
+/// (`Lambda < COHERENT_PERIODS rho`) and resolved (`lambda / Lambda > bucket / 4`), or a
+/// surface smooth against the wavelength (Rayleigh `g = (4 pi sigma cos theta / lambda)^2 <
+/// validity::RAYLEIGH_MIN_FOR_RAYS`, Beckmann & Spizzichino 1963, ch. 5) whose coherent order, spread
+/// by the partial coherence over `1 / (k rho)` in direction sines (the Gaussian mutual
+/// coherence's transform), is narrower than the rays' lobe (`2 s`, the reflected directions
+/// of facets of RMS slope `s`). `None` where rays give the angular distribution.
+pub fn cell_needs(
+    sample: &Sample,
+    sheets: &[Option<validity::Scales>],
+    theta_deg: f64,
+    lambda_nm: f64,
+    rho_nm: f64,
+    bucket_rad: f64,
+) -> Option<Need> {
+    let cos = theta_deg.to_radians().cos().max(0.05);
+    let spread = lambda_nm / (2.0 * std::f64::consts::PI * rho_nm);
+    for (i, (itf, sc)) in sample.interfaces.iter().zip(sheets).enumerate() {
+        let Some(sc) = sc.filter(|s| s.lateral_nm.is_finite()) else {
+            continue;
+        };
+        if itf.closed {
+            continue;
+        }
+        if sc.period_share >= 0.5 {
+            let coherent = sc.period_nm < validity::COHERENT_PERIODS * rho_nm;
+            let spacing = lambda_nm / sc.period_nm;
+            if coherent && spacing > bucket_rad / validity::ORDERS_PER_BUCKET {
+                return Some(Need::Orders {
+                    interface: i,
+                    spacing,
+                });
+            }
+        }
+        let g = (4.0 * std::f64::consts::PI * sc.rms_height_nm * cos / lambda_nm).powi(2);
+        if g < validity::RAYLEIGH_MIN_FOR_RAYS && spread < 2.0 * sc.rms_slope {
+            return Some(Need::Specular { interface: i, g });
+        }
+    }
+    None
+}
+
+/// The smallest `k r_c cos^3 theta` over the sample's sheets at (`theta_deg`, vacuum
+/// `lambda_nm`), `k` in each sheet's front medium (infinite for flat sheets): the
+/// tangent-plane condition [`PHYSICAL_OPTICS_MIN`] judges.
+pub fn physical_optics_margin(
+    sample: &Sample,
+    sheets: &[Option<validity::Scales>],
+    theta_deg: f64,
+    lambda_nm: f64,
+) -> f64 {
+    let cos3 = theta_deg.to_radians().cos().powi(3);
+    sample
+        .interfaces
+        .iter()
+        .zip(sheets)
+        .filter_map(|(itf, sc)| {
+            let sc = sc.filter(|s| s.curvature_radius_nm.is_finite())?;
+            let n = sample.media[itf.front]
+                .model
+                .eval(lambda_nm)
+                .map_or(1.0, |(n, _)| n);
+            Some(2.0 * std::f64::consts::PI * n / lambda_nm * sc.curvature_radius_nm * cos3)
+        })
+        .fold(f64::INFINITY, f64::min)
+}
