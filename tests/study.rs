@@ -61,7 +61,7 @@ fn flat_film_errors_match_an_independent_tmm_within_their_error_bars() {
     }
     let report = std::fs::read_to_string(d.join("out/report.md")).unwrap();
     assert!(
-        report.contains("| beamlet rho=inf") && report.contains("analytic TMM"),
+        report.contains("| auto rho=inf") && report.contains("analytic TMM"),
         "{report}"
     );
 }

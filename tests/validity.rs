@@ -156,9 +156,19 @@ fn simulate_and_check_print_the_warnings() {
         args.extend_from_slice(extra);
         goniospec(&args)
     };
-    let (rc, _, err) = simulate("256", "g.gsa", &[]);
+    // Rays alone: the grating's orders are warned about once.
+    let (rc, _, err) = simulate("256", "g.gsa", &["--coherence", "beamlet"]);
     assert_eq!(rc, 0, "{err}");
     assert_eq!(err.matches("--coherence diffraction").count(), 1, "{err}");
+    // The default, auto, takes the diffraction method for the one cell and says so, with
+    // no advice to switch methods (issue 48).
+    let (rc, _, err) = simulate("256", "a.gsa", &[]);
+    assert_eq!(rc, 0, "{err}");
+    assert!(!err.contains("--coherence"), "{err}");
+    assert!(
+        err.contains("methods (auto): rays in 0 cells, the diffraction method in 1"),
+        "{err}"
+    );
     let (rc, out_text, err) = goniospec(&["check", sample.to_str().unwrap()]);
     assert_eq!(rc, 0, "{err}");
     assert!(

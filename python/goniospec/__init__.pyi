@@ -63,7 +63,7 @@ def simulate(
     rays: int = 4096,
     *,
     seed: int = 1,
-    coherence: Literal["auto", "beamlet", "diffraction", "bucket", "global"] = "beamlet",
+    coherence: Literal["auto", "beamlet", "diffraction", "bucket", "global"] = "auto",
     coherence_radius_nm: float = 5000.0,
     cutoff: float = 1e-10,
     monochromatic: bool = False,

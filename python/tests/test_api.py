@@ -284,7 +284,8 @@ def test_validity_warnings_and_the_diffraction_method():
     method does not, keeps R, and check() lists the warning beside the grating's scales."""
     s = gs.Sample.load(os.path.join(ROOT, "studies", "samples", "grating-5um.toml"))
     with pytest.warns(UserWarning, match="--coherence diffraction"):
-        rays = gs.simulate(s, theta_i_deg=[0], wavelengths="550", monochromatic=True, rays=1024)
+        rays = gs.simulate(s, theta_i_deg=[0], wavelengths="550", monochromatic=True, rays=1024,
+                           coherence="beamlet")
     import warnings
 
     with warnings.catch_warnings():
@@ -341,6 +342,6 @@ def test_one_name_for_one_thing_and_reprs_that_say_what_they_hold(tmp_path):
     assert "Sample(" in repr(s) and "media [" in repr(s) and "triangles" in repr(s)
     for text in [repr(new), repr(again)]:
         for part in ["theta_i_deg [0.0, 30.0]", "3 wavelengths 450-650 nm", "trees [64, 64]",
-                     "method beamlet (radius 5000 nm)"]:
+                     "method auto (radius 5000 nm)"]:
             assert part in text, (part, text)
     assert repr(again).startswith("Brdf(") and "table" in repr(again)

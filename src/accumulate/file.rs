@@ -108,6 +108,12 @@ pub struct Header {
     pub rays: u64,
     /// Launched trees of each incident direction, over all runs (adaptive runs differ).
     pub rays_per_direction: Vec<u64>,
+    /// The trees per direction the runs asked for (`--rays`, summed over runs), where a
+    /// direction of the diffraction method traced its lattice's count instead
+    /// (`simulate::diffraction_lattice`); absent for the other methods, whose directions
+    /// trace what was asked. `batch` checks a unit against its plan by it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rays_asked: Option<u64>,
     pub backend: String,
     /// Rays that met an interface from the wrong medium, over all runs.
     pub leaks: u64,
@@ -214,7 +220,7 @@ impl Header {
                 s.theta_o_bins, s.phi_o_bins
             )));
         }
-        if self.rays == 0 || self.seeds.is_empty() {
+        if self.rays == 0 || self.seeds.is_empty() || self.rays_asked == Some(0) {
             return Err("no rays or no seeds recorded".into());
         }
         let nl = s.wavelength_count();
@@ -649,6 +655,13 @@ impl Accumulator {
             .max()
             .unwrap_or(0);
         self.header.leaks += other.header.leaks;
+        self.header.rays_asked = match (self.header.rays_asked, other.header.rays_asked) {
+            (Some(a), Some(b)) => Some(
+                a.checked_add(b)
+                    .ok_or_else(|| FileError::Merge("ray counts overflow".into()))?,
+            ),
+            _ => None,
+        };
         if self.header.backend != other.header.backend {
             self.header.backend = format!("{}+{}", self.header.backend, other.header.backend);
         }

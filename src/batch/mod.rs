@@ -444,7 +444,11 @@ impl Manifest {
             || s.theta_i_deg != [u.theta_i_deg]
             || s.first_direction != u.direction as u64
             || acc.header.seeds != [m.settings.seed]
-            || acc.header.rays_per_direction != [m.settings.rays]
+            || !match acc.header.rays_asked {
+                // The diffraction method traced its lattice's count.
+                Some(asked) => asked == m.settings.rays,
+                None => acc.header.rays_per_direction == [m.settings.rays],
+            }
         {
             return Err(UnitProblem::Foreign);
         }

@@ -99,12 +99,14 @@ pub fn simulate(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Accumulator, SimStats), SimError> {
     validate(cfg)?;
+    let asked = cfg.rays;
     let lattice = diffraction_lattice(cfg.rays, sample.tile_nm);
     let traced = traced_config(sample, cfg);
     let cfg = traced.as_ref();
     let start_time = Instant::now();
     let mut run = Run::prepare(sample, cfg)?;
     run.lattice = lattice;
+    run.rays_asked = asked;
     run.setup_seconds = start_time.elapsed().as_secs_f64();
     let mut cells: Vec<Cell> = (0..cfg.theta_i_deg.len() * run.nl)
         .map(|_| Cell::new(&cfg.buckets, run.global))

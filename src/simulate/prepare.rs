@@ -29,7 +29,7 @@ pub(super) fn method_refusals(
     if scattering {
         if !matches!(cfg.coherence, Coherence::Beamlet | Coherence::Auto) {
             return Err(SimError::Config(format!(
-                "--coherence {} sums the fields of every path in a bucket, but light scattered by this sample's particle media has random phases; use --coherence beamlet (the default) or auto",
+                "--coherence {} sums the fields of every path in a bucket, but light scattered by this sample's particle media has random phases; use --coherence auto (the default) or beamlet",
                 cfg.coherence
             )));
         }

@@ -137,6 +137,9 @@ pub(super) struct Run<'a> {
     /// Media indices at the longest wavelength (the shared geometry's).
     pub(super) fixed_indices: Vec<C64>,
     pub(super) counters: Counters,
+    /// `--rays` as asked (an explicit diffraction run's configuration holds its lattice's
+    /// count: `traced_config`).
+    pub(super) rays_asked: u64,
     /// Wall time of `prepare` (the scene's build, the sample's hash), s.
     pub(super) setup_seconds: f64,
 }
@@ -284,6 +287,7 @@ impl<'a> Run<'a> {
             lambda_max,
             fixed_indices: index_at(lambda_max),
             counters: Counters::default(),
+            rays_asked: cfg.rays,
             setup_seconds: 0.0,
             scene,
         })
@@ -555,6 +559,8 @@ impl<'a> Run<'a> {
             rays_per_direction: stats.directions.iter().map(|d| d.rays).collect(),
             backend: self.scene.backend().name().into(),
             leaks: stats.leaks,
+            rays_asked: matches!(cfg.coherence, Coherence::Auto | Coherence::Diffraction)
+                .then_some(self.rays_asked),
         };
         let acc = Accumulator { header, cells };
         // (The diffraction method's refusal came after each direction: `diffraction_refusal`.)

@@ -114,12 +114,12 @@ pub struct SimSettings {
     /// Seed of entry points and wavelength jitter.
     #[arg(long, default_value_t = defaults::SEED)]
     pub seed: u64,
-    /// How contributions interfere. auto: each (incident angle, wavelength)
+    /// How contributions interfere. auto (default): each (incident angle, wavelength)
     /// cell takes the method its scales call for, recorded in the .gsa (goniospec info
     /// lists them): the diffraction method where a coherent specular order or grating
     /// orders matter at the coherence radius and the tangent plane holds
     /// (k r_c cos^3 theta >= 10), rays (beamlet) elsewhere; the run says where a cell
-    /// needed the diffraction method and could not have it. beamlet (default): each tree is
+    /// needed the diffraction method and could not have it. beamlet: each tree is
     /// coherent within itself (films, coatings) and incoherent with the others: the ray
     /// method. diffraction: every tree's exits add as fields over the periodic tile
     /// (physical optics on the ray field: grating orders, the coherent specular order of
@@ -127,7 +127,7 @@ pub struct SimSettings {
     /// the power its transform kept is reported (docs/physics.md, "Diffraction"; where
     /// each holds: docs/validity.md). bucket and global: the failing comparison modes of
     /// the seed.
-    #[arg(long, default_value = "beamlet", value_parser = coherence)]
+    #[arg(long, default_value = "auto", value_parser = coherence)]
     #[serde(deserialize_with = "coherence_name")]
     pub coherence: Coherence,
     /// The illumination's transverse coherence radius in nm (the beamlet radius), or inf
@@ -186,7 +186,7 @@ impl Default for SimSettings {
             monochromatic: false,
             backend: None,
             seed: defaults::SEED,
-            coherence: Coherence::Beamlet,
+            coherence: Coherence::Auto,
             coherence_radius_nm: defaults::COHERENCE_RADIUS_NM,
             theta_o_bins: defaults::THETA_O_BINS,
             phi_o_bins: defaults::PHI_O_BINS,

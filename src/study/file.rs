@@ -157,7 +157,7 @@ fn default_theta_bins() -> Vec<u32> {
     vec![45]
 }
 fn default_coherence() -> Vec<String> {
-    vec!["beamlet".into()]
+    vec!["auto".into()]
 }
 fn default_radius() -> Vec<f64> {
     vec![crate::simulate::defaults::COHERENCE_RADIUS_NM]
