@@ -13,7 +13,7 @@ use goniospec::simulate::{SimConfig, Wavelengths, diffraction_lattice, simulate}
 /// The seed's film (60 nm RMS, curvature radius 12 um, in air) at 0 and 75 deg, two bins
 /// at 540-560 nm: at 0 deg its coherent specular order holds exp(-g) with g = (4 pi 60 /
 /// 550)^2 = 1.9 of the reflected power and the tangent plane holds (k r_c = 137); at 75
-/// deg the order holds more (g = 0.13) but k r_c cos^3 theta = 2.4, below 10.
+/// deg the order holds more (g = 0.13) but k r_c cos^3 theta = 2.4, below 35.
 fn film_cfg(coherence: Coherence, theta: &[f64], rays: u64) -> SimConfig {
     SimConfig {
         coherence,
@@ -49,10 +49,7 @@ fn auto_takes_each_method_where_the_scales_call_for_it_and_gives_its_result() {
     // the figure, and without advice to switch methods.
     let notes = stats.auto_notes.join("\n");
     assert!(notes.contains("k r_c cos^3 theta = 2.4"), "{notes}");
-    assert!(
-        notes.contains("2 of the run's 4 cells (from 75 deg)"),
-        "{notes}"
-    );
+    assert!(notes.contains("2 cells of 4 (from 75 deg)"), "{notes}");
     assert!(!notes.contains("--coherence"), "{notes}");
     let warnings = goniospec::simulate::run_warnings(&s, &auto, &stats).join("\n");
     assert!(warnings.contains("tangent plane"), "{warnings}");
@@ -80,6 +77,19 @@ fn auto_takes_each_method_where_the_scales_call_for_it_and_gives_its_result() {
         },
     );
     assert_eq!(unit.header.settings.methods, vec!["rr".to_string()]);
+    // The warnings live with the result: the .gsa keeps them, each direction's its own, so
+    // a unit keeps what the whole run keeps for its direction.
+    let kept = &auto.header.warnings;
+    assert!(kept.iter().any(|w| w.contains("tangent plane")), "{kept:?}");
+    assert!(!unit.header.warnings.is_empty());
+    for w in &unit.header.warnings {
+        assert!(kept.contains(w), "{w} not in {kept:?}");
+    }
+    let text = auto.header.describe();
+    assert!(
+        text.contains(&format!("warnings ({}):", kept.len())),
+        "{text}"
+    );
 }
 
 #[test]

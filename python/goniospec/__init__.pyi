@@ -51,6 +51,13 @@ class Accumulator:
     @property
     def trees(self) -> list[int]:
         """Trees traced per incident direction."""
+    @property
+    def warnings(self) -> list[str]:
+        """What the run had to say about its result (kept in the .gsa), one sentence each."""
+    @property
+    def methods(self) -> list[str]:
+        """Per incident direction under coherence="auto", one letter per wavelength cell:
+        r (rays) or d (the diffraction method); empty otherwise."""
     def __repr__(self) -> str:
         """Accumulator('sample': theta_i_deg, phi_i_deg, wavelengths, trees, method)."""
 

@@ -173,6 +173,20 @@ impl Accumulator {
         self.inner.header.rays_per_direction.clone()
     }
 
+    /// What the run had to say about its result (the `.gsa`'s warnings: validity findings
+    /// and the run's own, each direction's in direction order), one sentence each.
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.inner.header.warnings.clone()
+    }
+
+    /// Each incident direction's methods under `coherence="auto"` (one letter per
+    /// wavelength cell: `r` rays, `d` the diffraction method); empty otherwise.
+    #[getter]
+    fn methods(&self) -> Vec<String> {
+        self.inner.header.settings.methods.clone()
+    }
+
     /// `Accumulator('sample': theta_i_deg, phi_i_deg, wavelengths, trees, method)`.
     fn __repr__(&self) -> String {
         let h = &self.inner.header;

@@ -294,6 +294,11 @@ def test_validity_warnings_and_the_diffraction_method():
                            coherence="diffraction")
     # The diffraction method's R is the ray field's (at the same entry points it would be
     # the same bits; here the lattice and the R2 set differ by their sampling noise).
+    # The warning lives with the result too (issue 48), and auto's choice is recorded.
+    assert any("--coherence diffraction" in w for w in rays.warnings), rays.warnings
+    auto = gs.simulate(s, theta_i_deg=[0], wavelengths="550", monochromatic=True, rays=1024)
+    assert auto.methods == ["d"], auto.methods
+    assert not any("--coherence" in w for w in auto.warnings), auto.warnings
     r_rays = rays.reflectance(0)["R"][0]
     r_diff = diff.reflectance(0)["R"][0]
     assert abs(r_diff - r_rays) < 2e-3, (r_diff, r_rays)

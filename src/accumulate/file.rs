@@ -117,6 +117,11 @@ pub struct Header {
     pub backend: String,
     /// Rays that met an interface from the wrong medium, over all runs.
     pub leaks: u64,
+    /// What the runs had to say about their results (the validity findings and the run's
+    /// own warnings, as `simulate` prints them, each direction's in direction order), each
+    /// sentence once; `goniospec info` lists them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 /// A `.gsa` header whose values no reader can rely on (the message names the field).
@@ -173,6 +178,14 @@ impl Header {
                 _ => String::new(),
             }
         );
+        if self.warnings.is_empty() {
+            s += "warnings: none\n";
+        } else {
+            s += &format!("warnings ({}):\n", self.warnings.len());
+            for w in &self.warnings {
+                s += &format!("  - {w}\n");
+            }
+        }
         s
     }
 
@@ -266,67 +279,6 @@ impl Header {
 impl Settings {
     pub fn coherence_mode(&self) -> Coherence {
         self.coherence
-    }
-    /// The method that gave the buckets of cell (direction `i`, wavelength `j`):
-    /// `Beamlet` or `Diffraction` for an auto run ([`Settings::methods`]), the run's mode
-    /// otherwise.
-    pub fn cell_mode(&self, i: usize, j: usize) -> Coherence {
-        if self.coherence != Coherence::Auto {
-            return self.coherence;
-        }
-        match self.methods.get(i).and_then(|m| m.as_bytes().get(j)) {
-            Some(b'd') => Coherence::Diffraction,
-            _ => Coherence::Beamlet,
-        }
-    }
-    /// Direction `i`'s methods as wavelength ranges ("rays 380-500 nm, diffraction
-    /// 500-780 nm"), each range from its first cell's lower edge to its last cell's upper
-    /// edge (bins) or its first to last wavelength (monochromatic).
-    pub fn methods_of(&self, i: usize) -> String {
-        let nl = self.wavelength_count();
-        let name = |j: usize| match self.cell_mode(i, j) {
-            Coherence::Diffraction => "diffraction",
-            _ => "rays",
-        };
-        let bins = self.wavelength_mode == WavelengthMode::Bins;
-        let edges = |j: usize| -> (f64, f64) {
-            if bins {
-                (self.wavelengths_nm[j], self.wavelengths_nm[j + 1])
-            } else {
-                (self.wavelengths_nm[j], self.wavelengths_nm[j])
-            }
-        };
-        let mut parts = Vec::new();
-        let mut start = 0;
-        for j in 1..=nl {
-            if j == nl || name(j) != name(start) {
-                parts.push(format!(
-                    "{} {}-{} nm",
-                    name(start),
-                    edges(start).0,
-                    edges(j - 1).1
-                ));
-                start = j;
-            }
-        }
-        parts.join(", ")
-    }
-    /// How many cells each method gave, `(rays, diffraction)` (all of one kind for a run
-    /// that is not auto).
-    pub fn method_counts(&self) -> (usize, usize) {
-        let cells = self.theta_i_deg.len() * self.wavelength_count();
-        match self.coherence {
-            Coherence::Auto => {
-                let d: usize = self
-                    .methods
-                    .iter()
-                    .map(|m| m.bytes().filter(|&b| b == b'd').count())
-                    .sum();
-                (cells - d.min(cells), d)
-            }
-            Coherence::Diffraction => (0, cells),
-            _ => (cells, 0),
-        }
     }
     pub fn buckets(&self) -> Buckets {
         Buckets {
@@ -655,6 +607,11 @@ impl Accumulator {
             .max()
             .unwrap_or(0);
         self.header.leaks += other.header.leaks;
+        for w in &other.header.warnings {
+            if !self.header.warnings.contains(w) {
+                self.header.warnings.push(w.clone());
+            }
+        }
         self.header.rays_asked = match (self.header.rays_asked, other.header.rays_asked) {
             (Some(a), Some(b)) => Some(
                 a.checked_add(b)
@@ -666,6 +623,28 @@ impl Accumulator {
             self.header.backend = format!("{}+{}", self.header.backend, other.header.backend);
         }
         Ok(())
+    }
+
+    /// Direction `i` alone, as a run of that one direction would have it (its angle, trees,
+    /// methods and cells; the rest of the header as it is).
+    pub fn direction(&self, i: usize) -> Accumulator {
+        let nl = self.header.settings.wavelength_count();
+        let mut header = self.header.clone();
+        let s = &mut header.settings;
+        s.theta_i_deg = s.theta_i_deg.get(i).copied().into_iter().collect();
+        s.methods = s.methods.get(i).cloned().into_iter().collect();
+        header.rays_per_direction = self
+            .header
+            .rays_per_direction
+            .get(i)
+            .copied()
+            .into_iter()
+            .collect();
+        header.rays = header.rays_per_direction.first().copied().unwrap_or(0);
+        Accumulator {
+            header,
+            cells: self.cells.get(i * nl..(i + 1) * nl).unwrap_or(&[]).to_vec(),
+        }
     }
 
     /// The cell of incident direction `i` and wavelength `j`.

@@ -31,6 +31,7 @@ mod deposit;
 pub mod diffraction;
 pub mod file;
 mod inhomogeneous;
+mod methods;
 pub mod phase;
 mod prepare;
 

@@ -565,6 +565,14 @@ impl Manifest {
             .collect();
         header.rays = header.rays_per_direction.iter().copied().max().unwrap_or(0);
         header.leaks = parts.iter().map(|p| p.header.leaks).sum();
+        // Each unit's warnings, in direction order, each sentence once (as one run keeps
+        // them: `simulate::stored_warnings`).
+        header.warnings = Vec::new();
+        for w in parts.iter().flat_map(|p| &p.header.warnings) {
+            if !header.warnings.contains(w) {
+                header.warnings.push(w.clone());
+            }
+        }
         let cells = parts.into_iter().flat_map(|p| p.cells).collect();
         Ok(Accumulator { header, cells })
     }

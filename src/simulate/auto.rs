@@ -48,16 +48,17 @@ pub fn diffraction_refused(sample: &Sample, cfg: &SimConfig) -> Option<&'static 
     }
 }
 
-/// The run's choice for every cell. `grid_fits(lambda_nm)` says whether the diffraction
+/// The run's choice for every cell, from the sample's sheets' scales
+/// (`validity::sheet_scales`). `grid_fits(lambda_nm)` says whether the diffraction
 /// method's grid and kept exits fit at that wavelength (`Err` with the reason where not).
 pub fn choose(
     sample: &Sample,
     cfg: &SimConfig,
+    sheets: &[Option<validity::Scales>],
     grid_fits: &dyn Fn(f64) -> Result<(), String>,
 ) -> Choice {
     let nl = cfg.wavelengths.count();
     let centres = cfg.wavelengths.centres();
-    let sheets = validity::sheet_scales(sample);
     let bucket_rad = std::f64::consts::FRAC_PI_2 / f64::from(cfg.buckets.theta_bins);
     let refused = diffraction_refused(sample, cfg);
     let mut out = Choice {
@@ -70,11 +71,11 @@ pub fn choose(
     let mut fits: Vec<Option<Result<(), String>>> = vec![None; nl];
     for (di, &theta) in cfg.theta_i_deg.iter().enumerate() {
         for (j, &lambda) in centres.iter().enumerate() {
-            let Some(need) = cell_needs(sample, &sheets, theta, lambda, cfg.rho_nm, bucket_rad)
+            let Some(need) = cell_needs(sample, sheets, theta, lambda, cfg.rho_nm, bucket_rad)
             else {
                 continue;
             };
-            let margin = physical_optics_margin(sample, &sheets, theta, lambda);
+            let margin = physical_optics_margin(sample, sheets, theta, lambda);
             let fit = fits[j].get_or_insert_with(|| grid_fits(lambda)).clone();
             let why = if let Some(r) = refused {
                 Some((0, r.to_string()))
@@ -157,7 +158,7 @@ impl Missed {
             ),
         };
         format!(
-            "{what}. The diffraction method holds that, but {}; so {} of the run's {total} cells (from {:.0} deg) took rays, and their angular distribution misses it (their total R is the rays'). Neither method holds these cells' angular distribution; a rigorous solver does (docs/validity.md)",
+            "{what}. The diffraction method holds that, but {}; so {} cells of {total} (from {:.0} deg) took rays, and their angular distribution misses it (their total R is the rays'). Neither method holds these cells' angular distribution; a rigorous solver does (docs/validity.md)",
             self.reason, self.cells, self.theta_min
         )
     }

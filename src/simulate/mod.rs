@@ -135,7 +135,17 @@ pub fn simulate(
             created: &mut created,
             limited: &mut limited,
         };
-        done[di] = Some(run.direction(di, cfg.theta_i_deg[di], &mut cells, lost, progress)?);
+        let c = &run.counters;
+        let before = (
+            c.segments.load(Ordering::Relaxed),
+            c.leaks.load(Ordering::Relaxed),
+            run.scene.scatter_violations(),
+        );
+        let mut d = run.direction(di, cfg.theta_i_deg[di], &mut cells, lost, progress)?;
+        d.segments = c.segments.load(Ordering::Relaxed) - before.0;
+        d.leaks = c.leaks.load(Ordering::Relaxed) - before.1;
+        d.envelope_violations = run.scene.scatter_violations() - before.2;
+        done[di] = Some(d);
         run.diffraction_refusal(&diffraction, di * run.nl..(di + 1) * run.nl)?;
     }
     let directions: Vec<DirectionStats> = done
@@ -157,5 +167,8 @@ pub fn simulate(
         created,
         limited,
     };
-    run.finish(cells, lost, directions, start_time)
+    let notes = std::mem::take(&mut run.auto_direction_notes);
+    let (mut acc, stats) = run.finish(cells, lost, directions, start_time)?;
+    acc.header.warnings = warnings::stored_warnings(sample, cfg, &acc, &stats, &notes);
+    Ok((acc, stats))
 }

@@ -171,3 +171,50 @@ pub(super) fn diffraction_budget(
     }
     Ok(())
 }
+
+/// Each cell's method (`auto::Choice`) and, under `--coherence auto`, what the choice says
+/// of each direction alone (kept in the `.gsa`): all cells the diffraction method's for an
+/// explicit run (whose memory is checked here), `auto::choose` for an auto run (a cell's
+/// grid and kept exits checked as `diffraction_budget` checks them), rays otherwise.
+pub(super) fn method_choice(
+    sample: &Sample,
+    cfg: &SimConfig,
+    scene: &Scene,
+    lambdas: &[f64],
+    n_up: f64,
+) -> Result<(super::auto::Choice, Vec<Vec<String>>), SimError> {
+    use super::auto::{Choice, choose};
+    let cells = cfg.theta_i_deg.len() * cfg.wavelengths.count();
+    let mut direction_notes = vec![Vec::new(); cfg.theta_i_deg.len()];
+    let choice = match cfg.coherence {
+        Coherence::Diffraction => {
+            diffraction_budget(sample, cfg, scene, lambdas, n_up)?;
+            Choice {
+                diffraction: vec![true; cells],
+                notes: Vec::new(),
+            }
+        }
+        Coherence::Auto => {
+            let sheets = crate::sample::validity::sheet_scales(sample);
+            let fits = |l: f64| {
+                diffraction_budget(sample, cfg, scene, &[l], n_up).map_err(|e| {
+                    e.to_string()
+                        .replacen("--coherence diffraction", "the diffraction method", 1)
+                })
+            };
+            for (notes, &t) in direction_notes.iter_mut().zip(&cfg.theta_i_deg) {
+                let one = SimConfig {
+                    theta_i_deg: vec![t],
+                    ..cfg.clone()
+                };
+                *notes = choose(sample, &one, &sheets, &fits).notes;
+            }
+            choose(sample, cfg, &sheets, &fits)
+        }
+        _ => Choice {
+            diffraction: vec![false; cells],
+            notes: Vec::new(),
+        },
+    };
+    Ok((choice, direction_notes))
+}

@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::prepare::{ambient_lossless, diffraction_budget, media_in_range, method_refusals};
+use super::prepare::{ambient_lossless, media_in_range, method_refusals};
 use super::{BLOCK, CHUNK_BLOCKS_PER_THREAD, MIN_CHUNK_BLOCKS, SimError};
 use super::{
     CREATED_REFUSED, DIFFRACTION_RATIO_REFUSED, DiffractionCell, DirectionStats, SimConfig,
@@ -129,8 +129,10 @@ pub(super) struct Run<'a> {
     /// `Coherence::Auto`: a diffraction cell whose transform cannot hold the ray field
     /// takes rays (`diffract`) instead of refusing the run.
     pub(super) auto: bool,
-    /// What `auto::choose` had to say.
+    /// What `auto::choose` had to say, of the whole run and of each direction alone (kept
+    /// in the `.gsa`: `warnings::stored_warnings`).
     pub(super) auto_notes: Vec<String>,
+    pub(super) auto_direction_notes: Vec<Vec<String>>,
     pub(super) lattice: [u64; 2],
     pub(super) nl: usize,
     pub(super) lambda_max: f64,
@@ -218,26 +220,8 @@ impl<'a> Run<'a> {
             reference: cfg.reference_estimator,
         };
         ambient_lossless(sample, &scene, &lambdas, dispersive)?;
-        let cells = cfg.theta_i_deg.len() * nl;
-        let choice = match cfg.coherence {
-            Coherence::Diffraction => {
-                diffraction_budget(sample, cfg, &scene, &lambdas, est.n_up)?;
-                super::auto::Choice {
-                    diffraction: vec![true; cells],
-                    notes: Vec::new(),
-                }
-            }
-            Coherence::Auto => super::auto::choose(sample, cfg, &|l| {
-                diffraction_budget(sample, cfg, &scene, &[l], est.n_up).map_err(|e| {
-                    e.to_string()
-                        .replacen("--coherence diffraction", "the diffraction method", 1)
-                })
-            }),
-            _ => super::auto::Choice {
-                diffraction: vec![false; cells],
-                notes: Vec::new(),
-            },
-        };
+        let (choice, direction_notes) =
+            super::prepare::method_choice(sample, cfg, &scene, &lambdas, est.n_up)?;
         let settings = Settings {
             sample_name: sample.name.clone(),
             sample_hash: sample_hash(sample),
@@ -282,6 +266,7 @@ impl<'a> Run<'a> {
             cell_diffraction: choice.diffraction,
             auto: cfg.coherence == Coherence::Auto,
             auto_notes: choice.notes,
+            auto_direction_notes: direction_notes,
             lattice: [cfg.rays, 1],
             nl,
             lambda_max,
@@ -421,6 +406,9 @@ impl<'a> Run<'a> {
                         rays: start,
                         achieved: None,
                         converged: false,
+                        segments: 0,
+                        leaks: 0,
+                        envelope_violations: 0,
                     });
                 }
                 let chunk = (CHUNK_BLOCKS_PER_THREAD * rayon::current_num_threads() as u64)
@@ -474,6 +462,10 @@ impl<'a> Run<'a> {
                     rays: start,
                     achieved,
                     converged,
+                    // Filled by `simulate`, which runs the directions one at a time.
+                    segments: 0,
+                    leaks: 0,
+                    envelope_violations: 0,
                 });
             }
         }
@@ -559,6 +551,8 @@ impl<'a> Run<'a> {
             rays_per_direction: stats.directions.iter().map(|d| d.rays).collect(),
             backend: self.scene.backend().name().into(),
             leaks: stats.leaks,
+            // Filled by `simulate` (`warnings::stored_warnings`).
+            warnings: Vec::new(),
             rays_asked: matches!(cfg.coherence, Coherence::Auto | Coherence::Diffraction)
                 .then_some(self.rays_asked),
         };

@@ -15,6 +15,12 @@ pub struct DirectionStats {
     pub achieved: Option<f64>,
     /// The tolerance was reached (adaptive runs).
     pub converged: bool,
+    /// What the direction's trees met: segments traced, segments that met an interface
+    /// from the wrong medium, and particle scattering draws beyond the tabulated envelope
+    /// (the run's totals are in [`SimStats`]).
+    pub segments: u64,
+    pub leaks: u64,
+    pub envelope_violations: u64,
 }
 
 impl std::fmt::Display for DirectionStats {
@@ -167,6 +173,32 @@ pub struct SimStats {
 }
 
 impl SimStats {
+    /// The statistics of direction `di` alone (`nl` wavelength cells per direction), as a
+    /// run of that one direction would have them.
+    pub fn direction(&self, di: usize, nl: usize) -> SimStats {
+        let cells = |v: &[f64]| v.get(di * nl..(di + 1) * nl).unwrap_or(&[]).to_vec();
+        let d = self.directions.get(di).cloned();
+        SimStats {
+            trees: d.as_ref().map_or(0, |d| d.rays),
+            segments: d.as_ref().map_or(0, |d| d.segments),
+            leaks: d.as_ref().map_or(0, |d| d.leaks),
+            envelope_violations: d.as_ref().map_or(0, |d| d.envelope_violations),
+            directions: d.into_iter().collect(),
+            limit_dropped: cells(&self.limit_dropped),
+            escaped: cells(&self.escaped),
+            limit_bound: cells(&self.limit_bound),
+            created: cells(&self.created),
+            limited: cells(&self.limited),
+            diffraction: self
+                .diffraction
+                .get(di * nl..(di + 1) * nl)
+                .unwrap_or(&[])
+                .to_vec(),
+            auto_notes: Vec::new(),
+            ..self.clone()
+        }
+    }
+
     /// The largest mean power per tree that met energy-limited events, with its cell.
     pub fn worst_limited(&self, acc: &Accumulator) -> (f64, usize) {
         worst_per_tree(&self.limited, acc)

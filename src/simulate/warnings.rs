@@ -12,6 +12,48 @@ use crate::sample::Sample;
 /// says so: the default cutoff keeps it near 1e-5 (`TraceLimits::CUTOFF`).
 const CUTOFF_DROPPED_WARN: f64 = 1e-4;
 
+/// What a run keeps in its `.gsa` (`Header::warnings`): each direction's own warnings in
+/// direction order, each sentence once: the validity findings at its angle, what
+/// `--coherence auto` could not give it (`notes`, per direction), and [`run_warnings`] over
+/// its cells alone. A direction's warnings depend on that direction only, so a batch
+/// unit keeps what the whole run keeps for it, and its merged units keep the run's list.
+pub(super) fn stored_warnings(
+    sample: &Sample,
+    cfg: &super::SimConfig,
+    acc: &Accumulator,
+    stats: &SimStats,
+    notes: &[Vec<String>],
+) -> Vec<String> {
+    use crate::sample::validity;
+    let sheets = validity::sheet_scales(sample);
+    let small = validity::small_bodies(sample, cfg.wavelengths.min());
+    let nl = acc.header.settings.wavelength_count();
+    let mut out: Vec<String> = Vec::new();
+    for (di, &theta) in cfg.theta_i_deg.iter().enumerate() {
+        let one = super::SimConfig {
+            theta_i_deg: vec![theta],
+            ..cfg.clone()
+        };
+        let ctx = super::validity_context(&one);
+        let mut found: Vec<String> = validity::assess_scales(sample, &sheets, &ctx)
+            .into_iter()
+            .chain(small.iter().cloned())
+            .map(|f| f.message)
+            .collect();
+        let st = SimStats {
+            auto_notes: notes.get(di).cloned().unwrap_or_default(),
+            ..stats.direction(di, nl)
+        };
+        found.extend(run_warnings(sample, &acc.direction(di), &st));
+        for w in found {
+            if !out.contains(&w) {
+                out.push(w);
+            }
+        }
+    }
+    out
+}
+
 /// The warnings of a finished run of `sample`, one sentence each, without a prefix; and the
 /// notes that are not warnings (an open sample's escaped power), prefixed "open sides".
 pub fn run_warnings(sample: &Sample, acc: &Accumulator, stats: &SimStats) -> Vec<String> {
