@@ -168,7 +168,8 @@ pub fn simulate(
         limited,
     };
     let notes = std::mem::take(&mut run.auto_direction_notes);
+    let sheets = std::mem::take(&mut run.sheets);
     let (mut acc, stats) = run.finish(cells, lost, directions, start_time)?;
-    acc.header.warnings = warnings::stored_warnings(sample, cfg, &acc, &stats, &notes);
+    acc.header.warnings = warnings::stored_warnings(sample, cfg, &acc, &stats, &notes, &sheets);
     Ok((acc, stats))
 }

@@ -182,6 +182,7 @@ pub(super) fn method_choice(
     scene: &Scene,
     lambdas: &[f64],
     n_up: f64,
+    sheets: &[Option<crate::sample::validity::Scales>],
 ) -> Result<(super::auto::Choice, Vec<Vec<String>>), SimError> {
     use super::auto::{Choice, choose};
     let cells = cfg.theta_i_deg.len() * cfg.wavelengths.count();
@@ -195,7 +196,6 @@ pub(super) fn method_choice(
             }
         }
         Coherence::Auto => {
-            let sheets = crate::sample::validity::sheet_scales(sample);
             let fits = |l: f64| {
                 diffraction_budget(sample, cfg, scene, &[l], n_up).map_err(|e| {
                     e.to_string()
@@ -207,9 +207,9 @@ pub(super) fn method_choice(
                     theta_i_deg: vec![t],
                     ..cfg.clone()
                 };
-                *notes = choose(sample, &one, &sheets, &fits).notes;
+                *notes = choose(sample, &one, sheets, &fits).notes;
             }
-            choose(sample, cfg, &sheets, &fits)
+            choose(sample, cfg, sheets, &fits)
         }
         _ => Choice {
             diffraction: vec![false; cells],

@@ -133,6 +133,8 @@ pub(super) struct Run<'a> {
     /// in the `.gsa`: `warnings::stored_warnings`).
     pub(super) auto_notes: Vec<String>,
     pub(super) auto_direction_notes: Vec<Vec<String>>,
+    /// The sample's sheets' scales (`validity::sheet_scales`).
+    pub(super) sheets: Vec<Option<crate::sample::validity::Scales>>,
     pub(super) lattice: [u64; 2],
     pub(super) nl: usize,
     pub(super) lambda_max: f64,
@@ -220,8 +222,11 @@ impl<'a> Run<'a> {
             reference: cfg.reference_estimator,
         };
         ambient_lossless(sample, &scene, &lambdas, dispersive)?;
+        // The sheets' scales, measured once: the auto choice and the warnings kept with the
+        // result (`warnings::stored_warnings`) judge them.
+        let sheets = crate::sample::validity::sheet_scales(sample);
         let (choice, direction_notes) =
-            super::prepare::method_choice(sample, cfg, &scene, &lambdas, est.n_up)?;
+            super::prepare::method_choice(sample, cfg, &scene, &lambdas, est.n_up, &sheets)?;
         let settings = Settings {
             sample_name: sample.name.clone(),
             sample_hash: sample_hash(sample),
@@ -267,6 +272,7 @@ impl<'a> Run<'a> {
             auto: cfg.coherence == Coherence::Auto,
             auto_notes: choice.notes,
             auto_direction_notes: direction_notes,
+            sheets,
             lattice: [cfg.rays, 1],
             nl,
             lambda_max,

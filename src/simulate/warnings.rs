@@ -23,9 +23,9 @@ pub(super) fn stored_warnings(
     acc: &Accumulator,
     stats: &SimStats,
     notes: &[Vec<String>],
+    sheets: &[Option<crate::sample::validity::Scales>],
 ) -> Vec<String> {
     use crate::sample::validity;
-    let sheets = validity::sheet_scales(sample);
     let small = validity::small_bodies(sample, cfg.wavelengths.min());
     let nl = acc.header.settings.wavelength_count();
     let mut out: Vec<String> = Vec::new();
@@ -35,7 +35,7 @@ pub(super) fn stored_warnings(
             ..cfg.clone()
         };
         let ctx = super::validity_context(&one);
-        let mut found: Vec<String> = validity::assess_scales(sample, &sheets, &ctx)
+        let mut found: Vec<String> = validity::assess_scales(sample, sheets, &ctx)
             .into_iter()
             .chain(small.iter().cloned())
             .map(|f| f.message)
