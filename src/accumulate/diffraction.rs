@@ -455,7 +455,10 @@ impl Patch {
         }
         crate::machine::with_avx2(
             #[inline(always)]
-            || {
+            move || {
+                // By value, so they stay in registers: through the captured references the
+                // loads were repeated per cell and the update stayed scalar (1.3x the run).
+                let (re, im) = (re, im);
                 for (r, &(base, first, n)) in self.rows.iter().enumerate() {
                     let (mut g, mut ratio) = self.start(r);
                     let mut ph = C64::new(self.cos[r], self.sin[r]);
