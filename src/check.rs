@@ -60,6 +60,10 @@ pub struct CheckReport {
     /// Where the sample asks more of ray optics than it gives (not defects of the mesh).
     pub warnings: Vec<String>,
     pub leak: LeakStats,
+    /// Each interface's feature scales (`None` for a flat one), as measured for the facts
+    /// and the validity warnings; `crate::simulate::auto::check` judges the default run's
+    /// methods with them.
+    pub sheets: Vec<Option<crate::sample::validity::Scales>>,
 }
 
 /// Checks `sample`. Errors only when an accelerator cannot be built.
@@ -151,6 +155,7 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
             r.leak.leaks, r.leak.crossings
         ));
     }
+    r.sheets = sheets;
     Ok(r)
 }
 

@@ -185,3 +185,63 @@ fn the_lattice_shares_no_factor_with_the_mesh() {
     assert_eq!(diffraction_lattice(1, [1.0, 1.0]), [1, 1]);
     assert_eq!(diffraction_lattice(200, [2.0, 1.0]), [23, 11]);
 }
+
+/// `check` judges the run a user gets by default: on the seed's film it names the methods
+/// auto takes per angle, with the boundary where the tangent plane's margin k r_c cos^3
+/// theta falls below 35 (Ogilvy 1991, §4.2) for the smaller curvature radius `check`
+/// reports, and no warning advises another method.
+#[test]
+fn check_names_the_methods_the_default_run_takes() {
+    let s = shipped("thin-film-600nm.toml");
+    let opts = goniospec::check::CheckOptions {
+        leak_rays: 1000,
+        validity: Some(goniospec::simulate::check_validity_context(
+            550.0,
+            85.0,
+            goniospec::simulate::defaults::COHERENCE_RADIUS_NM,
+            Coherence::Auto,
+        )),
+        ..Default::default()
+    };
+    let r = goniospec::simulate::auto::check(&s, &opts).expect("check");
+    let rc = r
+        .facts
+        .iter()
+        .filter_map(|f| {
+            let t = f.split("curvature radius ").nth(1)?;
+            t.split(" nm").next()?.parse::<f64>().ok()
+        })
+        .fold(f64::INFINITY, f64::min);
+    assert!((5_000.0..50_000.0).contains(&rc), "curvature radius {rc}");
+    let k = 2.0 * std::f64::consts::PI / 550.0;
+    let edge = (35.0 / (k * rc)).cbrt().acos().to_degrees().floor();
+    let want = format!(
+        "methods under --coherence auto (the default) at 550 nm: the diffraction method at 0-{edge} deg, rays at {}-85 deg",
+        edge + 1.0
+    );
+    assert!(r.facts.contains(&want), "{want}\nnot in {:#?}", r.facts);
+    assert!(
+        r.warnings.iter().all(|w| !w.contains("--coherence")),
+        "{:#?}",
+        r.warnings
+    );
+    // Judged for rays, the same sample warns that the diffraction method is needed.
+    let rays = goniospec::check::CheckOptions {
+        validity: Some(goniospec::simulate::check_validity_context(
+            550.0,
+            0.0,
+            goniospec::simulate::defaults::COHERENCE_RADIUS_NM,
+            Coherence::Beamlet,
+        )),
+        ..opts
+    };
+    let r = goniospec::simulate::auto::check(&s, &rays).expect("check");
+    assert!(r.facts.iter().all(|f| !f.starts_with("methods under")));
+    assert!(
+        r.warnings
+            .iter()
+            .any(|w| w.contains("--coherence diffraction")),
+        "{:#?}",
+        r.warnings
+    );
+}

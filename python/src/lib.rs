@@ -64,7 +64,7 @@ impl Sample {
     fn check<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let r = py
             .allow_threads(|| {
-                goniospec::check::check(
+                goniospec::simulate::auto::check(
                     &self.inner,
                     &goniospec::check::CheckOptions {
                         // The validity warnings as `goniospec check` gives them by default.
@@ -72,6 +72,7 @@ impl Sample {
                             550.0,
                             0.0,
                             defaults::COHERENCE_RADIUS_NM,
+                            goniospec::accumulate::Coherence::Auto,
                         )),
                         ..Default::default()
                     },
@@ -564,14 +565,21 @@ fn simulate(
     // Where the method asked for does not hold for this sample: a UserWarning each, before
     // the run (the CLI's `simulate` prints the same lines), for settings known to be valid.
     let ctx = goniospec::simulate::validity_context(&cfg);
-    for f in goniospec::sample::validity::findings(&sample.inner, &ctx) {
-        let msg = std::ffi::CString::new(f.message).map_err(value_err)?;
+    let warn = |py: Python<'_>, text: &str| -> PyResult<()> {
+        let msg = std::ffi::CString::new(text).map_err(value_err)?;
         PyErr::warn(
             py,
             &py.get_type::<pyo3::exceptions::PyUserWarning>(),
             &msg,
             1,
-        )?;
+        )
+    };
+    let before: Vec<String> = goniospec::sample::validity::findings(&sample.inner, &ctx)
+        .into_iter()
+        .map(|f| f.message)
+        .collect();
+    for m in &before {
+        warn(py, m)?;
     }
     let pool = goniospec::simulate::thread_pool(threads).map_err(value_err)?;
     // The run goes on a worker thread without the GIL; this thread wakes every 50 ms to
@@ -622,6 +630,11 @@ fn simulate(
         return Err(e);
     }
     let (acc, _) = result.map_err(value_err)?;
+    // What the run found on its way (the `.gsa`'s warnings, as the CLI prints them), each
+    // a UserWarning too, less those given before it.
+    for w in acc.header.warnings.iter().filter(|w| !before.contains(w)) {
+        warn(py, w)?;
+    }
     Ok(Accumulator {
         inner: acc,
         inputs: sample.inner.inputs.clone(),

@@ -302,9 +302,29 @@ def test_validity_warnings_and_the_diffraction_method():
     r_rays = rays.reflectance(0)["R"][0]
     r_diff = diff.reflectance(0)["R"][0]
     assert abs(r_diff - r_rays) < 2e-3, (r_diff, r_rays)
+    # check() judges the default run (auto): it lists the method auto takes instead of
+    # advising one.
     c = s.check()
     assert any("period 5000 nm" in f for f in c["facts"])
-    assert any("--coherence diffraction" in w for w in c["warnings"])
+    assert any("auto" in f and "the diffraction method at 0 deg" in f for f in c["facts"]), c
+    assert not any("--coherence diffraction" in w for w in c["warnings"]), c["warnings"]
+
+
+def test_every_warning_the_run_keeps_is_a_user_warning():
+    """Issue 48: what a run finds on its way (auto's note that the film's 75 deg cells
+    needed the diffraction method where its tangent plane fails) is a UserWarning as the
+    CLI prints it, and every warning stored with the result was given, each once."""
+    import warnings
+
+    s = gs.Sample.load(mesh("thin-film-600nm.toml"))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        acc = gs.simulate(s, theta_i_deg=[75], wavelengths="550", monochromatic=True, rays=64)
+    given = [str(w.message) for w in caught if issubclass(w.category, UserWarning)]
+    assert any("tangent plane" in g for g in given), given
+    assert acc.warnings, "the run kept no warning"
+    for w in acc.warnings:
+        assert given.count(w) == 1, (w, given)
 
 
 def test_one_name_for_one_thing_and_reprs_that_say_what_they_hold(tmp_path):

@@ -34,6 +34,11 @@ pub(super) struct CheckArgs {
     /// Most oblique incidence the validity warnings assume, degrees.
     #[arg(long, default_value_t = 0.0, value_parser = finite)]
     theta_max_deg: f64,
+    /// The method the validity warnings judge: auto (default: what a run takes by
+    /// default, with the methods it would choose per angle at --lambda-nm listed), beamlet
+    /// (rays) or diffraction; as `simulate --coherence`.
+    #[arg(long, default_value = "auto", value_parser = goniospec::simulate::coherence)]
+    coherence: goniospec::accumulate::Coherence,
     /// Illumination coherence radius the validity warnings assume, nm (or inf).
     #[arg(long, default_value_t = goniospec::simulate::defaults::COHERENCE_RADIUS_NM, value_parser = parse_radius)]
     coherence_radius_nm: f64,
@@ -63,10 +68,11 @@ pub(super) fn check(a: CheckArgs) -> Result<ExitCode> {
             a.lambda_nm,
             a.theta_max_deg,
             a.coherence_radius_nm,
+            a.coherence,
         )),
         ..Default::default()
     };
-    let report = goniospec::check::check(&s, &copts)?;
+    let report = goniospec::simulate::auto::check(&s, &copts)?;
     for f in &report.facts {
         outln!("{f}");
     }

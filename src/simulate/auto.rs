@@ -6,7 +6,8 @@
 //! that rays do not give (a coherent specular order narrower than the rays' lobe, or a
 //! grating's resolved orders: `cell_needs`) and the method can hold it: the
 //! sample is periodic with deterministic trees (`diffraction_refused`), the tangent plane
-//! holds (`physical_optics_margin` at least `PHYSICAL_OPTICS_MIN`), and its grid
+//! holds (`physical_optics_margin` at least `Need::margin_min`, the sheets not deep against
+//! their curvature), and its grid
 //! and kept exits fit in memory. Every other cell takes rays with the beamlet estimator.
 //! Where a cell needed the diffraction method and could not have it, the run says which
 //! cells, what they miss, and why (`Choice::notes`); no such note advises another of the
@@ -17,7 +18,7 @@
 
 use super::SimConfig;
 use crate::sample::Sample;
-use crate::sample::validity::{self, PHYSICAL_OPTICS_MIN};
+use crate::sample::validity::{self, PHYSICAL_OPTICS_MIN, PHYSICAL_OPTICS_MIN_GRATING};
 
 /// Each cell's method (direction-major; `true`: the diffraction method) and what the run
 /// must say about cells that needed the diffraction method and took rays.
@@ -87,11 +88,21 @@ pub fn choose(
                         cfg.rho_nm
                     ),
                 ))
-            } else if margin < PHYSICAL_OPTICS_MIN {
+            } else if margin < need.margin_min() {
                 Some((
                     2,
                     format!(
-                        "the tangent plane the method rests on fails there (k r_c cos^3 theta = {margin:.1}, below {PHYSICAL_OPTICS_MIN}; Ogilvy 1991, §4.2)"
+                        "the tangent plane the method rests on fails there (k r_c cos^3 theta = {margin:.1}, below {} for {}; Ogilvy 1991, §4.2)",
+                        need.margin_min(),
+                        need.what()
+                    ),
+                ))
+            } else if let Some(depth) = too_deep(sheets) {
+                Some((
+                    4,
+                    format!(
+                        "a sheet is deep against its curvature (RMS height / curvature radius {depth:.2}, above {}), where the method's tubes overlap on the exit plane as they do not at the surface",
+                        validity::MAX_DEPTH_OVER_CURVATURE
                     ),
                 ))
             } else if let Err(e) = fit {
@@ -175,6 +186,37 @@ pub enum Need {
     Orders { interface: usize, spacing: f64 },
 }
 
+impl Need {
+    /// The smallest tangent-plane margin (`physical_optics_margin`) at which the
+    /// diffraction method holds this need, as measured (`validity::PHYSICAL_OPTICS_MIN`,
+    /// `validity::PHYSICAL_OPTICS_MIN_GRATING`).
+    pub fn margin_min(&self) -> f64 {
+        match self {
+            Need::Specular { .. } => PHYSICAL_OPTICS_MIN,
+            Need::Orders { .. } => PHYSICAL_OPTICS_MIN_GRATING,
+        }
+    }
+
+    fn what(&self) -> &'static str {
+        match self {
+            Need::Specular { .. } => "a rough surface's coherent order",
+            Need::Orders { .. } => "a grating's orders",
+        }
+    }
+}
+
+/// The largest RMS height over curvature radius among the sheets, where it is above
+/// `validity::MAX_DEPTH_OVER_CURVATURE` (the diffraction method's limit there).
+fn too_deep(sheets: &[Option<validity::Scales>]) -> Option<f64> {
+    sheets
+        .iter()
+        .flatten()
+        .filter(|s| s.curvature_radius_nm.is_finite())
+        .map(|s| s.rms_height_nm / s.curvature_radius_nm)
+        .filter(|&d| d > validity::MAX_DEPTH_OVER_CURVATURE)
+        .reduce(f64::max)
+}
+
 /// What cell (`theta_deg`, vacuum `lambda_nm`) needs beyond rays, judged per sheet as the
 /// warnings of [`validity::assess_scales`] judge the run: a grating whose orders are coherent across
 /// (`Lambda < COHERENT_PERIODS rho`) and resolved (`lambda / Lambda > bucket / 4`), or a
@@ -241,4 +283,73 @@ pub fn physical_optics_margin(
             Some(2.0 * std::f64::consts::PI * n / lambda_nm * sc.curvature_radius_nm * cos3)
         })
         .fold(f64::INFINITY, f64::min)
+}
+
+/// `goniospec check` as the default run would judge it: [`crate::check::check`], and where
+/// the context's method is auto, the methods it takes at the context's wavelength per angle
+/// as a fact, with its notes on cells that needed the diffraction method and could not have
+/// it as warnings.
+pub fn check(
+    sample: &Sample,
+    opts: &crate::check::CheckOptions,
+) -> Result<crate::check::CheckReport, crate::accel::AccelError> {
+    let mut r = crate::check::check(sample, opts)?;
+    if let Some(ctx) = opts
+        .validity
+        .as_ref()
+        .filter(|c| c.method == validity::Method::Auto)
+    {
+        let (fact, notes) = methods_fact(sample, &r.sheets, ctx);
+        r.facts.push(fact);
+        r.warnings.extend(notes);
+    }
+    Ok(r)
+}
+
+/// What `--coherence auto` (the default) takes at the context's wavelength and angles, as
+/// a fact ("the diffraction method at 0-40 deg, rays at 41-60 deg"), with its notes on
+/// cells that needed the diffraction method and could not have it. The memory the method's
+/// grid needs is judged by the run itself (it depends on the trees asked for).
+fn methods_fact(
+    sample: &Sample,
+    sheets: &[Option<crate::sample::validity::Scales>],
+    ctx: &crate::sample::validity::Context,
+) -> (String, Vec<String>) {
+    use super::{Wavelengths, defaults};
+    let cfg = SimConfig {
+        rho_nm: ctx.rho_nm,
+        ..SimConfig::new(
+            ctx.theta_i_deg.clone(),
+            Wavelengths::Monochromatic(vec![ctx.lambda_min_nm]),
+            defaults::RAYS,
+        )
+    };
+    let choice = choose(sample, &cfg, sheets, &|_| Ok(()));
+    // Runs of consecutive angles with the same method.
+    let mut runs: Vec<(bool, f64, f64)> = Vec::new();
+    for (&t, &d) in ctx.theta_i_deg.iter().zip(&choice.diffraction) {
+        match runs.last_mut() {
+            Some(last) if last.0 == d => last.2 = t,
+            _ => runs.push((d, t, t)),
+        }
+    }
+    let parts: Vec<String> = runs
+        .iter()
+        .map(|&(d, a, b)| {
+            let what = if d { "the diffraction method" } else { "rays" };
+            if a == b {
+                format!("{what} at {a} deg")
+            } else {
+                format!("{what} at {a}-{b} deg")
+            }
+        })
+        .collect();
+    (
+        format!(
+            "methods under --coherence auto (the default) at {} nm: {}",
+            ctx.lambda_min_nm,
+            parts.join(", ")
+        ),
+        choice.notes,
+    )
 }

@@ -359,6 +359,11 @@ pub struct SimConfig {
     /// Set from another thread to stop the run at the next chunk of blocks; the run then
     /// returns [`SimError::Cancelled`] and nothing else (no partial result).
     pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    /// Tests only: tracing this direction (an index into `theta_i_deg`) fails as a refused
+    /// direction would, so that what a failed run keeps ([`super::SimError::Partial`]) can
+    /// be checked against a run of the finished angles alone. `None` in every real run.
+    #[doc(hidden)]
+    pub fail_direction: Option<usize>,
 }
 
 impl SimConfig {
@@ -393,6 +398,7 @@ impl SimConfig {
             allow_unphysical: false,
             first_direction: 0,
             cancel: None,
+            fail_direction: None,
         }
     }
 }
@@ -416,12 +422,19 @@ pub fn validity_context(cfg: &SimConfig) -> crate::sample::validity::Context {
 }
 
 /// The validity warnings `check` gives (no run to judge): one wavelength, normal incidence
-/// up to `theta_max_deg`, coherence radius `rho_nm`, the default buckets, rays.
+/// up to `theta_max_deg`, coherence radius `rho_nm`, the default buckets, the method of
+/// `coherence` (auto: the default run's).
 pub fn check_validity_context(
     lambda_nm: f64,
     theta_max_deg: f64,
     rho_nm: f64,
+    coherence: Coherence,
 ) -> crate::sample::validity::Context {
+    let method = validity_context(&SimConfig {
+        coherence,
+        ..SimConfig::new(vec![0.0], Wavelengths::Monochromatic(vec![lambda_nm]), 1)
+    })
+    .method;
     crate::sample::validity::Context {
         lambda_min_nm: lambda_nm,
         lambda_max_nm: lambda_nm,
@@ -433,7 +446,7 @@ pub fn check_validity_context(
             .collect(),
         rho_nm,
         bucket_rad: std::f64::consts::FRAC_PI_2 / f64::from(defaults::THETA_O_BINS),
-        method: crate::sample::validity::Method::Rays,
+        method,
     }
 }
 
