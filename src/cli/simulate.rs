@@ -67,9 +67,15 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     let total = a.settings.budget();
     let pool = thread_pool(a.threads)?;
     let bar = progress_bar(total, "trees");
-    let (acc, stats) =
-        pool.install(|| goniospec::simulate::simulate(&s, &cfg, &|n| bar.set_position(n)))?;
+    let result = pool.install(|| goniospec::simulate::simulate(&s, &cfg, &|n| bar.set_position(n)));
     bar.finish_and_clear();
+    let (acc, stats) = match result {
+        Ok(r) => r,
+        Err(goniospec::simulate::SimError::Partial { cause, kept }) => {
+            return Err(keep_partial(&a, &s, &kept.0, &cause));
+        }
+        Err(e) => return Err(e.into()),
+    };
     if a.settings.allow_unphysical
         && let Err(e) = goniospec::simulate::check_physical(&acc, &s.name, Some(&stats))
     {
@@ -170,4 +176,39 @@ fn diffraction_summary(
             String::new()
         }
     );
+}
+
+/// A run that failed after some directions finished: those directions' result written
+/// beside the output (`NAME.partial.gsa`), and the error saying so. Nothing is written
+/// where that file would overwrite an input or a file that is not an accumulator.
+fn keep_partial(
+    a: &SimulateArgs,
+    s: &goniospec::sample::Sample,
+    kept: &goniospec::accumulate::file::Accumulator,
+    cause: &goniospec::simulate::SimError,
+) -> anyhow::Error {
+    let path = a.output.with_extension("partial.gsa");
+    let inputs: Vec<&std::path::Path> = s.inputs.iter().map(|p| p.as_path()).collect();
+    let angles: Vec<String> = kept
+        .header
+        .settings
+        .theta_i_deg
+        .iter()
+        .map(|t| t.to_string())
+        .collect();
+    let written = guard_output(&path, &inputs, OutputKind::Gsa, a.force)
+        .map_err(|e| e.to_string())
+        .and_then(|()| kept.write(&path).map_err(|e| e.to_string()));
+    match written {
+        Ok(()) => anyhow::anyhow!(
+            "{cause}\nthe angles that finished before it ({} deg) are kept in {} (a whole run of those angles: goniospec info lists it); run the others again as the message above says",
+            angles.join(", "),
+            path.display()
+        ),
+        Err(why) => anyhow::anyhow!(
+            "{cause}\nthe angles that finished before it ({} deg) could not be kept in {}: {why}",
+            angles.join(", "),
+            path.display()
+        ),
+    }
 }

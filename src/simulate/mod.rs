@@ -29,6 +29,7 @@ mod block;
 mod diffract;
 mod hash;
 mod launch;
+mod partial;
 mod physical;
 mod prepare;
 mod run;
@@ -61,6 +62,14 @@ pub enum SimError {
     /// Stopped through `SimConfig::cancel`.
     #[error("the simulation was cancelled")]
     Cancelled,
+    /// A direction failed after others had finished: `kept` is the result of the
+    /// finished directions (a contiguous run of the asked angles, checked as a whole run's),
+    /// which a front end writes beside the output so that no finished work is lost.
+    #[error("{cause}")]
+    Partial {
+        cause: Box<SimError>,
+        kept: Box<(Accumulator, SimStats)>,
+    },
 }
 
 /// Everything [`simulate`] refuses before it traces, without tracing: the settings, the
@@ -141,12 +150,38 @@ pub fn simulate(
             c.leaks.load(Ordering::Relaxed),
             run.scene.scatter_violations(),
         );
-        let mut d = run.direction(di, cfg.theta_i_deg[di], &mut cells, lost, progress)?;
-        d.segments = c.segments.load(Ordering::Relaxed) - before.0;
-        d.leaks = c.leaks.load(Ordering::Relaxed) - before.1;
-        d.envelope_violations = run.scene.scatter_violations() - before.2;
-        done[di] = Some(d);
-        run.diffraction_refusal(&diffraction, di * run.nl..(di + 1) * run.nl)?;
+        let traced = if cfg.fail_direction == Some(di) {
+            Err(SimError::Unphysical(format!(
+                "direction {di} failed as the test asked (SimConfig::fail_direction)"
+            )))
+        } else {
+            run.direction(di, cfg.theta_i_deg[di], &mut cells, lost, progress)
+        };
+        let failed = match traced {
+            Ok(mut d) => {
+                d.segments = c.segments.load(Ordering::Relaxed) - before.0;
+                d.leaks = c.leaks.load(Ordering::Relaxed) - before.1;
+                d.envelope_violations = run.scene.scatter_violations() - before.2;
+                done[di] = Some(d);
+                run.diffraction_refusal(&diffraction, di * run.nl..(di + 1) * run.nl)
+                    .err()
+                    .inspect(|_| done[di] = None)
+            }
+            Err(e) => Some(e),
+        };
+        if let Some(cause) = failed {
+            let lost = LostSums {
+                diffraction,
+                limit_dropped,
+                escaped,
+                limit_bound,
+                created,
+                limited,
+            };
+            return Err(partial::keep_finished(
+                run, cfg, cause, cells, lost, done, start_time,
+            ));
+        }
     }
     let directions: Vec<DirectionStats> = done
         .into_iter()

@@ -1,0 +1,81 @@
+//! What a failed run keeps (issue 48): when a direction fails after others finished, the
+//! longest contiguous run of finished directions comes back with the error
+//! (`SimError::Partial`), and it is byte for byte the result of a run of those angles
+//! alone: each direction draws its own streams and fills its own cells, which the batch
+//! units rest on too. The reference is that independent run, not the failed one's output.
+
+mod common;
+
+use common::*;
+use goniospec::accumulate::Coherence;
+use goniospec::simulate::{SimConfig, SimError, Wavelengths, simulate};
+
+fn gold_cfg(theta: &[f64], fail: Option<usize>, coherence: Coherence) -> SimConfig {
+    SimConfig {
+        coherence,
+        fail_direction: fail,
+        ..config(theta, Wavelengths::parse("500:600:50", false).unwrap(), 256)
+    }
+}
+
+#[test]
+fn a_failed_direction_keeps_the_finished_angles_as_their_own_run_would() {
+    let s = shipped("rough-gold.toml");
+    let angles = [0.0, 30.0, 60.0, 75.0];
+    // Direction 2 (60 deg) fails: 0 and 30 deg are kept, 75 deg is not traced.
+    let err = simulate(&s, &gold_cfg(&angles, Some(2), Coherence::Auto), &|_| {})
+        .expect_err("the injected failure");
+    let SimError::Partial { cause, kept } = err else {
+        panic!("no partial result: {err}");
+    };
+    assert!(cause.to_string().contains("direction 2 failed"), "{cause}");
+    let (acc, stats) = *kept;
+    assert_eq!(acc.header.settings.theta_i_deg, vec![0.0, 30.0]);
+    assert_eq!(stats.directions.len(), 2);
+    let alone = run(&s, &gold_cfg(&[0.0, 30.0], None, Coherence::Auto));
+    assert!(
+        acc.to_bytes() == alone.to_bytes(),
+        "the kept angles differ from a run of them alone"
+    );
+}
+
+#[test]
+fn later_finished_angles_are_kept_as_a_unit_of_the_run() {
+    // The first direction fails, the rest finish: they are kept as a batch unit that
+    // starts at direction 1 (its streams), the same bytes as that unit run alone.
+    let s = shipped("rough-gold.toml");
+    let err = simulate(
+        &s,
+        &gold_cfg(&[0.0, 30.0, 60.0], Some(0), Coherence::Auto),
+        &|_| {},
+    );
+    // In order, nothing finished before direction 0 failed, so nothing is kept.
+    assert!(
+        matches!(err, Err(SimError::Unphysical(_))),
+        "{:?}",
+        err.err()
+    );
+    // The diffraction method traces the most oblique first: a failure at 0 deg comes last,
+    // and 30 and 60 deg are kept.
+    let film = shipped("thin-film-600nm.toml");
+    let cfg = |theta: &[f64], fail| SimConfig {
+        coherence: Coherence::Diffraction,
+        fail_direction: fail,
+        ..config(theta, Wavelengths::Monochromatic(vec![550.0]), 64)
+    };
+    let Err(SimError::Partial { kept, .. }) =
+        simulate(&film, &cfg(&[0.0, 20.0, 40.0], Some(0)), &|_| {})
+    else {
+        panic!("no partial result");
+    };
+    let unit = SimConfig {
+        first_direction: 1,
+        ..cfg(&[20.0, 40.0], None)
+    };
+    let alone = run(&film, &unit);
+    assert_eq!(kept.0.header.settings.theta_i_deg, vec![20.0, 40.0]);
+    assert!(
+        kept.0.to_bytes() == alone.to_bytes(),
+        "the kept angles differ from the unit run alone"
+    );
+}
