@@ -175,7 +175,20 @@ fn simulate_and_check_print_the_warnings() {
         out_text.contains("strongest axis mode period 5000 nm"),
         "{out_text}"
     );
+    // check judges the default run (auto), which takes the orders: it names the method
+    // and warns of nothing; judged for rays, it warns that they miss the orders.
+    assert!(
+        out_text.contains(
+            "methods under --coherence auto (the default) at 550 nm: the diffraction method at 0 deg"
+        ),
+        "{out_text}"
+    );
+    assert!(!out_text.contains("WARNING"), "{out_text}");
+    let (rc, out_text, err) =
+        goniospec(&["check", sample.to_str().unwrap(), "--coherence", "beamlet"]);
+    assert_eq!(rc, 0, "{err}");
     assert!(out_text.contains("WARNING: interface 0"), "{out_text}");
+    assert!(out_text.contains("--coherence diffraction"), "{out_text}");
     // The diffraction method itself: no ray warning, and its own summary.
     let (rc, _, err) = simulate("4096", "d.gsa", &["--coherence", "diffraction"]);
     assert_eq!(rc, 0, "{err}");
