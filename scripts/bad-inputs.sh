@@ -239,7 +239,7 @@ for r in 1e-120 0 0.01 2e4 1e6; do
 done
 for m in 1e-100 5000; do
   pm "particles = { medium = \"tio2\", log_normal = { median_radius_nm = $m, sigma = 0.7 }, volume_fraction = 0.05 }"
-  refuse "samples radii from .* must lie in" $G simulate pm.toml --theta-i 0 --rays 1 -o x.gsa
+  refuse "size integral over radii from .* must lie in" $G simulate pm.toml --theta-i 0 --rays 1 -o x.gsa
 done
 pm "particles = { medium = \"tio2\", radius_nm = 1e4, volume_fraction = 0.05 }"
 run $G simulate pm.toml --theta-i 0 --rays 1 --wavelengths 550 --monochromatic -o x.gsa --force

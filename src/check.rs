@@ -85,9 +85,21 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
         ),
         None => "sides: periodic (rays leaving the tile re-enter on the opposite side)".into(),
     });
-    for m in &sample.media {
+    for (i, m) in sample.media.iter().enumerate() {
         r.facts
             .push(format!("medium {:<14} {}", m.name, m.model.describe()));
+        match scattering_fact(sample, i, 550.0) {
+            Some(Ok(f)) => r.facts.push(f),
+            Some(Err(e)) => r.defects.push(format!("medium '{}': {e}", m.name)),
+            None => {}
+        }
+        if let Some(w) = m
+            .scattering
+            .as_ref()
+            .and_then(|sc| sc.packing_warning(&m.name))
+        {
+            r.warnings.push(w);
+        }
     }
     let tol = 1e-6 * lx.max(ly);
     // Every sheet's feature scales, measured once for the facts and the validity warnings.
@@ -157,6 +169,82 @@ pub fn check(sample: &Sample, opts: &CheckOptions) -> Result<CheckReport, AccelE
     }
     r.sheets = sheets;
     Ok(r)
+}
+
+/// What a scattering medium does at `lambda_nm`: its extinction coefficient, albedo and
+/// asymmetry, the transport mean free path `1 / (mu_ext (1 - omega g))`, and for a size
+/// distribution how well its size integral converged (`optics::particles`); `None` for a
+/// clear medium.
+fn scattering_fact(
+    sample: &Sample,
+    i: usize,
+    lambda_nm: f64,
+) -> Option<Result<String, crate::optics::particles::ParticleError>> {
+    use crate::optics::particles::{Radius, ScatterModel};
+    use crate::sample::Scattering;
+    let m = &sample.media[i];
+    let index = |k: usize| {
+        let (n, kk) = sample.media[k]
+            .model
+            .eval(lambda_nm)
+            .unwrap_or((f64::NAN, f64::NAN));
+        crate::optics::C64::new(n, kk)
+    };
+    let (model, what) = match m.scattering.as_ref()? {
+        Scattering::HenyeyGreenstein {
+            g,
+            scattering_per_um,
+            absorption_per_um,
+        } => (
+            ScatterModel::henyey_greenstein(*g, *scattering_per_um, *absorption_per_um),
+            "Henyey-Greenstein".to_string(),
+        ),
+        Scattering::Particles {
+            medium,
+            radius,
+            volume_fraction,
+            dependent,
+        } => (
+            ScatterModel::mie(
+                *radius,
+                *volume_fraction,
+                *dependent,
+                lambda_nm,
+                lambda_nm,
+                &|_| index(i),
+                &|_| index(*medium),
+            ),
+            format!(
+                "particles of '{}' ({}) at {} % by volume, {}",
+                sample.media[*medium].name,
+                match radius {
+                    Radius::Fixed { radius_nm } => format!("radius {radius_nm} nm"),
+                    Radius::LogNormal { median_nm, sigma } =>
+                        format!("log-normal by number, median {median_nm} nm, sigma {sigma}"),
+                },
+                100.0 * volume_fraction,
+                if *dependent {
+                    "dependent scattering (Percus-Yevick structure factor)"
+                } else {
+                    "independent scattering"
+                }
+            ),
+        ),
+    };
+    Some(model.map(|model| {
+        let (mu, albedo) = model.coefficients(lambda_nm);
+        let g = model.asymmetry(lambda_nm);
+        let transport_um = 1e-3 / (mu * (1.0 - albedo * g));
+        let size = match model.size_uncertainty() {
+            0.0 => String::new(),
+            u => format!("; size integral converged to {u:.1e}"),
+        };
+        format!(
+            "medium {:<14} {what}: at {lambda_nm} nm extinction {:.4} per um, albedo {albedo:.4}, g {g:.4}, transport mean free path {transport_um:.3} um{size}",
+            m.name,
+            mu * 1e3
+        )
+    }))
 }
 
 /// A coating's layers as facts (medium and thickness in nm, outermost first), and a warning

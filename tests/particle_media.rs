@@ -302,3 +302,154 @@ fn every_shipped_paint_runs_at_default_settings_and_balances() {
         }
     }
 }
+
+/// Particle media are never traced as their clear host (issue 50): as a stack's ambient
+/// or substrate (media without end, which the tracer does not follow light into) they are
+/// refused at load, as the medium below a meshed sheet at the run's set-up, and `analytic`
+/// (clear layers' transfer matrices) refuses a stack holding one; each names the medium
+/// and what to do instead.
+#[test]
+fn particle_media_are_never_taken_for_their_clear_host() {
+    let dir = scratch("pm-host");
+    let s = paint(&dir, "substrate", WHITE, 2.0, "paint");
+    let (code, _, err) = goniospec(&["check", s.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("the substrate 'paint' scatters in volume"),
+        "{err}"
+    );
+    assert!(err.contains("finite depth as a layer"), "{err}");
+    let text = std::fs::read_to_string(&s)
+        .unwrap()
+        .replace("ambient = \"air\"", "ambient = \"paint\"")
+        .replace("substrate = \"paint\"", "substrate = \"black\"");
+    std::fs::write(&s, text).unwrap();
+    let (code, _, err) = goniospec(&["check", s.to_str().unwrap()]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("the ambient 'paint' scatters in volume"),
+        "{err}"
+    );
+    // analytic: a scattering layer is refused, a clear stack is not.
+    let layer = paint(&dir, "layer", WHITE, 2.0, "black");
+    let args = |p: &Path| {
+        vec![
+            "analytic".to_string(),
+            p.to_str().unwrap().to_string(),
+            "--theta-i".into(),
+            "0".into(),
+            "--wavelengths".into(),
+            "550".into(),
+            "--monochromatic".into(),
+        ]
+    };
+    let a = args(&layer);
+    let (code, out, err) = goniospec(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_ne!(code, 0, "{out}");
+    assert!(err.contains("medium 'paint' scatters in volume"), "{err}");
+    let clear = paint(&dir, "clear", "", 2.0, "black");
+    let a = args(&clear);
+    let (code, _, err) = goniospec(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(code, 0, "{err}");
+    // A meshed sheet with the particle medium below it.
+    std::fs::write(
+        dir.join("flat.obj"),
+        "v 0 0 0\nv 5 0 0\nv 5 5 0\nv 0 5 0\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let meshed = dir.join("meshed.toml");
+    std::fs::write(
+        &meshed,
+        format!(
+            "[sample]\nname = \"meshed\"\nunit = \"um\"\ntile = [5.0, 5.0]\n[media.air]\nn = 1.0\n[media.tio2]\ntable = \"{}/data/tio2-sarkar.csv\"\n[media.paint]\nn = 1.49\n{WHITE}\n[[interface]]\nmesh = \"flat.obj\"\nfront = \"air\"\nback = \"paint\"\n",
+            root().display()
+        ),
+    )
+    .unwrap();
+    let gsa = dir.join("meshed.gsa");
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        meshed.to_str().unwrap(),
+        "--theta-i",
+        "0",
+        "--rays",
+        "8",
+        "-o",
+        gsa.to_str().unwrap(),
+    ]);
+    assert_ne!(code, 0);
+    assert!(
+        err.contains("medium 'paint' scatters in volume and is the medium below the sample"),
+        "{err}"
+    );
+    assert!(!gsa.exists());
+}
+
+/// Packed pigments (issue 50): dependent scattering is on by default and named by `check`;
+/// a medium packed beyond where the Percus-Yevick structure factor is trusted warns (in
+/// `check` and in the run), one told to scatter independently while dense warns, and
+/// fractions at or above random close packing are refused.
+#[test]
+fn packed_pigments_are_named_warned_and_refused_beyond_close_packing() {
+    let dir = scratch("pm-packed");
+    let with = |name: &str, tail: &str| {
+        paint(
+            &dir,
+            name,
+            &format!("particles = {{ medium = \"tio2\", radius_nm = 120.0, {tail} }}"),
+            2.0,
+            "black",
+        )
+    };
+    let s = with("default", "volume_fraction = 0.2");
+    let (code, out, err) = goniospec(&["check", s.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("at 20 % by volume, dependent scattering (Percus-Yevick structure factor)"),
+        "{out}"
+    );
+    assert!(!out.contains("WARNING"), "{out}");
+    let dense = with("dense", "volume_fraction = 0.5");
+    let (code, out, _) = goniospec(&["check", dense.to_str().unwrap()]);
+    assert_eq!(code, 0);
+    assert!(
+        out.contains("WARNING: medium 'paint' packs its particles at 50 %"),
+        "{out}"
+    );
+    let gsa = dir.join("dense.gsa");
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        dense.to_str().unwrap(),
+        "--theta-i",
+        "0",
+        "--wavelengths",
+        "550",
+        "--monochromatic",
+        "--rays",
+        "16",
+        "-o",
+        gsa.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("packs its particles at 50 %"), "{err}");
+    let none = with("none", "volume_fraction = 0.2, dependent = \"none\"");
+    let (code, out, _) = goniospec(&["check", none.to_str().unwrap()]);
+    assert_eq!(code, 0);
+    assert!(
+        out.contains("independent scattering overstates it"),
+        "{out}"
+    );
+    for (name, tail, want) in [
+        ("rcp", "volume_fraction = 0.64", "random close packing"),
+        (
+            "bad",
+            "volume_fraction = 0.1, dependent = \"yes\"",
+            "dependent must be",
+        ),
+    ] {
+        let s = with(name, tail);
+        let (code, _, err) = goniospec(&["check", s.to_str().unwrap()]);
+        assert_ne!(code, 0, "{tail}");
+        assert!(err.contains(want), "{tail}: {err}");
+    }
+}

@@ -310,6 +310,14 @@ def test_validity_warnings_and_the_diffraction_method():
     assert not any("--coherence diffraction" in w for w in c["warnings"]), c["warnings"]
 
 
+def test_analytic_refuses_a_particle_layer():
+    """Issue 50: the transfer-matrix reference of clear layers would give the white paint's
+    clear binder; it refuses the stack and names the medium."""
+    s = gs.Sample.load(mesh("paint-pigments.toml"))
+    with pytest.raises(ValueError, match="medium 'paint' scatters in volume"):
+        gs.analytic(s, 0, wavelengths="550", monochromatic=True)
+
+
 def test_every_warning_the_run_keeps_is_a_user_warning():
     """Issue 48: what a run finds on its way (auto's note that the film's 75 deg cells
     needed the diffraction method where its tangent plane fails) is a UserWarning as the

@@ -47,8 +47,20 @@ pub fn analytic(
             "theta_i must be in [0, 90) degrees, got {theta_i_deg}"
         )));
     }
-    if sample.stack.is_none() {
+    let Some(stack) = &sample.stack else {
         return Err("the sample is not written as a [stack]: the analytic reference needs a flat layered sample".into());
+    };
+    let media = std::iter::once(stack.ambient)
+        .chain(stack.layers.iter().map(|l| l.0))
+        .chain(std::iter::once(stack.substrate));
+    if let Some(m) = media
+        .map(|m| &sample.media[m])
+        .find(|m| m.scattering.is_some())
+    {
+        return Err(ReferenceError::from(format!(
+            "medium '{}' scatters in volume (particles or henyey_greenstein): the analytic reference is the transfer-matrix method of clear layers, which would give the clear host's R and T; simulate the sample, whose random walk takes the scattering",
+            m.name
+        )));
     }
     let th = theta_i_deg.to_radians();
     let stack_at = |l: f64| stack_indices(sample, l);

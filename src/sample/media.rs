@@ -197,6 +197,9 @@ pub enum Scattering {
         medium: usize,
         radius: crate::optics::particles::Radius,
         volume_fraction: f64,
+        /// Dependent scattering of the packed spheres (the Percus-Yevick structure factor,
+        /// `optics::particles::structure`): on by default from `PY_FROM` by volume.
+        dependent: bool,
     },
     /// A prescribed Henyey-Greenstein phase function and coefficients (1/um), the same at
     /// every wavelength.
@@ -208,6 +211,35 @@ pub enum Scattering {
 }
 
 impl Scattering {
+    /// Where a particle medium's scattering model is stretched: packed beyond where the
+    /// Percus-Yevick structure factor is trusted, or dense and told to scatter independently.
+    pub fn packing_warning(&self, name: &str) -> Option<String> {
+        use crate::optics::particles::structure::{PY_TRUSTED_MAX, percus_yevick};
+        let Scattering::Particles {
+            volume_fraction: f,
+            dependent,
+            ..
+        } = self
+        else {
+            return None;
+        };
+        if *dependent && *f > PY_TRUSTED_MAX {
+            Some(format!(
+                "medium '{name}' packs its particles at {} % by volume, above the {} % to which the Percus-Yevick structure factor is trusted (Hansen & McDonald 2006, §4.4): its scattering is uncertain there; a many-particle solver (T-matrix) settles it",
+                100.0 * f,
+                100.0 * PY_TRUSTED_MAX
+            ))
+        } else if !*dependent && *f >= 0.1 {
+            Some(format!(
+                "medium '{name}' holds {} % of particles by volume with dependent = \"none\": independent scattering overstates it there (by up to 1 / S(0) = {:.2} for spheres small against the wavelength); the default, \"percus-yevick\", takes the packing",
+                100.0 * f,
+                1.0 / percus_yevick(*f, 0.0)
+            ))
+        } else {
+            None
+        }
+    }
+
     /// Appends a canonical encoding (for the sample hash), like
     /// [`IndexModel::canonical_bytes`].
     pub fn canonical_bytes(&self, out: &mut Vec<u8>) {
@@ -217,14 +249,21 @@ impl Scattering {
                 medium,
                 radius,
                 volume_fraction,
-            } => match radius {
-                Radius::Fixed { radius_nm } => {
-                    vec![10.0, *medium as f64, *volume_fraction, *radius_nm]
+                dependent,
+            } => {
+                let mut v = match radius {
+                    Radius::Fixed { radius_nm } => {
+                        vec![10.0, *medium as f64, *volume_fraction, *radius_nm]
+                    }
+                    Radius::LogNormal { median_nm, sigma } => {
+                        vec![11.0, *medium as f64, *volume_fraction, *median_nm, *sigma]
+                    }
+                };
+                if *dependent {
+                    v.push(1.0);
                 }
-                Radius::LogNormal { median_nm, sigma } => {
-                    vec![11.0, *medium as f64, *volume_fraction, *median_nm, *sigma]
-                }
-            },
+                v
+            }
             Scattering::HenyeyGreenstein {
                 g,
                 scattering_per_um,
@@ -276,6 +315,8 @@ pub(crate) struct RawParticles {
     pub radius_nm: Option<f64>,
     pub log_normal: Option<RawLogNormal>,
     pub volume_fraction: f64,
+    /// "percus-yevick" or "none" (default: percus-yevick from 0.5 % by volume).
+    pub dependent: Option<String>,
 }
 
 #[derive(Deserialize, Debug, Clone)]

@@ -578,6 +578,11 @@ fn smooth_at_grazing(sample: &Sample, sheet: &Sheet, ctx: &Context) -> Option<Fi
 pub fn findings(sample: &Sample, ctx: &Context) -> Vec<Finding> {
     let mut out = assess(sample, ctx);
     out.extend(small_bodies(sample, ctx.lambda_min_nm));
+    // Particle media packed beyond what their scattering model holds.
+    out.extend(sample.media.iter().filter_map(|m| {
+        let message = m.scattering.as_ref()?.packing_warning(&m.name)?;
+        Some(Finding { message })
+    }));
     out
 }
 

@@ -177,6 +177,19 @@ impl<'a> Scene<'a> {
         scene.film_faces = film::film_faces(sample.media.len(), &faces);
         scene.ambient = scene.outer_medium(true)?;
         scene.substrate = scene.outer_medium(false)?;
+        for (m, side) in [(scene.ambient, "above"), (scene.substrate, "below")] {
+            if sample.media[m].scattering.is_some() {
+                return Err(SceneError::Geometry(format!(
+                    "medium '{}' scatters in volume and is the medium {side} the sample, which goes on without end: the tracer follows light only between the sample's top and bottom planes, so its particles would be ignored there. Give it a finite depth as a layer (one many transport mean free paths deep, which goniospec check prints, reflects as a half-space does) over a clear medium{}",
+                    sample.media[m].name,
+                    if side == "above" {
+                        "; a BRDF is measured in a clear medium above the sample"
+                    } else {
+                        ""
+                    }
+                )));
+            }
+        }
         Ok(scene)
     }
 

@@ -45,9 +45,11 @@ impl<'a> Scene<'a> {
                     medium,
                     radius,
                     volume_fraction,
+                    dependent,
                 }) => Some(ScatterModel::mie(
                     *radius,
                     *volume_fraction,
+                    *dependent,
                     lo_nm,
                     hi_nm,
                     &|l| index(i, l),

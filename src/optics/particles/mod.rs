@@ -12,11 +12,12 @@
 //!
 //! Two phase models:
 //! - **Mie particles** (`optics::mie`): spheres of one radius or a log-normal distribution
-//!   of radii (by number) at a volume fraction `f_v`, independent scattering (valid to
-//!   about `f_v = 0.1`; denser suspensions scatter less than this predicts). With number
-//!   density `N = f_v / <V>`, `mu_ext = N <C_ext>` and `mu_sca = N <C_sca>` (BH eq. 3.40,
-//!   summed over sizes). A scattering event picks a radius with probability
-//!   `w_r C_sca,r / sum w C_sca`, then a direction from the density
+//!   of radii (by number) at a volume fraction `f_v`. With number density `N = f_v /
+//!   <V>`, `mu_ext = N <C_ext>` and `mu_sca = N <C_sca>` (BH eq. 3.40), the size integrals
+//!   converged to a stated accuracy (`sizes`); packed spheres scatter dependently, the
+//!   phase function multiplied by the hard spheres' structure factor (`structure`). A
+//!   scattering event picks a radius with probability `w_r C_sca,r / sum w C_sca`, then a
+//!   direction from the density
 //!   `q(Omega) = sum_i |S E_i|^2 / (k^2 C_sca sum_i |E_i|^2)` of the two polarisation
 //!   fields `E_i` the ray carries (BH eq. 3.12: `S E = S2 (E . e_par) e_par' + S1 (E .
 //!   e_perp) e_perp` in the scattering-plane basis; `integral |S E|^2 dOmega = k^2 C_sca
@@ -46,46 +47,8 @@ use crate::rng::Rng;
 
 /// Intervals of the phase function's envelope over `theta` in `[0, pi]`, at least.
 pub const THETA_INTERVALS: usize = 256;
-/// Radius nodes of a log-normal distribution: trapezoidal quadrature of the normal
-/// density on `ln r` over +-3.5 standard deviations (the 5e-4 of the mass beyond is
-/// renormalised away).
-pub const LOG_NORMAL_NODES: usize = 17;
-
-/// The spheres' radius.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Radius {
-    Fixed {
-        radius_nm: f64,
-    },
-    /// `ln r` normal with median `median_nm` and standard deviation `sigma`, by number.
-    LogNormal {
-        median_nm: f64,
-        sigma: f64,
-    },
-}
-
-impl Radius {
-    /// `(radius_nm, weight)` nodes, weights summing to 1.
-    pub fn nodes(&self) -> Vec<(f64, f64)> {
-        match *self {
-            Radius::Fixed { radius_nm } => vec![(radius_nm, 1.0)],
-            Radius::LogNormal { median_nm, sigma } => {
-                let k = LOG_NORMAL_NODES;
-                let z = |i: usize| -3.5 + 7.0 * i as f64 / (k - 1) as f64;
-                let w: Vec<f64> = (0..k)
-                    .map(|i| {
-                        let end = if i == 0 || i == k - 1 { 0.5 } else { 1.0 };
-                        end * (-0.5 * z(i) * z(i)).exp()
-                    })
-                    .collect();
-                let total: f64 = w.iter().sum();
-                (0..k)
-                    .map(|i| (median_nm * (sigma * z(i)).exp(), w[i] / total))
-                    .collect()
-            }
-        }
-    }
-}
+use sizes::size_integral;
+pub use sizes::{MAX_RADIUS_NM, Radius, SIZE_TOLERANCE, TAIL_Z};
 
 /// Why a particle medium cannot be tabulated.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -162,6 +125,13 @@ impl Alias {
 pub struct LambdaEntry {
     mu_ext_per_nm: f64,
     albedo: f64,
+    /// The size integral's asymmetry `<g C_sca> / <C_sca>`.
+    g: f64,
+    /// The size integral's last relative change (0 for one radius).
+    size_change: f64,
+    /// With dependent scattering: the volume fraction and `k d` (host wavenumber times the
+    /// spheres' diameter) of the structure factor that multiplies the phase function.
+    structure: Option<(f64, f64)>,
     sizes: Vec<SizeEntry>,
     /// Cumulative probability of each size at a scattering event.
     size_cdf: Vec<f64>,
@@ -222,31 +192,35 @@ impl ScatterModel {
     /// Mie particles of radius `radius` at volume fraction `volume_fraction`, tabulated for
     /// every whole nanometre covering `[lo_nm, hi_nm]`; `host(lambda)` and
     /// `particle(lambda)` are the complex indices of the host and the particles.
+    #[allow(clippy::too_many_arguments)]
     pub fn mie(
         radius: Radius,
         volume_fraction: f64,
+        dependent: bool,
         lo_nm: f64,
         hi_nm: f64,
         host: &(dyn Fn(f64) -> C64 + Sync),
         particle: &(dyn Fn(f64) -> C64 + Sync),
     ) -> Result<ScatterModel, ParticleError> {
-        if !(volume_fraction.is_finite() && volume_fraction > 0.0 && volume_fraction < 0.74) {
+        let rcp = structure::RANDOM_CLOSE_PACKING;
+        if !(volume_fraction.is_finite() && volume_fraction > 0.0 && volume_fraction < rcp) {
             return Err(ParticleError::Invalid(format!(
-                "volume_fraction must lie in (0, 0.74) (0.74: spheres packed as densely as they can be), got {volume_fraction}"
+                "volume_fraction must lie in (0, {rcp}) ({rcp}: random close packing, the densest a suspension of spheres can be), got {volume_fraction}"
             )));
         }
-        let nodes = radius.nodes();
-        if let Some(&(r, _)) = nodes.iter().find(|(r, _)| !(r.is_finite() && *r > 0.0)) {
+        let [r_lo, r_hi] = radius.span_nm();
+        if !(r_lo.is_finite() && r_lo > 0.0 && r_hi.is_finite()) {
             return Err(ParticleError::Invalid(format!(
-                "particle radii must be positive and finite, got {r} nm"
+                "particle radii must be positive and finite, got {r_lo} to {r_hi} nm"
             )));
         }
         // N = f_v / <V>, particles per nm^3.
-        let mean_volume: f64 = nodes
-            .iter()
-            .map(|(r, w)| w * 4.0 / 3.0 * std::f64::consts::PI * r.powi(3))
-            .sum();
-        let density = volume_fraction / mean_volume;
+        let density = volume_fraction / radius.mean_volume_nm3();
+        // Dependent scattering: hard spheres of the volume-equivalent mean diameter.
+        let packing = dependent.then(|| Packing {
+            f: volume_fraction,
+            d_nm: 2.0 * (radius.mean_volume_nm3() * 3.0 / (4.0 * std::f64::consts::PI)).cbrt(),
+        });
         let first_nm = lo_nm.round() as i64;
         let last_nm = hi_nm.round() as i64;
         // Each whole nanometre on its own, in parallel (set-up grows as x^2 per size node);
@@ -254,7 +228,7 @@ impl ScatterModel {
         use rayon::prelude::*;
         let table = (first_nm..=last_nm)
             .into_par_iter()
-            .map(|l| lambda_entry(l as f64, &nodes, density, host, particle))
+            .map(|l| lambda_entry(l as f64, radius, density, packing, host, particle))
             .collect::<Result<Vec<_>, _>>()?;
         Ok(ScatterModel::Mie {
             first_nm,
@@ -303,6 +277,51 @@ impl ScatterModel {
         }
     }
 
+    /// The asymmetry parameter `g = <cos theta>` at `lambda_nm`: the prescribed one, or
+    /// the size integral's `<g C_sca> / <C_sca>`.
+    pub fn asymmetry(&self, lambda_nm: f64) -> f64 {
+        match self {
+            ScatterModel::HenyeyGreenstein { g, .. } => *g,
+            ScatterModel::Mie { .. } => self.entry(lambda_nm).expect("a tabulated wavelength").g,
+        }
+    }
+
+    /// The asymmetry of the phase function a scattering event draws from at `lambda_nm`:
+    /// the sampling radii's Mie asymmetries weighted by the scattering each stands for
+    /// (the mixture of `sizes::SAMPLING_CELL_LN_R`).
+    pub fn sampled_asymmetry(&self, lambda_nm: f64) -> f64 {
+        match self {
+            ScatterModel::HenyeyGreenstein { g, .. } => *g,
+            ScatterModel::Mie { .. } => {
+                let e = self.entry(lambda_nm).expect("a tabulated wavelength");
+                let mut before = 0.0;
+                e.sizes
+                    .iter()
+                    .zip(&e.size_cdf)
+                    .map(|(s, &c)| {
+                        let p = c - before;
+                        before = c;
+                        p * s.mie.g()
+                    })
+                    .sum()
+            }
+        }
+    }
+
+    /// The largest relative change of a size integral at its last refinement, over the
+    /// tabulated wavelengths: below [`SIZE_TOLERANCE`] where it converged; above it where
+    /// Mie resonances of lossless spheres narrower than the finest step remain (the
+    /// integrals are then as good as that change says). 0 for one radius and for
+    /// Henyey-Greenstein media.
+    pub fn size_uncertainty(&self) -> f64 {
+        match self {
+            ScatterModel::HenyeyGreenstein { .. } => 0.0,
+            ScatterModel::Mie { table, .. } => {
+                table.iter().map(|e| e.size_change).fold(0.0, f64::max)
+            }
+        }
+    }
+
     /// Scatters a wave travelling along `d` (unit) with fields `e` (the two incident
     /// polarisations): returns the new direction and replaces the fields, their power
     /// multiplied by the albedo and by the event's importance weight.
@@ -342,7 +361,10 @@ impl ScatterModel {
                     let i = size.alias.draw(rng.uniform());
                     let theta = (i as f64 + rng.uniform()) * dtheta;
                     let (s1, s2) = size.mie.s1_s2(theta.cos());
-                    let f = 0.5 * (s1.norm_sqr() + s2.norm_sqr()) * theta.sin();
+                    let mut f = 0.5 * (s1.norm_sqr() + s2.norm_sqr()) * theta.sin();
+                    if let Some((fv, kd)) = t.structure {
+                        f *= structure::percus_yevick(fv, 2.0 * kd * (0.5 * theta).sin());
+                    }
                     if f > size.bound[i] {
                         violations.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                     }
@@ -434,10 +456,12 @@ pub fn hg_density(g: f64, mu: f64) -> f64 {
 
 /// One wavelength's entry of [`ScatterModel::mie`]: the size-averaged extinction and
 /// albedo, and each size node's coefficients and envelope.
+#[allow(clippy::too_many_arguments)]
 fn lambda_entry(
     lambda: f64,
-    nodes: &[(f64, f64)],
+    radius: Radius,
     density: f64,
+    packing: Option<Packing>,
     host: &(dyn Fn(f64) -> C64 + Sync),
     particle: &(dyn Fn(f64) -> C64 + Sync),
 ) -> Result<LambdaEntry, ParticleError> {
@@ -450,24 +474,49 @@ fn lambda_entry(
     }
     let k_host = 2.0 * std::f64::consts::PI * nh.re / lambda;
     let m = particle(lambda) / nh.re;
-    let (mut c_ext, mut c_sca) = (0.0, 0.0);
-    let mut sizes = Vec::new();
-    let mut size_w = Vec::new();
-    for &(r, w) in nodes {
-        let x = k_host * r;
-        let mie = Mie::new(m, x).map_err(|source| ParticleError::Mie {
-            lambda_nm: lambda,
-            source,
-        })?;
-        let area = std::f64::consts::PI * r * r;
-        let (ce, cs) = (mie.q_ext() * area, mie.q_sca() * area);
-        c_ext += w * ce;
-        c_sca += w * cs;
-        size_w.push(w * cs);
-        let bound = envelope(&mie);
+    let integral = size_integral(radius, k_host, m, MAX_RADIUS_NM)
+        .map_err(|e| ParticleError::Invalid(format!("at {lambda} nm: {e}")))?;
+    let [c_ext, c_sca, c_g] = integral.sums;
+    // The structure factor as a function of theta: S(q d), q = 2 k sin(theta / 2).
+    let s_of = packing.map(|p| (p.f, k_host * p.d_nm));
+    // S at the envelope's probes, once per interval count (most sizes share 256).
+    let mut factors: Vec<(usize, Vec<f64>)> = Vec::new();
+    let mut sizes = Vec::with_capacity(integral.sampling.len());
+    let mut size_w = Vec::with_capacity(integral.sampling.len());
+    // With packing: each sampling radius's scattering and g under S (the share of its
+    // phase function S keeps, and the mean cosine of what it keeps).
+    let (mut c_sca_dep, mut c_g_dep) = (0.0, 0.0);
+    for (mie, w) in integral.sampling {
+        let n = envelope_intervals(&mie);
+        let table = match s_of {
+            None => None,
+            Some((f, kd)) => {
+                if !factors.iter().any(|t| t.0 == n) {
+                    let h = std::f64::consts::PI / n as f64;
+                    let probes = (0..n * 17).map(|j| {
+                        let theta = ((j / 17) as f64 + (j % 17) as f64 / 16.0) * h;
+                        structure::percus_yevick(f, 2.0 * kd * (0.5 * theta).sin())
+                    });
+                    factors.push((n, probes.collect()));
+                }
+                factors.iter().find(|t| t.0 == n).map(|t| t.1.as_slice())
+            }
+        };
+        let (bound, kept, mean_cos) = envelope(&mie, table);
+        let w = w * kept;
+        c_sca_dep += w;
+        c_g_dep += w * mean_cos;
+        size_w.push(w);
         let alias = Alias::new(&bound);
         sizes.push(SizeEntry { bound, alias, mie });
     }
+    let (c_sca, g) = if packing.is_some() {
+        (c_sca_dep, c_g_dep / c_sca_dep)
+    } else {
+        (c_sca, c_g / c_sca)
+    };
+    // Absorption is the independent spheres' (C_ext - C_sca of the integral).
+    let c_ext = c_ext - integral.sums[1] + c_sca;
     let total: f64 = size_w.iter().sum();
     let mut acc = 0.0;
     let size_cdf = size_w
@@ -480,9 +529,25 @@ fn lambda_entry(
     Ok(LambdaEntry {
         mu_ext_per_nm: density * c_ext,
         albedo: (c_sca / c_ext).min(1.0),
+        g,
+        size_change: integral.change,
+        structure: s_of,
         sizes,
         size_cdf,
     })
+}
+
+/// Hard spheres packed at volume fraction `f`, of diameter `d_nm` (the Percus-Yevick
+/// structure factor's).
+#[derive(Clone, Copy, Debug)]
+struct Packing {
+    f: f64,
+    d_nm: f64,
+}
+
+/// The envelope's interval count for `mie`: `max(THETA_INTERVALS, 8 N)`.
+fn envelope_intervals(mie: &Mie) -> usize {
+    THETA_INTERVALS.max(8 * mie.a.len())
 }
 
 /// The envelope of `f(theta) = (|S1|^2 + |S2|^2)/2 sin theta` for rejection sampling:
@@ -493,28 +558,51 @@ fn lambda_entry(
 /// (1/128 of its finest period) it rises above the largest probe by well under 1 %; the
 /// 8 % margin covers that. A draw above the bound is counted
 /// ([`ScatterModel::violations`]) and reported by the run, never hidden; the tests draw
-/// millions across sizes and indices and find none. Returns the per-interval bounds.
-fn envelope(mie: &Mie) -> Vec<f64> {
-    let n = THETA_INTERVALS.max(8 * mie.a.len());
+/// millions across sizes and indices and find none. With packing, `f` is multiplied by
+/// the structure factor at each probe (`factor`, 17 per interval; `S` varies over `1 / (k
+/// d)` in theta, slower than the lobes). Returns the per-interval bounds, the share of the
+/// phase function the factor keeps and the mean cosine of what it keeps (Simpson's rule on
+/// the probes).
+fn envelope(mie: &Mie, factor: Option<&[f64]>) -> (Vec<f64>, f64, f64) {
+    let n = envelope_intervals(mie);
     let f = |theta: f64| {
         let (s1, s2) = mie.s1_s2(theta.cos());
         0.5 * (s1.norm_sqr() + s2.norm_sqr()) * theta.sin()
     };
     let h = std::f64::consts::PI / n as f64;
+    // Simpson's rule on the probes of each interval (16 subintervals) for the share of
+    // the phase function the factor keeps and its mean cosine.
+    let (mut all, mut kept, mut cos) = (0.0, 0.0, 0.0);
     let mut bound: Vec<f64> = (0..n)
         .map(|i| {
-            (0..=16)
-                .map(|k| f((i as f64 + k as f64 / 16.0) * h))
-                .fold(0.0, f64::max)
-                * 1.08
+            let mut top = 0.0f64;
+            for k in 0..=16 {
+                let theta = (i as f64 + k as f64 / 16.0) * h;
+                let (p, s) = (f(theta), factor.map_or(1.0, |t| t[i * 17 + k]));
+                top = top.max(p * s);
+                let w = match k {
+                    0 | 16 => 1.0,
+                    k if k % 2 == 1 => 4.0,
+                    _ => 2.0,
+                };
+                all += w * p;
+                kept += w * p * s;
+                cos += w * p * s * theta.cos();
+            }
+            top * 1.08
         })
         .collect();
     let peak = bound.iter().copied().fold(0.0, f64::max);
     for b in bound.iter_mut() {
         *b = b.max(1e-9 * peak);
     }
-    bound
+    let share = if all > 0.0 { kept / all } else { 1.0 };
+    let mean_cos = if kept > 0.0 { cos / kept } else { 0.0 };
+    (bound, share, mean_cos)
 }
+
+mod sizes;
+pub mod structure;
 
 #[cfg(test)]
 mod tests;

@@ -26,6 +26,27 @@ pub(super) fn stack(
     let ambient = names.medium(&st.get_ref().ambient)?;
     let substrate = names.medium(&st.get_ref().substrate)?;
     let layers = names.layers(&st.get_ref().layers)?;
+    // The tracer follows light between the sample's planes only: a scattering medium
+    // without end above or below would be traced as its clear host.
+    for (m, which, side) in [
+        (ambient, &st.get_ref().ambient, "ambient"),
+        (substrate, &st.get_ref().substrate, "substrate"),
+    ] {
+        if names.media[m].scattering.is_some() {
+            return Err(cx.at(
+                which.span(),
+                SampleErrorKind::Invalid(format!(
+                    "the {side} '{}' scatters in volume, but the {side} goes on without end and the tracer follows light only between the sample's top and bottom planes, so its particles would be ignored; give it a finite depth as a layer (one many transport mean free paths deep, which goniospec check prints, reflects as a half-space does) {}",
+                    which.get_ref(),
+                    if side == "ambient" {
+                        "below a clear ambient (a BRDF is measured in a clear medium)"
+                    } else {
+                        "over a clear substrate"
+                    }
+                )),
+            ));
+        }
+    }
     let stack = Stack {
         ambient,
         layers: layers.clone(),

@@ -13,7 +13,7 @@ use crate::sample::{Medium, SampleError, SampleErrorKind, Scattering};
 /// ray optics holds for the sphere itself, and the Mie set-up (growing as the square of
 /// the size parameter at every tabulated wavelength) takes longer than the run: 1e6 nm
 /// gave no answer in 30 s (issue 47).
-pub const PARTICLE_RADIUS_NM: [f64; 2] = [0.1, 1e4];
+pub const PARTICLE_RADIUS_NM: [f64; 2] = [0.1, crate::optics::particles::MAX_RADIUS_NM];
 const PARTICLE_RADIUS_WHY: &str = "below 0.1 nm a particle is smaller than an atom; above 10 um a sphere is many wavelengths across, where ray optics holds: mesh it as bodies instead (goniospec generate pigment-spheres)";
 
 /// Stage 5: every medium's index model (sorted by name, so ids are deterministic), then
@@ -128,19 +128,18 @@ fn scattering_of(
                     };
                     // The radii the size integral samples, not only the median, must be
                     // in range.
-                    let nodes = if r.is_finite() && r > 0.0 {
-                        ln.nodes()
+                    let [lo, hi] = if r.is_finite() && r > 0.0 {
+                        ln.span_nm()
                     } else {
-                        vec![(r, 1.0)]
+                        [r, r]
                     };
-                    let lo = nodes.iter().map(|n| n.0).fold(f64::INFINITY, f64::min);
-                    let hi = nodes.iter().map(|n| n.0).fold(0.0, f64::max);
                     if !(r.is_finite()
                         && lo >= PARTICLE_RADIUS_NM[0]
                         && hi <= PARTICLE_RADIUS_NM[1])
                     {
+                        let z = crate::optics::particles::TAIL_Z;
                         return Err(bad(format!(
-                            "particles: median_radius_nm {} with sigma {sg} samples radii from {lo:.3e} to {hi:.3e} nm (the median times e^(+-3.5 sigma)), which must lie in [{}, {}] nm: {}",
+                            "particles: median_radius_nm {} with sigma {sg} has its size integral over radii from {lo:.3e} to {hi:.3e} nm (the median times e^(sigma z), z from 2 sigma - {z} to 3 sigma + {z}, where the volume and cross-sections leave 1e-5 of their integrals), which must lie in [{}, {}] nm: {}",
                             crate::sample::limits::show(r),
                             PARTICLE_RADIUS_NM[0],
                             PARTICLE_RADIUS_NM[1],
@@ -157,15 +156,27 @@ fn scattering_of(
                 }
             };
             let f = p.volume_fraction;
-            if !(f.is_finite() && f > 0.0 && f < 0.74) {
+            use crate::optics::particles::structure::{PY_FROM, RANDOM_CLOSE_PACKING};
+            if !(f.is_finite() && f > 0.0 && f < RANDOM_CLOSE_PACKING) {
                 return Err(bad(format!(
-                    "particles: volume_fraction must lie in (0, 0.74), got {f}"
+                    "particles: volume_fraction must lie in (0, {RANDOM_CLOSE_PACKING}), got {f}: {RANDOM_CLOSE_PACKING} is random close packing, the densest a suspension of spheres can be"
                 )));
             }
+            let dependent = match p.dependent.as_deref() {
+                None => f >= PY_FROM,
+                Some("percus-yevick") => true,
+                Some("none") => false,
+                Some(other) => {
+                    return Err(bad(format!(
+                        "particles: dependent must be \"percus-yevick\" (the packed spheres' structure factor, the default from {PY_FROM} by volume) or \"none\" (independent scattering), got \"{other}\""
+                    )));
+                }
+            };
             Ok(Some(Scattering::Particles {
                 medium: pm,
                 radius,
                 volume_fraction: f,
+                dependent,
             }))
         }
         (None, Some(h)) => {
