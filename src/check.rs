@@ -213,6 +213,7 @@ fn scattering_fact(
                 lambda_nm,
                 &|_| index(i),
                 &|_| index(*medium),
+                &|| false,
             ),
             format!(
                 "particles of '{}' ({}) at {} % by volume, {}",

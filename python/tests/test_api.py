@@ -226,6 +226,34 @@ def test_ctrl_c_is_prompt_on_trees_of_thousands_of_segments(tmp_path):
     assert stopped - t0 < 0.5 + 2.0, stopped - t0
 
 
+def test_ctrl_c_stops_a_particle_medium_s_set_up(tmp_path):
+    """Issue 50: Ctrl-C did not stop the Mie tabulation of a particle medium. Spheres of a
+    wide distribution reaching 9 um (median 0.5 um, sigma 0.5) take tens of seconds to
+    tabulate over 380-780 nm on two cores; the tabulation now asks between wavelengths."""
+    import signal
+    import threading
+    import time
+
+    (tmp_path / "big.toml").write_text(
+        '[sample]\nname = "big"\nunit = "um"\ntile = [5.0, 5.0]\n[media.air]\nn = 1.0\n'
+        '[media.pig]\nn = 2.6\n[media.paint]\nn = 1.5\nparticles = { medium = "pig", '
+        'log_normal = { median_radius_nm = 500, sigma = 0.5 }, volume_fraction = 0.05 }\n'
+        '[stack]\nambient = "air"\nlayers = [{ medium = "paint", thickness = 20.0 }]\n'
+        'substrate = "air"\n')
+    s = gs.Sample.load(str(tmp_path / "big.toml"))
+    signal.signal(signal.SIGINT, signal.default_int_handler)  # as in the tests above
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        try:
+            gs.simulate(s, theta_i_deg=[0], rays=4)
+        finally:
+            stopped = time.monotonic()
+    timer.cancel()
+    assert stopped - t0 < 0.5 + 2.5, stopped - t0
+
+
 def _run_child(code, terminal):
     """Runs `code` in a fresh interpreter, its stderr a pseudo-terminal or a pipe; returns
     what it wrote to stderr."""

@@ -196,7 +196,20 @@ impl<'a> Run<'a> {
         if scattering {
             let lo = lambdas.iter().copied().fold(f64::INFINITY, f64::min);
             let hi = lambdas.iter().copied().fold(0.0, f64::max);
-            scene.prepare_scattering(lo, hi)?;
+            let cancelled = || {
+                cfg.cancel
+                    .as_ref()
+                    .is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
+            };
+            // Ctrl-C in Python stops the tabulation too (it can take seconds for large
+            // spheres).
+            if let Err(e) = scene.prepare_scattering(lo, hi, &cancelled) {
+                return Err(if cancelled() {
+                    SimError::Cancelled
+                } else {
+                    e.into()
+                });
+            }
         }
         let index_at = |l: f64| -> Vec<C64> {
             let mut v = Vec::new();

@@ -19,9 +19,15 @@ pub(super) enum Volume {
 
 impl<'a> Scene<'a> {
     /// Tabulates every scattering medium for wavelengths in `[lo_nm, hi_nm]` (Mie
-    /// particles) or checks it (Henyey-Greenstein). Until then a ray inside a scattering
+    /// particles) or checks it (Henyey-Greenstein), asking `cancelled()` between
+    /// wavelengths (a cancelled tabulation is an error naming it). Until then a ray inside a scattering
     /// medium is dropped as cut by a limit, never traced as if the medium were clear.
-    pub fn prepare_scattering(&mut self, lo_nm: f64, hi_nm: f64) -> Result<(), SceneError> {
+    pub fn prepare_scattering(
+        &mut self,
+        lo_nm: f64,
+        hi_nm: f64,
+        cancelled: &(dyn Fn() -> bool + Sync),
+    ) -> Result<(), SceneError> {
         use crate::sample::Scattering;
         let media = &self.sample.media;
         let index = |m: usize, l: f64| -> C64 {
@@ -54,6 +60,7 @@ impl<'a> Scene<'a> {
                     hi_nm,
                     &|l| index(i, l),
                     &|l| index(*medium, l),
+                    cancelled,
                 )),
             };
             out.push(

@@ -61,6 +61,9 @@ pub enum ParticleError {
     AbsorbingHost { lambda_nm: f64, k: f64 },
     #[error("{0}")]
     Invalid(String),
+    /// Stopped through the `cancelled` test given to [`ScatterModel::mie`].
+    #[error("the particle medium's tabulation was cancelled")]
+    Cancelled,
 }
 
 /// One radius at one wavelength.
@@ -189,9 +192,11 @@ impl ScatterModel {
         })
     }
 
-    /// Mie particles of radius `radius` at volume fraction `volume_fraction`, tabulated for
-    /// every whole nanometre covering `[lo_nm, hi_nm]`; `host(lambda)` and
-    /// `particle(lambda)` are the complex indices of the host and the particles.
+    /// Mie particles of radius `radius` at volume fraction `volume_fraction` (scattering
+    /// dependently where `dependent`), tabulated for every whole nanometre covering
+    /// `[lo_nm, hi_nm]`; `host(lambda)` and `particle(lambda)` are the complex indices of
+    /// the host and the particles; `cancelled()` is asked between wavelengths and stops
+    /// the tabulation with [`ParticleError::Cancelled`].
     #[allow(clippy::too_many_arguments)]
     pub fn mie(
         radius: Radius,
@@ -201,6 +206,7 @@ impl ScatterModel {
         hi_nm: f64,
         host: &(dyn Fn(f64) -> C64 + Sync),
         particle: &(dyn Fn(f64) -> C64 + Sync),
+        cancelled: &(dyn Fn() -> bool + Sync),
     ) -> Result<ScatterModel, ParticleError> {
         let rcp = structure::RANDOM_CLOSE_PACKING;
         if !(volume_fraction.is_finite() && volume_fraction > 0.0 && volume_fraction < rcp) {
@@ -228,7 +234,13 @@ impl ScatterModel {
         use rayon::prelude::*;
         let table = (first_nm..=last_nm)
             .into_par_iter()
-            .map(|l| lambda_entry(l as f64, radius, density, packing, host, particle))
+            .map(|l| {
+                // Asked between wavelengths (each a fraction of a second at most).
+                if cancelled() {
+                    return Err(ParticleError::Cancelled);
+                }
+                lambda_entry(l as f64, radius, density, packing, host, particle)
+            })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(ScatterModel::Mie {
             first_nm,

@@ -67,6 +67,7 @@ fn white_particles(r: f64, lambda: f64) -> ScatterModel {
         lambda,
         &|_| C64::new(1.5, 0.0),
         &|_| C64::new(2.6, 0.01),
+        &|| false,
     )
     .unwrap()
 }
@@ -172,6 +173,7 @@ fn the_envelope_is_never_exceeded() {
             550.0,
             &|_| C64::new(1.5, 0.0),
             &|_| n_p,
+            &|| false,
         )
         .unwrap();
         let mut rng = Rng::new(11, r as u64);
@@ -267,6 +269,7 @@ fn size_integrals_match_brute_force() {
             lambda,
             &|_| C64::new(host, 0.0),
             &|_| n_p,
+            &|| false,
         )
         .unwrap();
         let (mu, albedo) = model.coefficients(lambda);
@@ -334,9 +337,21 @@ fn bad_media_are_refused() {
     let host = |_: f64| C64::new(1.5, 0.0);
     let p = |_: f64| C64::new(2.6, 0.0);
     let r = Radius::Fixed { radius_nm: 100.0 };
-    assert!(ScatterModel::mie(r, 0.0, false, 500.0, 600.0, &host, &p).is_err());
-    assert!(ScatterModel::mie(r, 0.8, false, 500.0, 600.0, &host, &p).is_err());
-    assert!(ScatterModel::mie(r, 0.1, false, 500.0, 600.0, &|_| C64::new(1.5, 0.1), &p).is_err());
+    assert!(ScatterModel::mie(r, 0.0, false, 500.0, 600.0, &host, &p, &|| false).is_err());
+    assert!(ScatterModel::mie(r, 0.8, false, 500.0, 600.0, &host, &p, &|| false).is_err());
+    assert!(
+        ScatterModel::mie(
+            r,
+            0.1,
+            false,
+            500.0,
+            600.0,
+            &|_| C64::new(1.5, 0.1),
+            &p,
+            &|| false
+        )
+        .is_err()
+    );
 }
 
 /// Spheres of radius `r` nm, index `n_p` in a host of 1.5, at volume fraction `f`, with
@@ -350,6 +365,7 @@ fn packed(r: f64, n_p: C64, f: f64, dependent: bool, lambda: f64) -> ScatterMode
         lambda,
         &|_| C64::new(1.5, 0.0),
         &|_| n_p,
+        &|| false,
     )
     .unwrap()
 }
