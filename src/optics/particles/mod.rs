@@ -505,8 +505,8 @@ fn lambda_entry(
             Some((f, kd)) => {
                 if !factors.iter().any(|t| t.0 == n) {
                     let h = std::f64::consts::PI / n as f64;
-                    let probes = (0..n * 17).map(|j| {
-                        let theta = ((j / 17) as f64 + (j % 17) as f64 / 16.0) * h;
+                    let probes = (0..=n * PROBE_STEPS).map(|j| {
+                        let theta = j as f64 / PROBE_STEPS as f64 * h;
                         structure::percus_yevick(f, 2.0 * kd * (0.5 * theta).sin())
                     });
                     factors.push((n, probes.collect()));
@@ -562,47 +562,54 @@ fn envelope_intervals(mie: &Mie) -> usize {
     THETA_INTERVALS.max(8 * mie.a.len())
 }
 
+/// Steps between an envelope interval's probes: its `PROBE_STEPS + 1` evenly spaced
+/// values of `f` (the ends shared with the neighbours).
+const PROBE_STEPS: usize = 8;
+
 /// The envelope of `f(theta) = (|S1|^2 + |S2|^2)/2 sin theta` for rejection sampling:
 /// `max(THETA_INTERVALS, 8 N)` equal intervals of theta (N the series' orders, so an
-/// interval is narrower than an eighth of the lobe's finest oscillation), in each the
-/// largest of 17 evenly spaced values times 1.08, plus a floor of 1e-9 of the peak. `f` is a
-/// trigonometric polynomial of degree about 2N, so between probes 1/16 of an interval apart
-/// (1/128 of its finest period) it rises above the largest probe by well under 1 %; the
-/// 8 % margin covers that. A draw above the bound is counted
-/// ([`ScatterModel::violations`]) and reported by the run, never hidden; the tests draw
-/// millions across sizes and indices and find none. With packing, `f` is multiplied by
-/// the structure factor at each probe (`factor`, 17 per interval; `S` varies over `1 / (k
-/// d)` in theta, slower than the lobes). Returns the per-interval bounds, the share of the
-/// phase function the factor keeps and the mean cosine of what it keeps (Simpson's rule on
-/// the probes).
+/// interval is narrower than an eighth of the lobe's finest oscillation, of period P), in
+/// each the largest of its `PROBE_STEPS + 1` evenly spaced values times 1.08, plus a floor
+/// of 1e-9 of the peak. `f` is a trigonometric polynomial of degree about 2N, so a maximum
+/// lies within half a probe step (P / 128) of a probe, where a lobe of period P has
+/// fallen by at most `1 - cos(2 pi / 128)`, 0.12 %; the 8 % margin covers that many times
+/// over. A draw above the bound is counted ([`ScatterModel::violations`]) and reported by
+/// the run, never hidden; the tests draw millions across sizes and indices and find none.
+/// With packing, `f` is multiplied by the structure factor at each probe (`factor`,
+/// `PROBE_STEPS n + 1` of them; `S` varies over `1 / (k d)` in theta, slower than the
+/// lobes). Returns the per-interval bounds, the share of the phase function the factor
+/// keeps and the mean cosine of what it keeps (Simpson's rule on the probes).
 fn envelope(mie: &Mie, factor: Option<&[f64]>) -> (Vec<f64>, f64, f64) {
     let n = envelope_intervals(mie);
-    let f = |theta: f64| {
-        let (s1, s2) = mie.s1_s2(theta.cos());
-        0.5 * (s1.norm_sqr() + s2.norm_sqr()) * theta.sin()
-    };
-    let h = std::f64::consts::PI / n as f64;
-    // Simpson's rule on the probes of each interval (16 subintervals) for the share of
-    // the phase function the factor keeps and its mean cosine.
-    let (mut all, mut kept, mut cos) = (0.0, 0.0, 0.0);
-    let mut bound: Vec<f64> = (0..n)
-        .map(|i| {
-            let mut top = 0.0f64;
-            for k in 0..=16 {
-                let theta = (i as f64 + k as f64 / 16.0) * h;
-                let (p, s) = (f(theta), factor.map_or(1.0, |t| t[i * 17 + k]));
-                top = top.max(p * s);
-                let w = match k {
-                    0 | 16 => 1.0,
-                    k if k % 2 == 1 => 4.0,
-                    _ => 2.0,
-                };
-                all += w * p;
-                kept += w * p * s;
-                cos += w * p * s * theta.cos();
-            }
-            top * 1.08
+    let h = std::f64::consts::PI / (n * PROBE_STEPS) as f64;
+    // Each probe once: f, its factor, and cos theta.
+    let probes: Vec<(f64, f64, f64)> = (0..=n * PROBE_STEPS)
+        .map(|j| {
+            let (st, ct) = (j as f64 * h).sin_cos();
+            let (s1, s2) = mie.s1_s2(ct);
+            let p = 0.5 * (s1.norm_sqr() + s2.norm_sqr()) * st.max(0.0);
+            (p, factor.map_or(1.0, |t| t[j]), ct)
         })
+        .collect();
+    // Simpson's rule on the probes (PROBE_STEPS subintervals per interval, an even count)
+    // for the share of the phase function the factor keeps and its mean cosine.
+    let (mut all, mut kept, mut cos) = (0.0, 0.0, 0.0);
+    for (j, &(p, s, ct)) in probes.iter().enumerate() {
+        let w = if j == 0 || j == n * PROBE_STEPS {
+            1.0
+        } else if j % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        };
+        all += w * p;
+        kept += w * p * s;
+        cos += w * p * s * ct;
+    }
+    let mut bound: Vec<f64> = probes
+        .windows(PROBE_STEPS + 1)
+        .step_by(PROBE_STEPS)
+        .map(|w| 1.08 * w.iter().map(|&(p, s, _)| p * s).fold(0.0f64, f64::max))
         .collect();
     let peak = bound.iter().copied().fold(0.0, f64::max);
     for b in bound.iter_mut() {
