@@ -133,6 +133,15 @@ enum Command {
     ///
     /// Example: goniospec mie --n 2.6 --host 1.5 --radius-nm 120 --wavelength-nm 550 --mu=-1,0,1
     Mie(MieArgs),
+    /// Hiding power of a paint: the film thickness that hides a black-and-white contrast
+    /// chart (contrast ratio Y_black / Y_white of 0.98, ISO 6504-3), its luminous
+    /// reflectance at complete hiding (R-infinity) and the area a litre covers, per pigment
+    /// volume fraction. Each thickness is two runs (the chart's black and white halves,
+    /// index-matched to the binder, sharing their random numbers); the search brackets the
+    /// thickness and interpolates log(1 - contrast). Prints CSV; progress on stderr.
+    ///
+    /// Example: goniospec hiding meshes/paint-pigments.toml --volume-fraction 0.1,0.2,0.3
+    Hiding(HidingArgs),
     /// Batch BRDF generation: plan many materials, run the units in shards (Slurm job
     /// arrays or GNU parallel), resume, and merge bit for bit.
     ///
@@ -198,6 +207,7 @@ mod eval;
 mod export;
 mod fit;
 mod generate;
+mod hiding;
 mod info;
 mod merge;
 mod mie;
@@ -218,6 +228,7 @@ use eval::{EvalArgs, eval};
 use export::{ExportArgs, export};
 use fit::{FitArgs, fit};
 use generate::{GenerateArgs, generate};
+use hiding::{HidingArgs, hiding};
 use info::{InfoArgs, backends, info};
 use merge::{MergeArgs, merge};
 use mie::{MieArgs, mie};
@@ -293,6 +304,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Generate(a) => generate(a),
         Command::Fit(a) => fit(a),
         Command::Mie(a) => mie(a),
+        Command::Hiding(a) => hiding(a),
         Command::Bench(BenchCommand::Trace(a)) => bench_trace(a),
         Command::Bench(BenchCommand::Simulate(a)) => bench_simulate(a),
         Command::Bench(BenchCommand::Eval(a)) => bench_eval(a),

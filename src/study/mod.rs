@@ -18,6 +18,7 @@ use crate::trace::TraceLimits;
 
 mod charts;
 mod file;
+pub mod hiding;
 mod report;
 mod run;
 

@@ -1,0 +1,156 @@
+//! `goniospec hiding`: the contrast chart's backings and the hiding-thickness search on a
+//! paint described by a Henyey-Greenstein medium (cheap to trace), against closed forms
+//! and an independent run.
+
+use std::path::{Path, PathBuf};
+
+use goniospec::study::hiding::{HidingConfig, chart_point, hiding};
+
+/// A fresh folder of this test's own.
+fn folder(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("goniospec-hiding-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn paint(dir: &Path, name: &str, hg: &str) -> (PathBuf, String) {
+    let text = format!(
+        r#"[sample]
+name = "{name}"
+unit = "um"
+tile = [5.0, 5.0]
+
+[media.air]
+n = 1.0
+
+[media.paint]
+n = 1.5
+henyey_greenstein = {{ {hg} }}
+
+[media.primer]
+n = 1.5
+k = 0.5
+
+[stack]
+ambient = "air"
+layers = [{{ medium = "paint", thickness = 10.0 }}]
+substrate = "primer"
+"#
+    );
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, &text).unwrap();
+    (path, text)
+}
+
+fn config(seed: u64) -> HidingConfig {
+    HidingConfig {
+        theta_i_deg: 8.0,
+        rays: 512,
+        edges: vec![540.0, 560.0],
+        seed,
+        contrast: 0.98,
+        volume_fraction: None,
+    }
+}
+
+/// Unpolarised Fresnel reflectance of a lossless interface n1 -> n2 at `theta` (Born &
+/// Wolf §1.5.2), written here independently of the tracer's.
+fn fresnel(n1: f64, n2: f64, theta: f64) -> f64 {
+    let (ci, si) = (theta.cos(), theta.sin());
+    let ct = (1.0 - (n1 / n2 * si).powi(2)).sqrt();
+    let rs = (n1 * ci - n2 * ct) / (n1 * ci + n2 * ct);
+    let rp = (n2 * ci - n1 * ct) / (n2 * ci + n1 * ct);
+    0.5 * (rs * rs + rp * rp)
+}
+
+/// A film that only absorbs, over the chart's black: only the film's top face reflects
+/// (the black is index-matched and returns nothing), at every thickness, exactly.
+#[test]
+fn over_black_an_absorbing_film_reflects_only_its_top_face() {
+    let dir = folder("absorber");
+    let (path, text) = paint(
+        &dir,
+        "absorber",
+        "g = 0.0, scattering_per_um = 0.0, absorption_per_um = 0.02",
+    );
+    let r0 = fresnel(1.0, 1.5, 8f64.to_radians());
+    for t in [1.0, 10.0] {
+        let p = chart_point(&path, &text, &config(1), t).unwrap();
+        assert!(
+            (p.y_black.0 - r0).abs() < 1e-9,
+            "{t} um: Y over black {} vs Fresnel {r0}",
+            p.y_black.0
+        );
+        // Over white, the film's transmission twice: more than the top face alone.
+        assert!(p.y_white.0 > r0 + 0.01, "{t} um: {:?}", p.y_white);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The hiding thickness found on one seed hides the chart at the target contrast ratio in
+/// a run on another seed (within four standard errors of both runs, each an upper bound
+/// on the shared noise), R-infinity lies between the thick film's two reflectances, and
+/// the white backing is the ISO chart's white (Y = 0.80 +- 0.02, with the run's error).
+#[test]
+fn the_hiding_thickness_hides_in_an_independent_run() {
+    let dir = folder("white");
+    let (path, text) = paint(
+        &dir,
+        "white",
+        "g = 0.5, scattering_per_um = 4.0, absorption_per_um = 0.004",
+    );
+    let h = hiding(&path, &text, &config(1), &|_| {}).unwrap();
+    let (t, se_t) = h.thickness_um;
+    assert!(
+        t.is_finite() && t > 0.0 && se_t.is_finite(),
+        "{t} +- {se_t}"
+    );
+    let p = chart_point(&path, &text, &config(7), t).unwrap();
+    let (c, se) = p.contrast();
+    let nearest = h
+        .points
+        .iter()
+        .min_by(|a, b| {
+            (a.thickness_um - t)
+                .abs()
+                .total_cmp(&(b.thickness_um - t).abs())
+        })
+        .unwrap();
+    let bound = 4.0 * (se * se + nearest.contrast().1.powi(2)).sqrt();
+    assert!(
+        (c - 0.98).abs() < bound,
+        "at {t:.2} um the independent run gives {c:.4} +- {se:.4}"
+    );
+    let ((b, sb), (w, sw)) = (h.thick.y_black, h.thick.y_white);
+    assert!(b <= w + 3.0 * (sb + sw), "R-infinity bracket {b} .. {w}");
+    let (white, se_white) = h.white_backing;
+    assert!(
+        (white - 0.80).abs() < 0.02 + 3.0 * se_white,
+        "white backing Y {white} +- {se_white}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A sample the chart cannot take is refused with what it needs: no scattering layer, and
+/// a volume fraction for a medium without particles.
+#[test]
+fn samples_the_chart_cannot_take_are_refused() {
+    let dir = folder("refused");
+    let (path, text) = paint(&dir, "hg", "g = 0.5, scattering_per_um = 4.0");
+    let mut cfg = config(1);
+    cfg.volume_fraction = Some(0.2);
+    let e = hiding(&path, &text, &cfg, &|_| {}).unwrap_err().to_string();
+    assert!(
+        e.contains("--volume-fraction needs a medium of particles"),
+        "{e}"
+    );
+    let clear = text.replace(
+        "henyey_greenstein = { g = 0.5, scattering_per_um = 4.0 }\n",
+        "",
+    );
+    let e = hiding(&path, &clear, &config(1), &|_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("exactly one scattering layer"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
