@@ -3,11 +3,13 @@
 //!
 //! Speed goals are checked here, never in timed tests.
 
+mod converge;
 mod eval;
 mod large;
 mod peer;
 mod simulate;
 
+pub use converge::{ConvergeConfig, ConvergeFigure, bucket_noise, converge, seed_check};
 pub use eval::{analytic_brdf, analytic_buckets, eval_bench};
 pub use large::{BenchError, LargeSample, large_case, large_sample};
 pub use peer::{PeerConfig, peer_bench};

@@ -220,7 +220,8 @@ mod study;
 use analytic::{AnalyticArgs, analytic};
 use batch::{BatchCommand, batch};
 use bench::{
-    BenchCommand, bench_eval, bench_large, bench_paints, bench_peer, bench_simulate, bench_trace,
+    BenchCommand, bench_converge, bench_eval, bench_large, bench_paints, bench_peer,
+    bench_simulate, bench_trace,
 };
 use build::{BuildArgs, build};
 use check::{CheckArgs, check};
@@ -310,6 +311,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Bench(BenchCommand::Eval(a)) => bench_eval(a),
         Command::Bench(BenchCommand::Large(a)) => bench_large(a),
         Command::Bench(BenchCommand::Paints(a)) => bench_paints(a),
+        Command::Bench(BenchCommand::Converge(a)) => bench_converge(a),
         Command::Bench(BenchCommand::Peer(a)) => bench_peer(a),
     }
 }

@@ -117,7 +117,8 @@ impl Hiding {
 }
 
 /// The thickness at which `contrast(t)` reaches `target`, starting from `t0` um:
-/// bracketing by doubling or halving, then interpolating `ln(1 - C)` linearly in `t`.
+/// bracketing by doubling or halving, then interpolating `ln(1 - C)` linearly in `t` (at
+/// most three steps, fewer once a point lies within its standard error of the target).
 /// Returns the thickness, its standard error and every point evaluated.
 pub fn search<F>(
     t0: f64,
@@ -178,6 +179,11 @@ where
             lo = (t, c);
         } else {
             hi = (t, c);
+        }
+        // Within its own noise of the target: further steps would only wander in it.
+        let se = points.last().map_or(0.0, |p| p.contrast().1);
+        if (c - target).abs() <= se {
+            break;
         }
     }
     let t = interpolate(lo, hi).clamp(lo.0, hi.0);
