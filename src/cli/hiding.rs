@@ -60,7 +60,7 @@ pub(super) fn hiding(a: HidingArgs) -> Result<ExitCode> {
         a.contrast
     );
     outln!(
-        "volume_fraction,white_backing_Y,hiding_um,hiding_um_stderr,R_inf_Y,R_inf_halfwidth,spreading_m2_per_L,pigment_m2_per_mL"
+        "volume_fraction,white_backing_Y,hiding_um,hiding_um_stderr,R_inf_Y,R_inf_halfwidth,spreading_m2_per_L,pigment_m2_per_L"
     );
     for f in fractions {
         let cfg = HidingConfig {
@@ -84,7 +84,7 @@ pub(super) fn hiding(a: HidingArgs) -> Result<ExitCode> {
         let spreading = 1000.0 / t;
         let per_pigment = h
             .volume_fraction
-            .map_or_else(|| "".into(), |f| format!("{:.2}", spreading / f / 1000.0));
+            .map_or_else(|| "".into(), |f| format!("{:.1}", spreading / f));
         outln!(
             "{},{:.4},{t:.2},{se:.2},{r_inf:.4},{half:.4},{spreading:.2},{per_pigment}",
             h.volume_fraction

@@ -164,6 +164,9 @@ where
         }
     }
     let log = |c: f64| (1.0 - c).max(1e-9).ln();
+    // The decay rate of 1 - C over the bracket the doubling or halving found (a factor of
+    // two apart, so its noise is small against the change): dC/dt = (1 - C) rate.
+    let rate = (log(lo.1) - log(hi.1)) / (hi.0 - lo.0).max(f64::MIN_POSITIVE);
     let interpolate = |lo: (f64, f64), hi: (f64, f64)| {
         let (a, b) = (log(lo.1), log(hi.1));
         if (a - b).abs() < 1e-12 {
@@ -187,8 +190,9 @@ where
         }
     }
     let t = interpolate(lo, hi).clamp(lo.0, hi.0);
-    // dC/dt from the bracket; the standard error of C at the nearest point, carried over.
-    let slope = (hi.1 - lo.1) / (hi.0 - lo.0).max(f64::MIN_POSITIVE);
+    // The standard error of C at the nearest point, carried over by dC/dt at the target
+    // (a narrowed bracket's own slope is mostly noise).
+    let slope = (1.0 - target) * rate;
     let nearest = points
         .iter()
         .min_by(|a, b| {
