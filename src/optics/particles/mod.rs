@@ -134,7 +134,7 @@ pub struct LambdaEntry {
     size_change: f64,
     /// With dependent scattering: the volume fraction and `k d` (host wavenumber times the
     /// spheres' diameter) of the structure factor that multiplies the phase function.
-    structure: Option<(f64, f64)>,
+    structure: Option<(structure::PercusYevick, f64)>,
     sizes: Vec<SizeEntry>,
     /// Cumulative probability of each size at a scattering event.
     size_cdf: Vec<f64>,
@@ -369,22 +369,23 @@ impl ScatterModel {
                 // theta from the unpolarised phase function, by rejection under the
                 // envelope: an interval by the envelope's mass, a point in it, accepted
                 // with probability f / bound.
-                let (theta, s1, s2) = loop {
+                let (st, mu, s1, s2) = loop {
                     let i = size.alias.draw(rng.uniform());
                     let theta = (i as f64 + rng.uniform()) * dtheta;
-                    let (s1, s2) = size.mie.s1_s2(theta.cos());
-                    let mut f = 0.5 * (s1.norm_sqr() + s2.norm_sqr()) * theta.sin();
-                    if let Some((fv, kd)) = t.structure {
-                        f *= structure::percus_yevick(fv, 2.0 * kd * (0.5 * theta).sin());
+                    let (st, ct) = theta.sin_cos();
+                    let (s1, s2) = size.mie.s1_s2(ct);
+                    let mut f = 0.5 * (s1.norm_sqr() + s2.norm_sqr()) * st;
+                    if let Some((py, kd)) = &t.structure {
+                        // sin(theta / 2) = sqrt((1 - cos theta) / 2).
+                        f *= py.at(2.0 * kd * (0.5 * (1.0 - ct)).max(0.0).sqrt());
                     }
                     if f > size.bound[i] {
                         violations.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                     }
                     if rng.uniform() * size.bound[i] <= f {
-                        break (theta, s1, s2);
+                        break (st, ct, s1, s2);
                     }
                 };
-                let (st, mu) = theta.sin_cos();
                 // phi given theta: density (1 + rho (p cos 2phi + q sin 2phi)) / (2 pi) with
                 // rho = (|S2|^2 - |S1|^2) / (|S2|^2 + |S1|^2), from the fields' components
                 // a_i (along u) and b_i (along v): p = (alpha - beta) / (alpha + beta),
@@ -490,7 +491,7 @@ fn lambda_entry(
         .map_err(|e| ParticleError::Invalid(format!("at {lambda} nm: {e}")))?;
     let [c_ext, c_sca, c_g] = integral.sums;
     // The structure factor as a function of theta: S(q d), q = 2 k sin(theta / 2).
-    let s_of = packing.map(|p| (p.f, k_host * p.d_nm));
+    let s_of = packing.map(|p| (structure::PercusYevick::new(p.f), k_host * p.d_nm));
     // S at the envelope's probes, once per interval count (most sizes share 256).
     let mut factors: Vec<(usize, Vec<f64>)> = Vec::new();
     let mut sizes = Vec::with_capacity(integral.sampling.len());
@@ -502,12 +503,12 @@ fn lambda_entry(
         let n = envelope_intervals(&mie);
         let table = match s_of {
             None => None,
-            Some((f, kd)) => {
+            Some((py, kd)) => {
                 if !factors.iter().any(|t| t.0 == n) {
                     let h = std::f64::consts::PI / n as f64;
                     let probes = (0..=n * PROBE_STEPS).map(|j| {
                         let theta = j as f64 / PROBE_STEPS as f64 * h;
-                        structure::percus_yevick(f, 2.0 * kd * (0.5 * theta).sin())
+                        py.at(2.0 * kd * (0.5 * theta).sin())
                     });
                     factors.push((n, probes.collect()));
                 }

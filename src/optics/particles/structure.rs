@@ -28,24 +28,55 @@ pub const PY_FROM: f64 = 0.005;
 /// eq. 4.4.14), in closed form (e.g. Kinning & Thomas, Macromolecules 17, 1712, 1984, eq.
 /// 7), and by its Taylor series at small `x`, where the closed form cancels.
 pub fn percus_yevick(f: f64, x: f64) -> f64 {
-    let one = (1.0 - f).powi(4);
-    let a = (1.0 + 2.0 * f).powi(2) / one;
-    let b = -6.0 * f * (1.0 + 0.5 * f).powi(2) / one;
-    let g = 0.5 * f * a;
-    let nc = if x < 0.05 {
-        // n c(q) = -24 f (a / 3 + b / 4 + g / 6) + 24 f x^2 (a / 30 + b / 36 + g / 48) + O(x^4)
-        // (the moments of c(r) r^2 (1 - (q r)^2 / 6) over the sphere).
-        -24.0 * f * (a / 3.0 + b / 4.0 + g / 6.0)
-            + 24.0 * f * x * x * (a / 30.0 + b / 36.0 + g / 48.0)
-    } else {
-        let (s, c) = x.sin_cos();
-        let x2 = x * x;
-        -24.0 * f / (x2 * x2 * x2)
-            * (a * x2 * x * (s - x * c)
-                + b * x2 * (2.0 * x * s - (x2 - 2.0) * c - 2.0)
-                + g * ((4.0 * x2 * x - 24.0 * x) * s - (x2 * x2 - 12.0 * x2 + 24.0) * c + 24.0))
-    };
-    1.0 / (1.0 - nc)
+    PercusYevick::new(f).at(x)
+}
+
+/// [`percus_yevick`] at one volume fraction, its coefficients computed once (a scattering
+/// event evaluates it at every candidate angle).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PercusYevick {
+    f: f64,
+    a: f64,
+    b: f64,
+    g: f64,
+}
+
+impl PercusYevick {
+    pub fn new(f: f64) -> PercusYevick {
+        let one = (1.0 - f).powi(4);
+        let a = (1.0 + 2.0 * f).powi(2) / one;
+        PercusYevick {
+            f,
+            a,
+            b: -6.0 * f * (1.0 + 0.5 * f).powi(2) / one,
+            g: 0.5 * f * a,
+        }
+    }
+
+    /// The volume fraction.
+    pub fn f(&self) -> f64 {
+        self.f
+    }
+
+    /// `S` at `x = q d`.
+    #[inline]
+    pub fn at(&self, x: f64) -> f64 {
+        let PercusYevick { f, a, b, g } = *self;
+        let nc = if x < 0.05 {
+            // n c(q) = -24 f (a / 3 + b / 4 + g / 6) + 24 f x^2 (a / 30 + b / 36 + g / 48) + O(x^4)
+            // (the moments of c(r) r^2 (1 - (q r)^2 / 6) over the sphere).
+            -24.0 * f * (a / 3.0 + b / 4.0 + g / 6.0)
+                + 24.0 * f * x * x * (a / 30.0 + b / 36.0 + g / 48.0)
+        } else {
+            let (s, c) = x.sin_cos();
+            let x2 = x * x;
+            -24.0 * f / (x2 * x2 * x2)
+                * (a * x2 * x * (s - x * c)
+                    + b * x2 * (2.0 * x * s - (x2 - 2.0) * c - 2.0)
+                    + g * ((4.0 * x2 * x - 24.0 * x) * s - (x2 * x2 - 12.0 * x2 + 24.0) * c + 24.0))
+        };
+        1.0 / (1.0 - nc)
+    }
 }
 
 #[cfg(test)]
