@@ -355,7 +355,7 @@ fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(len);
     bar.set_style(
         indicatif::ProgressStyle::with_template(&format!(
-            "{{bar:40}} {{pos}}/{{len}} {what}  {{per_sec}}  eta {{eta}}  ({{elapsed}})"
+            "{{bar:40}} {{pos}}/{{len}} {what}  {{per_sec}}  eta {{eta}}  ({{elapsed}}){{msg}}"
         ))
         .expect("a valid template"),
     );
@@ -399,8 +399,9 @@ fn keep_alive(bar: &indicatif::ProgressBar, what: &str) {
                 None => String::new(),
             };
             eprintln!(
-                "progress: {what}{done}, {:.0} s so far",
-                t0.elapsed().as_secs_f64()
+                "progress: {what}{done}, {:.0} s so far{}",
+                t0.elapsed().as_secs_f64(),
+                bar.message()
             );
         }
     });

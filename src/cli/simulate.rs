@@ -67,7 +67,20 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     let total = a.settings.budget();
     let pool = thread_pool(a.threads)?;
     let bar = progress_bar(total, "trees");
-    let result = pool.install(|| goniospec::simulate::simulate(&s, &cfg, &|n| bar.set_position(n)));
+    // A particle medium's Mie tables take seconds before the first tree: said, not shown
+    // as a run stuck at 0 trees.
+    let setting_up = std::sync::atomic::AtomicBool::new(false);
+    if s.media.iter().any(|m| m.scattering.is_some()) {
+        bar.set_message("; tabulating the particle media (Mie, every whole nm)");
+        setting_up.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+    let progress = |n| {
+        if setting_up.swap(false, std::sync::atomic::Ordering::Relaxed) {
+            bar.set_message("");
+        }
+        bar.set_position(n);
+    };
+    let result = pool.install(|| goniospec::simulate::simulate(&s, &cfg, &progress));
     bar.finish_and_clear();
     let (acc, stats) = match result {
         Ok(r) => r,
