@@ -372,5 +372,22 @@ pub(super) fn scene_driven(
         gsa.display(),
         gsb.display()
     );
+    // Said before the image is made, so a noisy image is never a surprise (issue 49).
+    let short = run.needed_deg.len() - converged;
+    if short > 0 {
+        let worst_error = run
+            .stats
+            .directions
+            .iter()
+            .filter(|d| !d.converged)
+            .filter_map(|d| d.achieved)
+            .fold(0.0f64, f64::max);
+        eprintln!(
+            "warning: {short} of {} directions did not reach --tolerance {} within --max-rays {} (relative errors up to {worst_error:.3} remain); the image carries that noise. Raise --max-rays or loosen --tolerance. The errors treat trees as independent and overstate the R2 entry points' (README, \"Simulation\")",
+            run.needed_deg.len(),
+            a.tolerance,
+            a.max_rays
+        );
+    }
     Ok(run.brdf)
 }
