@@ -144,6 +144,19 @@ fn samples_the_chart_cannot_take_are_refused() {
         e.contains("--volume-fraction needs a medium of particles"),
         "{e}"
     );
+    let (path_mie, text_mie) = (
+        dir.join("mie.toml"),
+        text.replace(
+            "henyey_greenstein = { g = 0.5, scattering_per_um = 4.0 }",
+            "particles = { medium = \"primer\", radius_nm = 100.0, volume_fraction = 0.1 }",
+        ),
+    );
+    std::fs::write(&path_mie, &text_mie).unwrap();
+    cfg.volume_fraction = Some(0.7);
+    let e = hiding(&path_mie, &text_mie, &cfg, &|_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--volume-fraction must lie in (0, 0.64)"), "{e}");
     let clear = text.replace(
         "henyey_greenstein = { g = 0.5, scattering_per_um = 4.0 }\n",
         "",

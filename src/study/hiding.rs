@@ -332,7 +332,17 @@ impl<'a> Chart<'a> {
                     "--volume-fraction needs a medium of particles; '{medium}' scatters by henyey_greenstein"
                 )));
             }
-            (Some(f), Some(_)) => Some(f),
+            (Some(f), Some(_)) => {
+                // Named as the flag, before the chart's rewritten description would be
+                // named with a line of its own.
+                let rcp = crate::optics::particles::structure::RANDOM_CLOSE_PACKING;
+                if !(f.is_finite() && f > 0.0 && f < rcp) {
+                    return Err(bad(format!(
+                        "--volume-fraction must lie in (0, {rcp}) ({rcp}: random close packing, the densest a suspension of spheres can be), got {f}"
+                    )));
+                }
+                Some(f)
+            }
             (None, Some(p)) => p.get("volume_fraction").and_then(|v| v.as_float()),
             (None, None) => None,
         };
