@@ -167,3 +167,34 @@ fn samples_the_chart_cannot_take_are_refused() {
     assert!(e.contains("exactly one scattering layer"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Numbers the commands cannot use are refused before any work, naming the flag.
+#[test]
+fn bad_numbers_are_refused_before_work() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    for (args, says) in [
+        (
+            vec!["hiding", "meshes/paint-pigments.toml", "--theta-i", "95"],
+            "--theta-i must lie in [0, 90) degrees",
+        ),
+        (
+            vec!["hiding", "meshes/paint-pigments.toml", "--contrast", "1"],
+            "--contrast must lie strictly between 0 and 1",
+        ),
+        (
+            vec!["bench", "converge", "--max-seconds", "0"],
+            "--max-seconds must be positive",
+        ),
+        (vec!["bench", "converge", "--target", "nan"], "--target"),
+    ] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_goniospec"))
+            .args(&args)
+            .current_dir(root)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(out.stdout.is_empty(), "{args:?} printed {:?}", out.stdout);
+    }
+}

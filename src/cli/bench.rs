@@ -150,11 +150,17 @@ pub(super) fn bench_converge(a: ConvergeBenchArgs) -> Result<ExitCode> {
             a.target
         );
     }
+    if a.max_seconds <= 0.0 {
+        bail!("--max-seconds must be positive, got {}", a.max_seconds);
+    }
+    if !(0.0..90.0).contains(&a.theta_i) {
+        bail!("--theta-i must lie in [0, 90) degrees, got {}", a.theta_i);
+    }
     let pool = thread_pool(a.threads)?;
     outln!("threads: {} count", pool.current_num_threads());
     let cfg = goniospec::bench::ConvergeConfig {
         theta_i_deg: a.theta_i,
-        edges: (0..=40).map(|i| 380.0 + 10.0 * f64::from(i)).collect(),
+        edges: visible_bins(),
         target: a.target,
         share: 0.95,
         start_rays: a.start_rays,
@@ -217,7 +223,7 @@ pub(super) fn bench_paints(a: PaintBenchArgs) -> Result<ExitCode> {
                 }
             }
         }
-        let edges: Vec<f64> = (0..=40).map(|i| 380.0 + 10.0 * f64::from(i)).collect();
+        let edges = visible_bins();
         let cfg = SimConfig::new(vec![a.theta_i], Wavelengths::Bins(edges), a.rays);
         let t0 = std::time::Instant::now();
         let (acc, stats) = pool
@@ -378,7 +384,7 @@ pub(super) fn bench_simulate(a: SimBenchArgs) -> Result<ExitCode> {
     let cfg = goniospec::bench::SimulateBenchConfig {
         rays: a.rays,
         theta_i_deg: a.theta_i,
-        bins: (0..=40).map(|i| 380.0 + 10.0 * i as f64).collect(),
+        bins: visible_bins(),
         backends: Backend::ALL
             .into_iter()
             .filter(|b| b.is_available())
@@ -624,4 +630,9 @@ pub(super) fn bench_large(a: LargeBenchArgs) -> Result<ExitCode> {
         )?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The benchmarks' spectrum: 40 bins of 10 nm from 380 to 780 nm (edges).
+fn visible_bins() -> Vec<f64> {
+    (0..=40).map(|i| 380.0 + 10.0 * f64::from(i)).collect()
 }

@@ -39,6 +39,9 @@ pub(super) fn hiding(a: HidingArgs) -> Result<ExitCode> {
             a.contrast
         );
     }
+    if !(0.0..90.0).contains(&a.theta_i) {
+        bail!("--theta-i must lie in [0, 90) degrees, got {}", a.theta_i);
+    }
     let Wavelengths::Bins(edges) = Wavelengths::parse(&a.wavelengths, false)? else {
         bail!("--wavelengths must give bins");
     };
