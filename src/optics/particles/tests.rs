@@ -478,3 +478,48 @@ fn packed_directions_follow_the_phase_function_times_the_structure_factor() {
     assert!(chi2 < CHI2_40_P001, "chi2 {chi2}");
     assert_eq!(m.violations(), 0, "the envelope was exceeded");
 }
+
+/// The structure factor interpolated between the envelope's probes is within
+/// `FACTOR_INTERPOLATION` of the closed form wherever `interpolable` lets it be used
+/// (checked at 20 points between each pair of probes), and `interpolable` refuses a
+/// table it would miss by more (a dense packing of large spheres).
+#[test]
+fn interpolated_structure_factors_stay_within_their_bound() {
+    use super::structure::PercusYevick;
+    let n = THETA_INTERVALS;
+    let h = std::f64::consts::PI / (n * PROBE_STEPS) as f64;
+    let mut used = 0;
+    for (f, kd) in [
+        (0.1, 3.4),
+        (0.2, 3.4),
+        (0.2, 5.0),
+        (0.3, 4.0),
+        (0.4, 12.0),
+        (0.6, 12.0),
+    ] {
+        let py = PercusYevick::new(f);
+        let s_at = |theta: f64| py.at(2.0 * kd * (0.5 * theta).sin());
+        let table: Vec<f64> = (0..=n * PROBE_STEPS).map(|j| s_at(j as f64 * h)).collect();
+        let mut worst = 0.0f64;
+        for j in 0..n * PROBE_STEPS {
+            for k in 1..20 {
+                let t = k as f64 / 20.0;
+                let interp = table[j] + t * (table[j + 1] - table[j]);
+                worst = worst.max((interp - s_at((j as f64 + t) * h)).abs());
+            }
+        }
+        if interpolable(&table) {
+            used += 1;
+            assert!(
+                worst <= FACTOR_INTERPOLATION,
+                "f {f}, kd {kd}: error {worst:e}"
+            );
+        } else {
+            assert!(
+                worst > 0.1 * FACTOR_INTERPOLATION,
+                "f {f}, kd {kd}: refused at {worst:e}"
+            );
+        }
+    }
+    assert!(used >= 3, "{used} tables interpolated");
+}
