@@ -11,7 +11,9 @@
 # tests/interop/vgroove_rcwa.py; `gold_v_grooves_against_rigorous_te_or_warn` in
 # tests/tilted_absorbers.rs compares the rays' TE R, or the warning), and the local
 # transfer-matrix film that test file uses for tilted gold films, against RCWA for TE
-# (tests/interop/roof_rcwa.py).
+# (tests/interop/roof_rcwa.py). Not run here: the many-particle T-matrix reference for
+# dependent scattering (tests/interop/tmatrix_smuthi.py; SMUTHI needs gfortran and an older
+# NumPy), whose stored result tests/particle_media.rs reads.
 #
 #   scripts/interop.sh [GONIOSPEC_BINARY]
 #
