@@ -260,6 +260,17 @@ fn particle_cost(
         "particles_segments_per_tree: {:.0} segments",
         segments[1]
     ));
+    // What bounds the ratio: the walk's length (physics: a tree scatters hundreds of
+    // times before it leaves the paint) times the cost of a segment against a clear one's
+    // (the tracer's); the first is the segments' ratio, the second this.
+    log(&format!(
+        "particles_clear_segments_per_tree: {:.1} segments",
+        segments[0]
+    ));
+    log(&format!(
+        "particles_per_segment_over_rays: {:.2} x",
+        (secs[1] / segments[1].max(1e-9)) / (secs[0] / segments[0].max(1e-9))
+    ));
     Ok(())
 }
 
