@@ -145,3 +145,144 @@ fn merges_check_every_setting_and_headers_record_what_was_done() {
     }
     assert_eq!(m.header.settings.tolerance, Some(0.2));
 }
+
+/// The figure `--target-stderr` judges by, written here from its definition (issue 49):
+/// in each wavelength's cell, the reflected buckets (even keys) brightest first until 95 %
+/// of the reflected power is taken, each bucket's standard error over trees relative to
+/// its mean; the median of all of them (the upper one of an even count).
+fn bright_median(cells: &[goniospec::accumulate::Cell]) -> f64 {
+    let mut rel = Vec::new();
+    for c in cells {
+        let n = c.trees as f64;
+        let mut keys: Vec<usize> = (0..c.sum.len())
+            .step_by(2)
+            .filter(|&k| c.sum[k] > 0.0)
+            .collect();
+        keys.sort_by(|&a, &b| c.sum[b].total_cmp(&c.sum[a]).then(a.cmp(&b)));
+        let total: f64 = keys.iter().map(|&k| c.sum[k]).sum();
+        let mut taken = 0.0;
+        for k in keys {
+            if taken >= 0.95 * total {
+                break;
+            }
+            taken += c.sum[k];
+            let mean = c.sum[k] / n;
+            let var = (c.sumsq[k] / n - mean * mean) * n / (n - 1.0);
+            rel.push((var.max(0.0) / n).sqrt() / mean);
+        }
+    }
+    rel.sort_by(f64::total_cmp);
+    rel[rel.len() / 2]
+}
+
+/// `--target-stderr` (issue 49): each direction stops at the first batch whose bright
+/// buckets reach the target. The figure is recomputed here from the cells; the batch
+/// before did not reach it (a run of that direction alone on its own random streams whose
+/// budget ran out one batch earlier: batches are whole blocks, so its cells are the
+/// adaptive run's before its last batch, which a run whose budget ran out at the same
+/// count checks); and the cells do not depend on the thread count.
+#[test]
+fn target_stderr_stops_at_the_first_batch_that_reaches_it() {
+    let s = goniospec::sample::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/rough-glass.toml"),
+        Default::default(),
+    )
+    .unwrap();
+    let (target, batch) = (0.1, 256);
+    let mut cfg = config(
+        &[20.0, 60.0],
+        Wavelengths::Bins(vec![400.0, 500.0, 600.0, 700.0]),
+        batch,
+    );
+    cfg.buckets = Buckets {
+        theta_bins: 9,
+        phi_bins: 8,
+    };
+    cfg.target_stderr = Some(target);
+    cfg.max_rays = 200_000;
+    let (acc, stats) = simulate(&s, &cfg, &|_| {}).unwrap();
+    let nl = 3;
+    for (i, d) in stats.directions.iter().enumerate() {
+        assert!(d.converged && d.by_median, "{d:?}");
+        assert!(
+            d.rays > batch,
+            "one batch reached it: choose a harder target ({d:?})"
+        );
+        let cells = &acc.cells[i * nl..(i + 1) * nl];
+        let figure = bright_median(cells);
+        assert!(figure <= target, "direction {i}: {figure}");
+        assert!((figure - d.achieved.unwrap()).abs() <= 1e-12 * figure);
+        // This direction alone, stopped by its budget (an unreachable target).
+        let alone = |max_rays: u64| {
+            let mut c = cfg.clone();
+            c.theta_i_deg = vec![d.theta_i_deg];
+            c.first_direction = i as u64;
+            c.target_stderr = Some(1e-6);
+            c.max_rays = max_rays;
+            run(&s, &c)
+        };
+        assert_eq!(
+            &alone(d.rays).cells[..],
+            cells,
+            "direction {i}: the same trees alone"
+        );
+        let before = bright_median(&alone(d.rays - batch).cells);
+        assert!(
+            before > target,
+            "direction {i}: the batch before already had {before}"
+        );
+    }
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| run(&s, &cfg));
+    assert!(one.to_bytes() == acc.to_bytes());
+}
+
+/// `--target-stderr` is refused where it cannot judge or cannot be kept: beside
+/// `--tolerance`, with trees summed coherently, outside (0, 1), and in a batch plan.
+#[test]
+fn target_stderr_is_refused_where_it_cannot_hold() {
+    let sample = root().join("meshes/rough-gold.toml");
+    let sample = sample.to_str().unwrap();
+    let dir = scratch("target-stderr");
+    let out = dir.join("never.gsa");
+    let out = out.to_str().unwrap();
+    for (extra, want) in [
+        (&["--tolerance", "0.1"][..], "cannot be used with"),
+        (&["--coherence", "global"][..], "no per-tree error"),
+        (&["--coherence", "diffraction"][..], "no per-tree error"),
+    ] {
+        let mut args = vec![
+            "simulate",
+            sample,
+            "--theta-i",
+            "0",
+            "--rays",
+            "64",
+            "--target-stderr",
+            "0.1",
+        ];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["-o", out]);
+        let (code, _, err) = goniospec(&args);
+        assert_ne!(code, 0, "{extra:?}");
+        assert!(err.contains(want), "{extra:?}: {err}");
+    }
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        sample,
+        "--theta-i",
+        "0",
+        "--rays",
+        "64",
+        "--target-stderr",
+        "1.5",
+        "-o",
+        out,
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--target-stderr: must be"), "{err}");
+    assert!(!std::path::Path::new(out).exists());
+}

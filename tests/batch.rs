@@ -361,6 +361,10 @@ fn bad_plans_fail_at_plan_time() {
             "tolerance makes each direction's number of trees adaptive",
         ),
         (
+            "[defaults]\ntheta_i = [0]\ntarget_stderr = 0.05\n[[material]]\nsample = \"SAMPLE\"\n",
+            "target_stderr makes each direction's number of trees adaptive",
+        ),
+        (
             "[defaults]\ntheta_i = [0]\ncoherence = \"diffraction\"\nrays = 400000000\n[[material]]\nsample = \"SAMPLE\"\n",
             "GB",
         ),

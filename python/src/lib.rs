@@ -487,8 +487,10 @@ fn load_brdf(path: PathBuf) -> PyResult<Brdf> {
 /// wavelengths with `monochromatic=True`); the estimator `coherence` with
 /// `coherence_radius_nm` (float("inf"): the plane-wave limit); `theta_o_bins` x
 /// `phi_o_bins` outgoing buckets; power `cutoff`, `max_depth`, `max_segments`; an adaptive
-/// budget to relative standard error `tolerance` with at most `max_rays` trees per
-/// direction; `no_path_sharing`; `no_wavelength_sharing`; `backend` ("embree" or
+/// budget to relative standard error `tolerance` (every bright bucket), or to a median
+/// relative standard error `target_stderr` of the buckets holding 95 % of each
+/// wavelength's reflected power, with at most `max_rays` trees per direction;
+/// `no_path_sharing`; `no_wavelength_sharing`; `backend` ("embree" or
 /// "obvhs"); `seed`. An unknown keyword is a ValueError naming the known ones.
 /// Releases the GIL; Ctrl-C raises KeyboardInterrupt within 50 ms and returns nothing;
 /// `progress`: a bar on `sys.stderr` (trees done, rate, time left) when it is a terminal and

@@ -57,6 +57,20 @@ def test_every_simulate_flag_is_a_keyword(tmp_path):
     assert (tmp_path / "py.gsa").read_bytes() == (tmp_path / "cli.gsa").read_bytes()
 
 
+def test_target_stderr_is_a_keyword_and_the_cli_flag(tmp_path):
+    # Issue 49: the adaptive budget by the BRDF's quality, the same bytes as the CLI's.
+    s = gs.Sample.load(mesh("rough-gold.toml"))
+    acc = gs.simulate(s, theta_i_deg=[20], wavelengths="400:700:100", rays=128, target_stderr=0.3,
+                      max_rays=4096)
+    acc.save(tmp_path / "py.gsa")
+    subprocess.run([CLI, "simulate", mesh("rough-gold.toml"), "--theta-i", "20", "--wavelengths",
+                    "400:700:100", "--rays", "128", "--target-stderr", "0.3", "--max-rays", "4096",
+                    "-o", str(tmp_path / "cli.gsa")], check=True, cwd=ROOT, capture_output=True)
+    assert (tmp_path / "py.gsa").read_bytes() == (tmp_path / "cli.gsa").read_bytes()
+    with pytest.raises(ValueError, match="target"):
+        gs.simulate(s, theta_i_deg=[20], rays=16, target_stderr=0.3, tolerance=0.3)
+
+
 def test_eval_matches_cli_and_vectorises(tmp_path):
     s = gs.Sample.load(mesh("rough-gold.toml"))
     brdf = gs.simulate(s, theta_i_deg=[0, 30, 60], wavelengths="400:700:50", rays=256).build("table")

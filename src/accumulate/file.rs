@@ -56,6 +56,10 @@ pub struct Settings {
     /// direction; absent for a fixed budget.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tolerance: Option<f64>,
+    /// Adaptive budget by the BRDF's quality (`--target-stderr`): the target median
+    /// relative standard error of the bright buckets; absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_stderr: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_rays: Option<u64>,
     /// A batch unit's offset in its run's directions (`SimConfig::first_direction`);
@@ -173,8 +177,12 @@ impl Header {
             st.max_wraps,
             st.max_segments,
             st.entry_points,
-            match (st.tolerance, st.max_rays) {
-                (Some(t), Some(m)) => format!("; adaptive to {t} relative error, at most {m} rays"),
+            match (st.tolerance, st.target_stderr, st.max_rays) {
+                (Some(t), _, Some(m)) =>
+                    format!("; adaptive to {t} relative error, at most {m} rays"),
+                (_, Some(t), Some(m)) => format!(
+                    "; adaptive to a median relative error of {t} over the bright buckets, at most {m} rays"
+                ),
                 _ => String::new(),
             }
         );
@@ -264,12 +272,15 @@ impl Header {
                 self.rays
             )));
         }
-        if s.tolerance.is_some_and(|t| !(t > 0.0 && t < 1.0))
-            || s.tolerance.is_some() != s.max_rays.is_some()
+        let goal_ok = |g: Option<f64>| g.is_none_or(|t| t > 0.0 && t < 1.0);
+        if !goal_ok(s.tolerance)
+            || !goal_ok(s.target_stderr)
+            || (s.tolerance.is_some() && s.target_stderr.is_some())
+            || (s.tolerance.is_some() || s.target_stderr.is_some()) != s.max_rays.is_some()
         {
             return Err(InvalidHeader::from(format!(
-                "an adaptive run needs tolerance in (0, 1) and max_rays together, got {:?} and {:?}",
-                s.tolerance, s.max_rays
+                "an adaptive run needs one of tolerance or target_stderr in (0, 1), and max_rays with it, got {:?}, {:?} and {:?}",
+                s.tolerance, s.target_stderr, s.max_rays
             )));
         }
         Ok(())
@@ -650,5 +661,11 @@ impl Accumulator {
     /// The cell of incident direction `i` and wavelength `j`.
     pub fn cell(&self, i: usize, j: usize) -> &Cell {
         &self.cells[i * self.header.settings.wavelength_count() + j]
+    }
+
+    /// The cells of incident direction `i`, one per wavelength.
+    pub fn direction_cells(&self, i: usize) -> &[Cell] {
+        let nl = self.header.settings.wavelength_count();
+        &self.cells[i * nl..(i + 1) * nl]
     }
 }

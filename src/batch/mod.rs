@@ -309,10 +309,16 @@ impl Manifest {
                 sample::load(&path, MeshOptions::default()).map_err(|e| at(e.to_string()))?;
             // Refused now what every unit would refuse on a node (issue 47), in simulate's
             // words; and what only a batch cannot hold.
-            if settings.tolerance.is_some() {
-                return Err(BatchError::from(at(
-                    "tolerance makes each direction's number of trees adaptive, which a batch's units cannot be checked and merged by: give a fixed rays (and split the spectrum or angles into more units for more trees)".into(),
-                )));
+            if let Some(key) = [
+                ("tolerance", settings.tolerance),
+                ("target_stderr", settings.target_stderr),
+            ]
+            .into_iter()
+            .find_map(|(k, v)| v.map(|_| k))
+            {
+                return Err(BatchError::from(at(format!(
+                    "{key} makes each direction's number of trees adaptive, which a batch's units cannot be checked and merged by: give a fixed rays (and split the spectrum or angles into more units for more trees; goniospec bench converge says how many trees a sample needs for a target)"
+                ))));
             }
             let whole = settings.resolve().map_err(|e| at(e.to_string()))?;
             crate::simulate::preflight(&sample, &whole).map_err(|e| at(e.to_string()))?;

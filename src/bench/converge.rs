@@ -53,30 +53,9 @@ pub struct ConvergeFigure {
 }
 
 /// The reflected buckets of direction `i` of `acc` that hold `share` of each wavelength's
-/// reflected power, brightest first: `(wavelength, key)` pairs.
+/// reflected power ([`crate::simulate::bright_buckets`]).
 fn bright_buckets(acc: &Accumulator, i: usize, share: f64) -> Vec<(usize, usize)> {
-    let nl = acc.header.settings.wavelength_count();
-    let mut out = Vec::new();
-    for j in 0..nl {
-        let c = acc.cell(i, j);
-        // Reflected keys are even (`accumulate::key`).
-        let mut up: Vec<(usize, f64)> = (0..c.sum.len())
-            .step_by(2)
-            .filter(|&k| c.sum[k] > 0.0)
-            .map(|k| (k, c.sum[k]))
-            .collect();
-        up.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
-        let total: f64 = up.iter().map(|b| b.1).sum();
-        let mut acc_power = 0.0;
-        for (k, s) in up {
-            if acc_power >= share * total {
-                break;
-            }
-            acc_power += s;
-            out.push((j, k));
-        }
-    }
-    out
+    crate::simulate::bright_buckets(acc.direction_cells(i), share)
 }
 
 fn median(mut v: Vec<f64>) -> Option<f64> {
@@ -87,14 +66,7 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
 /// The median relative standard error of the buckets of direction `i` that hold `share`
 /// of each wavelength's reflected power.
 pub fn bucket_noise(acc: &Accumulator, i: usize, share: f64) -> Option<f64> {
-    let rel = bright_buckets(acc, i, share)
-        .into_iter()
-        .map(|(j, k)| {
-            let c = acc.cell(i, j);
-            stderr(c.sum[k], c.sumsq[k], c.trees) / (c.sum[k] / c.trees as f64)
-        })
-        .collect();
-    median(rel)
+    crate::simulate::bright_bucket_error(acc.direction_cells(i), share)
 }
 
 /// Two runs of the same trees on different seeds (independent randomisations: the seed

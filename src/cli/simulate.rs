@@ -122,7 +122,7 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         },
         goniospec::io::peak_rss_mb().map_or_else(|| "unknown".into(), |m| format!("{m:.0} MB"))
     );
-    if cfg.tolerance.is_some() {
+    if cfg.adaptive() {
         for d in &stats.directions {
             eprintln!("{d}");
         }

@@ -40,9 +40,9 @@ pub fn diffraction_refused(sample: &Sample, cfg: &SimConfig) -> Option<&'static 
         )
     } else if sample.interfaces.iter().any(|i| i.closed) {
         Some("its closed bodies end long trees by Russian roulette with random weights")
-    } else if cfg.tolerance.is_some() {
+    } else if cfg.adaptive() {
         Some(
-            "--tolerance stops on the per-tree error, which a transform of all trees at once does not have",
+            "--tolerance and --target-stderr stop on the per-tree error, which a transform of all trees at once does not have",
         )
     } else {
         None

@@ -107,6 +107,7 @@ mod tests {
                     rays: 1,
                     achieved: None,
                     converged: false,
+                    by_median: false,
                     segments: 0,
                     leaks: 0,
                     envelope_violations: 0,

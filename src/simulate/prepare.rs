@@ -50,9 +50,9 @@ pub(super) fn method_refusals(
                 "--coherence diffraction sums deterministic ray fields, but this sample has closed bodies (pigments, flakes) whose long trees end by Russian roulette with random weights; use --coherence beamlet, and a particle medium for sub-wavelength particles".into(),
             ));
         }
-        if cfg.tolerance.is_some() {
+        if cfg.adaptive() {
             return Err(SimError::Config(
-                "--coherence diffraction sums all trees of a direction at once, so it has no per-tree error to stop on: give a fixed --rays instead of --tolerance".into(),
+                "--coherence diffraction sums all trees of a direction at once, so it has no per-tree error to stop on: give a fixed --rays instead of --tolerance or --target-stderr".into(),
             ));
         }
     }

@@ -9,8 +9,8 @@ use rayon::prelude::*;
 use super::prepare::{ambient_lossless, media_in_range, method_refusals};
 use super::{BLOCK, CHUNK_BLOCKS_PER_THREAD, MIN_CHUNK_BLOCKS, SimError};
 use super::{
-    CREATED_REFUSED, DIFFRACTION_RATIO_REFUSED, DiffractionCell, DirectionStats, SimConfig,
-    SimStats, achieved_error, check_physical, sample_hash,
+    BRIGHT_SHARE, CREATED_REFUSED, DIFFRACTION_RATIO_REFUSED, DiffractionCell, DirectionStats,
+    SimConfig, SimStats, achieved_error, bright_bucket_error, check_physical, sample_hash,
 };
 use crate::accumulate::block::{BlockCell, Dense, add_block};
 use crate::accumulate::file::{Accumulator, EntryPoints, Header, Settings};
@@ -263,7 +263,8 @@ impl<'a> Run<'a> {
             },
             path_sharing: sharing,
             tolerance: cfg.tolerance,
-            max_rays: cfg.tolerance.map(|_| cfg.max_rays),
+            target_stderr: cfg.target_stderr,
+            max_rays: cfg.adaptive().then_some(cfg.max_rays),
             first_direction: cfg.first_direction,
             methods: Vec::new(),
         };
@@ -390,7 +391,7 @@ impl<'a> Run<'a> {
         let wi = from_spherical(theta_deg.to_radians(), cfg.phi_i_deg.to_radians());
         let mut shift_rng = Rng::new(cfg.seed, 0x5817_0000 + cfg.first_direction + di as u64);
         let shift = [shift_rng.uniform(), shift_rng.uniform()];
-        let adaptive = cfg.tolerance.is_some();
+        let adaptive = cfg.adaptive();
         // Batches are whole blocks, so where a run stops never changes the sums of the
         // batches before it.
         let batch = if adaptive {
@@ -425,6 +426,7 @@ impl<'a> Run<'a> {
                         rays: start,
                         achieved: None,
                         converged: false,
+                        by_median: false,
                         segments: 0,
                         leaks: 0,
                         envelope_violations: 0,
@@ -464,8 +466,13 @@ impl<'a> Run<'a> {
                 chunk_lo = chunk_hi;
             }
             start = end;
-            let achieved = achieved_error(cells, di, nl, cfg.coherence);
-            let converged = adaptive && achieved.is_some_and(|a| a <= cfg.tolerance.unwrap_or(0.0));
+            let achieved = if cfg.target_stderr.is_some() {
+                bright_bucket_error(&cells[di * nl..(di + 1) * nl], BRIGHT_SHARE)
+            } else {
+                achieved_error(cells, di, nl, cfg.coherence)
+            };
+            let converged =
+                adaptive && achieved.is_some_and(|a| a <= cfg.adaptive_goal().unwrap_or(0.0));
             if !adaptive || converged || start >= target {
                 if self.diffracts(di) {
                     self.diffract(
@@ -481,6 +488,7 @@ impl<'a> Run<'a> {
                     rays: start,
                     achieved,
                     converged,
+                    by_median: cfg.target_stderr.is_some(),
                     // Filled by `simulate`, which runs the directions one at a time.
                     segments: 0,
                     leaks: 0,

@@ -153,10 +153,19 @@ pub struct SimSettings {
     /// Adaptive budget: launch batches of --rays per incident direction until the relative
     /// standard error of the reflectance (total and every populated bucket) is at most
     /// this, e.g. 0.01; reports per direction whether it converged or ran out of budget.
-    #[arg(long, value_parser = finite)]
+    #[arg(long, value_parser = finite, conflicts_with = "target_stderr")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tolerance: Option<f64>,
-    /// Largest number of rays per incident direction with --tolerance.
+    /// Adaptive budget by the BRDF's quality: launch batches of --rays per incident
+    /// direction until the median relative standard error of the buckets that hold 95 %
+    /// of each wavelength's reflected power is at most this (e.g. 0.05: a BRDF whose
+    /// bright buckets are good to 5 %; `goniospec bench converge` times it per sample);
+    /// reports per direction what it reached. The errors treat trees as independent, an
+    /// upper bound under the default entry points.
+    #[arg(long, value_parser = finite)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_stderr: Option<f64>,
+    /// Largest number of rays per incident direction with --tolerance or --target-stderr.
     #[arg(long, default_value_t = defaults::MAX_RAYS)]
     pub max_rays: u64,
     /// Trace every wavelength separately even when no medium is dispersive or absorbing
@@ -194,6 +203,7 @@ impl Default for SimSettings {
             max_depth: TraceLimits::MAX_DEPTH,
             max_segments: TraceLimits::MAX_SEGMENTS,
             tolerance: None,
+            target_stderr: None,
             max_rays: defaults::MAX_RAYS,
             no_path_sharing: false,
             no_wavelength_sharing: false,
@@ -250,6 +260,7 @@ impl SimSettings {
             wavelength_sharing: !self.no_wavelength_sharing,
             allow_unphysical: self.allow_unphysical,
             tolerance: self.tolerance,
+            target_stderr: self.target_stderr,
             max_rays: self.max_rays,
             ..SimConfig::new(self.theta_i_deg.clone(), wavelengths, self.rays)
         }
@@ -258,7 +269,7 @@ impl SimSettings {
     /// Trees the run launches in all (for progress bars): `rays`, or `max_rays` when
     /// adaptive, per incident direction.
     pub fn budget(&self) -> u64 {
-        let per = if self.tolerance.is_some() {
+        let per = if self.tolerance.is_some() || self.target_stderr.is_some() {
             self.max_rays
         } else {
             self.rays
@@ -343,6 +354,11 @@ pub struct SimConfig {
     /// relative standard error of the reflectance (total, and every populated bucket) is
     /// at most this, or `max_rays` is spent. `None`: exactly `rays` trees.
     pub tolerance: Option<f64>,
+    /// Adaptive budget by the BRDF's quality: as `tolerance`, but until
+    /// [`super::bright_bucket_error`] (the median relative standard error of the buckets
+    /// holding [`super::BRIGHT_SHARE`] of each wavelength's reflected power) is at most
+    /// this. At most one of the two.
+    pub target_stderr: Option<f64>,
     pub max_rays: u64,
     /// Entry points: the R2 low-discrepancy sequence (default), or independent uniform
     /// points (plain Monte Carlo, for convergence studies).
@@ -367,6 +383,16 @@ pub struct SimConfig {
 }
 
 impl SimConfig {
+    /// Whether the budget is adaptive (`tolerance` or `target_stderr`).
+    pub fn adaptive(&self) -> bool {
+        self.tolerance.is_some() || self.target_stderr.is_some()
+    }
+
+    /// The adaptive budget's goal and what it is judged by.
+    pub fn adaptive_goal(&self) -> Option<f64> {
+        self.tolerance.or(self.target_stderr)
+    }
+
     /// A simulation of `rays` trees per incident direction with the defaults of
     /// `goniospec simulate`: azimuth 0, the default backend, seed 1, the beamlet estimator
     /// with a 5 um radius, the default trace limits, 45 x 36 outgoing buckets, path
@@ -392,6 +418,7 @@ impl SimConfig {
             reference_estimator: false,
             origin_nm: DVec3::ZERO,
             tolerance: None,
+            target_stderr: None,
             max_rays: 0,
             random_entry: false,
             precision: PhasePrecision::F64,
@@ -485,6 +512,32 @@ pub fn validate(cfg: &SimConfig) -> Result<(), SimError> {
                 "must be a relative standard error in [{MIN_TOLERANCE:e}, 1), got {t:e} (below 1e-6 needs some 1e12 trees per direction)"
             ),
         );
+    }
+    if let Some(t) = cfg.target_stderr {
+        if !(MIN_TOLERANCE..1.0).contains(&t) {
+            return bad(
+                "target_stderr",
+                format!(
+                    "must be a median relative standard error in [{MIN_TOLERANCE:e}, 1), got {t:e}"
+                ),
+            );
+        }
+        if cfg.tolerance.is_some() {
+            return bad(
+                "target_stderr",
+                "give --tolerance (every bright bucket) or --target-stderr (their median), not both"
+                    .into(),
+            );
+        }
+        if matches!(cfg.coherence, Coherence::Bucket | Coherence::Global) {
+            return bad(
+                "target_stderr",
+                format!(
+                    "--coherence {} sums trees coherently, so its buckets have no per-tree error to judge: use --coherence auto or beamlet, or a fixed --rays",
+                    cfg.coherence.name()
+                ),
+            );
+        }
     }
     // A configuration built in code (not parsed) meets the parser's rules here.
     if let Err(e) =

@@ -15,6 +15,8 @@ pub struct DirectionStats {
     pub achieved: Option<f64>,
     /// The tolerance was reached (adaptive runs).
     pub converged: bool,
+    /// `achieved` is [`bright_bucket_error`] (`--target-stderr`), not the largest error.
+    pub by_median: bool,
     /// What the direction's trees met: segments traced, segments that met an interface
     /// from the wrong medium, and particle scattering draws beyond the tabulated envelope
     /// (the run's totals are in [`SimStats`]).
@@ -28,9 +30,14 @@ impl std::fmt::Display for DirectionStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "theta_i {} deg: {} trees, relative standard error {} ({})",
+            "theta_i {} deg: {} trees, {} {} ({})",
             self.theta_i_deg,
             self.rays,
+            if self.by_median {
+                "median relative standard error of the bright buckets"
+            } else {
+                "relative standard error"
+            },
             self.achieved
                 .map_or("undefined".into(), |v| format!("{v:.4}")),
             if self.converged {
@@ -40,6 +47,57 @@ impl std::fmt::Display for DirectionStats {
             }
         )
     }
+}
+
+/// The share of each wavelength's reflected power whose buckets judge a BRDF's quality
+/// (`--target-stderr`, `bench converge`): the brightest buckets that hold 95 % of it.
+pub const BRIGHT_SHARE: f64 = 0.95;
+
+/// The reflected buckets of one direction's `cells` (one per wavelength) that hold
+/// `share` of each wavelength's reflected power, brightest first: `(wavelength, key)`
+/// pairs (ties by key, so the choice is deterministic).
+pub fn bright_buckets(cells: &[Cell], share: f64) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for (j, c) in cells.iter().enumerate() {
+        // Reflected keys are even (`accumulate::key`).
+        let mut up: Vec<(usize, f64)> = (0..c.sum.len())
+            .step_by(2)
+            .filter(|&k| c.sum[k] > 0.0)
+            .map(|k| (k, c.sum[k]))
+            .collect();
+        up.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        let total: f64 = up.iter().map(|b| b.1).sum();
+        let mut acc_power = 0.0;
+        for (k, s) in up {
+            if acc_power >= share * total {
+                break;
+            }
+            acc_power += s;
+            out.push((j, k));
+        }
+    }
+    out
+}
+
+/// A BRDF's quality (issue 49): the median relative standard error of the buckets of one
+/// direction's `cells` that hold `share` of each wavelength's reflected power, over every
+/// wavelength (the upper median of an even count); `None` where no bucket has power or a
+/// cell has fewer than 2 trees. The errors treat trees as independent, which overstates
+/// them under the R2 entry points (README, "Simulation"): a BRDF that meets a target by
+/// this meets it.
+pub fn bright_bucket_error(cells: &[Cell], share: f64) -> Option<f64> {
+    if cells.iter().any(|c| c.trees < 2) {
+        return None;
+    }
+    let mut rel: Vec<f64> = bright_buckets(cells, share)
+        .into_iter()
+        .map(|(j, k)| {
+            let c = &cells[j];
+            crate::accumulate::stderr(c.sum[k], c.sumsq[k], c.trees) / (c.sum[k] / c.trees as f64)
+        })
+        .collect();
+    rel.sort_by(f64::total_cmp);
+    rel.get(rel.len() / 2).copied()
 }
 
 /// The achieved relative error of incident direction `di` (see [`DirectionStats`]).
