@@ -10,13 +10,18 @@ use common::*;
 use goniospec::accumulate::{Buckets, Coherence};
 use goniospec::simulate::{Wavelengths, simulate};
 
-#[test]
-fn tolerance_is_met_with_fewer_rays_than_a_fixed_budget() {
-    let s = goniospec::sample::load(
+/// The shipped rough glass.
+fn rough_glass() -> goniospec::sample::Sample {
+    goniospec::sample::load(
         &Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/rough-glass.toml"),
         Default::default(),
     )
-    .unwrap();
+    .unwrap()
+}
+
+#[test]
+fn tolerance_is_met_with_fewer_rays_than_a_fixed_budget() {
+    let s = rough_glass();
     let mut cfg = config(
         &[20.0, 50.0, 75.0],
         Wavelengths::Monochromatic(vec![550.0]),
@@ -74,12 +79,7 @@ fn tolerance_is_met_with_fewer_rays_than_a_fixed_budget() {
         most * 3
     );
     // Deterministic: batches are whole blocks, whatever the thread count.
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap()
-        .install(|| run(&s, &cfg));
-    assert!(one.to_bytes() == acc.to_bytes());
+    assert!(run_on_one_thread(&s, &cfg).to_bytes() == acc.to_bytes());
 }
 
 /// Issue 12, item 7: every setting that changes results takes part in the merge check
@@ -183,11 +183,7 @@ fn bright_median(cells: &[goniospec::accumulate::Cell]) -> f64 {
 /// count checks); and the cells do not depend on the thread count.
 #[test]
 fn target_stderr_stops_at_the_first_batch_that_reaches_it() {
-    let s = goniospec::sample::load(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/rough-glass.toml"),
-        Default::default(),
-    )
-    .unwrap();
+    let s = rough_glass();
     let (target, batch) = (0.1, 256);
     let mut cfg = config(
         &[20.0, 60.0],
@@ -232,12 +228,7 @@ fn target_stderr_stops_at_the_first_batch_that_reaches_it() {
             "direction {i}: the batch before already had {before}"
         );
     }
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap()
-        .install(|| run(&s, &cfg));
-    assert!(one.to_bytes() == acc.to_bytes());
+    assert!(run_on_one_thread(&s, &cfg).to_bytes() == acc.to_bytes());
 }
 
 /// `--target-stderr` is refused where it cannot judge or cannot be kept: beside
@@ -249,10 +240,15 @@ fn target_stderr_is_refused_where_it_cannot_hold() {
     let dir = scratch("target-stderr");
     let out = dir.join("never.gsa");
     let out = out.to_str().unwrap();
-    for (extra, want) in [
-        (&["--tolerance", "0.1"][..], "cannot be used with"),
-        (&["--coherence", "global"][..], "no per-tree error"),
-        (&["--coherence", "diffraction"][..], "no per-tree error"),
+    for (target, extra, want) in [
+        ("0.1", &["--tolerance", "0.1"][..], "cannot be used with"),
+        ("0.1", &["--coherence", "global"][..], "no per-tree error"),
+        (
+            "0.1",
+            &["--coherence", "diffraction"][..],
+            "no per-tree error",
+        ),
+        ("1.5", &[][..], "--target-stderr: must be"),
     ] {
         let mut args = vec![
             "simulate",
@@ -262,27 +258,13 @@ fn target_stderr_is_refused_where_it_cannot_hold() {
             "--rays",
             "64",
             "--target-stderr",
-            "0.1",
+            target,
         ];
         args.extend_from_slice(extra);
         args.extend_from_slice(&["-o", out]);
         let (code, _, err) = goniospec(&args);
-        assert_ne!(code, 0, "{extra:?}");
-        assert!(err.contains(want), "{extra:?}: {err}");
+        assert_ne!(code, 0, "{target} {extra:?}");
+        assert!(err.contains(want), "{target} {extra:?}: {err}");
     }
-    let (code, _, err) = goniospec(&[
-        "simulate",
-        sample,
-        "--theta-i",
-        "0",
-        "--rays",
-        "64",
-        "--target-stderr",
-        "1.5",
-        "-o",
-        out,
-    ]);
-    assert_ne!(code, 0);
-    assert!(err.contains("--target-stderr: must be"), "{err}");
     assert!(!std::path::Path::new(out).exists());
 }

@@ -72,6 +72,15 @@ pub fn config(theta_i: &[f64], wavelengths: Wavelengths, rays: u64) -> SimConfig
     SimConfig::new(theta_i.to_vec(), wavelengths, rays)
 }
 
+/// `cfg` run on `s` in a pool of one thread (results must not depend on the count).
+pub fn run_on_one_thread(s: &Sample, cfg: &SimConfig) -> Accumulator {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| run(s, cfg))
+}
+
 pub fn run(s: &Sample, cfg: &SimConfig) -> Accumulator {
     simulate(s, cfg, &|_| {})
         .unwrap_or_else(|e| panic!("{e}"))
