@@ -548,25 +548,30 @@ fn render_writes_exr_and_png_and_reports_clear_errors() {
 fn render_simulate_models_only_what_the_image_needs() {
     let d = std::env::temp_dir().join(format!("goniospec-render-sim-{}", std::process::id()));
     let exr = d.join("panel.exr");
-    let (code, out, err) = goniospec(&[
-        "render",
-        "--simulate",
+    // A plane under a directional light, simulated from `sample` into `out` in `d`.
+    let plane = |sample: &str, out: &str, rest: &[&str]| {
+        let out = d.join(out);
+        let mut args = vec![
+            "render",
+            "--simulate",
+            sample,
+            "-o",
+            out.to_str().unwrap(),
+            "--shape",
+            "plane",
+            "--light",
+            "dir:40,-90",
+            "--env",
+            "none",
+        ];
+        args.extend_from_slice(rest);
+        goniospec(&args)
+    };
+    let (code, out, err) = plane(
         "meshes/flat-soap-film.toml",
-        "-o",
-        exr.to_str().unwrap(),
-        "--shape",
-        "plane",
-        "--light",
-        "dir:40,-90",
-        "--env",
-        "none",
-        "--width",
-        "48",
-        "--height",
-        "48",
-        "--spp",
-        "2",
-    ]);
+        "panel.exr",
+        &["--width", "48", "--height", "48", "--spp", "2"],
+    );
     assert_eq!(code, 0, "{err}");
     assert!(
         err.contains("needs 3 of the 18 incident angles") && err.contains("[35.0, 40.0, 45.0]"),
@@ -620,29 +625,15 @@ fn render_simulate_models_only_what_the_image_needs() {
     // short before it is rendered (issue 49: 0 of 18 converged and it rendered anyway,
     // silently).
     assert!(!err.contains("did not reach --tolerance"), "{err}");
-    let (code, out, err) = goniospec(&[
-        "render",
-        "--simulate",
-        "meshes/rough-gold.toml",
-        "-o",
-        d.join("gold.exr").to_str().unwrap(),
-        "--shape",
-        "plane",
-        "--light",
-        "dir:40,-90",
-        "--env",
-        "none",
-        "--width",
-        "16",
-        "--height",
-        "16",
-        "--spp",
-        "1",
-        "--rays",
-        "128",
-        "--max-rays",
-        "128",
-    ]);
+    // A 16 x 16 image on a small budget.
+    let small = |sample: &str, out: &str, budget: &[&str]| {
+        let mut rest = vec![
+            "--width", "16", "--height", "16", "--spp", "1", "--rays", "128",
+        ];
+        rest.extend_from_slice(budget);
+        plane(sample, out, &rest)
+    };
+    let (code, out, err) = small("meshes/rough-gold.toml", "gold.exr", &["--max-rays", "128"]);
     assert_eq!(code, 0, "{err}");
     assert!(
         err.contains(
@@ -651,6 +642,31 @@ fn render_simulate_models_only_what_the_image_needs() {
         "{err}"
     );
     assert!(out.contains("rendered 16x16"), "{out}");
+    // By the BRDF's own figure (--target-stderr, issue 49): a target the budget cannot
+    // reach on rough gold is said before rendering in the same words; the flat film, all
+    // of whose light is in its mirror bucket, converges.
+    let target = |sample: &str| {
+        small(
+            sample,
+            "target.exr",
+            &["--max-rays", "256", "--target-stderr", "0.05"],
+        )
+    };
+    let (code, _, err) = target("meshes/rough-gold.toml");
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("did not reach --target-stderr 0.05 within --max-rays 256")
+            && err.contains("loosen --target-stderr"),
+        "{err}"
+    );
+    let (code, _, err) = target("meshes/flat-soap-film.toml");
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("median relative standard error of the bright buckets")
+            && err.contains("converged to --target-stderr 0.05")
+            && !err.contains("did not reach"),
+        "{err}"
+    );
     // Either a .gsb or --simulate, and clear errors for bad settings.
     let (code, _, err) = goniospec(&["render", "-o", exr.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");

@@ -290,6 +290,7 @@ fn scene_driven_simulation_runs_only_the_planned_angles() {
         rays: 64,
         max_rays: 64,
         tolerance: 0.05,
+        target_stderr: None,
         seed: 3,
         wavelengths: Wavelengths::Monochromatic(vec![550.0]),
     };
@@ -318,6 +319,10 @@ fn scene_driven_simulation_runs_only_the_planned_angles() {
         },
         SceneBudget {
             tolerance: f64::NAN,
+            ..budget.clone()
+        },
+        SceneBudget {
+            target_stderr: Some(1.5),
             ..budget.clone()
         },
     ] {

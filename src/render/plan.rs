@@ -112,6 +112,9 @@ pub struct SceneBudget {
     pub max_rays: u64,
     /// Target relative standard error of the reflectance per direction (positive).
     pub tolerance: f64,
+    /// Instead of `tolerance`: the target median relative standard error of the bright
+    /// buckets (`simulate --target-stderr`, [`crate::simulate::bright_bucket_error`]).
+    pub target_stderr: Option<f64>,
     pub seed: u64,
     pub wavelengths: crate::spectrum::Wavelengths,
 }
@@ -142,6 +145,13 @@ pub enum SceneError {
 impl SceneBudget {
     /// Every field in range, or what is not.
     pub fn validate(&self) -> Result<(), SceneError> {
+        if let Some(t) = self.target_stderr
+            && !(t > 0.0 && t < 1.0)
+        {
+            return Err(SceneError::Budget(format!(
+                "--target-stderr must be a relative standard error between 0 and 1, got {t}"
+            )));
+        }
         if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
             return Err(SceneError::Budget(format!(
                 "--tolerance must be a positive number, got {}",
@@ -204,7 +214,8 @@ pub fn simulate_scene(
         theta_i_deg: needed_deg.clone(),
         rays: budget.rays,
         seed: budget.seed,
-        tolerance: Some(budget.tolerance),
+        tolerance: budget.target_stderr.is_none().then_some(budget.tolerance),
+        target_stderr: budget.target_stderr,
         max_rays: budget.max_rays,
         ..Default::default()
     }
