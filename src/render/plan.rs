@@ -145,11 +145,13 @@ pub enum SceneError {
 impl SceneBudget {
     /// Every field in range, or what is not.
     pub fn validate(&self) -> Result<(), SceneError> {
+        // The range simulate's own check holds it to, said here before planning.
+        let lowest = crate::simulate::MIN_TOLERANCE;
         if let Some(t) = self.target_stderr
-            && !(t > 0.0 && t < 1.0)
+            && !(lowest..1.0).contains(&t)
         {
             return Err(SceneError::Budget(format!(
-                "--target-stderr must be a relative standard error between 0 and 1, got {t}"
+                "--target-stderr must be a median relative standard error in [{lowest:e}, 1), got {t}"
             )));
         }
         if !(self.tolerance > 0.0 && self.tolerance.is_finite()) {
