@@ -51,7 +51,7 @@ fn tolerance_is_met_with_fewer_rays_than_a_fixed_budget() {
         for k in (0..c.sum.len()).step_by(2) {
             let f = c.sum[k] / n;
             if f >= 0.1 * fmax && f > 0.0 {
-                let se = goniospec::accumulate::stderr(c.sum[k], c.sumsq[k], c.trees);
+                let se = c.fraction_stderr(k, Coherence::Beamlet).unwrap();
                 assert!(
                     se <= tol * f,
                     "direction {i}, bucket {k}: {se} > {tol} x {f}"
@@ -148,12 +148,12 @@ fn merges_check_every_setting_and_headers_record_what_was_done() {
 
 /// The figure `--target-stderr` judges by, written here from its definition (issue 49):
 /// in each wavelength's cell, the reflected buckets (even keys) brightest first until 95 %
-/// of the reflected power is taken, each bucket's standard error over trees relative to
-/// its mean; the median of all of them (the upper one of an even count).
+/// of the reflected power is taken, each bucket's standard error (the cell's own variance
+/// of the sum, `Cell::sum_var`: the replicate groups' spread once every group has trees)
+/// relative to its mean; the median of all of them (the upper one of an even count).
 fn bright_median(cells: &[goniospec::accumulate::Cell]) -> f64 {
     let mut rel = Vec::new();
     for c in cells {
-        let n = c.trees as f64;
         let mut keys: Vec<usize> = (0..c.sum.len())
             .step_by(2)
             .filter(|&k| c.sum[k] > 0.0)
@@ -166,9 +166,7 @@ fn bright_median(cells: &[goniospec::accumulate::Cell]) -> f64 {
                 break;
             }
             taken += c.sum[k];
-            let mean = c.sum[k] / n;
-            let var = (c.sumsq[k] / n - mean * mean) * n / (n - 1.0);
-            rel.push((var.max(0.0) / n).sqrt() / mean);
+            rel.push(c.sum_var(k).sqrt() / c.sum[k]);
         }
     }
     rel.sort_by(f64::total_cmp);

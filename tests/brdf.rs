@@ -234,15 +234,35 @@ fn representations_agree_and_integrate_to_the_simulated_reflectance() {
     }
     // Pairwise agreement where the lobe carries the reflectance, at the simulated incident
     // angles up to 60 deg and outgoing angles up to 65 deg (grazing peaks are steeper than
-    // any of the three resolves): within 3x the buckets' median relative error plus 10 %
-    // for interpolation, in 95 % of the queries.
-    let stated = 3.0 * data.meta.median_rel_stderr.unwrap() + 0.10;
+    // any of the three resolves): within 3x the relative error of the buckets the table
+    // interpolates between (the largest of its four) plus 10 % for interpolation, in 95 %
+    // of the queries. The buckets' own errors, not the BRDF's median: the first polar band's
+    // buckets are small (2 x 10 deg at the pole) and hold 0.55 relative error where the
+    // median bucket holds 0.19, and a third of the queries at normal incidence land there.
+    let (tb, pb) = (45usize, 36usize);
+    let stated = |i: usize, to: f64, phi: f64| {
+        let xt = (to / (FRAC_PI_2 / tb as f64) - 0.5).clamp(0.0, (tb - 1) as f64);
+        let xp = (phi.rem_euclid(TAU) / (TAU / pb as f64) - 0.5).rem_euclid(pb as f64);
+        let (t0, p0) = (xt.floor() as usize, xp.floor() as usize % pb);
+        let worst = [t0, (t0 + 1).min(tb - 1)]
+            .iter()
+            .flat_map(|&t| [p0, (p0 + 1) % pb].map(|p| t * pb + p))
+            .map(|k| {
+                data.samples[i]
+                    .get(k)
+                    .and_then(|s| s.rel_stderr)
+                    .unwrap_or(0.0)
+            })
+            .fold(0.0, f64::max);
+        3.0 * worst + 0.10
+    };
     let mut rng = Rng::new(5, 5);
     let mut v = vec![vec![0.0; nl]; 3];
     let (mut n, mut bad) = (0, 0);
     for q in 0..2000 {
         let ti = [0.0f64, 15.0, 30.0, 45.0, 60.0][q % 5].to_radians();
-        let wi = from_spherical(ti, rng.range(0.0, TAU));
+        let pi = rng.range(0.0, TAU);
+        let wi = from_spherical(ti, pi);
         let spec = [-wi[0], -wi[1], wi[2]];
         // Outgoing directions near the specular lobe (the sample's slopes are ~8 deg).
         let to = (spec[2].acos() + rng.range(-0.15, 0.15)).clamp(0.0, 65f64.to_radians());
@@ -256,6 +276,10 @@ fn representations_agree_and_integrate_to_the_simulated_reflectance() {
             continue;
         }
         n += 1;
+        // The simulated directions are in the same order as the table's (ascending), and
+        // the query's relative azimuth as the table takes it (the simulation's phi_i is 0).
+        let (to_q, po_q) = goniospec::geom::angles(wo);
+        let stated = stated(q % 5, to_q, po_q - pi);
         if (v[0][0] / m - 1.0).abs() > stated || (v[1][0] / m - 1.0).abs() > stated {
             bad += 1;
             if bad < 5 {
@@ -266,10 +290,10 @@ fn representations_agree_and_integrate_to_the_simulated_reflectance() {
             }
         }
     }
-    eprintln!("{bad} of {n} lobe queries disagree by more than {stated:.3}");
+    eprintln!("{bad} of {n} lobe queries disagree by more than their buckets' errors allow");
     assert!(
         n > 1000 && bad * 20 <= n,
-        "{bad} of {n} queries disagree beyond {stated}"
+        "{bad} of {n} queries disagree beyond their buckets' errors"
     );
 }
 

@@ -70,7 +70,9 @@ const WHITE: &str = "particles = { medium = \"tio2\", radius_nm = 120.0, volume_
 #[test]
 fn a_lossless_particle_medium_conserves_energy_tree_by_tree() {
     // Lossless spheres (n = 2.6) in a lossless binder over clear glass: every event keeps
-    // the power (albedo 1), so R + T + dropped is 1 to rounding, not just on average.
+    // the power (albedo 1), so the walk's R + T + dropped is 1 to rounding, not just on
+    // average. (Next-event estimation keeps it on average only, and is left out here:
+    // tests/next_event.rs checks its energy.)
     let dir = scratch("pm-lossless");
     let s = paint(
         &dir,
@@ -79,7 +81,7 @@ fn a_lossless_particle_medium_conserves_energy_tree_by_tree() {
         3.0,
         "glass",
     );
-    let (r, t, a, d, se) = run(&s, 400, &[]);
+    let (r, t, a, d, se) = run(&s, 400, &["--no-next-event"]);
     assert!(
         (r + t + d - 1.0).abs() < 1e-9,
         "R {r} + T {t} + dropped {d}"

@@ -85,6 +85,7 @@ def simulate(
     max_rays: int = 1000000,
     no_path_sharing: bool = False,
     no_wavelength_sharing: bool = False,
+    no_next_event: bool = False,
     progress: bool | None = None,
 ) -> Accumulator:
     """goniospec simulate's flags as keywords (the same settings type, defaults and checks;

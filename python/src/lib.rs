@@ -490,8 +490,8 @@ fn load_brdf(path: PathBuf) -> PyResult<Brdf> {
 /// budget to relative standard error `tolerance` (every bright bucket), or to a median
 /// relative standard error `target_stderr` of the buckets holding 95 % of each
 /// wavelength's reflected power, with at most `max_rays` trees per direction;
-/// `no_path_sharing`; `no_wavelength_sharing`; `backend` ("embree" or
-/// "obvhs"); `seed`. An unknown keyword is a ValueError naming the known ones.
+/// `no_path_sharing`; `no_wavelength_sharing`; `no_next_event` (particle media: the walk
+/// alone); `backend` ("embree" or "obvhs"); `seed`. An unknown keyword is a ValueError naming the known ones.
 /// Releases the GIL; Ctrl-C raises KeyboardInterrupt within 50 ms and returns nothing;
 /// `progress`: a bar on `sys.stderr` (trees done, rate, time left) when it is a terminal and
 /// nothing otherwise (`None`, the default); `True` draws it always, `False` never;

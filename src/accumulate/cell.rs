@@ -24,6 +24,13 @@ pub struct Cell {
     pub dropped: f64,
     /// Global mode: per bucket key, the summed complex amplitudes (2 pol x 3 comps).
     pub global: Vec<[Field; 2]>,
+    /// Per bucket key: the variance of `sum` estimated from independent replicate groups
+    /// of trees (randomised quasi-Monte Carlo, docs/design.md §4, "Standard errors"); empty where the cell
+    /// has no such estimate, and the per-tree spread stands in.
+    pub var: Vec<f64>,
+    /// The same estimate for `r_sum` and `t_sum` (0 where `var` is empty).
+    pub r_var: f64,
+    pub t_var: f64,
 }
 
 impl Cell {
@@ -45,11 +52,31 @@ impl Cell {
             } else {
                 Vec::new()
             },
+            var: Vec::new(),
+            r_var: 0.0,
+            t_var: 0.0,
         }
     }
 
-    /// Adds another run's sums (same settings).
+    /// Adds another run's sums (same settings). Runs of different seeds are independent, so
+    /// the variances of their sums add; where only one run has a replicate estimate, the
+    /// other's per-tree spread stands in for its part (none is kept where that run has a
+    /// single tree, whose spread is unknown).
     pub fn merge(&mut self, o: &Cell) {
+        if !self.var.is_empty() || !o.var.is_empty() {
+            let known = |c: &Cell| !c.var.is_empty() || c.trees != 1;
+            if known(self) && known(o) {
+                let var: Vec<f64> = (0..self.sum.len())
+                    .map(|k| self.sum_var(k) + o.sum_var(k))
+                    .collect();
+                self.r_var = self.r_sum_var() + o.r_sum_var();
+                self.t_var = self.t_sum_var() + o.t_sum_var();
+                self.var = var;
+            } else {
+                self.var.clear();
+                (self.r_var, self.t_var) = (0.0, 0.0);
+            }
+        }
         self.trees += o.trees;
         for (a, b) in self.sum.iter_mut().zip(&o.sum) {
             *a += b;
@@ -91,7 +118,32 @@ impl Cell {
     /// once: returns `None`).
     pub fn fraction_stderr(&self, kk: usize, mode: Coherence) -> Option<f64> {
         (!matches!(mode, Coherence::Global | Coherence::Diffraction) && self.trees > 1)
-            .then(|| stderr(self.sum[kk], self.sumsq[kk], self.trees))
+            .then(|| self.sum_var(kk).sqrt() / self.trees as f64)
+    }
+
+    /// The variance of bucket key `kk`'s sum: the replicate groups' estimate where the
+    /// cell has one, else `n` times the per-tree sample variance (trees independent).
+    pub fn sum_var(&self, kk: usize) -> f64 {
+        match self.var.get(kk) {
+            Some(&v) => v,
+            None => per_tree_var(self.sum[kk], self.sumsq[kk], self.trees),
+        }
+    }
+
+    fn r_sum_var(&self) -> f64 {
+        if self.var.is_empty() {
+            per_tree_var(self.r_sum, self.r_sumsq, self.trees)
+        } else {
+            self.r_var
+        }
+    }
+
+    fn t_sum_var(&self) -> f64 {
+        if self.var.is_empty() {
+            per_tree_var(self.t_sum, self.t_sumsq, self.trees)
+        } else {
+            self.t_var
+        }
     }
 
     /// Directional-hemispherical reflectance and transmittance.
@@ -118,8 +170,58 @@ impl Cell {
     /// Standard error of the total reflectance (per-tree spread).
     pub fn r_stderr(&self, mode: Coherence) -> Option<f64> {
         (mode != Coherence::Global && self.trees > 1)
-            .then(|| stderr(self.r_sum, self.r_sumsq, self.trees))
+            .then(|| self.r_sum_var().sqrt() / self.trees as f64)
     }
+
+    /// Standard error of the total transmittance (as [`Cell::r_stderr`]).
+    pub fn t_stderr(&self, mode: Coherence) -> Option<f64> {
+        (mode != Coherence::Global && self.trees > 1)
+            .then(|| self.t_sum_var().sqrt() / self.trees as f64)
+    }
+}
+
+impl Cell {
+    /// The replicate groups' part of the cell in a `.gsa` (`accumulate::file`): a flag (1
+    /// or 0: whether the cell has the estimate), `var` per key, `r_var`, `t_var` (zeros
+    /// where the flag is 0).
+    pub(crate) fn group_values(&self) -> Vec<f64> {
+        let has = !self.var.is_empty();
+        let mut v = vec![if has { 1.0 } else { 0.0 }];
+        v.extend((0..self.sum.len()).map(|k| self.var.get(k).copied().unwrap_or(0.0)));
+        v.extend([self.r_var, self.t_var]);
+        v
+    }
+
+    /// Reads [`Cell::group_values`] back (`sum.len() + 3` values), refusing senseless ones.
+    pub(crate) fn set_group_values(&mut self, v: &[f64]) -> Result<(), &'static str> {
+        let (has, rest) = v
+            .split_first()
+            .ok_or("a cell lacks its variance estimates")?;
+        let sane = rest.iter().all(|x| x.is_finite() && *x >= 0.0);
+        if !(*has == 0.0 || *has == 1.0) || !sane || rest.len() != self.sum.len() + 2 {
+            return Err(
+                "a cell holds a senseless variance estimate (a flag other than 0 or 1, or a negative or non-finite variance)",
+            );
+        }
+        let (var, totals) = rest.split_at(self.sum.len());
+        (self.r_var, self.t_var) = (totals[0], totals[1]);
+        self.var = if *has == 1.0 {
+            var.to_vec()
+        } else {
+            Vec::new()
+        };
+        Ok(())
+    }
+}
+
+/// The variance of a sum of `n` independent samples estimated from the sum and the sum of
+/// squares: `n` times the unbiased sample variance (0 for fewer than 2 samples).
+fn per_tree_var(sum: f64, sumsq: f64, n: u64) -> f64 {
+    if n < 2 {
+        return 0.0;
+    }
+    let s = stderr(sum, sumsq, n) * n as f64;
+    s * s
 }
 
 /// Standard error of a mean from a sum and a sum of squares of `n` samples.

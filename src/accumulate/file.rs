@@ -4,8 +4,11 @@
 //! files still read): the header is the TOML of [`Header`]; the payload holds, for each
 //! (incident direction, wavelength) cell, direction-major, little endian: `trees` (u64),
 //! `sum` and `sumsq` (f64) and `count` (u64) per bucket key, `r_sum, r_sumsq, t_sum,
-//! t_sumsq, absorbed, dropped` (f64), and in global mode the complex amplitude sums (12
-//! f64 per key). A truncated, corrupted or senseless file is refused.
+//! t_sumsq, absorbed, dropped` (f64), in global mode the complex amplitude sums (12 f64
+//! per key), and where the header's `error_groups` is set the replicate groups' variance
+//! estimates: a flag (f64 1 or 0: whether the cell has them), `var` per key, `r_var`,
+//! `t_var` (f64; zeros where the flag is 0). A truncated, corrupted or senseless file is
+//! refused.
 
 use std::io::Write;
 use std::path::Path;
@@ -71,6 +74,10 @@ pub struct Settings {
     /// diffraction method). Empty otherwise. Runs whose choices differ do not merge.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub methods: Vec<String>,
+    /// Next-event estimation in particle media (`trace::escape`): the same expectation as
+    /// the walk alone, other bits and less noise; absent (false) where it did not apply.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub next_event: bool,
 }
 
 fn is_zero(v: &u64) -> bool {
@@ -126,6 +133,13 @@ pub struct Header {
     /// sentence once; `goniospec info` lists them.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
+    /// Replicate groups of trees (independent shifts of the R2 entry points) whose spread
+    /// gives the standard errors (docs/design.md §4, "Standard errors"); absent (0) where
+    /// the per-tree spread does. Where set, each cell's payload ends with the variance
+    /// estimates (a cell without them flags so). Not a setting: runs with and without
+    /// groups estimate the same thing and merge (the larger is kept).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub error_groups: u64,
 }
 
 /// A `.gsa` header whose values no reader can rely on (the message names the field).
@@ -438,7 +452,12 @@ impl Accumulator {
         } else {
             0
         };
-        3 * keys + 6 + global
+        let groups = if self.header.error_groups > 0 {
+            keys + 3
+        } else {
+            0
+        };
+        3 * keys + 6 + global + groups
     }
 
     /// Serialises to bytes (deterministic).
@@ -463,6 +482,9 @@ impl Accumulator {
                         put(z.im);
                     }
                 }
+            }
+            if self.header.error_groups > 0 {
+                c.group_values().into_iter().for_each(&mut put);
             }
         }
         crate::container::encode(&FORMAT, &header, &out)
@@ -541,6 +563,11 @@ impl Accumulator {
                     }
                 }
             }
+            if acc.header.error_groups > 0 {
+                let v: Vec<f64> = (0..c.sum.len() + 3).map(|_| f()).collect();
+                c.set_group_values(&v)
+                    .map_err(|m| FileError::content(path, m))?;
+            }
             let finite = c.sum.iter().chain(&c.sumsq).all(|v| v.is_finite())
                 && [
                     c.r_sum, c.r_sumsq, c.t_sum, c.t_sumsq, c.absorbed, c.dropped,
@@ -600,6 +627,7 @@ impl Accumulator {
             x.merge(y);
         }
         self.header.seeds.extend_from_slice(&other.header.seeds);
+        self.header.error_groups = self.header.error_groups.max(other.header.error_groups);
         for (x, y) in self
             .header
             .rays_per_direction

@@ -127,6 +127,26 @@ impl Estimator {
         out: &mut Vec<(u32, u32)>,
     ) {
         let n = ex.len();
+        // Only exits that share their coherence group and hemisphere with another can pair:
+        // the rest (each next-event estimate, most light scattered in a particle medium)
+        // are left out of the search, which then costs nothing for them.
+        let mut by_group: Vec<(u32, bool, u32)> = ex
+            .iter()
+            .enumerate()
+            .map(|(i, x)| (x.group, x.up, i as u32))
+            .collect();
+        by_group.sort_unstable();
+        let mut pairable = vec![false; n];
+        for w in by_group.windows(2) {
+            if (w[0].0, w[0].1) == (w[1].0, w[1].1) {
+                pairable[w[0].2 as usize] = true;
+                pairable[w[1].2 as usize] = true;
+            }
+        }
+        let count = pairable.iter().filter(|&&p| p).count();
+        if count < 2 {
+            return;
+        }
         let max_pow = pow.iter().copied().fold(0.0, f64::max);
         let reach2 = if max_pow > 0.0 {
             two_theta_max2 * (2.0 * max_pow / NEGLIGIBLE_CROSS).ln().max(0.0)
@@ -135,10 +155,10 @@ impl Estimator {
         };
         // Unit directions differ by at most 2; cells narrower than that pay off.
         let cell = reach2.sqrt() * (1.0 + 1e-9);
-        if self.reference || n <= 32 || !(cell > 0.0 && cell < 0.5) {
-            for j in 0..n {
+        if self.reference || count <= 32 || !(cell > 0.0 && cell < 0.5) {
+            for j in (0..n).filter(|&j| pairable[j]) {
                 for l in j + 1..n {
-                    if ex[j].up == ex[l].up && ex[j].group == ex[l].group {
+                    if pairable[l] && ex[j].up == ex[l].up && ex[j].group == ex[l].group {
                         out.push((j as u32, l as u32));
                     }
                 }
@@ -147,7 +167,12 @@ impl Estimator {
         }
         let key = |d: DVec3| (d / cell).floor().as_i64vec3().to_array();
         grid.clear();
-        grid.extend(ex.iter().enumerate().map(|(i, x)| (key(x.dir), i as u32)));
+        grid.extend(
+            ex.iter()
+                .enumerate()
+                .filter(|&(i, _)| pairable[i])
+                .map(|(i, x)| (key(x.dir), i as u32)),
+        );
         grid.sort_unstable();
         let same =
             |a: &crate::trace::Exit, b: &crate::trace::Exit| a.up == b.up && a.group == b.group;
@@ -155,7 +180,7 @@ impl Estimator {
         let inhomogeneous: Vec<u32> = (0..n as u32)
             .filter(|&i| ex[i as usize].n_im != DVec3::ZERO)
             .collect();
-        for (j, x) in ex.iter().enumerate() {
+        for (j, x) in ex.iter().enumerate().filter(|&(j, _)| pairable[j]) {
             // An inhomogeneous exit's directional window can be far narrower than the
             // beamlet's ([`directional_exponent`]): it pairs with every exit of its
             // hemisphere and group (only films and absorbers' edges have such exits).

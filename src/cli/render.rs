@@ -20,8 +20,8 @@ pub(super) struct RenderArgs {
     tolerance: f64,
     /// With --simulate, instead of --tolerance: the median relative standard error of the
     /// buckets that hold 95 % of each wavelength's reflected power, per direction
-    /// (`simulate --target-stderr`; the errors are an upper bound under the default entry
-    /// points).
+    /// (`simulate --target-stderr`; the errors are the replicate groups', README,
+    /// "Simulation").
     #[arg(long, value_parser = finite, conflicts_with = "tolerance")]
     target_stderr: Option<f64>,
     /// With --simulate: trees per batch per direction (the adaptive step).
@@ -394,7 +394,7 @@ pub(super) fn scene_driven(
             .filter_map(|d| d.achieved)
             .fold(0.0f64, f64::max);
         eprintln!(
-            "warning: {short} of {} directions did not reach {goal} within --max-rays {} (relative errors up to {worst_error:.3} remain); the image carries that noise. Raise --max-rays or loosen {}. The errors treat trees as independent and overstate the R2 entry points' (README, \"Simulation\")",
+            "warning: {short} of {} directions did not reach {goal} within --max-rays {} (relative errors up to {worst_error:.3} remain); the image carries that noise. Raise --max-rays or loosen {}.",
             run.needed_deg.len(),
             a.max_rays,
             goal.split(' ').next().unwrap_or("the target")

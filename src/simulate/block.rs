@@ -6,6 +6,7 @@ use std::sync::atomic::Ordering;
 
 use glam::DVec3;
 
+use super::groups::{group_of, group_size};
 use super::launch::{entry_point, lattice_point};
 use super::run::{Overflow, Run, Tracing, Worker, absorbed_power};
 use crate::accumulate::block::BlockCell;
@@ -36,7 +37,7 @@ impl Run<'_> {
         w: &mut Worker,
         di: usize,
         wi: DVec3,
-        shift: [f64; 2],
+        shifts: &[[f64; 2]],
         adaptive: bool,
         trees: std::ops::Range<u64>,
     ) -> Vec<BlockCell> {
@@ -45,7 +46,7 @@ impl Run<'_> {
         let e0 = launch_fields(d);
         let mut out: Vec<BlockCell> = (0..self.nl).map(|_| BlockCell::default()).collect();
         if self.tracing == Tracing::PerWavelength {
-            self.block_by_wavelength(w, di, d, e0, shift, adaptive, trees, &mut out);
+            self.block_by_wavelength(w, di, d, e0, shifts, adaptive, trees, &mut out);
             w.dense.drain(&mut out);
             return out;
         }
@@ -60,7 +61,7 @@ impl Run<'_> {
                 break;
             }
             let mut rng = Rng::new(cfg.seed, (cfg.first_direction + di as u64) << 40 | i);
-            let origin = self.entry(di, i, shift, &mut rng);
+            let origin = self.entry(di, i, shifts, &mut rng);
             // The tree's jitter in bin j: the j-th draw of its stream (tracing draws
             // nothing from it).
             for j in 0..self.nl {
@@ -107,7 +108,7 @@ impl Run<'_> {
         di: usize,
         d: DVec3,
         e0: [Field; 2],
-        shift: [f64; 2],
+        shifts: &[[f64; 2]],
         adaptive: bool,
         trees: std::ops::Range<u64>,
         out: &mut [BlockCell],
@@ -122,7 +123,7 @@ impl Run<'_> {
         let mut lambdas = Vec::with_capacity(launches.capacity() * nl);
         for i in trees {
             let mut rng = Rng::new(cfg.seed, (cfg.first_direction + di as u64) << 40 | i);
-            let origin = self.entry(di, i, shift, &mut rng);
+            let origin = self.entry(di, i, shifts, &mut rng);
             for j in 0..nl {
                 lambdas.push(self.jittered_lambda(di, i, j, adaptive, rng.uniform()));
             }
@@ -152,24 +153,27 @@ impl Run<'_> {
     /// Tree `i`'s entry point on the tile, nm (sample frame, at the top of the scene): a
     /// lattice point (diffraction), a uniform point (`random_entry`) or the R2 sequence.
     /// Open samples launch in the interior, the guard band from every side.
-    fn entry(&self, di: usize, i: u64, shift: [f64; 2], rng: &mut Rng) -> DVec3 {
+    fn entry(&self, di: usize, i: u64, shifts: &[[f64; 2]], rng: &mut Rng) -> DVec3 {
         let (cfg, sample) = (self.cfg, self.sample);
         let g = sample.guard_nm.unwrap_or(0.0);
         let xy = if self.diffracts(di) {
-            lattice_point(i, self.lattice, shift, sample.tile_nm)
+            lattice_point(i, self.lattice, shifts[0], sample.tile_nm)
         } else if cfg.random_entry {
             [
                 rng.range(g, sample.tile_nm[0] - g),
                 rng.range(g, sample.tile_nm[1] - g),
             ]
         } else {
-            entry_point(i, shift, sample.tile_nm, g)
+            let (group, m) = group_of(i, self.groups_of(di));
+            entry_point(m, shifts[group], sample.tile_nm, g)
         };
         DVec3::new(xy[0], xy[1], self.scene.z_top)
     }
 
     /// Tree `i`'s wavelength in bin `j` of direction `di`, nm, from the uniform draw `u`:
-    /// stratified jitter (tree i takes stratum i of N in every bin).
+    /// stratified jitter (tree i, index m of its replicate group's n trees, takes stratum
+    /// m of n in every bin: each group is stratified on its own, so the groups' estimates
+    /// stay identically distributed).
     fn jittered_lambda(&self, di: usize, i: u64, j: usize, adaptive: bool, u: f64) -> f64 {
         match &self.cfg.wavelengths {
             Wavelengths::Bins(e) => {
@@ -187,7 +191,9 @@ impl Run<'_> {
                 } else if adaptive {
                     (i as f64 * 0.618_033_988_749_894_9 + u).fract()
                 } else {
-                    (i as f64 + u) / self.rays_of(di) as f64
+                    let k = self.groups_of(di);
+                    let (group, m) = group_of(i, k);
+                    (m as f64 + u) / group_size(group, self.rays_of(di), k) as f64
                 };
                 e[j] + (e[j + 1] - e[j]) * frac
             }

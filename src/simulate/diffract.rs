@@ -91,6 +91,7 @@ impl Run<'_> {
             cell.sum.fill(0.0);
             cell.sumsq.fill(0.0);
             cell.count.fill(0);
+            cell.var.clear();
             // Energy is the ray field's: each hemisphere's orders are scaled to the ray
             // method's total there. The transform's own total (what it kept in propagating
             // orders) is reported and judged in `finish` (DIFFRACTION_RATIO_*).

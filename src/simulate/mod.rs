@@ -27,6 +27,7 @@ pub use crate::spectrum::Wavelengths;
 pub mod auto;
 mod block;
 mod diffract;
+mod groups;
 mod hash;
 mod launch;
 mod partial;
@@ -37,6 +38,7 @@ mod settings;
 mod stats;
 mod warnings;
 
+pub use groups::ERROR_GROUPS;
 pub use hash::sample_hash;
 pub use launch::diffraction_lattice;
 pub use physical::*;

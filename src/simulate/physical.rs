@@ -117,11 +117,7 @@ pub fn check_physical(
             let (r, t) = c.totals(mode, &buckets);
             let (a, d) = (c.absorbed / n, c.dropped / n);
             let se_r = c.r_stderr(mode).unwrap_or(0.0);
-            let se_t = if mode == Coherence::Global || c.trees < 2 {
-                0.0
-            } else {
-                crate::accumulate::stderr(c.t_sum, c.t_sumsq, c.trees)
-            };
+            let se_t = c.t_stderr(mode).unwrap_or(0.0);
             // Every dropped amplitude, by the cutoff or a limit, can change the coherent
             // totals by up to the Cauchy-Schwarz bound; a cell that lost more than
             // NOT_CONVERGED to limits is refused outright below.

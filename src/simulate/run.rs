@@ -6,6 +6,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
+use super::groups::{GroupSums, error_groups};
 use super::prepare::{ambient_lossless, media_in_range, method_refusals};
 use super::{BLOCK, CHUNK_BLOCKS_PER_THREAD, MIN_CHUNK_BLOCKS, SimError};
 use super::{
@@ -136,6 +137,8 @@ pub(super) struct Run<'a> {
     /// The sample's sheets' scales (`validity::sheet_scales`).
     pub(super) sheets: Vec<Option<crate::sample::validity::Scales>>,
     pub(super) lattice: [u64; 2],
+    /// Replicate groups per direction (`Header::error_groups`; 0 for none).
+    pub(super) error_groups: u64,
     pub(super) nl: usize,
     pub(super) lambda_max: f64,
     /// Media indices at the longest wavelength (the shared geometry's).
@@ -211,6 +214,7 @@ impl<'a> Run<'a> {
                 });
             }
         }
+        let next_event = scattering && cfg.next_event && scene.enable_next_event();
         let index_at = |l: f64| -> Vec<C64> {
             let mut v = Vec::new();
             sample.indices_into(l, &mut v);
@@ -267,6 +271,7 @@ impl<'a> Run<'a> {
             max_rays: cfg.adaptive().then_some(cfg.max_rays),
             first_direction: cfg.first_direction,
             methods: Vec::new(),
+            next_event,
         };
         Ok(Run {
             sample,
@@ -274,6 +279,7 @@ impl<'a> Run<'a> {
             est,
             settings,
             sharing,
+            error_groups: error_groups(cfg, scattering),
             tracing: if sharing {
                 Tracing::Shared
             } else if cfg.wavelength_sharing && nl > 1 && !scattering {
@@ -316,6 +322,21 @@ impl<'a> Run<'a> {
         } else {
             self.cfg.rays
         }
+    }
+
+    /// Replicate groups of direction `di` (`groups`): `ERROR_GROUPS` where its trees enter
+    /// on the R2 sequence and have per-tree errors, else 1 (one sequence, as before groups).
+    pub(super) fn groups_of(&self, di: usize) -> u64 {
+        if self.error_groups > 1 && !self.diffracts(di) {
+            self.error_groups
+        } else {
+            1
+        }
+    }
+
+    /// Bucket keys per cell (both hemispheres).
+    fn nkeys(&self) -> usize {
+        2 * self.cfg.buckets.len()
     }
 
     /// Whether cell (`di`, `j`) takes the diffraction method.
@@ -389,8 +410,13 @@ impl<'a> Run<'a> {
     ) -> Result<DirectionStats, SimError> {
         let (cfg, nl) = (self.cfg, self.nl);
         let wi = from_spherical(theta_deg.to_radians(), cfg.phi_i_deg.to_radians());
+        // One random shift per replicate group (the first is a run without groups' one).
         let mut shift_rng = Rng::new(cfg.seed, 0x5817_0000 + cfg.first_direction + di as u64);
-        let shift = [shift_rng.uniform(), shift_rng.uniform()];
+        let groups = self.groups_of(di);
+        let shifts: Vec<[f64; 2]> = (0..groups)
+            .map(|_| [shift_rng.uniform(), shift_rng.uniform()])
+            .collect();
+        let mut group_sums = (groups > 1).then(|| GroupSums::new(groups, nl, self.nkeys()));
         let adaptive = cfg.adaptive();
         // Batches are whole blocks, so where a run stops never changes the sums of the
         // batches before it.
@@ -442,7 +468,7 @@ impl<'a> Run<'a> {
                         |w, b| {
                             let lo = start + b * BLOCK;
                             let hi = (lo + BLOCK).min(end);
-                            let out = self.block(w, di, wi, shift, adaptive, lo..hi);
+                            let out = self.block(w, di, wi, &shifts, adaptive, lo..hi);
                             let n = self.counters.done.fetch_add(hi - lo, Ordering::Relaxed)
                                 + (hi - lo);
                             progress(n);
@@ -451,9 +477,12 @@ impl<'a> Run<'a> {
                     )
                     .collect();
                 // Combine blocks in block order: the sums do not depend on scheduling.
-                for block in blocks {
+                for (b, block) in (start / BLOCK + chunk_lo..).zip(blocks) {
                     for (j, bc) in block.into_iter().enumerate() {
                         add_block(&mut cells[di * nl + j], &bc);
+                        if let Some(gs) = group_sums.as_mut() {
+                            gs.add(b, j, &bc);
+                        }
                         contribs[j].extend(bc.diffraction);
                         let k = di * nl + j;
                         lost.limit_dropped[k] += bc.dropped_limit;
@@ -466,6 +495,9 @@ impl<'a> Run<'a> {
                 chunk_lo = chunk_hi;
             }
             start = end;
+            if let Some(gs) = &group_sums {
+                gs.estimate(&mut cells[di * nl..(di + 1) * nl]);
+            }
             let achieved = if cfg.target_stderr.is_some() {
                 bright_bucket_error(&cells[di * nl..(di + 1) * nl], BRIGHT_SHARE)
             } else {
@@ -578,6 +610,7 @@ impl<'a> Run<'a> {
             rays_per_direction: stats.directions.iter().map(|d| d.rays).collect(),
             backend: self.scene.backend().name().into(),
             leaks: stats.leaks,
+            error_groups: self.error_groups,
             // Filled by `simulate` (`warnings::stored_warnings`).
             warnings: Vec::new(),
             rays_asked: matches!(cfg.coherence, Coherence::Auto | Coherence::Diffraction)

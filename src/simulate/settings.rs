@@ -160,8 +160,9 @@ pub struct SimSettings {
     /// direction until the median relative standard error of the buckets that hold 95 %
     /// of each wavelength's reflected power is at most this (e.g. 0.05: a BRDF whose
     /// bright buckets are good to 5 %; `goniospec bench converge` times it per sample);
-    /// reports per direction what it reached. The errors treat trees as independent, an
-    /// upper bound under the default entry points.
+    /// reports per direction what it reached. The errors are those of 16 replicate groups
+    /// of trees (README, "Simulation"); a direction's first 1024 trees fill them (before,
+    /// the per-tree spread, which overstates the error, stands in).
     #[arg(long, value_parser = finite)]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_stderr: Option<f64>,
@@ -178,6 +179,12 @@ pub struct SimSettings {
     /// only makes the run slower (for checking).
     #[arg(long)]
     pub no_wavelength_sharing: bool,
+    /// Leave out next-event estimation in particle media: by default each scattering event
+    /// in a particle layer under flat, clear layers sends the light it would pass straight
+    /// out of the sample to the outgoing buckets at once (same expectation, less noise;
+    /// README, "Simulation"). Off, only the walk's own escapes count (for checking).
+    #[arg(long)]
+    pub no_next_event: bool,
     /// Debugging only: write results that are physically impossible (R > 1, negative
     /// power, energy created) instead of refusing them with exit status 1. The run still
     /// prints what failed.
@@ -207,6 +214,7 @@ impl Default for SimSettings {
             max_rays: defaults::MAX_RAYS,
             no_path_sharing: false,
             no_wavelength_sharing: false,
+            no_next_event: false,
             allow_unphysical: false,
         }
     }
@@ -258,6 +266,7 @@ impl SimSettings {
             },
             path_sharing: self.no_path_sharing.then_some(false),
             wavelength_sharing: !self.no_wavelength_sharing,
+            next_event: !self.no_next_event,
             allow_unphysical: self.allow_unphysical,
             tolerance: self.tolerance,
             target_stderr: self.target_stderr,
@@ -344,6 +353,9 @@ pub struct SimConfig {
     /// until it refracts into a dispersive medium (`Scene::trace_lanes`); `false` traces
     /// each wavelength on its own. Both give the same bits; this only changes the speed.
     pub wavelength_sharing: bool,
+    /// Next-event estimation in particle media under flat, clear layers (`trace::escape`):
+    /// the same expectation as the walk alone, with less noise.
+    pub next_event: bool,
     /// Use the reference estimator (`accumulate::Estimator::reference`): the same physics,
     /// slower; for tests.
     pub reference_estimator: bool,
@@ -415,6 +427,7 @@ impl SimConfig {
             },
             path_sharing: None,
             wavelength_sharing: true,
+            next_event: true,
             reference_estimator: false,
             origin_nm: DVec3::ZERO,
             tolerance: None,

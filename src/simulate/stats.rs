@@ -82,9 +82,8 @@ pub fn bright_buckets(cells: &[Cell], share: f64) -> Vec<(usize, usize)> {
 /// A BRDF's quality (issue 49): the median relative standard error of the buckets of one
 /// direction's `cells` that hold `share` of each wavelength's reflected power, over every
 /// wavelength (the upper median of an even count); `None` where no bucket has power or a
-/// cell has fewer than 2 trees. The errors treat trees as independent, which overstates
-/// them under the R2 entry points (README, "Simulation"): a BRDF that meets a target by
-/// this meets it.
+/// cell has fewer than 2 trees. The errors are the cells' own (`Cell::sum_var`): the
+/// replicate groups' spread where the run has groups, else the per-tree spread.
 pub fn bright_bucket_error(cells: &[Cell], share: f64) -> Option<f64> {
     if cells.iter().any(|c| c.trees < 2) {
         return None;
@@ -93,7 +92,7 @@ pub fn bright_bucket_error(cells: &[Cell], share: f64) -> Option<f64> {
         .into_iter()
         .map(|(j, k)| {
             let c = &cells[j];
-            crate::accumulate::stderr(c.sum[k], c.sumsq[k], c.trees) / (c.sum[k] / c.trees as f64)
+            c.sum_var(k).sqrt() / c.sum[k]
         })
         .collect();
     rel.sort_by(f64::total_cmp);

@@ -165,6 +165,7 @@ impl Birth<'_> {
             killed: false,
             coherent: self.coherent,
             last_facet: nf,
+            nee: r.nee,
         }
     }
 
@@ -207,6 +208,7 @@ impl Birth<'_> {
             killed: false,
             coherent: self.coherent,
             last_facet: b.normal,
+            nee: r.nee,
         }
     }
 }

@@ -29,12 +29,14 @@ use crate::sample::Sample;
 use glam::DVec3;
 
 mod children;
+mod escape;
 mod events;
 mod film;
 mod random;
 mod tree;
 mod walk;
 
+pub use escape::NEE_ROULETTE;
 pub use random::{ROULETTE_AFTER_SEGMENTS, ROULETTE_BELOW};
 
 pub use events::{PLANE_WAVE_TILT, deflection, event_weights, recombination_weight};
@@ -107,6 +109,8 @@ pub struct Scene<'a> {
     /// deep terms matter (its cross terms are not small): it keeps every branch and is
     /// refused when the limits cut it.
     roulette: bool,
+    /// Next-event estimation's geometry, once [`Scene::enable_next_event`] found it applies.
+    escape: Option<escape::Escape>,
 }
 
 /// Why a scene cannot be traced.
@@ -164,6 +168,7 @@ impl<'a> Scene<'a> {
             scatters: sample.media.iter().any(|m| m.scattering.is_some()),
             roulette: sample.media.iter().any(|m| m.scattering.is_some())
                 || sample.interfaces.iter().any(|i| i.closed),
+            escape: None,
         };
         let faces: Vec<_> = scene
             .owner
@@ -191,6 +196,13 @@ impl<'a> Scene<'a> {
             }
         }
         Ok(scene)
+    }
+
+    /// Turns next-event estimation on where it applies (a scattering layer of a flat stack
+    /// under clear layers only: `escape`); returns whether it does.
+    pub fn enable_next_event(&mut self) -> bool {
+        self.escape = escape::Escape::of(self.sample);
+        self.escape.is_some()
     }
 
     /// The medium beyond the sample above (or below) it, from vertical probe rays; the
@@ -354,6 +366,11 @@ struct RayState {
     /// The normal of the facet at which the wave was made, its last interface event (zero
     /// for a launched ray): [`event_weights`].
     last_facet: DVec3,
+    /// Light of a volume event whose straight escape next-event estimation counted
+    /// (`escape`): set at the event, kept through clear layers, cleared where the ray
+    /// enters a scattering medium again; such a ray leaving through the top is not
+    /// counted a second time.
+    nee: bool,
 }
 
 /// The two launched fields for a wave travelling along `d` (unit): s (perpendicular to the

@@ -142,6 +142,16 @@ impl<'a> Scene<'a> {
         }
         let power = |e: &[Field; 2]| 0.5 * (field_power(&e[0]) + field_power(&e[1]));
         let p_in = power(&e);
+        let estimated = self.next_event(
+            r,
+            &e,
+            lambda,
+            model,
+            lanes[first].indices,
+            &mut stack.rng,
+            &mut stack.groups,
+            tree,
+        );
         let d2 = model.scatter(lambda, r.dir, &mut e, &mut stack.rng);
         let att = if r.opl.im != 0.0 {
             (-4.0 * std::f64::consts::PI / lambda * r.opl.im).exp()
@@ -155,6 +165,7 @@ impl<'a> Scene<'a> {
         r.dir = d2;
         r.n_re = d2 * n_med.re;
         r.n_im = DVec3::ZERO;
+        r.nee = estimated;
         let mut power = field_power(&e[0]).max(field_power(&e[1]));
         if r.opl.im != 0.0 {
             power *= (-4.0 * std::f64::consts::PI / lambda * r.opl.im).exp();

@@ -101,6 +101,13 @@ impl Scene<'_> {
                     self.advance(&mut r, t, n_med, &stack.cur, first, trees);
                     let before = stack.rays.len();
                     self.interface_event(r, prim, n, lanes, limits, stack, trees);
+                    if r.nee {
+                        // Back in a scattering medium, the light is no longer on the
+                        // straight way out that next-event estimation counted.
+                        for c in &mut stack.rays[before..] {
+                            c.nee &= self.sample.media[c.medium].scattering.is_none();
+                        }
+                    }
                     // Any lane's tree past the threshold (a shared ray's first lane may
                     // have dropped out while the others grow on).
                     if self.roulette && trees.iter().any(|t| t.segments > ROULETTE_AFTER_SEGMENTS) {
@@ -187,6 +194,7 @@ impl Scene<'_> {
             killed: false,
             coherent: 1.0,
             last_facet: DVec3::ZERO,
+            nee: false,
         };
         // One lane, or an ambient medium that differs between them: a ray per lane.
         if lanes.len() == 1 || stack.varies[self.ambient] {
@@ -343,9 +351,14 @@ fn take_fields(
 /// The ray `r`, in a medium of index `n_med`, has reached an exit plane: its fields
 /// (`cur`, lanes from `first`) leave the sample, upwards or downwards, except into a
 /// semi-infinite absorbing substrate, which absorbs everything that enters it (nothing
-/// reaches infinity below; the exit plane is only where the tile ends).
+/// reaches infinity below; the exit plane is only where the tile ends), and except light
+/// that next-event estimation already counted (`RayState::nee`).
 fn leave(r: &RayState, n_med: C64, first: usize, cur: &[Option<[Field; 2]>], trees: &mut [Tree]) {
     let up = r.dir[2] > 0.0;
+    if up && r.nee {
+        // Next-event estimation counted this light at its last volume event (`escape`).
+        return;
+    }
     let absorbed = !up && n_med.im > 0.0;
     let x = DVec3::new(r.pos.x + r.off[0], r.pos.y + r.off[1], r.pos.z);
     for (k, f) in cur.iter().enumerate() {

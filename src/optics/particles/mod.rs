@@ -37,13 +37,12 @@
 //! nearest one (for the size parameters of pigments, `x < 30`, they change by less than
 //! 1e-3 relative over half a nanometre).
 
-use glam::DVec3;
-
 use super::C64;
 use super::fresnel::{Field, field_dot_real, field_power};
 use super::mie::{Mie, MieError};
 use crate::geom::frame;
 use crate::rng::Rng;
+use glam::DVec3;
 
 /// Intervals of the phase function's envelope over `theta` in `[0, pi]`, at least.
 pub const THETA_INTERVALS: usize = 256;
@@ -84,6 +83,9 @@ struct SizeEntry {
     /// `FACTOR_INTERPOLATION` of the closed form ([`interpolable`]); `None` where the
     /// closed form is evaluated at each candidate.
     factor: Option<std::sync::Arc<[f64]>>,
+    /// `int_0^pi f S dtheta` (`S` the structure factor or 1; Simpson on the probes): the
+    /// sampler's normalisation, for next-event estimation (`towards`).
+    norm: f64,
 }
 
 /// Walker's alias method (Vose's construction, IEEE TSE 17(9), 972, 1991): draws index `i`
@@ -368,12 +370,7 @@ impl ScatterModel {
             }
             ScatterModel::Mie { violations, .. } => {
                 let t = self.entry(lambda_nm).expect("a tabulated wavelength");
-                let r = rng.uniform();
-                let k = t
-                    .size_cdf
-                    .partition_point(|&c| c < r)
-                    .min(t.sizes.len() - 1);
-                let size = &t.sizes[k];
+                let size = t.draw_size(rng.uniform());
                 let n = size.bound.len();
                 let dtheta = std::f64::consts::PI / n as f64;
                 // theta from the unpolarised phase function, by rejection under the
@@ -539,7 +536,7 @@ fn lambda_entry(
                 factors.iter().find(|t| t.0 == n).map(|t| t.1.clone())
             }
         };
-        let (bound, kept, mean_cos) = envelope(&mie, table.as_deref());
+        let (bound, kept, mean_cos, norm) = envelope(&mie, table.as_deref());
         let w = w * kept;
         c_sca_dep += w;
         c_g_dep += w * mean_cos;
@@ -567,6 +564,7 @@ fn lambda_entry(
             trig,
             factor: table.filter(|t| interpolable(t)),
             mie,
+            norm,
         });
     }
     let (c_sca, g) = if packing.is_some() {
@@ -646,8 +644,9 @@ const PROBE_STEPS: usize = 8;
 /// With packing, `f` is multiplied by the structure factor at each probe (`factor`,
 /// `PROBE_STEPS n + 1` of them; `S` varies over `1 / (k d)` in theta, slower than the
 /// lobes). Returns the per-interval bounds, the share of the phase function the factor
-/// keeps and the mean cosine of what it keeps (Simpson's rule on the probes).
-fn envelope(mie: &Mie, factor: Option<&[f64]>) -> (Vec<f64>, f64, f64) {
+/// keeps, the mean cosine of what it keeps and the integral of what it keeps over theta
+/// (Simpson's rule on the probes).
+fn envelope(mie: &Mie, factor: Option<&[f64]>) -> (Vec<f64>, f64, f64, f64) {
     let n = envelope_intervals(mie);
     let h = std::f64::consts::PI / (n * PROBE_STEPS) as f64;
     // Each probe once: f, its factor, and cos theta.
@@ -685,11 +684,12 @@ fn envelope(mie: &Mie, factor: Option<&[f64]>) -> (Vec<f64>, f64, f64) {
     }
     let share = if all > 0.0 { kept / all } else { 1.0 };
     let mean_cos = if kept > 0.0 { cos / kept } else { 0.0 };
-    (bound, share, mean_cos)
+    (bound, share, mean_cos, kept * h / 3.0)
 }
 
 mod sizes;
 pub mod structure;
+mod towards;
 
 #[cfg(test)]
 mod tests;

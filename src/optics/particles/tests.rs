@@ -523,3 +523,73 @@ fn interpolated_structure_factors_stay_within_their_bound() {
     }
     assert!(used >= 3, "{used} tables interpolated");
 }
+
+/// Next-event estimation's view of an event (`towards`): the power `scatter_towards` gives
+/// a direction, per steradian, integrated over the sphere (midpoint rule, 400 x 128) is
+/// the albedo times the incident power; and it is the density of what `scatter` draws:
+/// 400,000 draws of light polarised along u (so the azimuth is not uniform), weighted by
+/// the power they carry, land in 6 x 8 bins of (theta, phi around d) as the integral of
+/// `scatter_towards` over each bin says, every bin within 5 standard errors. For Mie
+/// spheres alone, packed (the structure factor, interpolated), and Henyey-Greenstein.
+#[test]
+fn scatter_towards_is_the_density_that_scatter_draws() {
+    let models = [
+        white_particles(150.0, 550.0),
+        packed(120.0, C64::new(2.6, 0.0), 0.3, true, 550.0),
+        ScatterModel::henyey_greenstein(0.6, 1.0, 0.1).unwrap(),
+    ];
+    let d = DVec3::new(0.1, -0.2, -0.97).normalize();
+    let (u, v) = frame(d);
+    let f = [C64::new(u.x, 0.0), C64::new(u.y, 0.0), C64::new(u.z, 0.0)];
+    let e = [f, f];
+    let p_in = 2.0;
+    let (nt, np) = (400, 128);
+    let (bt, bp) = (6, 8);
+    for m in &models {
+        let (_, albedo) = m.coefficients(550.0);
+        let mut rng = Rng::new(11, 2);
+        let mut total = 0.0;
+        let mut expected = vec![0.0; bt * bp];
+        for i in 0..nt {
+            let theta = (i as f64 + 0.5) * std::f64::consts::PI / nt as f64;
+            for j in 0..np {
+                let phi = (j as f64 + 0.5) * std::f64::consts::TAU / np as f64;
+                let (sp, cp) = phi.sin_cos();
+                let w = d * theta.cos() + (u * cp + v * sp) * theta.sin();
+                let out = m.scatter_towards(550.0, d, &e, w, &mut rng);
+                let dw = theta.sin()
+                    * (std::f64::consts::PI / nt as f64)
+                    * (std::f64::consts::TAU / np as f64);
+                let p = (field_power(&out[0]) + field_power(&out[1])) * dw;
+                total += p;
+                expected[(i * bt / nt) * bp + j * bp / np] += p;
+            }
+        }
+        assert!(
+            (total / (albedo * p_in) - 1.0).abs() < 2e-3,
+            "{total} against {}",
+            albedo * p_in
+        );
+        let draws = 400_000;
+        let mut got = vec![0.0; bt * bp];
+        for _ in 0..draws {
+            let mut f2 = e;
+            let w = m.scatter(550.0, d, &mut f2, &mut rng);
+            let theta = d.dot(w).clamp(-1.0, 1.0).acos();
+            let t = w - d * d.dot(w);
+            let phi = t.dot(v).atan2(t.dot(u)).rem_euclid(std::f64::consts::TAU);
+            let i = ((theta / std::f64::consts::PI * bt as f64) as usize).min(bt - 1);
+            let j = ((phi / std::f64::consts::TAU * bp as f64) as usize).min(bp - 1);
+            got[i * bp + j] += (field_power(&f2[0]) + field_power(&f2[1])) / draws as f64;
+        }
+        for (k, (g, x)) in got.iter().zip(&expected).enumerate() {
+            // Each draw carries albedo * p_in: a multinomial count's standard error.
+            let share = x / (albedo * p_in);
+            let se = albedo * p_in * (share * (1.0 - share) / draws as f64).sqrt();
+            assert!(
+                (g - x).abs() <= 5.0 * se + 1e-12,
+                "bin {k}: drawn {g} against {x} +- {se}"
+            );
+        }
+    }
+}
