@@ -324,13 +324,13 @@ def check_npz(name, gsb):
     print(f"npz: brdf{b.shape}, axes and settings as documented, 200 grid points equal goniospec eval to 9 digits")
 
 
-def material(name, toml):
+def material(name, toml, resolution):
     print(f"== {name} ({toml})")
     gsa, gsb, out = (os.path.join(WORK, f"{name}.{e}") for e in ("gsa", "gsb", "bsdf"))
     run("simulate", toml, "--theta-i", ",".join(map(str, THETA_I)), "--rays", "2048",
         "--wavelengths", "400:700:20", "-o", gsa)
     run("build", gsa, "--repr", "table", "-o", gsb)
-    print(run("export", gsb, "--sample", toml, "--resolution", "49", "-o", out).strip())
+    print(run("export", gsb, "--sample", toml, "--resolution", str(resolution), "-o", out).strip())
     f = read_tensor(out)
     check_layout(f)
     get = lambda k: f[k][1]
@@ -349,8 +349,9 @@ def material(name, toml):
         sigma = bilinear(get("sigma"), [theta2u(float(t)), phi2u(0.0)])
         scale = trapezoid(get("vndf")[0, k]) / sigma
         A = np.array([scale * trapezoid(get("spectra")[0, k, j]) for j in range(len(lam))])
-        # Tolerance: 3 % (the table's buckets and the 49^2 warped grid each resolve the
-        # lobe to about a percent at these angles) plus 3 Monte Carlo standard errors.
+        # Tolerance: 3 % (the table's buckets and the warped grid, 49^2 or 97^2 for the
+        # film, each resolve the lobe to about a percent at these angles) plus 3 Monte
+        # Carlo standard errors.
         tol = 0.03 * R + 3 * se + 1e-4
         bad = np.abs(A - R) > tol
         worst = max(worst, float(np.max(np.abs(A - R) / np.maximum(R, 1e-6))))
@@ -505,7 +506,10 @@ def scene_renders(name, toml, rays, held=True):
         fail(f"{name}: Mitsuba's render of the exported scene differs from goniospec's by DE2000 {mean_de:.2f}")
 
 
-total = material("rough-gold", "meshes/rough-gold.toml") + material("wavy-film", "meshes/thin-film-600nm.toml")
+# The wavy film's coherent specular peak needs the finer warped grid: at 49^2 its .bsdf
+# integral was 4.0 % below the simulated R at 60 deg and 670 nm (0.09445 against 0.09842
+# +- 0.00030, the replicate groups' honest error), at 97^2 within 2 % at every angle.
+total = material("rough-gold", "meshes/rough-gold.toml", 49) + material("wavy-film", "meshes/thin-film-600nm.toml", 97)
 print(f"interop_pairs: {total}")
 for name, toml, rays in [("car-paint", "meshes/car-paint.toml", 1024),
                          ("metallic-paint", "meshes/metallic-paint.toml", 1024),
