@@ -19,6 +19,49 @@ fn cosine(tag: &str, period: f64, amp: f64, resolution: usize) -> goniospec::sam
     )
 }
 
+/// A surface of two modes, `z = a1 cos(3 q x) + a2 sin(7 q x + 0.4) + 0.3 a2 cos(2 q y)`
+/// over a square tile (`q = 2 pi / L`), as a 192 x 192 grid of facets: its variance is
+/// `(a1^2 + a2^2 + (0.3 a2)^2) / 2` and the strongest axis mode is the first, with the
+/// share `a1^2 / (a1^2 + a2^2 + (0.3 a2)^2)` (closed form). The measured share comes from
+/// the binned profile's transform (`strongest_axis_mode`): within 1 % of the closed form
+/// (the flat facets' own error at this size is 2e-3; 8e-3 at 96 x 96).
+#[test]
+fn two_modes_measure_as_their_closed_form_shares() {
+    let (l, a1, a2) = (20_000.0, 120.0, 80.0);
+    let q = 2.0 * PI / l;
+    let n = 192usize;
+    let z = |x: f64, y: f64| {
+        a1 * (3.0 * q * x).cos() + a2 * (7.0 * q * x + 0.4).sin() + 0.3 * a2 * (2.0 * q * y).cos()
+    };
+    let mut mesh = goniospec::sample::Mesh {
+        positions_nm: Vec::new(),
+        triangles: Vec::new(),
+    };
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, y) = (l * i as f64 / n as f64, l * j as f64 / n as f64);
+            mesh.positions_nm.push(glam::DVec3::new(x, y, z(x, y)));
+        }
+    }
+    let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    for j in 0..n {
+        for i in 0..n {
+            mesh.triangles.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            mesh.triangles.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+    }
+    let sc = validity::scales(&mesh, [l, l]);
+    let var = (a1 * a1 + a2 * a2 + (0.3 * a2).powi(2)) / 2.0;
+    assert!((sc.period_nm / (l / 3.0) - 1.0).abs() < 1e-9, "period {}", sc.period_nm);
+    let want = a1 * a1 / 2.0 / var;
+    assert!(
+        (sc.period_share / want - 1.0).abs() < 0.01,
+        "share {} against {want}",
+        sc.period_share
+    );
+    assert!((sc.rms_height_nm / var.sqrt() - 1.0).abs() < 0.01);
+}
+
 /// The same grating in gold (n = 0.43 + 2.455i, constant).
 fn gold_cosine(tag: &str, period: f64, amp: f64) -> goniospec::sample::Sample {
     let ly = period / 8.0;

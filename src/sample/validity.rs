@@ -190,11 +190,19 @@ pub fn scales(mesh: &super::Mesh, tile_nm: [f64; 2]) -> Scales {
 
 /// Axis-aligned modes of the height: H_m = (1/A) int (z - mean) exp(-i q_m x) dA, each
 /// facet cut into n x n pieces (its extent along the axis times q_max under 2 rad) and
-/// integrated by the centroid rule, `exp(-i q_m x)` by recurrence over m; a mode of a
-/// real surface holds 2 |H_m|^2 of the variance. Periods down to 100 nm (at most 128 per
-/// tile side) are scanned, over at most about 20,000 facets taken evenly through the list.
-/// Returns the strongest mode's period (nm) and its share of the height variance `sigma^2`
-/// about the mean height `mean` (nm).
+/// integrated by the centroid rule; a mode of a real surface holds 2 |H_m|^2 of the
+/// variance. Periods down to 100 nm (at most 128 per tile side) are scanned, over at most
+/// about 20,000 facets taken evenly through the list. Returns the strongest mode's period
+/// (nm) and its share of the height variance `sigma^2` about the mean height `mean` (nm).
+///
+/// The pieces' weights `a (z - mean)` are first deposited on a profile of
+/// [`PROFILE_BINS_PER_MODE`] bins per mode along the axis by linear (cloud-in-cell)
+/// weighting, and the profile is transformed: the deposit multiplies mode `m`'s amplitude
+/// by `sinc^2(q_m dx / 2)` (Hockney & Eastwood, Computer Simulation Using Particles, 1988,
+/// §5-5), which is divided out. The pieces' own aliases lie beyond `PROFILE_BINS_PER_MODE -
+/// 1` times the highest mode scanned, where the centroid rule has already smoothed the
+/// surface away. Each piece costs a deposit instead of a sum over every mode: the seed
+/// film's scales took 0.5-0.9 s of every run, for the auto choice and the warnings.
 fn strongest_axis_mode(mesh: &super::Mesh, tile_nm: [f64; 2], mean: f64, sigma: f64) -> (f64, f64) {
     let p = &mesh.positions_nm;
     let stride = (mesh.triangles.len() / 20_000).max(1);
@@ -202,17 +210,17 @@ fn strongest_axis_mode(mesh: &super::Mesh, tile_nm: [f64; 2], mean: f64, sigma: 
     for (axis, &l) in tile_nm.iter().enumerate() {
         let mmax = ((l / 100.0).floor() as usize).clamp(1, 128);
         let q1 = 2.0 * std::f64::consts::PI / l;
-        let mut acc = vec![(0.0f64, 0.0f64); mmax + 1];
+        let bins = PROFILE_BINS_PER_MODE * mmax;
+        let dx = l / bins as f64;
+        let mut profile = vec![0.0f64; bins];
         let mut sampled = 0.0;
         let mut add = |a: f64, x: f64, z: f64| {
             sampled += a;
-            let (sn, cs) = (q1 * x).sin_cos();
-            let (mut re, mut im) = (cs, -sn);
-            for e in acc.iter_mut().skip(1) {
-                e.0 += a * z * re;
-                e.1 += a * z * im;
-                (re, im) = (re * cs + im * sn, im * cs - re * sn);
-            }
+            let u = (x / dx).rem_euclid(bins as f64);
+            let i = (u.floor() as usize).min(bins - 1);
+            let f = u - i as f64;
+            profile[i] += a * z * (1.0 - f);
+            profile[(i + 1) % bins] += a * z * f;
         };
         for t in mesh.triangles.iter().step_by(stride) {
             let v = t.map(|i| p[i as usize]);
@@ -241,8 +249,20 @@ fn strongest_axis_mode(mesh: &super::Mesh, tile_nm: [f64; 2], mean: f64, sigma: 
                 }
             }
         }
-        for (m, &(re, im)) in acc.iter().enumerate().skip(1) {
-            let share = 2.0 * (re * re + im * im) / (sampled * sampled) / (sigma * sigma);
+        // exp(-i q_m x_b) by recurrence over the bins, for each mode.
+        for m in 1..=mmax {
+            let (sn, cs) = (q1 * m as f64 * dx).sin_cos();
+            let (mut c, mut s) = (1.0, 0.0);
+            let (mut re, mut im) = (0.0, 0.0);
+            for &h in &profile {
+                re += h * c;
+                im -= h * s;
+                (c, s) = (c * cs - s * sn, s * cs + c * sn);
+            }
+            let half = 0.5 * q1 * m as f64 * dx;
+            let cic = (half.sin() / half).powi(2);
+            let share =
+                2.0 * (re * re + im * im) / (cic * cic) / (sampled * sampled) / (sigma * sigma);
             if share > best.1 {
                 best = (l / m as f64, share);
             }
@@ -250,6 +270,10 @@ fn strongest_axis_mode(mesh: &super::Mesh, tile_nm: [f64; 2], mean: f64, sigma: 
     }
     best
 }
+
+/// Profile bins per mode scanned in [`strongest_axis_mode`]: the highest mode's deposit
+/// factor is `sinc^2(pi / 16) = 0.987` (divided out).
+const PROFILE_BINS_PER_MODE: usize = 16;
 
 /// The squared curvature of each facet (1/nm^2): across each interior edge, the turn of
 /// the normal over the mean of the two facets' altitudes onto the edge; each facet keeps
