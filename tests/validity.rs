@@ -46,13 +46,19 @@ fn two_modes_measure_as_their_closed_form_shares() {
     let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
     for j in 0..n {
         for i in 0..n {
-            mesh.triangles.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            mesh.triangles.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            mesh.triangles
+                .push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+            mesh.triangles
+                .push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
         }
     }
     let sc = validity::scales(&mesh, [l, l]);
     let var = (a1 * a1 + a2 * a2 + (0.3 * a2).powi(2)) / 2.0;
-    assert!((sc.period_nm / (l / 3.0) - 1.0).abs() < 1e-9, "period {}", sc.period_nm);
+    assert!(
+        (sc.period_nm / (l / 3.0) - 1.0).abs() < 1e-9,
+        "period {}",
+        sc.period_nm
+    );
     let want = a1 * a1 / 2.0 / var;
     assert!(
         (sc.period_share / want - 1.0).abs() < 0.01,

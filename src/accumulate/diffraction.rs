@@ -190,6 +190,7 @@ pub fn diffract(
     h: &Hemisphere,
     contribs: &[Contribution],
     buckets: &Buckets,
+    scratch: &mut Scratch,
 ) -> Result<Pattern, DiffractionError> {
     let [mx, my] = grid_cells(h.tile_nm, h.lambda_nm, h.n_out, h.lattice);
     if mx.saturating_mul(my) > MAX_GRID_CELLS {
@@ -199,9 +200,10 @@ pub fn diffract(
             lambda_nm: h.lambda_nm,
         });
     }
-    let (mut grids, fallback, flipped) = exit_plane_field(h, contribs, [mx, my]);
-    fft2(&mut grids, [mx, my]);
-    let (per_bucket, total, orders) = far_field(h, &grids, [mx, my], buckets);
+    let (fallback, flipped) = exit_plane_field(h, contribs, [mx, my], scratch);
+    let grids = &mut scratch.grids;
+    fft2(grids, [mx, my]);
+    let (per_bucket, total, orders) = far_field(h, grids, [mx, my], buckets);
     let per_key = per_bucket
         .iter()
         .enumerate()
@@ -239,7 +241,8 @@ fn exit_plane_field(
     h: &Hemisphere,
     contribs: &[Contribution],
     [mx, my]: [usize; 2],
-) -> (Vec<Vec<C64>>, usize, usize) {
+    scratch: &mut Scratch,
+) -> (usize, usize) {
     let (dx, dy) = (h.tile_nm[0] / mx as f64, h.tile_nm[1] / my as f64);
     let k = 2.0 * PI / h.lambda_nm;
     let kn = k * h.n_out;
@@ -267,8 +270,13 @@ fn exit_plane_field(
     };
     // The six components of a cell side by side (re, im of each), so a patch cell is one
     // contiguous update; split into six grids for the transforms at the end.
-    let mut cells: Vec<[f64; 12]> = vec![[0.0; 12]; mx * my];
-    let mut patch = Patch::default();
+    let Scratch {
+        cells,
+        grids,
+        patch,
+    } = scratch;
+    cells.clear();
+    cells.resize(mx * my, [0.0; 12]);
     let (mut fallback, mut flipped) = (0usize, 0usize);
     for c in contribs.iter().filter(|c| c.down == h.down) {
         let cos_j = (1.0 - c.w[0] * c.w[0] - c.w[1] * c.w[1]).max(1e-12).sqrt();
@@ -306,7 +314,7 @@ fn exit_plane_field(
             c.x[1].rem_euclid(h.tile_nm[1]),
         ];
         let rows = patch_rows(
-            &mut patch,
+            patch,
             [ixx, iyy, ixy],
             cxx.sqrt(),
             q,
@@ -319,16 +327,24 @@ fn exit_plane_field(
         // field (neither truncation nor the grid's sampling of the Gaussian enters).
         let scale = amp / (n_trees as f64 * sum);
         let a = [c.a[0].map(|v| v * scale), c.a[1].map(|v| v * scale)];
-        rows.splat(&mut cells, a);
+        rows.splat(cells, a);
     }
-    let zero = C64::new(0.0, 0.0);
-    let mut grids: Vec<Vec<C64>> = vec![vec![zero; mx * my]; 6];
-    for (i, v) in cells.iter().enumerate() {
-        for (comp, g) in grids.iter_mut().enumerate() {
-            g[i] = C64::new(v[2 * comp], v[2 * comp + 1]);
-        }
+    grids.resize_with(6, Vec::new);
+    for (comp, g) in grids.iter_mut().enumerate() {
+        g.clear();
+        g.extend(cells.iter().map(|v| C64::new(v[2 * comp], v[2 * comp + 1])));
     }
-    (grids, fallback, flipped)
+    (fallback, flipped)
+}
+
+/// The buffers one thread's transforms reuse from wavelength to wavelength: the gridded
+/// field in both layouts and a patch's rows. (Allocated afresh for every transform, the
+/// grids' pages were faulted in each time: 5 % of a diffraction run.)
+#[derive(Default)]
+pub struct Scratch {
+    cells: Vec<[f64; 12]>,
+    grids: Vec<Vec<C64>>,
+    patch: Patch,
 }
 
 /// One tube's patch on the grid, row by row: each row's run of cells inside the ellipse
@@ -365,7 +381,7 @@ fn patch_rows(
     xw: [f64; 2],
     [dx, dy]: [f64; 2],
     [mx, my]: [usize; 2],
-) -> &Patch {
+) -> &mut Patch {
     p.rows.clear();
     p.arg.clear();
     p.phase.clear();

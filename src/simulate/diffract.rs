@@ -20,15 +20,15 @@ impl Run<'_> {
         &self,
         di: usize,
         wi: DVec3,
-        contribs: Vec<Vec<diffraction::Contribution>>,
+        contribs: &[Vec<diffraction::Contribution>],
         cells: &mut [Cell],
         out: &mut [DiffractionCell],
     ) -> Result<(), SimError> {
         let d = -wi;
         let results: Vec<Result<_, diffraction::DiffractionError>> = contribs
-            .into_par_iter()
+            .par_iter()
             .enumerate()
-            .map(|(j, list)| {
+            .map_init(diffraction::Scratch::default, |scratch, (j, list)| {
                 if !self.cell_diffracts(di, j) {
                     return Ok(None);
                 }
@@ -48,7 +48,7 @@ impl Run<'_> {
                     rho_nm: self.cfg.rho_nm,
                     down: false,
                 };
-                let up = diffraction::diffract(&h, &list, &self.cfg.buckets)?;
+                let up = diffraction::diffract(&h, list, &self.cfg.buckets, scratch)?;
                 // An absorbing substrate transmits nothing (no exit leaves downwards).
                 let down = if n_sub.im == 0.0 && list.iter().any(|c| c.down) {
                     let h = diffraction::Hemisphere {
@@ -56,7 +56,7 @@ impl Run<'_> {
                         down: true,
                         ..h
                     };
-                    diffraction::diffract(&h, &list, &self.cfg.buckets)?
+                    diffraction::diffract(&h, list, &self.cfg.buckets, scratch)?
                 } else {
                     diffraction::Pattern::default()
                 };
