@@ -32,6 +32,7 @@ pub mod diffraction;
 pub mod file;
 mod inhomogeneous;
 mod methods;
+mod patch;
 pub mod phase;
 mod prepare;
 
