@@ -291,3 +291,46 @@ fn warnings_on_total_r() {
         .collect();
     assert!(w.is_empty(), "{w:?}");
 }
+
+/// An explicit `--coherence diffraction` run is told before its work where the tangent
+/// plane fails: on the seed's film (air in front of the top face), the angles where
+/// `k r_c cos^3 theta` at the longest wavelength falls below 35, computed here from the
+/// measured curvature radius, are exactly those the warning names; a run of angles that all
+/// hold gets no such warning, and neither does a rays run.
+#[test]
+fn an_explicit_diffraction_run_hears_where_the_tangent_plane_fails() {
+    let film = shipped("thin-film-600nm.toml");
+    let sheets = validity::sheet_scales(&film);
+    let rc = sheets[0].expect("the top face is a sheet").curvature_radius_nm;
+    let angles = [0.0, 30.0, 45.0, 50.0, 60.0, 75.0];
+    let lambda = 780.0;
+    let fails: Vec<f64> = angles
+        .iter()
+        .copied()
+        .filter(|t: &f64| 2.0 * PI / lambda * rc * t.to_radians().cos().powi(3) < 35.0)
+        .collect();
+    assert!(fails.contains(&75.0) && !fails.contains(&30.0), "{fails:?}");
+    let at = |theta: &[f64], method: Method| -> Vec<String> {
+        let c = Context {
+            lambda_min_nm: 380.0,
+            lambda_max_nm: lambda,
+            theta_i_deg: theta.to_vec(),
+            ..ctx(method)
+        };
+        validity::assess_scales(&film, &sheets, &c)
+            .into_iter()
+            .map(|f| f.message)
+            .filter(|m| m.contains("tangent plane") && m.starts_with("interface 0"))
+            .collect()
+    };
+    let told = at(&angles, Method::Diffraction);
+    assert_eq!(told.len(), 1, "{told:?}");
+    let list: Vec<String> = fails.iter().map(|t| t.to_string()).collect();
+    assert!(
+        told[0].contains(&format!("at {} deg the tangent plane", list.join(", "))),
+        "{} against {list:?}",
+        told[0]
+    );
+    assert!(at(&[0.0, 30.0], Method::Diffraction).is_empty());
+    assert!(at(&angles, Method::Rays).is_empty());
+}
