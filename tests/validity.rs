@@ -301,7 +301,9 @@ fn warnings_on_total_r() {
 fn an_explicit_diffraction_run_hears_where_the_tangent_plane_fails() {
     let film = shipped("thin-film-600nm.toml");
     let sheets = validity::sheet_scales(&film);
-    let rc = sheets[0].expect("the top face is a sheet").curvature_radius_nm;
+    let rc = sheets[0]
+        .expect("the top face is a sheet")
+        .curvature_radius_nm;
     let angles = [0.0, 30.0, 45.0, 50.0, 60.0, 75.0];
     let lambda = 780.0;
     let fails: Vec<f64> = angles
