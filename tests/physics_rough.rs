@@ -453,7 +453,8 @@ fn merge_adds_runs_and_refuses_mismatches() {
 /// Runs of different seeds are independent, so the replicate groups' variance estimates of
 /// their sums add on merge (checked to the bit against the two runs' own); where one run
 /// has too few trees for every group (512 < 1024) its per-tree spread, computed here from
-/// its sums, stands in. A `.gsa` keeps the estimates through a write and a read.
+/// its sums, stands in. A `.gsa` keeps the estimates through a write and a read, and a
+/// header of one group or of more groups than trees is refused.
 #[test]
 fn merges_add_the_replicate_groups_variances_and_files_keep_them() {
     let s = shipped("rough-gold.toml");
@@ -497,6 +498,17 @@ fn merges_add_the_replicate_groups_variances_and_files_keep_them() {
     }
     let back = Accumulator::from_bytes(&m.to_bytes(), "m.gsa").unwrap();
     assert_eq!(back, m);
+    // A header of one group (no spread to estimate from) or of more groups than trees is
+    // refused when read.
+    for bad in [1, m.header.rays + 1] {
+        let mut c = m.clone();
+        c.header.error_groups = bad;
+        let err = Accumulator::from_bytes(&c.to_bytes(), "bad.gsa")
+            .err()
+            .unwrap_or_else(|| panic!("error_groups {bad} was read"))
+            .to_string();
+        assert!(err.contains("error_groups"), "{bad}: {err}");
+    }
 }
 
 #[test]

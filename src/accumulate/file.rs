@@ -286,6 +286,14 @@ impl Header {
                 self.rays
             )));
         }
+        // One group has no spread to estimate a variance from (its N - 1 is 0); more groups
+        // than trees could fill are not a run's.
+        if self.error_groups == 1 || self.error_groups > self.rays {
+            return Err(InvalidHeader::from(format!(
+                "error_groups must be 0 (none) or from 2 to the rays ({}), got {}",
+                self.rays, self.error_groups
+            )));
+        }
         let goal_ok = |g: Option<f64>| g.is_none_or(|t| t > 0.0 && t < 1.0);
         if !goal_ok(s.tolerance)
             || !goal_ok(s.target_stderr)
