@@ -35,6 +35,7 @@ mod methods;
 mod patch;
 pub mod phase;
 mod prepare;
+mod validate;
 
 pub use buckets::Buckets;
 pub use cell::{Cell, stderr};
