@@ -269,18 +269,15 @@ pub fn physical_optics_margin(
     theta_deg: f64,
     lambda_nm: f64,
 ) -> f64 {
-    let cos3 = theta_deg.to_radians().cos().powi(3);
     sample
         .interfaces
         .iter()
         .zip(sheets)
         .filter_map(|(itf, sc)| {
-            let sc = sc.filter(|s| s.curvature_radius_nm.is_finite())?;
-            let n = sample.media[itf.front]
-                .model
-                .eval(lambda_nm)
-                .map_or(1.0, |(n, _)| n);
-            Some(2.0 * std::f64::consts::PI * n / lambda_nm * sc.curvature_radius_nm * cos3)
+            let sc = sc.as_ref()?;
+            Some(validity::tangent_plane_margin(
+                sample, itf, sc, theta_deg, lambda_nm,
+            ))
         })
         .fold(f64::INFINITY, f64::min)
 }

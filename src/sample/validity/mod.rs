@@ -190,6 +190,28 @@ pub fn scales(mesh: &crate::sample::Mesh, tile_nm: [f64; 2]) -> Scales {
     }
 }
 
+/// Ogilvy's tangent-plane margin `k r_c cos^3 theta` of one sheet (Theory of Wave Scattering
+/// from Random Rough Surfaces, 1991, §4.2) at incidence `theta_deg` and vacuum wavelength
+/// `lambda_nm`, `k` in the sheet's front medium; infinite where the sheet is not curved.
+pub fn tangent_plane_margin(
+    sample: &Sample,
+    itf: &super::Interface,
+    sc: &Scales,
+    theta_deg: f64,
+    lambda_nm: f64,
+) -> f64 {
+    if !sc.curvature_radius_nm.is_finite() {
+        return f64::INFINITY;
+    }
+    let n = sample.media[itf.front]
+        .model
+        .eval(lambda_nm)
+        .map_or(1.0, |(n, _)| n);
+    2.0 * std::f64::consts::PI * n / lambda_nm
+        * sc.curvature_radius_nm
+        * theta_deg.to_radians().cos().powi(3)
+}
+
 /// Under an explicit `--coherence diffraction`, the run's angles where the tangent plane the
 /// method rests on fails at the longest wavelength (`k r_c cos^3 theta` below
 /// [`PHYSICAL_OPTICS_MIN`], or [`PHYSICAL_OPTICS_MIN_GRATING`] for a grating; `k` in the
@@ -203,20 +225,12 @@ fn tangent_plane_fails(
     grating: bool,
 ) -> Option<Finding> {
     let lambda = ctx.lambda_max_nm;
-    let n = sample.media[sheet.itf.front]
-        .model
-        .eval(lambda)
-        .map_or(1.0, |(n, _)| n);
     let min = if grating {
         PHYSICAL_OPTICS_MIN_GRATING
     } else {
         PHYSICAL_OPTICS_MIN
     };
-    let margin = |theta: f64| {
-        2.0 * std::f64::consts::PI * n / lambda
-            * sheet.sc.curvature_radius_nm
-            * theta.to_radians().cos().powi(3)
-    };
+    let margin = |theta: f64| tangent_plane_margin(sample, sheet.itf, sheet.sc, theta, lambda);
     let failing: Vec<f64> = ctx
         .theta_i_deg
         .iter()
