@@ -4,6 +4,7 @@
 use super::{Buckets, Coherence, add_fields};
 use crate::optics::C64;
 use crate::optics::fresnel::{Field, field_power};
+use crate::optics::mueller::Mueller;
 
 /// Sums for one (incident direction, wavelength) cell; plain sums so runs merge by
 /// addition (docs/design.md §5).
@@ -31,6 +32,11 @@ pub struct Cell {
     /// The same estimate for `r_sum` and `t_sum` (0 where `var` is empty).
     pub r_var: f64,
     pub t_var: f64,
+    /// With `--mueller`, per bucket key: the sum over trees of the tree's Mueller deposit
+    /// (`optics::mueller`, row-major; its `m00` is `sum`'s very value), and of its
+    /// elements' squares. Empty otherwise.
+    pub mueller: Vec<Mueller>,
+    pub mueller_sq: Vec<Mueller>,
 }
 
 impl Cell {
@@ -55,7 +61,31 @@ impl Cell {
             var: Vec::new(),
             r_var: 0.0,
             t_var: 0.0,
+            mueller: Vec::new(),
+            mueller_sq: Vec::new(),
         }
+    }
+
+    /// The cell with room for the Mueller matrices (`--mueller`).
+    pub fn with_mueller(mut self) -> Cell {
+        self.mueller = vec![[0.0; 16]; self.sum.len()];
+        self.mueller_sq = vec![[0.0; 16]; self.sum.len()];
+        self
+    }
+
+    /// The Mueller matrix of bucket key `kk` as a fraction of the launched power (`m00`
+    /// is [`Cell::fraction`]); `None` where the run kept none.
+    pub fn mueller(&self, kk: usize) -> Option<Mueller> {
+        let m = self.mueller.get(kk)?;
+        let n = self.trees.max(1) as f64;
+        Some(m.map(|x| x / n))
+    }
+
+    /// The standard error of each element of [`Cell::mueller`], from the per-tree spread
+    /// (`None` without Mueller matrices or with fewer than two trees).
+    pub fn mueller_stderr(&self, kk: usize) -> Option<Mueller> {
+        let (m, q) = (self.mueller.get(kk)?, self.mueller_sq.get(kk)?);
+        (self.trees > 1).then(|| std::array::from_fn(|e| stderr(m[e], q[e], self.trees)))
     }
 
     /// Adds another run's sums (same settings). Runs of different seeds are independent, so
@@ -89,6 +119,12 @@ impl Cell {
         }
         for (a, b) in self.global.iter_mut().zip(&o.global) {
             add_fields(a, b);
+        }
+        for (a, b) in self.mueller.iter_mut().zip(&o.mueller) {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+        }
+        for (a, b) in self.mueller_sq.iter_mut().zip(&o.mueller_sq) {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
         }
         self.r_sum += o.r_sum;
         self.r_sumsq += o.r_sumsq;

@@ -11,6 +11,7 @@ use super::inhomogeneous::directional_exponent;
 use super::{Coherence, Estimator, PhasePrecision, Scratch, add_fields, dot32, phase};
 use crate::optics::C64;
 use crate::optics::fresnel::{Field, field_power};
+use crate::optics::mueller::{self, Mueller};
 use crate::trace::Tree;
 
 impl Estimator {
@@ -41,42 +42,22 @@ impl Estimator {
         let p = &s.prep;
         debug_assert_eq!(p.keys.len(), tree.exits.len(), "prepare() the tree first");
         if self.mode == Coherence::Beamlet {
-            // |a_j|^2 = P_j exp(-2 k Im OPL_j); c_jl = 2 Re(h e^{i k delta}) K e^{-k (Im_j + Im_l)}.
-            let att = |j: usize| {
-                if p.absorbing {
-                    (-2.0 * k * p.im[j]).exp()
-                } else {
-                    1.0
-                }
-            };
+            // |a_j|^2 = P_j exp(-2 k Im OPL_j) (`Prepared::att`); c_jl = 2 Re(h e^{i k
+            // delta}) K e^{-k (Im_j + Im_l)}.
+            s.mdeps.clear();
+            let mueller = self.mueller;
             for j in 0..p.keys.len() {
-                out.push((p.keys[j], p.pow[j] * att(j)));
-            }
-            for &(g0, g1) in &p.groups {
-                let (g0, g1) = (g0 as usize, g1 as usize);
-                let mut sum = [[C64::new(0.0, 0.0); 3]; 2];
-                let mut incoherent = 0.0;
-                for (m, &j) in p.members[g0..g1].iter().enumerate() {
-                    let j = j as usize;
-                    let mut f = C64::from_polar(1.0, k * p.member_delta_nm[g0 + m]);
-                    if p.absorbing {
-                        f *= (-k * p.im[j]).exp();
-                    }
-                    for (acc, e) in sum.iter_mut().zip(&tree.exits[j].e) {
-                        for (a, c) in acc.iter_mut().zip(e) {
-                            *a += c * f;
-                        }
-                    }
-                    incoherent += p.pow[j] * att(j);
-                }
-                let cross = 0.5 * (field_power(&sum[0]) + field_power(&sum[1])) - incoherent;
-                if incoherent > 0.0 {
-                    for &j in &p.members[g0..g1] {
-                        let j = j as usize;
-                        out.push((p.keys[j], cross * p.pow[j] * att(j) / incoherent));
-                    }
+                let v = p.pow[j] * p.att(k, j);
+                out.push((p.keys[j], v));
+                if mueller {
+                    let a = p.att(k, j);
+                    let mut m = mueller::mueller(&p.jones[j]).map(|x| x * a);
+                    m[0] = v;
+                    s.mdeps.push((p.keys[j], m));
                 }
             }
+            self.deposit_groups(tree, k, s, out);
+            let p = &s.prep;
             let theta_w2 = (lambda_nm / (PI * self.rho_nm)).powi(2);
             if !self.reference {
                 // The pair loop and its batches compiled for AVX2 where the CPU has it
@@ -87,7 +68,7 @@ impl Estimator {
                 );
                 return;
             }
-            for pr in &p.pairs {
+            for (i, pr) in p.pairs.iter().enumerate() {
                 let (j, l) = (pr.j as usize, pr.l as usize);
                 let mut kernel = pr.k_pos;
                 if pr.m2 > 0.0 {
@@ -101,13 +82,26 @@ impl Estimator {
                 let (mut pj, mut pl) = (p.pow[j], p.pow[l]);
                 if p.absorbing {
                     c *= (-k * (p.im[j] + p.im[l])).exp();
-                    pj *= att(j);
-                    pl *= att(l);
+                    pj *= p.att(k, j);
+                    pl *= p.att(k, l);
                 }
                 let tot = pj + pl;
                 if tot > 0.0 {
                     out.push((p.keys[j], c * pj / tot));
                     out.push((p.keys[l], c * pl / tot));
+                    if mueller {
+                        let w = if p.absorbing {
+                            kernel * (-k * (p.im[j] + p.im[l])).exp()
+                        } else {
+                            kernel
+                        };
+                        for (key, share) in [(p.keys[j], pj / tot), (p.keys[l], pl / tot)] {
+                            let mut m = [0.0; 16];
+                            mueller::add_cross(&mut m, &p.pair_m[i], sn, cs, w * share);
+                            m[0] = c * share;
+                            s.mdeps.push((key, m));
+                        }
+                    }
                 }
             }
             return;
@@ -131,6 +125,7 @@ impl Estimator {
             Coherence::Auto | Coherence::Beamlet | Coherence::Diffraction => {
                 unreachable!("the run gives the estimator beamlet for these")
             }
+            _ if self.mueller => unreachable!("--mueller is refused with {}", self.mode),
             Coherence::Bucket => {
                 // Gondek et al. / the seed: phases relative to a plane through the global
                 // origin perpendicular to each exit direction, `exp(-i k n0 w . x)` with
@@ -154,6 +149,65 @@ impl Estimator {
             }
         }
     }
+    /// Plane-wave limit: each group's coherent sum less its exits' own powers (its pairs'
+    /// cross terms), split among its exits in proportion to their powers; with `--mueller`
+    /// the same for the groups' Jones matrices.
+    fn deposit_groups(&self, tree: &Tree, k: f64, s: &mut Scratch, out: &mut Vec<(u32, f64)>) {
+        let p = &s.prep;
+        let mueller = self.mueller;
+        for &(g0, g1) in &p.groups {
+            let (g0, g1) = (g0 as usize, g1 as usize);
+            let mut sum = [[C64::new(0.0, 0.0); 3]; 2];
+            let mut incoherent = 0.0;
+            // With --mueller: the group's summed Jones matrix, and its exits' own
+            // Mueller matrices summed.
+            let mut jsum = [C64::new(0.0, 0.0); 4];
+            let mut mown = [0.0; 16];
+            for (m, &j) in p.members[g0..g1].iter().enumerate() {
+                let j = j as usize;
+                let mut f = C64::from_polar(1.0, k * p.member_delta_nm[g0 + m]);
+                if p.absorbing {
+                    f *= (-k * p.im[j]).exp();
+                }
+                for (acc, e) in sum.iter_mut().zip(&tree.exits[j].e) {
+                    for (a, c) in acc.iter_mut().zip(e) {
+                        *a += c * f;
+                    }
+                }
+                incoherent += p.pow[j] * p.att(k, j);
+                if mueller {
+                    for (a, c) in jsum.iter_mut().zip(&p.jones[j]) {
+                        *a += c * f;
+                    }
+                    let a = p.att(k, j);
+                    for (o, x) in mown.iter_mut().zip(mueller::mueller(&p.jones[j])) {
+                        *o += x * a;
+                    }
+                }
+            }
+            let cross = 0.5 * (field_power(&sum[0]) + field_power(&sum[1])) - incoherent;
+            let mcross: Mueller = if mueller {
+                let whole = mueller::mueller(&jsum);
+                std::array::from_fn(|e| whole[e] - mown[e])
+            } else {
+                [0.0; 16]
+            };
+            if incoherent > 0.0 {
+                for &j in &p.members[g0..g1] {
+                    let j = j as usize;
+                    let v = cross * p.pow[j] * p.att(k, j) / incoherent;
+                    out.push((p.keys[j], v));
+                    if mueller {
+                        let share = p.pow[j] * p.att(k, j) / incoherent;
+                        let mut m = mcross.map(|x| x * share);
+                        m[0] = v;
+                        s.mdeps.push((p.keys[j], m));
+                    }
+                }
+            }
+        }
+    }
+
     /// The pairs' cross terms at wave number `k` (1/nm), the fast way: every pair's
     /// phase, and its directional overlap with the attenuation in one exponent, through
     /// the batched `phase` functions; each pair's term split between its two exits in
@@ -171,8 +225,11 @@ impl Estimator {
             expv,
             att,
             exit_sum,
+            mdeps,
+            exit_msum,
             ..
         } = s;
+        let mueller = self.mueller;
         let n = p.keys.len();
         ph.clear();
         ph.extend(p.pairs.iter().map(|pr| k * pr.delta_nm));
@@ -208,20 +265,48 @@ impl Estimator {
         }
         exit_sum.clear();
         exit_sum.resize(n, 0.0);
+        exit_msum.clear();
+        if mueller {
+            exit_msum.resize(n, [0.0; 16]);
+        }
         for (i, pr) in p.pairs.iter().enumerate() {
             let (j, l) = (pr.j as usize, pr.l as usize);
-            let c = 2.0 * (pr.h.re * cos[i] - pr.h.im * sin[i]) * (pr.k_pos * expv[i]);
+            let w = pr.k_pos * expv[i];
+            let c = 2.0 * (pr.h.re * cos[i] - pr.h.im * sin[i]) * w;
             let (pj, pl) = (att[j], att[l]);
             let tot = pj + pl;
             if tot > 0.0 {
                 exit_sum[j] += c * pj / tot;
                 exit_sum[l] += c * pl / tot;
+                if mueller {
+                    let z = &p.pair_m[i];
+                    mueller::add_cross(&mut exit_msum[j], z, sin[i], cos[i], w * pj / tot);
+                    mueller::add_cross(&mut exit_msum[l], z, sin[i], cos[i], w * pl / tot);
+                }
             }
         }
         for (j, &v) in exit_sum.iter().enumerate() {
             if v != 0.0 {
                 out.push((p.keys[j], v));
             }
+            if mueller && (v != 0.0 || exit_msum[j].iter().any(|&x| x != 0.0)) {
+                let mut m = exit_msum[j];
+                m[0] = v;
+                mdeps.push((p.keys[j], m));
+            }
+        }
+    }
+}
+
+impl super::Prepared {
+    /// Exit `j`'s power attenuation at wave number `k` (1/nm): `exp(-2 k Im OPL_j)` (1
+    /// where nothing absorbs).
+    #[inline]
+    fn att(&self, k: f64, j: usize) -> f64 {
+        if self.absorbing {
+            (-2.0 * k * self.im[j]).exp()
+        } else {
+            1.0
         }
     }
 }

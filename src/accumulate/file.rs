@@ -7,8 +7,9 @@
 //! t_sumsq, absorbed, dropped` (f64), in global mode the complex amplitude sums (12 f64
 //! per key), and where the header's `error_groups` is set the replicate groups' variance
 //! estimates: a flag (f64 1 or 0: whether the cell has them), `var` per key, `r_var`,
-//! `t_var` (f64; zeros where the flag is 0). A truncated, corrupted or senseless file is
-//! refused.
+//! `t_var` (f64; zeros where the flag is 0), and where the settings' `mueller` is set every
+//! key's 16 Mueller sums, then every key's 16 sums of squares (f64). A truncated, corrupted
+//! or senseless file is refused.
 
 use std::io::Write;
 use std::path::Path;
@@ -78,6 +79,10 @@ pub struct Settings {
     /// the walk alone, other bits and less noise; absent (false) where it did not apply.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub next_event: bool,
+    /// `--mueller`: each cell also holds every bucket's Mueller matrix (sums and sums of
+    /// squares of its 16 elements); absent (false) otherwise.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub mueller: bool,
 }
 
 fn is_zero(v: &u64) -> bool {
@@ -169,6 +174,9 @@ impl Header {
             "estimator: {}, coherence radius {} nm, cutoff {:e}, max depth {}\n",
             st.coherence, st.coherence_radius_nm, st.cutoff, st.max_depth
         );
+        if st.mueller {
+            s += "polarisation: every bucket's Mueller matrix kept (--mueller; goniospec eval --mueller)\n";
+        }
         if st.coherence == Coherence::Auto {
             let (r, d) = st.method_counts();
             s += &format!("methods (auto): rays in {r} cells, the diffraction method in {d}\n");
@@ -312,23 +320,8 @@ impl Accumulator {
         theta_i_deg: f64,
         phi_i_deg: Option<f64>,
     ) -> Result<Reflectance, NotSimulated> {
+        let i = self.direction_of(theta_i_deg, phi_i_deg)?;
         let s = &self.header.settings;
-        if let Some(p) = phi_i_deg
-            && (p - s.phi_i_deg).abs() > 1e-9
-        {
-            return Err(NotSimulated::Azimuth {
-                asked_deg: p,
-                simulated_deg: s.phi_i_deg,
-            });
-        }
-        let i = s
-            .theta_i_deg
-            .iter()
-            .position(|t| (t - theta_i_deg).abs() < 1e-9)
-            .ok_or_else(|| NotSimulated::Polar {
-                asked_deg: theta_i_deg,
-                simulated_deg: s.theta_i_deg.clone(),
-            })?;
         let mode = s.coherence_mode();
         let buckets = s.buckets();
         let mut negative_buckets = 0;
@@ -356,6 +349,31 @@ impl Accumulator {
         })
     }
 
+    /// The index of the simulated incident direction `theta_i_deg` (and `phi_i_deg`, when
+    /// given, must be the simulated azimuth).
+    pub fn direction_of(
+        &self,
+        theta_i_deg: f64,
+        phi_i_deg: Option<f64>,
+    ) -> Result<usize, NotSimulated> {
+        let s = &self.header.settings;
+        if let Some(p) = phi_i_deg
+            && (p - s.phi_i_deg).abs() > 1e-9
+        {
+            return Err(NotSimulated::Azimuth {
+                asked_deg: p,
+                simulated_deg: s.phi_i_deg,
+            });
+        }
+        s.theta_i_deg
+            .iter()
+            .position(|t| (t - theta_i_deg).abs() < 1e-9)
+            .ok_or_else(|| NotSimulated::Polar {
+                asked_deg: theta_i_deg,
+                simulated_deg: s.theta_i_deg.clone(),
+            })
+    }
+
     fn cell_f64s(&self) -> usize {
         let keys = 2 * self.header.settings.buckets().len();
         let global = if self.header.settings.coherence_mode() == Coherence::Global {
@@ -368,7 +386,12 @@ impl Accumulator {
         } else {
             0
         };
-        3 * keys + 6 + global + groups
+        let mueller = if self.header.settings.mueller {
+            32 * keys
+        } else {
+            0
+        };
+        3 * keys + 6 + global + groups + mueller
     }
 
     /// Serialises to bytes (deterministic).
@@ -396,6 +419,9 @@ impl Accumulator {
             }
             if self.header.error_groups > 0 {
                 c.group_values().into_iter().for_each(&mut put);
+            }
+            for m in c.mueller.iter().chain(&c.mueller_sq) {
+                m.iter().for_each(|&v| put(v));
             }
         }
         crate::container::encode(&FORMAT, &header, &out)
@@ -449,6 +475,9 @@ impl Accumulator {
         };
         for _ in 0..ncells {
             let mut c = Cell::new(&buckets, global);
+            if acc.header.settings.mueller {
+                c = c.with_mueller();
+            }
             c.trees = f().to_bits();
             for v in c.sum.iter_mut() {
                 *v = f();
@@ -479,7 +508,17 @@ impl Accumulator {
                 c.set_group_values(&v)
                     .map_err(|m| FileError::content(path, m))?;
             }
+            for m in c.mueller.iter_mut().chain(c.mueller_sq.iter_mut()) {
+                for v in m.iter_mut() {
+                    *v = f();
+                }
+            }
             let finite = c.sum.iter().chain(&c.sumsq).all(|v| v.is_finite())
+                && c.mueller
+                    .iter()
+                    .chain(&c.mueller_sq)
+                    .flatten()
+                    .all(|v| v.is_finite())
                 && [
                     c.r_sum, c.r_sumsq, c.t_sum, c.t_sumsq, c.absorbed, c.dropped,
                 ]

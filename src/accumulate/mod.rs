@@ -34,6 +34,7 @@ mod inhomogeneous;
 mod methods;
 mod patch;
 pub mod phase;
+pub mod polarimetric;
 mod prepare;
 mod validate;
 
@@ -43,6 +44,7 @@ pub use inhomogeneous::AMPLITUDE_WINDOW;
 
 use crate::optics::C64;
 use crate::optics::fresnel::Field;
+use crate::optics::mueller::{Jones, Mueller};
 use glam::DVec3;
 
 /// How contributions interfere (written by name in files: "auto", "beamlet", "bucket",
@@ -118,6 +120,9 @@ pub struct Estimator {
     /// every phase with the C library's `sincos` (slower; the fast estimator is tested
     /// against it to 1e-12 relative, tests/estimator.rs).
     pub reference: bool,
+    /// Deposit each exit's and pair's Mueller matrix too (`--mueller`, the beamlet
+    /// estimator only): [`Scratch::mueller_deposits`].
+    pub mueller: bool,
 }
 
 /// A pair of exits whose cross term `|c_jl| <= 2 |h| K` is below this fraction of the
@@ -178,6 +183,19 @@ pub struct Scratch {
     /// ([`Estimator::candidate_pairs`]).
     cand: Vec<(u32, u32)>,
     grid: Vec<([i64; 3], u32)>,
+    /// With [`Estimator::mueller`]: the deposits' Mueller matrices at the current
+    /// wavelength, `(key, matrix)`, whose `m00` are the scalar deposits' very values; and
+    /// each exit's summed pair terms.
+    mdeps: Vec<(u32, Mueller)>,
+    exit_msum: Vec<Mueller>,
+}
+
+impl Scratch {
+    /// The Mueller deposits of the last [`Estimator::deposit`] (empty without
+    /// [`Estimator::mueller`]).
+    pub fn mueller_deposits(&self) -> &[(u32, Mueller)] {
+        &self.mdeps
+    }
 }
 
 /// What the estimator needs of one tree, computed once and reused for every wavelength
@@ -198,6 +216,10 @@ struct Prepared {
     /// Each exit's group, as the index of the group's first member in `members`.
     group_of: Vec<u32>,
     absorbing: bool,
+    /// With [`Estimator::mueller`]: each exit's Jones matrix (`optics::mueller::jones`)
+    /// and, beside `pairs`, each pair's mixed Mueller matrix times its flux factor.
+    jones: Vec<Jones>,
+    pair_m: Vec<[C64; 16]>,
 }
 
 struct Pair {

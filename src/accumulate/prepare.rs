@@ -11,7 +11,9 @@ use super::inhomogeneous::{directional_exponent, inhomogeneity, pair_terms};
 use super::{
     Coherence, Estimator, NEGLIGIBLE_CROSS, Pair, PhasePrecision, Prepared, Scratch, dot32, key,
 };
+use crate::optics::C64;
 use crate::optics::fresnel::{field_power, hermitian};
+use crate::optics::mueller;
 use crate::trace::Tree;
 
 impl Estimator {
@@ -26,7 +28,13 @@ impl Estimator {
         p.members.clear();
         p.member_delta_nm.clear();
         p.group_of.clear();
+        p.jones.clear();
+        p.pair_m.clear();
         p.absorbing = false;
+        if self.mueller {
+            p.jones
+                .extend(tree.exits.iter().map(|x| mueller::jones(&x.e, x.dir)));
+        }
         for x in &tree.exits {
             p.keys.push(key(self.buckets.index(x.dir), !x.up));
             p.pow
@@ -92,6 +100,7 @@ impl Estimator {
                 continue;
             }
             let delta_nm = self.path_difference(&ex[j], &ex[l], wbar, n0) + phase_nm;
+            p.push_pair_mueller(j, l, flux);
             p.pairs.push(Pair {
                 j: j as u32,
                 l: l as u32,
@@ -295,14 +304,13 @@ impl Estimator {
         if ex.iter().all(|x| x.n_im == DVec3::ZERO) {
             return;
         }
-        let group = &p.group_of;
         for j in 0..ex.len() {
             for l in j + 1..ex.len() {
                 let (a, b) = (&ex[j], &ex[l]);
                 if (a.n_im == DVec3::ZERO && b.n_im == DVec3::ZERO)
                     || a.up != b.up
                     || a.group != b.group
-                    || group[j] == group[l]
+                    || p.group_of[j] == p.group_of[l]
                 {
                     continue;
                 }
@@ -314,6 +322,7 @@ impl Estimator {
                 if (2.0 * h.norm() < NEGLIGIBLE_CROSS && grow_nm <= 0.0) || m2 == 0.0 {
                     continue;
                 }
+                p.push_pair_mueller(j, l, flux);
                 p.pairs.push(Pair {
                     j: j as u32,
                     l: l as u32,
@@ -325,6 +334,17 @@ impl Estimator {
                     grow_nm,
                 });
             }
+        }
+    }
+}
+
+impl Prepared {
+    /// With `--mueller`: the pair's mixed Mueller matrix `M(J_j, J_l)` times its flux
+    /// factor, beside the pair (the matrix form of its `h`; `optics::mueller`).
+    fn push_pair_mueller(&mut self, j: usize, l: usize, flux: C64) {
+        if !self.jones.is_empty() {
+            let m = mueller::mixed(&self.jones[j], &self.jones[l]);
+            self.pair_m.push(m.map(|z| z * flux));
         }
     }
 }

@@ -4,7 +4,8 @@ use super::{Args, Context, ExitCode, PathBuf, Result, bail, finite};
 
 #[derive(Args)]
 pub(super) struct EvalArgs {
-    /// A built BRDF (.gsb).
+    /// A built BRDF (.gsb); with --mueller, the accumulator (.gsa) of a run simulated
+    /// with --mueller.
     file: PathBuf,
     /// Incident polar angle, degrees.
     #[arg(long, value_parser = finite, required_unless_present = "pairs")]
@@ -22,10 +23,22 @@ pub(super) struct EvalArgs {
     /// the header without `_deg` is still read).
     #[arg(long)]
     pairs: Option<PathBuf>,
+    /// Print the Mueller-matrix BRDF (1/sr, row-major m00..m33, in each direction's own
+    /// s/p frame: p in the plane of the direction and the sample's normal, s across it,
+    /// p x s along the direction of travel), each element's standard error, and the
+    /// degree of polarisation for unpolarised light in, per wavelength: the matrix of the
+    /// bucket the outgoing direction falls in, at a simulated incident angle, read from a
+    /// .gsa simulated with --mueller (docs/physics.md, "Polarisation"). An outgoing polar
+    /// angle above 90 deg reads the transmission side.
+    #[arg(long, conflicts_with = "pairs")]
+    mueller: bool,
 }
 
 pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, Brdf};
+    if a.mueller {
+        return eval_mueller(&a);
+    }
     let r = brdf::file::read(&a.file)?;
     let lambdas = r.meta().lambda_nm.clone();
     let d = |t: f64, p: f64| -> Result<glam::DVec3> {
@@ -100,6 +113,40 @@ pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {
                 }
             }
         }
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `eval --mueller`: a `.gsa`'s Mueller-matrix BRDF at one pair of directions.
+fn eval_mueller(a: &EvalArgs) -> Result<ExitCode> {
+    let acc = goniospec::accumulate::file::Accumulator::read(&a.file)?;
+    let (ti, to) = (
+        a.theta_i.expect("clap requires it"),
+        a.theta_o.expect("clap requires it"),
+    );
+    if !(0.0..180.0).contains(&to) || to == 90.0 {
+        bail!(
+            "--theta-o must be in [0, 90) (reflection) or (90, 180) (transmission) degrees, got {to}"
+        );
+    }
+    let wo = goniospec::geom::from_spherical(to.to_radians(), a.phi_o.to_radians());
+    let rows = acc.mueller_brdf(ti, Some(a.phi_i), wo)?;
+    let names: Vec<String> = (0..16).map(|e| format!("m{}{}", e / 4, e % 4)).collect();
+    let se: Vec<String> = names.iter().map(|n| format!("se_{n}")).collect();
+    outln!("lambda_nm,{},{},dop", names.join(","), se.join(","));
+    for r in rows {
+        let m: Vec<String> = r.m.iter().map(|v| format!("{v:.8e}")).collect();
+        let e: Vec<String> = match r.stderr {
+            Some(e) => e.iter().map(|v| format!("{v:.3e}")).collect(),
+            None => vec!["nan".into(); 16],
+        };
+        outln!(
+            "{},{},{},{:.6}",
+            r.lambda_nm,
+            m.join(","),
+            e.join(","),
+            r.dop
+        );
     }
     Ok(ExitCode::SUCCESS)
 }

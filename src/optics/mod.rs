@@ -8,6 +8,7 @@
 
 pub mod fresnel;
 pub mod mie;
+pub mod mueller;
 pub mod particles;
 pub mod tmm;
 

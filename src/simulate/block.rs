@@ -315,7 +315,9 @@ impl Run<'_> {
             &mut w.deps,
             &mut w.glob,
         );
-        let (r, t) = w.dense.add_tree(j, &w.deps, &w.glob);
+        let (r, t) = w
+            .dense
+            .add_tree(j, &w.deps, &w.glob, w.scratch.mueller_deposits());
         // Each tree on its own: its exits and dropped power hold no more than it was
         // launched with and its events were allowed to add (issue 46).
         if !self.global {

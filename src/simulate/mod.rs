@@ -120,7 +120,10 @@ pub fn simulate(
     run.rays_asked = asked;
     run.setup_seconds = start_time.elapsed().as_secs_f64();
     let mut cells: Vec<Cell> = (0..cfg.theta_i_deg.len() * run.nl)
-        .map(|_| Cell::new(&cfg.buckets, run.global))
+        .map(|_| {
+            let c = Cell::new(&cfg.buckets, run.global);
+            if cfg.mueller { c.with_mueller() } else { c }
+        })
         .collect();
     let mut limit_dropped = vec![0.0; cells.len()];
     let mut escaped = vec![0.0; cells.len()];

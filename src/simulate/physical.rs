@@ -206,5 +206,34 @@ pub fn check_physical(
             }
         }
     }
-    Ok(())
+    check_realisable(acc, sample_name)
+}
+
+/// A `--mueller` run's matrices must each be physically realisable: a coherency
+/// eigenvalue more than `REALISABLE_SIGMAS` standard errors below zero is a matrix no
+/// sample can have (`Accumulator::realisability`).
+fn check_realisable(acc: &Accumulator, sample_name: &str) -> Result<(), SimError> {
+    use crate::accumulate::polarimetric::REALISABLE_SIGMAS;
+    let Some(r) = acc.realisability().filter(|r| r.failed > 0) else {
+        return Ok(());
+    };
+    let s = &acc.header.settings;
+    let (i, j, kk) = r.worst_at;
+    let (t, p) = s.buckets().centre(kk / 2);
+    Err(SimError::Unphysical(format!(
+        "sample '{sample_name}': {} of {} buckets hold a Mueller matrix that is not physically realisable (a coherency eigenvalue more than {REALISABLE_SIGMAS} standard errors below zero; Cloude 1986); the worst, {:.2e} of its m00 ({:.1} standard errors), at theta_i {} deg, lambda {} nm, the {} bucket at theta_o {:.1} deg, phi_o {:.1} deg. The result is impossible and was not written; this is a bug, please report it with the sample, or pass --allow-unphysical to write it anyway for debugging",
+        r.failed,
+        r.checked,
+        r.worst_relative,
+        r.worst_sigmas,
+        s.theta_i_deg.get(i).copied().unwrap_or(f64::NAN),
+        s.wavelength(j),
+        if kk % 2 == 0 {
+            "reflection"
+        } else {
+            "transmission"
+        },
+        t.to_degrees(),
+        p.to_degrees(),
+    )))
 }

@@ -178,24 +178,7 @@ impl<'a> Run<'a> {
         let sharing = cfg
             .path_sharing
             .unwrap_or(!dispersive && !coated && !absorbing);
-        if sharing && dispersive {
-            return Err(SimError::Config(
-                "path sharing needs non-dispersive media: this sample's indices change with wavelength"
-                    .into(),
-            ));
-        }
-        if sharing && coated {
-            return Err(SimError::Config(
-                "path sharing needs wavelength-independent interfaces: this sample has coatings, whose coefficients change with wavelength"
-                    .into(),
-            ));
-        }
-        if sharing && absorbing {
-            return Err(SimError::Config(
-                "path sharing needs wavelength-independent interfaces: this sample has an absorbing medium, whose thin films are taken by the transfer matrix, which changes with wavelength"
-                    .into(),
-            ));
-        }
+        super::prepare::sharing_refusal(sharing, dispersive, coated, absorbing)?;
         // Every wavelength the run evaluates must be inside every medium's range.
         media_in_range(sample, &lambdas)?;
         // Particle media tabulated over the run's wavelengths (each whole nm between the
@@ -241,6 +224,7 @@ impl<'a> Run<'a> {
             precision: cfg.precision,
             lambda_max_nm: lambda_max,
             reference: cfg.reference_estimator,
+            mueller: cfg.mueller,
         };
         ambient_lossless(sample, &scene, &lambdas, dispersive)?;
         // The sheets' scales, measured once: the auto choice and the warnings kept with the
@@ -276,6 +260,7 @@ impl<'a> Run<'a> {
             first_direction: cfg.first_direction,
             methods: Vec::new(),
             next_event,
+            mueller: cfg.mueller,
         };
         Ok(Run {
             sample,
@@ -356,7 +341,12 @@ impl<'a> Run<'a> {
             scratch: Scratch::default(),
             deps: Vec::new(),
             glob: Vec::new(),
-            dense: Dense::new(self.nl, 2 * self.cfg.buckets.len(), self.global),
+            dense: Dense::new(
+                self.nl,
+                2 * self.cfg.buckets.len(),
+                self.global,
+                self.cfg.mueller,
+            ),
             indices: vec![Vec::new(); self.nl],
             lambdas: vec![0.0; self.nl],
         }

@@ -185,6 +185,15 @@ pub struct SimSettings {
     /// README, "Simulation"). Off, only the walk's own escapes count (for checking).
     #[arg(long)]
     pub no_next_event: bool,
+    /// Keep the full 4 x 4 Mueller matrix of every bucket as well as its unpolarised
+    /// value (its m00, the same bits): the polarimetric BRDF, from the fields the tracer
+    /// carries for incident s and p light, in each direction's own s/p frame
+    /// (docs/physics.md, "Polarisation"). Read it with `goniospec eval --mueller`, the
+    /// npz export or Python. Rays only: refused with the diffraction method (and where
+    /// --coherence auto would take it: give --coherence beamlet) and the comparison modes.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub mueller: bool,
     /// Debugging only: write results that are physically impossible (R > 1, negative
     /// power, energy created) instead of refusing them with exit status 1. The run still
     /// prints what failed.
@@ -215,6 +224,7 @@ impl Default for SimSettings {
             no_path_sharing: false,
             no_wavelength_sharing: false,
             no_next_event: false,
+            mueller: false,
             allow_unphysical: false,
         }
     }
@@ -267,6 +277,7 @@ impl SimSettings {
             path_sharing: self.no_path_sharing.then_some(false),
             wavelength_sharing: !self.no_wavelength_sharing,
             next_event: !self.no_next_event,
+            mueller: self.mueller,
             allow_unphysical: self.allow_unphysical,
             tolerance: self.tolerance,
             target_stderr: self.target_stderr,
@@ -356,6 +367,8 @@ pub struct SimConfig {
     /// Next-event estimation in particle media under flat, clear layers (`trace::escape`):
     /// the same expectation as the walk alone, with less noise.
     pub next_event: bool,
+    /// Keep every bucket's Mueller matrix (`accumulate::Cell::mueller`).
+    pub mueller: bool,
     /// Use the reference estimator (`accumulate::Estimator::reference`): the same physics,
     /// slower; for tests.
     pub reference_estimator: bool,
@@ -428,6 +441,7 @@ impl SimConfig {
             path_sharing: None,
             wavelength_sharing: true,
             next_event: true,
+            mueller: false,
             reference_estimator: false,
             origin_nm: DVec3::ZERO,
             tolerance: None,
@@ -587,6 +601,7 @@ pub fn validate(cfg: &SimConfig) -> Result<(), SimError> {
             ),
         );
     }
+    validate_mueller(cfg)?;
     if !(cfg.limits.cutoff >= 0.0 && cfg.limits.cutoff < 1.0) {
         return bad(
             "cutoff",
@@ -635,6 +650,21 @@ pub fn validate(cfg: &SimConfig) -> Result<(), SimError> {
                 "rays and max_rays above {MAX_RAYS:e} per direction would run for weeks; split the work into seeds and merge"
             ),
         );
+    }
+    Ok(())
+}
+
+/// `--mueller` with a method that does not carry the Mueller matrix: refused (auto's
+/// cells are judged once chosen, `prepare::method_choice`).
+fn validate_mueller(cfg: &SimConfig) -> Result<(), SimError> {
+    if cfg.mueller && !matches!(cfg.coherence, Coherence::Auto | Coherence::Beamlet) {
+        return Err(SimError::Setting {
+            key: "mueller",
+            message: format!(
+                "--coherence {} does not carry the Mueller matrix: only the ray method's beamlet estimator does (give --coherence beamlet, or auto where it takes rays)",
+                cfg.coherence.name()
+            ),
+        });
     }
     Ok(())
 }

@@ -374,15 +374,10 @@ struct RayState {
 }
 
 /// The two launched fields for a wave travelling along `d` (unit): s (perpendicular to the
-/// plane of incidence) and p, each of unit power.
+/// plane of incidence) and p, each of unit power, in the frame of
+/// [`crate::optics::mueller::frame`].
 pub fn launch_fields(d: DVec3) -> [Field; 2] {
-    let c = d.cross(DVec3::Z);
-    let s = if c.length() > 1e-12 {
-        c.normalize()
-    } else {
-        DVec3::X
-    };
-    let p = s.cross(d);
+    let (p, s) = crate::optics::mueller::frame(d);
     let f = |v: DVec3| v.to_array().map(|x| C64::new(x, 0.0));
     [f(s), f(p)]
 }

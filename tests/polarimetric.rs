@@ -1,0 +1,437 @@
+//! Polarimetric BRDFs (`--mueller`, issue 51): flat interfaces and a thin film against the
+//! Mueller matrices of their closed-form Jones matrices (Fresnel, the Airy sum), written here
+//! from the Stokes definitions; the unpolarised BRDF as the matrices' m00 bit for bit;
+//! the fast estimator against the reference; realisability (Cloude's coherency
+//! eigenvalues) on rough, absorbing and scattering samples; thread count, file and merge;
+//! and what is refused.
+
+mod common;
+
+use common::*;
+use goniospec::accumulate::Coherence;
+use goniospec::accumulate::file::Accumulator;
+use goniospec::simulate::{SimConfig, Wavelengths, simulate};
+use num_complex::Complex64 as C;
+
+/// The Mueller matrix (row-major) of the diagonal Jones matrix `diag(a, b)` acting on
+/// the (p, s) amplitudes, from the Stokes definitions `S0 = |E_p|^2 + |E_s|^2`, `S1 =
+/// |E_p|^2 - |E_s|^2`, `S2 = 2 Re(E_p conj E_s)`, `S3 = 2 Im(conj E_p E_s)`: with
+/// `E_p' = a E_p` and `E_s' = b E_s`, `S2' = Re(a conj b) S2 + Im(a conj b) S3` and `S3' =
+/// Re(a conj b) S3 - Im(a conj b) S2` (Azzam & Bashara 1977, §2.8, a diattenuating
+/// retarder).
+fn diagonal_mueller(a: C, b: C) -> [f64; 16] {
+    let (pa, pb) = (a.norm_sqr(), b.norm_sqr());
+    let x = a * b.conj();
+    [
+        0.5 * (pa + pb),
+        0.5 * (pa - pb),
+        0.0,
+        0.0,
+        0.5 * (pa - pb),
+        0.5 * (pa + pb),
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        x.re,
+        x.im,
+        0.0,
+        0.0,
+        -x.im,
+        x.re,
+    ]
+}
+
+/// Fresnel amplitude coefficients from `n1` onto `n2` at `theta` (radians, in `n1`):
+/// `r_s` of the electric field and `r_p` of the magnetic field (the transverse one of a TM
+/// wave, so its sign needs no convention for the electric field's direction; Born & Wolf
+/// §1.5.2, with `n cos theta_t = sqrt(n^2 - n1^2 sin^2 theta)` on the decaying branch).
+fn fresnel(n1: C, n2: C, theta: f64) -> (C, C) {
+    let s = n1 * theta.sin();
+    let c1 = (n1 * n1 - s * s).sqrt() / n1;
+    let c2 = (n2 * n2 - s * s).sqrt() / n2;
+    let rs = (n1 * c1 - n2 * c2) / (n1 * c1 + n2 * c2);
+    let rp = (n2 * c1 - n1 * c2) / (n2 * c1 + n1 * c2);
+    (rp, rs)
+}
+
+/// The reflected Mueller matrix of direction `i`, wavelength `j`, summed over the
+/// reflection buckets (a flat sample fills the specular one only), as fractions.
+fn reflected(acc: &Accumulator, i: usize, j: usize) -> [f64; 16] {
+    let c = acc.cell(i, j);
+    let mut m = [0.0; 16];
+    for kk in (0..c.sum.len()).step_by(2) {
+        let x = c.mueller(kk).expect("a --mueller run keeps its matrices");
+        for (a, b) in m.iter_mut().zip(x) {
+            *a += b;
+        }
+    }
+    m
+}
+
+fn mueller_config(theta: &[f64], wavelengths: Wavelengths, rays: u64) -> SimConfig {
+    SimConfig {
+        mueller: true,
+        ..config(theta, wavelengths, rays)
+    }
+}
+
+fn assert_matrix(got: &[f64; 16], want: &[f64; 16], tol: f64, what: &str) {
+    for e in 0..16 {
+        assert!(
+            (got[e] - want[e]).abs() <= tol,
+            "{what}: m{}{} = {} against {} (tolerance {tol:e})\n got {got:?}\nwant {want:?}",
+            e / 4,
+            e % 4,
+            got[e],
+            want[e]
+        );
+    }
+}
+
+#[test]
+fn single_interfaces_match_the_fresnel_mueller_matrices() {
+    let glass = stack_sample(
+        "mueller-glass",
+        "[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n",
+        "air",
+        &[],
+        "glass",
+    );
+    let gold = stack_sample(
+        "mueller-gold",
+        "[media.air]\nn = 1.0\n[media.gold]\nn = 0.43\nk = 2.455\n",
+        "air",
+        &[],
+        "gold",
+    );
+    let thetas: Vec<f64> = (0..=17).map(|i| 5.0 * i as f64).collect();
+    for (s, n2) in [(&glass, C::new(1.5, 0.0)), (&gold, C::new(0.43, 2.455))] {
+        let cfg = mueller_config(&thetas, Wavelengths::Monochromatic(vec![548.6]), 16);
+        let acc = run(s, &cfg);
+        for (i, &t) in thetas.iter().enumerate() {
+            let (rp, rs) = fresnel(C::new(1.0, 0.0), n2, t.to_radians());
+            // One reflection per tree, nothing to interfere with: exact to rounding.
+            assert_matrix(
+                &reflected(&acc, i, 0),
+                &diagonal_mueller(rp, rs),
+                1e-12,
+                &format!("{} at {t} deg", s.name),
+            );
+        }
+    }
+    // Past Brewster's angle (56.3 deg) glass's m22 = Re(r_p conj r_s) changes sign: the
+    // check above is not blind to the p field's sign.
+    let (rp, rs) = fresnel(C::new(1.0, 0.0), C::new(1.5, 0.0), 70f64.to_radians());
+    assert!((rp * rs.conj()).re > 0.0);
+    let (rp, rs) = fresnel(C::new(1.0, 0.0), C::new(1.5, 0.0), 30f64.to_radians());
+    assert!((rp * rs.conj()).re < 0.0);
+}
+
+/// A 600 nm soap film on air in the plane-wave limit: the tree's reflected partial waves
+/// summed coherently (the estimator's groups) against the Airy sum `r = (r01 + r12 e^{2i
+/// beta}) / (1 + r01 r12 e^{2i beta})`, `beta = 2 pi n d cos theta_1 / lambda`, for each
+/// polarisation (Born & Wolf §7.6.1).
+#[test]
+fn a_thin_film_matches_the_airy_sum_in_both_polarisations() {
+    let soap = stack_sample(
+        "mueller-soap",
+        "[media.air]\nn = 1.0\n[media.soap]\nn = 1.33\n",
+        "air",
+        &[("soap", 600.0)],
+        "air",
+    );
+    let thetas = [0.0, 30.0, 60.0, 75.0];
+    let lambdas = vec![450.0, 550.0, 650.0];
+    let mut cfg = mueller_config(&thetas, Wavelengths::Monochromatic(lambdas.clone()), 8);
+    cfg.rho_nm = f64::INFINITY;
+    let acc = run(&soap, &cfg);
+    let (air, film) = (C::new(1.0, 0.0), C::new(1.33, 0.0));
+    for (i, &t) in thetas.iter().enumerate() {
+        let th = t.to_radians();
+        let (rp01, rs01) = fresnel(air, film, th);
+        let th1 = (th.sin() / 1.33).asin();
+        let (rp12, rs12) = fresnel(film, air, th1);
+        for (j, &l) in lambdas.iter().enumerate() {
+            let e = C::from_polar(
+                1.0,
+                2.0 * 2.0 * std::f64::consts::PI * 1.33 * 600.0 * th1.cos() / l,
+            );
+            let airy = |a: C, b: C| (a + b * e) / (1.0 + a * b * e);
+            let want = diagonal_mueller(airy(rp01, rp12), airy(rs01, rs12));
+            let cell = acc.cell(i, j);
+            // What the power cutoff dropped may change the sum by 2 sqrt(D R) + D.
+            let d = cell.dropped / cell.trees as f64;
+            let tol = 1e-9 + 2.0 * (d * want[0]).sqrt() + d;
+            assert_matrix(
+                &reflected(&acc, i, j),
+                &want,
+                tol,
+                &format!("soap at {t} deg, {l} nm"),
+            );
+        }
+    }
+}
+
+/// The unpolarised sums of a `--mueller` run are the run without it, bit for bit, and
+/// every bucket's m00 is its unpolarised sum; the fast estimator's matrices agree with the
+/// reference estimator's (every pair's phase by the C library) to rounding.
+#[test]
+fn m00_is_the_unpolarised_brdf_bit_for_bit_and_the_fast_path_is_the_reference() {
+    let wl = Wavelengths::parse("400:700:75", false).unwrap();
+    for name in ["thin-film-600nm", "rough-gold"] {
+        let s = shipped(&format!("{name}.toml"));
+        let plain = SimConfig {
+            coherence: Coherence::Beamlet,
+            ..config(&[30.0], wl.clone(), 96)
+        };
+        let polar = SimConfig {
+            mueller: true,
+            ..plain.clone()
+        };
+        let (a, b) = (run(&s, &plain), run(&s, &polar));
+        for (x, y) in a.cells.iter().zip(&b.cells) {
+            assert_eq!(x.sum, y.sum, "{name}: the unpolarised sums changed");
+            assert_eq!(x.sumsq, y.sumsq);
+            for (kk, m) in y.mueller.iter().enumerate() {
+                assert_eq!(m[0].to_bits(), y.sum[kk].to_bits(), "{name}: key {kk}");
+            }
+        }
+        let reference = run(
+            &s,
+            &SimConfig {
+                reference_estimator: true,
+                ..polar.clone()
+            },
+        );
+        let mut pairs_seen = 0.0f64;
+        for (x, y) in b.cells.iter().zip(&reference.cells) {
+            let scale = x.sum.iter().map(|v| v.abs()).fold(0.0, f64::max);
+            for (m, r) in x.mueller.iter().zip(&y.mueller) {
+                for e in 1..16 {
+                    assert!(
+                        (m[e] - r[e]).abs() <= 1e-10 * scale,
+                        "{name}: element {e}: {} against the reference's {}",
+                        m[e],
+                        r[e]
+                    );
+                    pairs_seen = pairs_seen.max(m[e].abs());
+                }
+            }
+        }
+        assert!(pairs_seen > 0.0, "{name}: no polarisation to compare");
+    }
+}
+
+/// The Mueller matrices of rough, absorbing, layered and scattering samples are
+/// realisable: every bucket's coherency matrix non-negative within its standard errors.
+#[test]
+fn every_shipped_kind_of_sample_gives_realisable_matrices() {
+    let wl = Wavelengths::parse("400:700:100", false).unwrap();
+    for (name, rays) in [
+        ("rough-gold", 512),
+        ("rough-glass", 512),
+        ("thin-film-600nm", 256),
+        ("paint-pigments", 64),
+    ] {
+        let s = shipped(&format!("{name}.toml"));
+        let cfg = SimConfig {
+            coherence: Coherence::Beamlet,
+            ..mueller_config(&[0.0, 45.0], wl.clone(), rays)
+        };
+        let acc = run(&s, &cfg);
+        let r = acc.realisability().expect("kept");
+        assert!(r.checked > 0, "{name}: nothing checked");
+        assert_eq!(
+            r.failed, 0,
+            "{name}: {} of {} buckets not realisable (worst {:.3e} of m00, {:.1} sigma)",
+            r.failed, r.checked, r.worst_relative, r.worst_sigmas
+        );
+    }
+}
+
+#[test]
+fn matrices_do_not_depend_on_threads_and_survive_the_file_and_merge() {
+    let s = shipped("rough-glass.toml");
+    let cfg = mueller_config(
+        &[20.0],
+        Wavelengths::parse("450:650:100", false).unwrap(),
+        128,
+    );
+    let a = run(&s, &cfg);
+    let one = run_on_one_thread(&s, &cfg);
+    assert_eq!(a.cells, one.cells);
+    let bytes = a.to_bytes();
+    let back = Accumulator::from_bytes(&bytes, "mem").unwrap();
+    assert_eq!(back, a);
+    let b = run(
+        &s,
+        &SimConfig {
+            seed: 2,
+            ..cfg.clone()
+        },
+    );
+    let mut merged = a.clone();
+    merged.merge(&b).unwrap();
+    let (x, y, m) = (a.cell(0, 0), b.cell(0, 0), merged.cell(0, 0));
+    for kk in 0..x.mueller.len() {
+        for e in 0..16 {
+            assert_eq!(m.mueller[kk][e], x.mueller[kk][e] + y.mueller[kk][e]);
+        }
+    }
+    // A run without matrices does not merge with one that has them.
+    let plain = run(
+        &s,
+        &SimConfig {
+            seed: 3,
+            mueller: false,
+            ..cfg
+        },
+    );
+    let err = merged.merge(&plain).unwrap_err().to_string();
+    assert!(err.contains("mueller"), "{err}");
+}
+
+/// An impossible matrix (a flat glass's specular matrix with m11 = 3 m00: two coherency
+/// eigenvalues of `(m00 - m11 -/+ (m22 - m33)) / 4 < 0`) stops the check every run
+/// passes through; flat glass's buckets have no spread to hide it in.
+#[test]
+fn an_unrealisable_matrix_is_refused() {
+    let s = stack_sample(
+        "mueller-refused",
+        "[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n",
+        "air",
+        &[],
+        "glass",
+    );
+    let cfg = mueller_config(&[20.0], Wavelengths::Monochromatic(vec![550.0]), 16);
+    let mut acc = run(&s, &cfg);
+    assert!(goniospec::simulate::check_physical(&acc, "flat glass", None).is_ok());
+    let c = &mut acc.cells[0];
+    let kk = (0..c.sum.len())
+        .step_by(2)
+        .max_by(|&a, &b| c.sum[a].total_cmp(&c.sum[b]))
+        .unwrap();
+    c.mueller[kk][5] = 3.0 * c.mueller[kk][0];
+    let err = goniospec::simulate::check_physical(&acc, "flat glass", None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("not physically realisable") && err.contains("1 of"),
+        "{err}"
+    );
+}
+
+#[test]
+fn methods_without_the_matrix_are_refused_before_work() {
+    let s = shipped("thin-film-600nm.toml");
+    for mode in [Coherence::Diffraction, Coherence::Bucket, Coherence::Global] {
+        let cfg = SimConfig {
+            coherence: mode,
+            ..mueller_config(
+                &[30.0],
+                Wavelengths::parse("400:700:100", false).unwrap(),
+                16,
+            )
+        };
+        let err = simulate(&s, &cfg, &|_| {}).unwrap_err().to_string();
+        assert!(
+            err.contains("mueller") && err.contains("beamlet"),
+            "{mode}: {err}"
+        );
+    }
+    // auto takes the diffraction method on the film at 0-40 deg: said, with the angles.
+    let cfg = SimConfig {
+        coherence: Coherence::Auto,
+        ..mueller_config(
+            &[0.0, 80.0],
+            Wavelengths::parse("400:700:100", false).unwrap(),
+            16,
+        )
+    };
+    let err = simulate(&s, &cfg, &|_| {}).unwrap_err().to_string();
+    assert!(
+        err.contains("theta_i 0 deg") && !err.contains("80"),
+        "{err}"
+    );
+}
+
+#[test]
+fn eval_prints_the_mueller_brdf_or_says_why_not() {
+    let dir = scratch("mueller-eval");
+    let gsa = dir.join("g.gsa");
+    let gsa0 = dir.join("g0.gsa");
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        "meshes/rough-gold.toml",
+        "--theta-i",
+        "30",
+        "--rays",
+        "64",
+        "--wavelengths",
+        "500:600:50",
+        "--mueller",
+        "-o",
+        gsa.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) = goniospec(&[
+        "eval",
+        gsa.to_str().unwrap(),
+        "--mueller",
+        "--theta-i",
+        "30",
+        "--theta-o",
+        "30",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let lines: Vec<&str> = out.lines().collect();
+    assert!(lines[0].starts_with("lambda_nm,m00,m01"), "{out}");
+    assert_eq!(lines.len(), 3, "{out}");
+    // The printed m00 is the unpolarised BRDF of that bucket (the same .gsa read here).
+    let acc = Accumulator::read(&gsa).unwrap();
+    let b = acc.header.settings.buckets();
+    let wo = goniospec::geom::from_spherical(30f64.to_radians(), std::f64::consts::PI);
+    let k = b.index(wo);
+    let want = acc.cell(0, 0).fraction(2 * k, Coherence::Auto) / b.projected_solid_angle(k);
+    let m00: f64 = lines[1].split(',').nth(1).unwrap().parse().unwrap();
+    assert!(
+        (m00 - want).abs() <= 1e-8 * want.abs(),
+        "{m00} against {want}"
+    );
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        "meshes/rough-gold.toml",
+        "--theta-i",
+        "30",
+        "--rays",
+        "16",
+        "--wavelengths",
+        "500:600:50",
+        "-o",
+        gsa0.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (code, _, err) = goniospec(&[
+        "eval",
+        gsa0.to_str().unwrap(),
+        "--mueller",
+        "--theta-i",
+        "30",
+        "--theta-o",
+        "30",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--mueller"), "{err}");
+    let (code, _, err) = goniospec(&[
+        "eval",
+        gsa.to_str().unwrap(),
+        "--mueller",
+        "--theta-i",
+        "40",
+        "--theta-o",
+        "30",
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("40"), "{err}");
+}
