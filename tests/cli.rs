@@ -211,7 +211,7 @@ fn simulate_reflectance_merge_and_analytic_work_together() {
         Some("lambda_nm,R,T,absorbed,dropped,R_stderr")
     );
     let mut tl = tmm.lines();
-    assert_eq!(tl.next(), Some("lambda_nm,Rs,Rp,R,Ts,Tp,T"));
+    assert_eq!(tl.next(), Some("lambda_nm,Rs,Rp,R,Ts,Tp,T,delta_deg"));
     let mut n = 0;
     for (row, trow) in lines.zip(tl) {
         let f: Vec<f64> = row.split(',').map(|v| v.parse().unwrap()).collect();

@@ -39,6 +39,10 @@ class Brdf:
 class Accumulator:
     def reflectance(self, theta_i_deg: float) -> dict[str, npt.NDArray[np.float64]]:
         """Keys lambda_nm, R, T, absorbed, dropped, R_stderr (fractions of incident power)."""
+    def mueller(self, theta_i_deg: float, theta_o_deg: float, phi_o_deg: float = 180.0) -> dict[str, npt.NDArray[np.float64]]:
+        """From a run with mueller=True: keys lambda_nm (n), M and M_stderr (n x 4 x 4, 1/sr,
+        row-major, each direction's own s/p frame; M[:, 0, 0] is the unpolarised BRDF), dop
+        (degree of polarisation for unpolarised light in)."""
     def save(self, path: _Path, force: bool = False) -> None: ...
     def build(self, repr: Literal["table", "kdtree", "subdivided"] = "table") -> Brdf: ...
     @property
@@ -86,6 +90,7 @@ def simulate(
     no_path_sharing: bool = False,
     no_wavelength_sharing: bool = False,
     no_next_event: bool = False,
+    mueller: bool = False,
     progress: bool | None = None,
 ) -> Accumulator:
     """goniospec simulate's flags as keywords (the same settings type, defaults and checks;
@@ -94,6 +99,8 @@ def simulate(
     --wavelengths, coherence_radius_nm in nm, cutoff a fraction of launched power.
     progress: a bar on sys.stderr when it is a terminal (None), always (True), never (False)."""
 def analytic(sample: Sample, theta_i_deg: float, wavelengths: str = "380:780:10", monochromatic: bool = False) -> dict[str, npt.NDArray[np.float64]]:
-    """Transfer-matrix lambda_nm, Rs, Rp, R, Ts, Tp, T of a [stack] sample; theta_i_deg in degrees."""
+    """Transfer-matrix lambda_nm, Rs, Rp, R, Ts, Tp, T of a [stack] sample, and delta_deg, the
+    phase difference arg(r_p conj r_s) of the reflected amplitudes (docs/physics.md,
+    "Polarisation"); theta_i_deg in degrees."""
 def backends() -> list[dict[str, object]]:
     """The acceleration backends of this build: name, available, version, detail."""

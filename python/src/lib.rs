@@ -3,7 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
-use numpy::{IntoPyArray, PyArray1, PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use numpy::{
+    IntoPyArray, PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -116,6 +118,51 @@ impl Accumulator {
         d.set_item("absorbed", col(&|x| x.absorbed))?;
         d.set_item("dropped", col(&|x| x.dropped))?;
         d.set_item("R_stderr", col(&|x| x.r_stderr.unwrap_or(f64::NAN)))?;
+        Ok(d)
+    }
+
+    /// The Mueller-matrix BRDF (1/sr) at the simulated incident angle `theta_i_deg`
+    /// towards (`theta_o_deg`, `phi_o_deg`), from a run with `mueller=True`: a dict with
+    /// `lambda_nm` (n), `M` and `M_stderr` (n x 4 x 4, row-major, each direction's own s/p
+    /// frame; `M[:, 0, 0]` is the unpolarised BRDF) and `dop` (n, the degree of
+    /// polarisation for unpolarised light in). `theta_o_deg` above 90 reads the
+    /// transmission side.
+    #[pyo3(signature = (theta_i_deg, theta_o_deg, phi_o_deg = 180.0))]
+    fn mueller<'py>(
+        &self,
+        py: Python<'py>,
+        theta_i_deg: f64,
+        theta_o_deg: f64,
+        phi_o_deg: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let wo = goniospec::geom::from_spherical(theta_o_deg.to_radians(), phi_o_deg.to_radians());
+        let rows = self
+            .inner
+            .mueller_brdf(theta_i_deg, None, wo)
+            .map_err(value_err)?;
+        let n = rows.len();
+        let m: Vec<f64> = rows.iter().flat_map(|r| r.m).collect();
+        let e: Vec<f64> = rows
+            .iter()
+            .flat_map(|r| r.stderr.unwrap_or([f64::NAN; 16]))
+            .collect();
+        let d = PyDict::new(py);
+        d.set_item(
+            "lambda_nm",
+            rows.iter()
+                .map(|r| r.lambda_nm)
+                .collect::<Vec<f64>>()
+                .into_pyarray(py),
+        )?;
+        d.set_item("M", m.into_pyarray(py).reshape([n, 4, 4])?)?;
+        d.set_item("M_stderr", e.into_pyarray(py).reshape([n, 4, 4])?)?;
+        d.set_item(
+            "dop",
+            rows.iter()
+                .map(|r| r.dop)
+                .collect::<Vec<f64>>()
+                .into_pyarray(py),
+        )?;
         Ok(d)
     }
 
@@ -806,6 +853,7 @@ fn analytic<'py>(
     d.set_item("Ts", col(&|x| x.1.t_s))?;
     d.set_item("Tp", col(&|x| x.1.t_p))?;
     d.set_item("T", col(&|x| x.1.t()))?;
+    d.set_item("delta_deg", col(&|x| x.1.delta_deg()))?;
     Ok(d)
 }
 

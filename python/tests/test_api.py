@@ -57,6 +57,55 @@ def test_every_simulate_flag_is_a_keyword(tmp_path):
     assert (tmp_path / "py.gsa").read_bytes() == (tmp_path / "cli.gsa").read_bytes()
 
 
+def test_mueller_matrices_are_the_clis_and_flat_gold_is_fresnels(tmp_path):
+    s = gs.Sample.load(mesh("rough-gold.toml"))
+    acc = gs.simulate(s, theta_i_deg=[30], wavelengths="500:600:50", rays=64, mueller=True,
+                      coherence="beamlet")
+    gsa = tmp_path / "gold.gsa"
+    acc.save(gsa)
+    m = acc.mueller(30, 30)
+    assert m["M"].shape == (2, 4, 4) and m["M_stderr"].shape == (2, 4, 4)
+    rows = cli("eval", str(gsa), "--mueller", "--theta-i", "30", "--theta-o", "30")
+    for j, row in enumerate(rows):
+        for a in range(4):
+            for b in range(4):
+                want = float(row[f"m{a}{b}"])
+                assert abs(m["M"][j, a, b] - want) <= 1e-8 * abs(m["M"][j, 0, 0]), (a, b)
+    # The buckets as an archive numpy reads: theta_o 31 deg and phi_o 185 deg lie in the
+    # bucket (15, 18) of 2 x 10 deg.
+    npz = tmp_path / "gold.npz"
+    subprocess.run([CLI, "export", str(gsa), "--format", "npz", "-o", str(npz)], check=True,
+                   cwd=ROOT, capture_output=True)
+    z = np.load(npz)
+    assert z["mueller"].shape == (1, 1, 45, 36, 2, 4, 4)
+    assert np.array_equal(z["mueller"][0, 0, 15, 18], acc.mueller(30, 31, 185)["M"])
+    assert np.array_equal(z["brdf"][0, 0, 15, 18], acc.mueller(30, 31, 185)["M"][:, 0, 0])
+    # Flat gold's specular matrix against the Fresnel coefficients (numpy, written here):
+    # J = diag(r_p of the transverse H, r_s); m00 = (|rp|^2 + |rs|^2) / 2, m22 = Re(rp rs*).
+    flat = tmp_path / "flat.toml"
+    flat.write_text('[sample]\nname = "flat gold"\nunit = "nm"\ntile = [1000.0, 1000.0]\n'
+                    '[media.air]\nn = 1.0\n[media.gold]\nn = 0.43\nk = 2.455\n'
+                    '[stack]\nmode = "mesh"\nambient = "air"\nlayers = []\nsubstrate = "gold"\n')
+    # One degree per polar bucket, one azimuth sector: the specular exit at 44.5 deg lies
+    # inside the bucket [44, 45] deg.
+    acc = gs.simulate(gs.Sample.load(str(flat)), theta_i_deg=[44.5], wavelengths="549:551:2",
+                      rays=4, mueller=True, coherence="beamlet", theta_o_bins=90, phi_o_bins=1)
+    n2, t = 0.43 + 2.455j, np.radians(44.5)
+    ct = np.sqrt(1 - (np.sin(t) / n2) ** 2)
+    rs = (np.cos(t) - n2 * ct) / (np.cos(t) + n2 * ct)
+    rp = (n2 * np.cos(t) - ct) / (n2 * np.cos(t) + ct)
+    m = acc.mueller(44.5, 44.5)
+    omega = 0.5 * (2 * np.pi) * (np.sin(np.radians(45)) ** 2 - np.sin(np.radians(44)) ** 2)
+    got = m["M"][0] * omega
+    assert abs(got[0, 0] - 0.5 * (abs(rp) ** 2 + abs(rs) ** 2)) < 1e-12
+    assert abs(got[0, 1] - 0.5 * (abs(rp) ** 2 - abs(rs) ** 2)) < 1e-12
+    assert abs(got[2, 2] - (rp * np.conj(rs)).real) < 1e-12
+    assert abs(got[2, 3] - (rp * np.conj(rs)).imag) < 1e-12
+    assert abs(m["dop"][0] - abs(got[1, 0]) / got[0, 0]) < 1e-12
+    with pytest.raises(ValueError, match="mueller"):
+        gs.simulate(s, theta_i_deg=[30], wavelengths="500:600:50", rays=8).mueller(30, 30)
+
+
 def test_target_stderr_is_a_keyword_and_the_cli_flag(tmp_path):
     # Issue 49: the adaptive budget by the BRDF's quality, the same bytes as the CLI's.
     s = gs.Sample.load(mesh("rough-gold.toml"))
@@ -111,6 +160,13 @@ def test_flat_soap_film_matches_the_tmm_package():
     sim = acc.reflectance(30)["R"]
     # The plane-wave limit equals the TMM up to the power dropped below the cutoff (1e-10).
     assert np.allclose(sim, a["R"], rtol=0, atol=1e-6)
+    # The reflected p-s phase difference against the tmm package's amplitudes (Byrnes's
+    # convention, the transfer matrix's own: r_p of the transverse H field).
+    import tmm
+    for lam, delta in zip(a["lambda_nm"], a["delta_deg"]):
+        rs = tmm.coh_tmm("s", [1.0, 1.33, 1.0], [np.inf, 600.0, np.inf], np.radians(30), lam)["r"]
+        rp = tmm.coh_tmm("p", [1.0, 1.33, 1.0], [np.inf, 600.0, np.inf], np.radians(30), lam)["r"]
+        assert abs(delta - np.degrees(np.angle(rp * np.conj(rs)))) < 1e-9, (lam, delta)
 
 
 def test_errors_are_exceptions_with_the_clis_messages(tmp_path):

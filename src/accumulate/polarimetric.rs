@@ -7,6 +7,16 @@ use glam::DVec3;
 use super::file::{Accumulator, NotSimulated};
 use crate::optics::mueller::{Mueller, coherency_eigenvalues, degree_of_polarisation};
 
+/// One wavelength's directional reflectance and transmittance for polarised light in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PolarisedRow {
+    /// Bin centre or exact wavelength, nm.
+    pub lambda_nm: f64,
+    /// Fractions of the incident power.
+    pub r: f64,
+    pub t: f64,
+}
+
 /// Standard errors a coherency eigenvalue may fall below zero before the matrix counts as
 /// not realisable rather than noisy.
 pub const REALISABLE_SIGMAS: f64 = 5.0;
@@ -86,6 +96,39 @@ impl Accumulator {
                     m,
                     stderr: c.mueller_stderr(kk).map(|e| e.map(|x| x / omega)),
                     dop: degree_of_polarisation(&m),
+                }
+            })
+            .collect())
+    }
+
+    /// The directional reflectance and transmittance at the simulated incident angle
+    /// `theta_i_deg` for light in the state `stokes` (normalised to `S0 = 1`, in the
+    /// incident direction's s/p frame): each bucket's first row of its Mueller matrix
+    /// applied to it, summed over the hemisphere (the outgoing intensity needs no frame).
+    pub fn polarised_reflectance(
+        &self,
+        theta_i_deg: f64,
+        phi_i_deg: Option<f64>,
+        stokes: &[f64; 4],
+    ) -> Result<Vec<PolarisedRow>, MuellerError> {
+        let s = &self.header.settings;
+        if !s.mueller {
+            return Err(MuellerError::NotKept);
+        }
+        let i = self.direction_of(theta_i_deg, phi_i_deg)?;
+        Ok((0..s.wavelength_count())
+            .map(|j| {
+                let c = self.cell(i, j);
+                let (mut r, mut t) = (0.0, 0.0);
+                for kk in 0..c.mueller.len() {
+                    let m = c.mueller(kk).unwrap_or([0.0; 16]);
+                    let v: f64 = (0..4).map(|b| m[b] * stokes[b]).sum();
+                    if kk % 2 == 0 { r += v } else { t += v }
+                }
+                PolarisedRow {
+                    lambda_nm: s.wavelength(j),
+                    r,
+                    t,
                 }
             })
             .collect())

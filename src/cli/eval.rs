@@ -32,6 +32,16 @@ pub(super) struct EvalArgs {
     /// angle above 90 deg reads the transmission side.
     #[arg(long, conflicts_with = "pairs")]
     mueller: bool,
+    /// With --mueller: the light in is polarised (unpolarised, s, p, +45, -45, circular+,
+    /// circular-, or S0,S1,S2,S3 in the incident direction's s/p frame); prints instead the
+    /// Stokes vector of the light sent out, lambda_nm,S0,S1,S2,S3,dop (1/sr, in the
+    /// outgoing direction's frame; S0 the BRDF for that state).
+    #[arg(long, requires = "mueller", value_parser = stokes)]
+    incident: Option<[f64; 4]>,
+}
+
+fn stokes(s: &str) -> Result<[f64; 4], goniospec::optics::mueller::BadState> {
+    goniospec::optics::mueller::stokes_state(s)
 }
 
 pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {
@@ -131,6 +141,26 @@ fn eval_mueller(a: &EvalArgs) -> Result<ExitCode> {
     }
     let wo = goniospec::geom::from_spherical(to.to_radians(), a.phi_o.to_radians());
     let rows = acc.mueller_brdf(ti, Some(a.phi_i), wo)?;
+    if let Some(state) = &a.incident {
+        outln!("lambda_nm,S0,S1,S2,S3,dop");
+        for r in rows {
+            let v = goniospec::optics::mueller::apply(&r.m, state);
+            let dop = if v[0] > 0.0 {
+                (v[1] * v[1] + v[2] * v[2] + v[3] * v[3]).sqrt() / v[0]
+            } else {
+                0.0
+            };
+            outln!(
+                "{},{:.8e},{:.8e},{:.8e},{:.8e},{dop:.6}",
+                r.lambda_nm,
+                v[0],
+                v[1],
+                v[2],
+                v[3]
+            );
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
     let names: Vec<String> = (0..16).map(|e| format!("m{}{}", e / 4, e % 4)).collect();
     let se: Vec<String> = names.iter().map(|n| format!("se_{n}")).collect();
     outln!("lambda_nm,{},{},dop", names.join(","), se.join(","));

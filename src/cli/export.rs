@@ -12,7 +12,10 @@ pub(super) enum ExportFormat {
     /// RGL tensor file (.bsdf) for Mitsuba 3's and pbrt-v4's `measured` material.
     Rgl,
     /// NumPy archive (.npz): brdf[theta_i, phi_i, theta_o, phi_o, lambda] on a regular
-    /// grid, the axes in degrees, lambda_nm, and the settings as JSON.
+    /// grid, the axes in degrees, lambda_nm, and the settings as JSON. From a .gsa
+    /// simulated with --mueller: its buckets as simulated, with the Mueller matrices
+    /// (mueller[theta_i, phi_i, theta_o, phi_o, lambda, 4, 4], 1/sr) and their standard
+    /// errors.
     Npz,
     /// MERL binary (90 x 90 x 180 half/difference cells, isotropic, linear sRGB with the
     /// reader's scale factors) for fitting tools. It loses the spectrum.
@@ -21,7 +24,7 @@ pub(super) enum ExportFormat {
 
 #[derive(Args)]
 pub(super) struct ExportArgs {
-    /// The built BRDF (.gsb).
+    /// The built BRDF (.gsb); for --format npz, also a .gsa simulated with --mueller.
     input: PathBuf,
     /// Output format.
     #[arg(long, value_enum, default_value_t = ExportFormat::Rgl)]
@@ -115,6 +118,24 @@ fn export_npz(a: ExportArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, Brdf};
     use goniospec::export::npz;
     guard_output(&a.output, &[a.input.as_path()], OutputKind::Npz, a.force)?;
+    if a.input.extension().is_some_and(|e| e == "gsa") {
+        if a.theta_o_bins.is_some() || a.phi_o_bins.is_some() || !a.theta_i.is_empty() {
+            bail!(
+                "a .gsa exports its buckets as simulated: --theta-o-bins, --phi-o-bins and --theta-i resample a built BRDF (.gsb)"
+            );
+        }
+        let acc = goniospec::accumulate::file::Accumulator::read(&a.input)?;
+        let bytes = npz::mueller_npz_bytes(&acc)
+            .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?;
+        goniospec::io::write_atomic(&a.output, |w| w.write_all(&bytes))
+            .with_context(|| format!("writing {}", a.output.display()))?;
+        outln!(
+            "wrote {} (NumPy archive, the Mueller matrices of the buckets, {:.1} MB)",
+            a.output.display(),
+            bytes.len() as f64 / 1e6
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     let r = brdf::file::read(&a.input)?;
     let settings: toml::Table = toml::from_str(&r.meta().simulation).unwrap_or_default();
     let bins = |key: &str, flag: Option<u32>| -> Result<usize> {

@@ -12,10 +12,30 @@ pub(super) struct ReflectanceArgs {
     /// Incident azimuth, degrees (must match the simulation's).
     #[arg(long, value_parser = finite)]
     phi_i: Option<f64>,
+    /// Polarised light in, from a .gsa simulated with --mueller: unpolarised, s, p, +45,
+    /// -45, circular+ (S3 = +1), circular- (S3 = -1), or a Stokes vector S0,S1,S2,S3 in the
+    /// incident direction's s/p frame (docs/physics.md, "Polarisation"). Prints
+    /// lambda_nm,R,T for that state: each bucket's Mueller matrix applied to it.
+    #[arg(long, value_parser = stokes)]
+    incident: Option<[f64; 4]>,
+}
+
+fn stokes(s: &str) -> Result<[f64; 4], goniospec::optics::mueller::BadState> {
+    goniospec::optics::mueller::stokes_state(s)
 }
 
 pub(super) fn reflectance(a: ReflectanceArgs) -> Result<ExitCode> {
     let acc = Accumulator::read(&a.file)?;
+    if let Some(state) = &a.incident {
+        let rows = acc
+            .polarised_reflectance(a.theta_i, a.phi_i, state)
+            .map_err(|m| anyhow::anyhow!("{}: {m}", a.file.display()))?;
+        outln!("lambda_nm,R,T");
+        for r in rows {
+            outln!("{},{:.8},{:.8}", r.lambda_nm, r.r, r.t);
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
     let refl = acc
         .reflectance(a.theta_i, a.phi_i)
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.file.display()))?;

@@ -9,6 +9,11 @@
 //! | `theta_i_deg`, `phi_i_deg`, `theta_o_deg`, `phi_o_deg` | f64, 1-D | the axes, degrees |
 //! | `lambda_nm` | f64, 1-D | wavelength of each bin (its centre), nm |
 //! | `settings_json` | u8, 1-D | the BRDF's description as UTF-8 JSON (`bytes(a).decode()`) |
+//!
+//! From a `.gsa` simulated with `--mueller` ([`mueller_npz_bytes`]), the buckets as
+//! simulated: `mueller` and `mueller_stderr`, f64 `[theta_i, phi_i, theta_o, phi_o,
+//! lambda, 4, 4]` (1/sr, each direction's own s/p frame), `brdf` their m00, and the axes
+//! at the simulated angles and the buckets' centres.
 
 use super::ExportError;
 use std::io::{Cursor, Write};
@@ -176,18 +181,106 @@ pub fn npz_bytes(r: &Representation, grid: &Grid) -> Result<Vec<u8>, ExportError
             npy(&[settings.len() as u64], settings.as_bytes()).map_err(io)?,
         ),
     ];
+    zip_arrays(arrays, values.len() * 8 > u32::MAX as usize / 2)
+}
+
+/// A stored zip of `.npy` arrays, as `numpy.savez` writes it, with the zip epoch as every
+/// timestamp: deterministic bytes.
+fn zip_arrays(arrays: Vec<(&str, Vec<u8>)>, large: bool) -> Result<Vec<u8>, ExportError> {
+    let io = |e: std::io::Error| e.to_string();
     let mut zip = zip::ZipWriter::new(Cursor::new(Vec::new()));
-    // Stored (as numpy.savez), with the zip epoch as the timestamp: deterministic bytes.
     let opts = zip::write::SimpleFileOptions::default()
         .compression_method(zip::CompressionMethod::Stored)
         .last_modified_time(zip::DateTime::default())
-        .large_file(values.len() * 8 > u32::MAX as usize / 2);
+        .large_file(large);
     for (name, bytes) in arrays {
         zip.start_file(format!("{name}.npy"), opts)
             .map_err(|e| e.to_string())?;
         zip.write_all(&bytes).map_err(io)?;
     }
     Ok(zip.finish().map_err(|e| e.to_string())?.into_inner())
+}
+
+/// The `.npz` bytes of a `--mueller` accumulator's reflection buckets as simulated (no
+/// representation in between): `mueller[theta_i, phi_i, theta_o, phi_o, lambda, 4, 4]`
+/// and `mueller_stderr` (1/sr, row-major, each direction's own s/p frame: docs/physics.md,
+/// "Polarisation"), `brdf` their m00, and the axes at the simulated angles and the
+/// buckets' centres.
+pub fn mueller_npz_bytes(
+    acc: &crate::accumulate::file::Accumulator,
+) -> Result<Vec<u8>, ExportError> {
+    let s = &acc.header.settings;
+    if !s.mueller {
+        return Err(ExportError::from(
+            "the accumulator holds no Mueller matrices (simulate with --mueller); for the unpolarised BRDF, build a .gsb and export that",
+        ));
+    }
+    let b = s.buckets();
+    let (ni, nl) = (s.theta_i_deg.len(), s.wavelength_count());
+    let (nt, np) = (b.theta_bins as usize, b.phi_bins as usize);
+    let total = [ni, nt, np, nl, 16]
+        .iter()
+        .try_fold(1u64, |a, &n| a.checked_mul(n as u64))
+        .filter(|&t| t <= MAX_VALUES)
+        .ok_or_else(|| format!("the Mueller grid holds more than {MAX_VALUES} values"))?;
+    let (mut m, mut e, mut f) = (
+        Vec::with_capacity(total as usize),
+        Vec::with_capacity(total as usize),
+        Vec::with_capacity(total as usize / 16),
+    );
+    for i in 0..ni {
+        for k in 0..b.len() {
+            let omega = b.projected_solid_angle(k);
+            for j in 0..nl {
+                let c = acc.cell(i, j);
+                let v = c.mueller(2 * k).unwrap_or([0.0; 16]);
+                let se = c.mueller_stderr(2 * k).unwrap_or([f64::NAN; 16]);
+                m.extend(v.iter().map(|x| x / omega));
+                e.extend(se.iter().map(|x| x / omega));
+                f.push(v[0] / omega);
+            }
+        }
+    }
+    let centre = |n: usize, span: f64| -> Vec<f64> {
+        (0..n).map(|k| (k as f64 + 0.5) * span / n as f64).collect()
+    };
+    let lambda: Vec<f64> = (0..nl).map(|j| s.wavelength(j)).collect();
+    let settings = serde_json::json!({
+        "representation": "buckets",
+        "sample_name": s.sample_name,
+        "sample_hash": s.sample_hash,
+        "frames": "each direction's s/p frame: s = w x z / |w x z| (x along the normal), p = s x w; Stokes x = p, y = s, S3 = 2 Im(conj E_p E_s)",
+        "trees_per_direction": acc.header.rays_per_direction,
+        "simulation_toml": toml::to_string(s).unwrap_or_default(),
+        "goniospec": env!("CARGO_PKG_VERSION"),
+    })
+    .to_string();
+    let (ni, nt, np, nl) = (ni as u64, nt as u64, np as u64, nl as u64);
+    let io = |e: std::io::Error| e.to_string();
+    let arrays: Vec<(&str, Vec<u8>)> = vec![
+        ("mueller", npy(&[ni, 1, nt, np, nl, 4, 4], &m).map_err(io)?),
+        (
+            "mueller_stderr",
+            npy(&[ni, 1, nt, np, nl, 4, 4], &e).map_err(io)?,
+        ),
+        ("brdf", npy(&[ni, 1, nt, np, nl], &f).map_err(io)?),
+        ("theta_i_deg", npy(&[ni], &s.theta_i_deg).map_err(io)?),
+        ("phi_i_deg", npy(&[1], &[s.phi_i_deg]).map_err(io)?),
+        (
+            "theta_o_deg",
+            npy(&[nt], &centre(nt as usize, 90.0)).map_err(io)?,
+        ),
+        (
+            "phi_o_deg",
+            npy(&[np], &centre(np as usize, 360.0)).map_err(io)?,
+        ),
+        ("lambda_nm", npy(&[nl], &lambda).map_err(io)?),
+        (
+            "settings_json",
+            npy(&[settings.len() as u64], settings.as_bytes()).map_err(io)?,
+        ),
+    ];
+    zip_arrays(arrays, total * 16 > u64::from(u32::MAX) / 2)
 }
 
 #[cfg(test)]

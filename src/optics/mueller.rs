@@ -194,6 +194,49 @@ pub fn degree_of_polarisation(m: &Mueller) -> f64 {
     (m[4] * m[4] + m[8] * m[8] + m[12] * m[12]).sqrt() / m[0]
 }
 
+/// A named incident polarisation state, or a Stokes vector `S0,S1,S2,S3`, that a state
+/// is not.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error(
+    "'{0}' is not a polarisation state: give unpolarised, s, p, +45, -45, circular+ (S3 = +1), circular- (S3 = -1), or a Stokes vector S0,S1,S2,S3 with S0 > 0 and S1^2 + S2^2 + S3^2 <= S0^2"
+)]
+pub struct BadState(pub String);
+
+/// The Stokes vector of a named state (in the frame of [`frame`], `S3 = 2 Im(conj E_p
+/// E_s)`), or of four comma-separated numbers, normalised to `S0 = 1`.
+pub fn stokes_state(s: &str) -> Result<[f64; 4], BadState> {
+    let v = match s.trim() {
+        "unpolarised" | "unpolarized" => [1.0, 0.0, 0.0, 0.0],
+        "p" => [1.0, 1.0, 0.0, 0.0],
+        "s" => [1.0, -1.0, 0.0, 0.0],
+        "+45" => [1.0, 0.0, 1.0, 0.0],
+        "-45" => [1.0, 0.0, -1.0, 0.0],
+        "circular+" => [1.0, 0.0, 0.0, 1.0],
+        "circular-" => [1.0, 0.0, 0.0, -1.0],
+        t => {
+            let x: Vec<f64> = t
+                .split(',')
+                .map(|x| x.trim().parse::<f64>())
+                .collect::<Result<_, _>>()
+                .map_err(|_| BadState(s.into()))?;
+            let ok = x.len() == 4
+                && x.iter().all(|v| v.is_finite())
+                && x[0] > 0.0
+                && x[1] * x[1] + x[2] * x[2] + x[3] * x[3] <= x[0] * x[0] * (1.0 + 1e-12);
+            if !ok {
+                return Err(BadState(s.into()));
+            }
+            [1.0, x[1] / x[0], x[2] / x[0], x[3] / x[0]]
+        }
+    };
+    Ok(v)
+}
+
+/// `M S`: the Stokes vector a Mueller matrix sends out for `s` in.
+pub fn apply(m: &Mueller, s: &[f64; 4]) -> [f64; 4] {
+    std::array::from_fn(|a| (0..4).map(|b| m[4 * a + b] * s[b]).sum())
+}
+
 /// `acc += 2 Re(z e^{iφ}) w` for the 16 elements, with `(sin φ, cos φ)` given.
 #[inline]
 pub fn add_cross(acc: &mut Mueller, z: &[C64; 16], sin: f64, cos: f64, w: f64) {

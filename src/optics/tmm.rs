@@ -15,6 +15,10 @@ pub struct Rt {
     pub r_p: f64,
     pub t_s: f64,
     pub t_p: f64,
+    /// `r_p conj(r_s)` of the reflected amplitudes (the p coefficient of the transverse H
+    /// field, as `amplitudes` gives it): the reflected Mueller matrix's `m22 + i m23` in
+    /// the s/p frames of `optics::mueller` (docs/physics.md, "Polarisation").
+    pub rp_rs: C64,
 }
 
 impl Rt {
@@ -26,7 +30,13 @@ impl Rt {
     pub fn t(&self) -> f64 {
         0.5 * (self.t_s + self.t_p)
     }
+    /// The ellipsometric phase difference `arg(r_p conj r_s)`, degrees (of the band
+    /// average where [`solve_band`] made it).
+    pub fn delta_deg(&self) -> f64 {
+        self.rp_rs.im.atan2(self.rp_rs.re).to_degrees()
+    }
     fn add_scaled(&mut self, o: &Rt, w: f64) {
+        self.rp_rs += w * o.rp_rs;
         self.r_s += w * o.r_s;
         self.r_p += w * o.r_p;
         self.t_s += w * o.t_s;
@@ -157,6 +167,7 @@ pub fn solve(stack: &StackIndices, lambda_nm: f64, theta0_rad: f64) -> Rt {
         r_p: rp.norm_sqr(),
         t_s: (ts.norm_sqr() * ratio_s).max(0.0),
         t_p: (tp.norm_sqr() * ratio_p).max(0.0),
+        rp_rs: rp * rs.conj(),
     }
 }
 
@@ -187,6 +198,7 @@ pub fn solve_band(
         r_p: 0.0,
         t_s: 0.0,
         t_p: 0.0,
+        rp_rs: C64::new(0.0, 0.0),
     };
     for i in 0..=steps {
         let l = lo_nm + i as f64 * h;
