@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Interop with the renderers people use: exports RGL .bsdf files and checks them with an
-# independent reader and with Mitsuba 3 (tests/interop/rgl_mitsuba.py); and the Mie series
+# independent reader and with Mitsuba 3 (tests/interop/rgl_mitsuba.py); Mueller-matrix
+# BRDFs as Mitsuba's measured_polarized files, against its own conductor and rendered with
+# its Stokes integrator (tests/interop/mueller_mitsuba.py); and the Mie series
 # against the PyPI miepython package (tests/interop/mie_miepython.py), and volume scattering
 # against iadpython's adding-doubling (tests/interop/rt_iadpython.py); and the diffraction
 # method against RCWA (PyPI meent: tests/interop/grating_meent.py writes the orders, the
@@ -31,6 +33,7 @@ fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 "$venv/bin/python" tests/interop/rgl_mitsuba.py "$bin" "$work"
+"$venv/bin/python" tests/interop/mueller_mitsuba.py "$bin" "$work/mueller"
 "$venv/bin/python" tests/interop/mie_miepython.py "$bin"
 "$venv/bin/python" tests/interop/rt_iadpython.py "$bin" "$work/rt"
 "$venv/bin/python" tests/interop/grating_meent.py "$work/rcwa.json"

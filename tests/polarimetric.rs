@@ -647,3 +647,71 @@ fn polarised_light_in_reflects_as_fresnel_says() {
     assert_ne!(code, 0);
     assert!(err.contains("not a polarisation state"), "{err}");
 }
+
+/// `export --format pbsdf`: Mitsuba's measured_polarized layout (the plugin's own checks:
+/// 2-D float32 axes, five uint16 wavelengths, M of [phi_d, theta_d, theta_h, 5, 4, 4]),
+/// NaN below the horizon only; refused without matrices. Mitsuba itself reads it in
+/// tests/interop/mueller_mitsuba.py.
+#[test]
+fn the_pbsdf_export_has_the_plugins_layout() {
+    use goniospec::export::tensor::{Dtype, from_bytes};
+    let dir = scratch("mueller-pbsdf");
+    let (gsa, plain, out) = (dir.join("g.gsa"), dir.join("p.gsa"), dir.join("g.pbsdf"));
+    for (path, extra) in [(&gsa, Some("--mueller")), (&plain, None)] {
+        let mut args = vec![
+            "simulate",
+            "meshes/rough-gold.toml",
+            "--theta-i",
+            "0,40",
+            "--rays",
+            "32",
+            "--wavelengths",
+            "440:660:110",
+            "-o",
+            path.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let (code, _, err) = goniospec(&args);
+        assert_eq!(code, 0, "{err}");
+    }
+    let (code, _, err) = goniospec(&[
+        "export",
+        gsa.to_str().unwrap(),
+        "--format",
+        "pbsdf",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let fields = from_bytes(&std::fs::read(&out).unwrap()).unwrap();
+    let get = |n: &str| fields.iter().find(|f| f.name == n).unwrap();
+    let (pd, td, th) = (get("phi_d"), get("theta_d"), get("theta_h"));
+    for a in [pd, td, th] {
+        assert_eq!((a.dtype, a.shape.len(), a.shape[0]), (Dtype::Float32, 2, 1));
+    }
+    let w = get("wvls");
+    assert_eq!(w.dtype, Dtype::UInt16);
+    assert_eq!(w.values_f64(), vec![450.0, 500.0, 550.0, 600.0, 650.0]);
+    let m = get("M");
+    assert_eq!(
+        m.shape,
+        vec![pd.shape[1], td.shape[1], th.shape[1], 5, 4, 4]
+    );
+    let v = m.values_f64();
+    // theta_h = theta_d = 0 (both directions along the normal) is above the horizon; the
+    // grid's grazing corner (theta_h = theta_d = 90 deg) is below it.
+    assert!(v[..16].iter().all(|x| x.is_finite()));
+    let nth = th.shape[1] as usize;
+    let corner = ((td.shape[1] as usize - 1) * nth + nth - 1) * 80;
+    assert!(v[corner..corner + 16].iter().all(|x| x.is_nan()));
+    let (code, _, err) = goniospec(&[
+        "export",
+        plain.to_str().unwrap(),
+        "--format",
+        "pbsdf",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_ne!(code, 0);
+    assert!(err.contains("--mueller"), "{err}");
+}

@@ -20,6 +20,11 @@ pub(super) enum ExportFormat {
     /// MERL binary (90 x 90 x 180 half/difference cells, isotropic, linear sRGB with the
     /// reader's scale factors) for fitting tools. It loses the spectrum.
     Merl,
+    /// Mitsuba 3's measured_polarized tensor file (.pbsdf), from a .gsa simulated with
+    /// --mueller: the Mueller BRDF on a grid of Rusinkiewicz angles (73 phi_d x 19 theta_d x
+    /// 91 theta_h) at 450, 500, 550, 600 and 650 nm, in the plugin's frames; render it in a
+    /// *_spectral_polarized variant (docs/physics.md, "Polarisation"). Isotropic samples.
+    Pbsdf,
 }
 
 #[derive(Args)]
@@ -94,7 +99,31 @@ pub(super) fn export(a: ExportArgs) -> Result<ExitCode> {
         ExportFormat::Rgl => export_rgl(a),
         ExportFormat::Npz => export_npz(a),
         ExportFormat::Merl => export_merl(a),
+        ExportFormat::Pbsdf => export_pbsdf(a),
     }
+}
+
+fn export_pbsdf(a: ExportArgs) -> Result<ExitCode> {
+    use goniospec::export::{pbsdf, tensor};
+    guard_output(&a.output, &[a.input.as_path()], OutputKind::Tensor, a.force)?;
+    if a.input.extension().is_none_or(|e| e != "gsa") {
+        bail!(
+            "--format pbsdf takes the accumulator (.gsa) of a run simulated with --mueller: a built .gsb holds no Mueller matrices"
+        );
+    }
+    let acc = goniospec::accumulate::file::Accumulator::read(&a.input)?;
+    let grid = pbsdf::PbsdfGrid::default();
+    let fields = pbsdf::pbsdf_fields(&acc, grid)
+        .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?;
+    tensor::write(&fields, &a.output).with_context(|| format!("writing {}", a.output.display()))?;
+    outln!(
+        "wrote {} (Mitsuba 3 measured_polarized: M[{}, {}, {}, 5, 4, 4], phi_d x theta_d x theta_h x 450-650 nm)",
+        a.output.display(),
+        grid.phi_d,
+        grid.theta_d,
+        grid.theta_h
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 fn export_merl(a: ExportArgs) -> Result<ExitCode> {

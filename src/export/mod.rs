@@ -1,10 +1,12 @@
 //! Taking a simulated material into other tools: the RGL tensor format (`.bsdf`) read by
 //! Mitsuba 3 and pbrt-v4 ([`rgl`], [`tensor`]) with a scene for each that shows it as
-//! `goniospec render` does ([`scene`]), NumPy arrays ([`npz`]), and the MERL format of
-//! fitting tools ([`merl`], sRGB only).
+//! `goniospec render` does ([`scene`]), NumPy arrays ([`npz`]), the MERL format of
+//! fitting tools ([`merl`], sRGB only), and Mitsuba 3's polarised measured format
+//! ([`pbsdf`], from a `--mueller` accumulator).
 
 pub mod merl;
 pub mod npz;
+pub mod pbsdf;
 pub mod rgl;
 pub mod scene;
 pub mod tensor;

@@ -13,7 +13,8 @@
 //! ```
 //!
 //! Data types are Mitsuba's `Struct::Type` codes: UInt8 = 1, Float32 = 10 (the only two
-//! the `measured` plugin uses; Float64 = 11 is read too).
+//! the `measured` plugin uses), UInt16 = 3 (the `measured_polarized` plugin's
+//! wavelengths); Float64 = 11 is read too.
 
 use super::ExportError;
 use std::io::Write;
@@ -25,6 +26,7 @@ const MAGIC: &[u8; 12] = b"tensor_file\0";
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dtype {
     UInt8 = 1,
+    UInt16 = 3,
     Float32 = 10,
     Float64 = 11,
 }
@@ -33,6 +35,7 @@ impl Dtype {
     fn from_code(c: u8) -> Option<Dtype> {
         match c {
             1 => Some(Dtype::UInt8),
+            3 => Some(Dtype::UInt16),
             10 => Some(Dtype::Float32),
             11 => Some(Dtype::Float64),
             _ => None,
@@ -42,6 +45,7 @@ impl Dtype {
     pub fn size(self) -> usize {
         match self {
             Dtype::UInt8 => 1,
+            Dtype::UInt16 => 2,
             Dtype::Float32 => 4,
             Dtype::Float64 => 8,
         }
@@ -49,6 +53,7 @@ impl Dtype {
     pub fn name(self) -> &'static str {
         match self {
             Dtype::UInt8 => "uint8",
+            Dtype::UInt16 => "uint16",
             Dtype::Float32 => "float32",
             Dtype::Float64 => "float64",
         }
@@ -89,10 +94,24 @@ impl Field {
             data: values.to_vec(),
         }
     }
+    /// A uint16 field of one dimension (the `measured_polarized` plugin's wavelengths).
+    pub fn u16(name: &str, values: &[u16]) -> Field {
+        Field {
+            name: name.into(),
+            dtype: Dtype::UInt16,
+            shape: vec![values.len() as u64],
+            data: values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        }
+    }
     /// The values as f64 (float fields), C order.
     pub fn values_f64(&self) -> Vec<f64> {
         match self.dtype {
             Dtype::UInt8 => self.data.iter().map(|&b| f64::from(b)).collect(),
+            Dtype::UInt16 => self
+                .data
+                .chunks_exact(2)
+                .map(|c| f64::from(u16::from_le_bytes([c[0], c[1]])))
+                .collect(),
             Dtype::Float32 => self
                 .data
                 .chunks_exact(4)
