@@ -51,7 +51,7 @@ pub enum MuellerError {
 /// The bucket that was least realisable over a whole accumulator.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Realisability {
-    /// Buckets with a Mueller matrix of non-zero `m00` that were checked.
+    /// Buckets with a Mueller matrix of positive `m00` that were checked.
     pub checked: usize,
     /// Of those, the ones whose smallest coherency eigenvalue lies more than
     /// [`REALISABLE_SIGMAS`] standard errors below zero.
@@ -155,7 +155,10 @@ impl Accumulator {
         for (ci, c) in self.cells.iter().enumerate() {
             for kk in 0..c.mueller.len() {
                 let Some(m) = c.mueller(kk) else { continue };
-                if m[0] == 0.0 {
+                // A negative m00 is the beamlet estimator's share of a pair's cross term
+                // (docs/design.md §4), kept and reported as the unpolarised buckets are
+                // (`Reflectance::negative_buckets`); its matrix is not judged.
+                if m[0] <= 0.0 {
                     continue;
                 }
                 out.checked += 1;
@@ -164,14 +167,14 @@ impl Accumulator {
                     .mueller_stderr(kk)
                     .map_or(0.0, |e| 0.5 * e.iter().map(|x| x * x).sum::<f64>().sqrt());
                 // Rounding of sums of order-one terms.
-                let allowed = REALISABLE_SIGMAS * sigma + 1e-12 * m[0].abs();
+                let allowed = REALISABLE_SIGMAS * sigma + 1e-12 * m[0];
                 if low < -allowed {
                     out.failed += 1;
                 }
                 // The worst: furthest below zero against what it is allowed.
                 if low / allowed < worst {
                     worst = low / allowed;
-                    out.worst_relative = low / m[0].abs();
+                    out.worst_relative = low / m[0];
                     out.worst_sigmas = if sigma > 0.0 { low / sigma } else { 0.0 };
                     out.worst_at = (ci / nl, ci % nl, kk);
                 }

@@ -61,6 +61,15 @@ pub(super) fn info(a: InfoArgs) -> Result<ExitCode> {
         let acc = Accumulator::read(&a.file)?;
         outln!("{}: goniospec accumulator (.gsa)", a.file.display());
         outln!("{}", acc.header.describe().trim_end());
+        if let Some(r) = acc.realisability() {
+            outln!(
+                "Mueller matrices: {} buckets of positive m00, {} not realisable; the smallest coherency eigenvalue {:.2e} of its m00 ({:.1} standard errors)",
+                r.checked,
+                r.failed,
+                r.worst_relative,
+                r.worst_sigmas
+            );
+        }
     } else if head[..8] == brdf::file::MAGIC[..] {
         let r = brdf::file::read(&a.file)?;
         outln!(
