@@ -38,6 +38,7 @@ use super::patch::{Patch, patch_rows};
 use super::{Buckets, key};
 use crate::optics::C64;
 use crate::optics::fresnel::{Field, field_power};
+use crate::optics::mueller::{self, Mueller};
 use crate::trace::Exit;
 use rustfft::FftPlanner;
 use std::f64::consts::PI;
@@ -149,6 +150,9 @@ pub struct Pattern {
     /// had the same exit, and tubes that passed a line focus.
     pub fallback_tubes: usize,
     pub flipped_tubes: usize,
+    /// With [`Hemisphere::mueller`]: each bucket key's Mueller matrix as a power fraction,
+    /// its `m00` the very value of `per_key`, in the same order (empty otherwise).
+    pub per_key_mueller: Vec<Mueller>,
 }
 
 /// The settings of one hemisphere's transform.
@@ -167,6 +171,10 @@ pub struct Hemisphere {
     /// Transverse coherence radius, nm (`inf`: plane-wave illumination).
     pub rho_nm: f64,
     pub down: bool,
+    /// Also each order's Mueller matrix (`--mueller`): its Jones matrix from the two
+    /// incident polarisations' order amplitudes in the order's s/p frame
+    /// (`optics::mueller`), spread as its power is.
+    pub mueller: bool,
 }
 
 /// Probabilists' Gauss-Hermite rule of 5 points for a standard normal variable (nodes
@@ -198,15 +206,20 @@ pub fn diffract(
     let (fallback, flipped) = exit_plane_field(h, contribs, [mx, my], scratch);
     let grids = &mut scratch.grids;
     fft2(grids, [mx, my]);
-    let (per_bucket, total, orders) = far_field(h, grids, [mx, my], buckets);
-    let per_key = per_bucket
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| **v != 0.0)
-        .map(|(b, v)| (key(b, h.down), *v))
+    let (per_bucket, per_bucket_m, total, orders) = far_field(h, grids, [mx, my], buckets);
+    let kept: Vec<usize> = (0..per_bucket.len())
+        .filter(|&b| per_bucket[b] != 0.0)
         .collect();
     Ok(Pattern {
-        per_key,
+        per_key: kept
+            .iter()
+            .map(|&b| (key(b, h.down), per_bucket[b]))
+            .collect(),
+        per_key_mueller: if h.mueller {
+            kept.iter().map(|&b| per_bucket_m[b]).collect()
+        } else {
+            Vec::new()
+        },
         total,
         orders,
         fallback_tubes: fallback,
@@ -366,14 +379,15 @@ fn fft2(grids: &mut [Vec<C64>], [mx, my]: [usize; 2]) {
 
 /// The propagating Floquet orders of the transformed grids: each order's power (the
 /// field's part transverse to its direction, per unit incident power), spread over the
-/// buckets by the illumination's angular spread. Returns the power per bucket, the total
-/// and the number of orders that carry power.
+/// buckets by the illumination's angular spread. Returns the power per bucket, with
+/// [`Hemisphere::mueller`] each bucket's Mueller matrix (empty otherwise), the total and
+/// the number of orders that carry power.
 fn far_field(
     h: &Hemisphere,
     grids: &[Vec<C64>],
     [mx, my]: [usize; 2],
     buckets: &Buckets,
-) -> (Vec<f64>, f64, usize) {
+) -> (Vec<f64>, Vec<Mueller>, f64, usize) {
     let kn = 2.0 * PI / h.lambda_nm * h.n_out;
     // FFT bin `i` holds every order `m = i (mod cells)`; the one read is the `m` in the
     // window of `cells` orders centred on `-k_in`, which holds the disk of propagating
@@ -392,6 +406,11 @@ fn far_field(
         0.0
     };
     let mut per_bucket = vec![0.0; buckets.len()];
+    let mut per_bucket_m = if h.mueller {
+        vec![[0.0; 16]; buckets.len()]
+    } else {
+        Vec::new()
+    };
     let mut total = 0.0;
     let mut orders = 0;
     for iy in 0..my {
@@ -407,19 +426,20 @@ fn far_field(
             let w = [s[0], s[1], if h.down { -cz } else { cz }];
             let cell = iy * mx + ix;
             let mut p = 0.0;
-            for pol in 0..2 {
+            let mut perps = [[C64::new(0.0, 0.0); 3]; 2];
+            for (pol, perp) in perps.iter_mut().enumerate() {
                 let u = [
                     grids[pol * 3][cell],
                     grids[pol * 3 + 1][cell],
                     grids[pol * 3 + 2][cell],
                 ];
                 let along = u[0] * w[0] + u[1] * w[1] + u[2] * w[2];
-                let perp: Field = [
+                *perp = [
                     u[0] - along * w[0],
                     u[1] - along * w[1],
                     u[2] - along * w[2],
                 ];
-                p += 0.5 * field_power(&perp);
+                p += 0.5 * field_power(perp);
             }
             let p = p * cz / h.cos_i;
             if p <= 0.0 {
@@ -427,10 +447,25 @@ fn far_field(
             }
             orders += 1;
             total += p;
-            spread(buckets, s, sigma_s, p, h.down, &mut per_bucket);
+            spread(buckets, s, sigma_s, h.down, |b, w, wsum| {
+                per_bucket[b] += p * w / wsum;
+            });
+            if h.mueller {
+                // The order's Jones matrix in its own s/p frame, scaled to power fractions;
+                // its m00 set to the order's power itself, so the spread matrices' m00 are
+                // the per-bucket powers' very bits.
+                let wv = glam::DVec3::from_array(w);
+                let mut m = mueller::mueller(&mueller::jones(&perps, wv)).map(|x| x * cz / h.cos_i);
+                m[0] = p;
+                spread(buckets, s, sigma_s, h.down, |b, w, wsum| {
+                    for (a, x) in per_bucket_m[b].iter_mut().zip(&m) {
+                        *a += x * w / wsum;
+                    }
+                });
+            }
         }
     }
-    (per_bucket, total, orders)
+    (per_bucket, per_bucket_m, total, orders)
 }
 
 /// One column of a tube's Jacobian `d(exit point) / d(launch point)` along lattice axis
@@ -514,16 +549,23 @@ fn tube_column<'c>(
     }
 }
 
-/// Deposits power `p` of the order at transverse direction `s` spread by the illumination's
-/// angular spread `sigma_s` (standard deviation of each transverse component), through the
-/// 5 x 5 Gauss-Hermite rule; nodes beyond the horizon are left out and the rest renormalised.
-fn spread(buckets: &Buckets, s: [f64; 2], sigma_s: f64, p: f64, down: bool, out: &mut [f64]) {
+/// Spreads the order at transverse direction `s` by the illumination's angular spread
+/// `sigma_s` (standard deviation of each transverse component), through the 5 x 5
+/// Gauss-Hermite rule: `add(bucket, w, wsum)` for each node's bucket, its share `w / wsum`
+/// of the nodes within the horizon (`(1, 1)` for a single direction).
+fn spread(
+    buckets: &Buckets,
+    s: [f64; 2],
+    sigma_s: f64,
+    down: bool,
+    mut add: impl FnMut(usize, f64, f64),
+) {
     let dir = |t: [f64; 2]| {
         let cz = (1.0 - t[0] * t[0] - t[1] * t[1]).max(0.0).sqrt();
         glam::DVec3::new(t[0], t[1], if down { -cz } else { cz })
     };
     if sigma_s == 0.0 {
-        out[buckets.index(dir(s))] += p;
+        add(buckets.index(dir(s)), 1.0, 1.0);
         return;
     }
     let mut nodes = [(0usize, 0.0f64); 25];
@@ -540,10 +582,10 @@ fn spread(buckets: &Buckets, s: [f64; 2], sigma_s: f64, p: f64, down: bool, out:
         }
     }
     if n == 0 {
-        out[buckets.index(dir(s))] += p;
+        add(buckets.index(dir(s)), 1.0, 1.0);
         return;
     }
     for &(b, w) in &nodes[..n] {
-        out[b] += p * w / wsum;
+        add(b, w, wsum);
     }
 }

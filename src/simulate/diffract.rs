@@ -47,6 +47,7 @@ impl Run<'_> {
                     lattice: self.lattice,
                     rho_nm: self.cfg.rho_nm,
                     down: false,
+                    mueller: self.cfg.mueller,
                 };
                 let up = diffraction::diffract(&h, list, &self.cfg.buckets, scratch)?;
                 // An absorbing substrate transmits nothing (no exit leaves downwards).
@@ -107,6 +108,20 @@ impl Run<'_> {
                 cell.sum[kk as usize] = p * n;
                 cell.sumsq[kk as usize] = p * p * n;
                 cell.count[kk as usize] = cell.trees;
+            }
+            // The orders' Mueller matrices, scaled alike (their m00 the sums' very bits).
+            if !cell.mueller.is_empty() {
+                cell.mueller.fill([0.0; 16]);
+                cell.mueller_sq.fill([0.0; 16]);
+                let keys = up.per_key.iter().chain(&down.per_key).map(|e| e.0);
+                let scales = std::iter::repeat_n(su, up.per_key.len())
+                    .chain(std::iter::repeat_n(sd, down.per_key.len()));
+                let matrices = up.per_key_mueller.iter().chain(&down.per_key_mueller);
+                for ((kk, s), m) in keys.zip(scales).zip(matrices) {
+                    let v = m.map(|x| x * s);
+                    cell.mueller[kk as usize] = v.map(|x| x * n);
+                    cell.mueller_sq[kk as usize] = v.map(|x| x * x * n);
+                }
             }
         }
         Ok(())

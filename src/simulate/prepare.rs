@@ -216,34 +216,7 @@ pub(super) fn method_choice(
             notes: Vec::new(),
         },
     };
-    if cfg.mueller {
-        refuse_mueller_diffraction(cfg, &choice.diffraction)?;
-    }
     Ok((choice, direction_notes))
-}
-
-/// `--mueller` under `--coherence auto` where auto takes the diffraction method, which does
-/// not carry the Mueller matrix: refused before work, naming the cells (the ray method's
-/// Mueller matrix would not be the BRDF auto judged right there).
-fn refuse_mueller_diffraction(cfg: &SimConfig, diffraction: &[bool]) -> Result<(), SimError> {
-    let nl = cfg.wavelengths.count().max(1);
-    let angles: Vec<String> = cfg
-        .theta_i_deg
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| diffraction[i * nl..(i + 1) * nl].iter().any(|&d| d))
-        .map(|(_, t)| format!("{t}"))
-        .collect();
-    if angles.is_empty() {
-        return Ok(());
-    }
-    Err(SimError::Setting {
-        key: "mueller",
-        message: format!(
-            "--coherence auto takes the diffraction method at theta_i {} deg (a coherent specular order or grating orders matter there), and the diffraction method does not carry the Mueller matrix yet; give --coherence beamlet for the ray method's Mueller matrix (goniospec check says what rays leave out there)",
-            angles.join(", ")
-        ),
-    })
 }
 
 /// Path sharing (asked for with `path_sharing`) where the sample's interfaces change with

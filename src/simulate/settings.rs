@@ -189,8 +189,8 @@ pub struct SimSettings {
     /// value (its m00, the same bits): the polarimetric BRDF, from the fields the tracer
     /// carries for incident s and p light, in each direction's own s/p frame
     /// (docs/physics.md, "Polarisation"). Read it with `goniospec eval --mueller`, the
-    /// npz export or Python. Rays only: refused with the diffraction method (and where
-    /// --coherence auto would take it: give --coherence beamlet) and the comparison modes.
+    /// npz or pbsdf export or Python. The rays and the diffraction method carry it; the
+    /// comparison modes (bucket, global) do not.
     #[arg(long)]
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub mueller: bool,
@@ -654,14 +654,13 @@ pub fn validate(cfg: &SimConfig) -> Result<(), SimError> {
     Ok(())
 }
 
-/// `--mueller` with a method that does not carry the Mueller matrix: refused (auto's
-/// cells are judged once chosen, `prepare::method_choice`).
+/// `--mueller` with a comparison mode, which does not carry the Mueller matrix: refused.
 fn validate_mueller(cfg: &SimConfig) -> Result<(), SimError> {
-    if cfg.mueller && !matches!(cfg.coherence, Coherence::Auto | Coherence::Beamlet) {
+    if cfg.mueller && matches!(cfg.coherence, Coherence::Bucket | Coherence::Global) {
         return Err(SimError::Setting {
             key: "mueller",
             message: format!(
-                "--coherence {} does not carry the Mueller matrix: only the ray method's beamlet estimator does (give --coherence beamlet, or auto where it takes rays)",
+                "--coherence {} does not carry the Mueller matrix: the ray method (beamlet) and the diffraction method do (give --coherence auto, beamlet or diffraction)",
                 cfg.coherence.name()
             ),
         });
