@@ -15,7 +15,9 @@
 # transfer-matrix film that test file uses for tilted gold films, against RCWA for TE
 # (tests/interop/roof_rcwa.py). Not run here: the many-particle T-matrix reference for
 # dependent scattering (tests/interop/tmatrix_smuthi.py; SMUTHI needs gfortran and an older
-# NumPy), whose stored result tests/particle_media.rs reads.
+# NumPy), whose stored result tests/particle_media.rs reads; and rough gold's Mueller
+# matrices against NIST SCATMECH's facet model (tests/interop/mueller_scatmech.py; PyPI
+# pyscatmech builds from C++ in minutes).
 #
 #   scripts/interop.sh [GONIOSPEC_BINARY]
 #

@@ -37,8 +37,10 @@ class Brdf:
         """npz: NumPy arrays; merl: sRGB (loses the spectrum); rgl: Mitsuba 3 / pbrt-v4 .bsdf (needs sample; odd resolution)."""
 
 class Accumulator:
-    def reflectance(self, theta_i_deg: float) -> dict[str, npt.NDArray[np.float64]]:
-        """Keys lambda_nm, R, T, absorbed, dropped, R_stderr (fractions of incident power)."""
+    def reflectance(self, theta_i_deg: float, incident: str | None = None) -> dict[str, npt.NDArray[np.float64]]:
+        """Keys lambda_nm, R, T, absorbed, dropped, R_stderr (fractions of incident power).
+        With incident (a run with mueller=True; "s", "p", "+45", "-45", "circular+",
+        "circular-", "unpolarised" or "S0,S1,S2,S3"): lambda_nm, R and T for that state."""
     def mueller(self, theta_i_deg: float, theta_o_deg: float, phi_o_deg: float = 180.0) -> dict[str, npt.NDArray[np.float64]]:
         """From a run with mueller=True: keys lambda_nm (n), M and M_stderr (n x 4 x 4, 1/sr,
         row-major, each direction's own s/p frame; M[:, 0, 0] is the unpolarised BRDF), dop

@@ -102,8 +102,32 @@ struct Accumulator {
 impl Accumulator {
     /// Directional reflectance at `theta_i_deg` (a simulated angle): a dict of numpy
     /// arrays keyed like the CLI's CSV columns: `lambda_nm`, `R`, `T`, `absorbed`,
-    /// `dropped`, `R_stderr` (NaN in global mode).
-    fn reflectance<'py>(&self, py: Python<'py>, theta_i_deg: f64) -> PyResult<Bound<'py, PyDict>> {
+    /// `dropped`, `R_stderr` (NaN in global mode). With `incident` (a run with
+    /// `mueller=True`): polarised light in, a named state ("s", "p", "+45", "-45",
+    /// "circular+", "circular-", "unpolarised") or a Stokes vector string "S0,S1,S2,S3",
+    /// as the CLI's `--incident`; then only `lambda_nm`, `R` and `T`.
+    #[pyo3(signature = (theta_i_deg, incident = None))]
+    fn reflectance<'py>(
+        &self,
+        py: Python<'py>,
+        theta_i_deg: f64,
+        incident: Option<&str>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        if let Some(state) = incident {
+            let stokes = goniospec::optics::mueller::stokes_state(state).map_err(value_err)?;
+            let rows = self
+                .inner
+                .polarised_reflectance(theta_i_deg, None, &stokes)
+                .map_err(value_err)?;
+            let col = |f: &dyn Fn(&goniospec::accumulate::polarimetric::PolarisedRow) -> f64| {
+                rows.iter().map(f).collect::<Vec<f64>>().into_pyarray(py)
+            };
+            let d = PyDict::new(py);
+            d.set_item("lambda_nm", col(&|x| x.lambda_nm))?;
+            d.set_item("R", col(&|x| x.r))?;
+            d.set_item("T", col(&|x| x.t))?;
+            return Ok(d);
+        }
         let r = self
             .inner
             .reflectance(theta_i_deg, None)

@@ -102,6 +102,11 @@ def test_mueller_matrices_are_the_clis_and_flat_gold_is_fresnels(tmp_path):
     assert abs(got[2, 2] - (rp * np.conj(rs)).real) < 1e-12
     assert abs(got[2, 3] - (rp * np.conj(rs)).imag) < 1e-12
     assert abs(m["dop"][0] - abs(got[1, 0]) / got[0, 0]) < 1e-12
+    # Polarised light in: R for s and p light are Fresnel's |r_s|^2 and |r_p|^2.
+    assert abs(acc.reflectance(44.5, incident="s")["R"][0] - abs(rs) ** 2) < 1e-12
+    assert abs(acc.reflectance(44.5, incident="p")["R"][0] - abs(rp) ** 2) < 1e-12
+    with pytest.raises(ValueError, match="polarisation state"):
+        acc.reflectance(44.5, incident="sideways")
     with pytest.raises(ValueError, match="mueller"):
         gs.simulate(s, theta_i_deg=[30], wavelengths="500:600:50", rays=8).mueller(30, 30)
 
