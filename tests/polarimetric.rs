@@ -671,9 +671,33 @@ fn polarised_light_in_reflects_as_fresnel_says() {
         // Lossless glass transmits the rest of each state.
         assert!((row.t - (1.0 - want)).abs() < 1e-9, "{name}: T {}", row.t);
     }
+    // The buckets a .gsb is built from, for s light: their fluxes sum to R_s.
+    let s_state = goniospec::optics::mueller::stokes_state("s").unwrap();
+    let data = goniospec::brdf::BucketData::from_accumulator_polarised(&acc, &s_state).unwrap();
+    let r_s: f64 = data.samples[0].iter().map(|b| b.flux[0]).sum();
+    assert!((r_s - rs2).abs() < 1e-12, "{r_s} against {rs2}");
+    assert_eq!(data.meta.incident_stokes, Some(s_state));
     let dir = scratch("mueller-incident");
     let gsa = dir.join("glass.gsa");
     acc.write(&gsa).unwrap();
+    let gsb = dir.join("glass-p.gsb");
+    let (code, _, err) = goniospec(&[
+        "build",
+        gsa.to_str().unwrap(),
+        "--incident",
+        "p",
+        "--repr",
+        "table",
+        "-o",
+        gsb.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    let (code, out, err) = goniospec(&["info", gsb.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("incident light polarised: Stokes (1, 1, 0, 0)"),
+        "{out}"
+    );
     let (code, out, err) = goniospec(&[
         "reflectance",
         gsa.to_str().unwrap(),

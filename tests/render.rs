@@ -49,6 +49,7 @@ fn lambert(albedo: f64) -> Lambert {
             reciprocal: true,
             median_rel_stderr: None,
             trees_per_direction: None,
+            incident_stokes: None,
         },
     }
 }

@@ -75,6 +75,7 @@ pub fn analytic_buckets(ni: usize, tb: u32, pb: u32, lambdas: &[f64]) -> crate::
             reciprocal: false,
             median_rel_stderr: None,
             trees_per_direction: None,
+            incident_stokes: None,
         },
     }
 }

@@ -126,6 +126,11 @@ pub struct Meta {
     /// absent in files written before it was stored.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub trees_per_direction: Option<Vec<u64>>,
+    /// The incident polarisation the BRDF is of, as a Stokes vector `S0 = 1` in the
+    /// incident direction's s/p frame (`build --incident`, from a `--mueller` run's
+    /// matrices); absent for unpolarised light.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub incident_stokes: Option<[f64; 4]>,
 }
 
 impl Meta {
@@ -269,8 +274,54 @@ impl BucketData {
                 reciprocal: false,
                 median_rel_stderr: rel.get(rel.len() / 2).copied(),
                 trees_per_direction: Some(acc.header.rays_per_direction.clone()),
+                incident_stokes: None,
             },
         }
+    }
+
+    /// The reflection buckets for polarised light in, the Stokes vector `stokes` (`S0 =
+    /// 1`, the incident direction's s/p frame), from a `--mueller` run: each bucket's first
+    /// row of its Mueller matrix applied to it. Each bucket's relative error is its
+    /// elements' standard errors added in quadrature with the state's weights.
+    pub fn from_accumulator_polarised(
+        acc: &Accumulator,
+        stokes: &[f64; 4],
+    ) -> Result<BucketData, BrdfError> {
+        if !acc.header.settings.mueller {
+            return Err(BrdfError::Invalid(
+                "the accumulator holds no Mueller matrices: simulate with --mueller to build the BRDF of polarised light".into(),
+            ));
+        }
+        let mut data = BucketData::from_accumulator(acc);
+        let nl = data.lambda_nm.len();
+        let mut rel = Vec::new();
+        for (i, samples) in data.samples.iter_mut().enumerate() {
+            for (k, v) in samples.iter_mut().enumerate() {
+                let (mut num, mut den) = (0.0, 0.0);
+                for j in 0..nl {
+                    let c = acc.cell(i, j);
+                    let m = c.mueller(2 * k).unwrap_or([0.0; 16]);
+                    let flux: f64 = (0..4).map(|b| m[b] * stokes[b]).sum();
+                    v.flux[j] = flux;
+                    v.f[j] = flux / v.omega;
+                    if let Some(e) = c.mueller_stderr(2 * k) {
+                        num += (0..4)
+                            .map(|b| (e[b] * stokes[b]).powi(2))
+                            .sum::<f64>()
+                            .sqrt();
+                        den += flux.abs();
+                    }
+                }
+                v.rel_stderr = (den > 0.0).then(|| num / den);
+                if let Some(r) = v.rel_stderr {
+                    rel.push(r);
+                }
+            }
+        }
+        rel.sort_by(f64::total_cmp);
+        data.meta.median_rel_stderr = rel.get(rel.len() / 2).copied();
+        data.meta.incident_stokes = Some(*stokes);
+        Ok(data)
     }
 }
 
@@ -385,6 +436,12 @@ impl Representation {
             m.lambda_nm.first().unwrap_or(&0.0),
             m.lambda_nm.last().unwrap_or(&0.0)
         );
+        if let Some(st) = m.incident_stokes {
+            s += &format!(
+                "incident light polarised: Stokes ({}, {}, {}, {}) in the s/p frame\n",
+                st[0], st[1], st[2], st[3]
+            );
+        }
         s += &format!(
             "isotropic {}, reciprocal {}, median relative stderr of the buckets {}\n",
             m.isotropic,

@@ -33,13 +33,27 @@ pub(super) struct BuildArgs {
     /// kd-tree: also enter each bucket as its reciprocal pair (wo, wi).
     #[arg(long)]
     reciprocal: bool,
+    /// The BRDF of polarised light in, from a .gsa simulated with --mueller: unpolarised,
+    /// s, p, +45, -45, circular+ (S3 = +1), circular- (S3 = -1), or a Stokes vector
+    /// S0,S1,S2,S3 in the incident direction's s/p frame (docs/physics.md,
+    /// "Polarisation"). Each bucket's Mueller matrix applied to it; the .gsb records it.
+    #[arg(long, value_parser = stokes)]
+    incident: Option<[f64; 4]>,
+}
+
+fn stokes(s: &str) -> Result<[f64; 4], goniospec::optics::mueller::BadState> {
+    goniospec::optics::mueller::stokes_state(s)
 }
 
 pub(super) fn build(a: BuildArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, BucketData, Representation};
     guard_output(&a.output, &[a.input.as_path()], OutputKind::Gsb, a.force)?;
     let acc = Accumulator::read(&a.input)?;
-    let data = BucketData::from_accumulator(&acc);
+    let data = match &a.incident {
+        Some(st) => BucketData::from_accumulator_polarised(&acc, st)
+            .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?,
+        None => BucketData::from_accumulator(&acc),
+    };
     let t0 = std::time::Instant::now();
     let opts = brdf::BuildOptions {
         k: usize::from(a.k),
