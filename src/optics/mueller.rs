@@ -75,30 +75,33 @@ pub fn jones(e: &[Field; 2], w: DVec3) -> Jones {
     ]
 }
 
-fn mul(a: &[C64; 4], b: &[C64; 4]) -> [C64; 4] {
-    [
-        a[0] * b[0] + a[1] * b[2],
-        a[0] * b[1] + a[1] * b[3],
-        a[2] * b[0] + a[3] * b[2],
-        a[2] * b[1] + a[3] * b[3],
-    ]
-}
-
 /// The mixed Mueller matrix `M(A, B)_ab = tr(σ_a A σ_b B†) / 2` (complex; real when
-/// `A = B`).
+/// `A = B`): `sum (σ_a)_li (σ_b)_jk A_ij conj(B_lk) / 2` written out over the 16 products
+/// `p[2i + j][2l + k] = A_ij conj(B_lk)`, the Pauli matrices' entries being 1, -1 and +-i
+/// (a pair of exits' matrix is formed once per tree for every pair: this is its cost; the
+/// test checks it against the definition).
 pub fn mixed(a: &Jones, b: &Jones) -> [C64; 16] {
-    let mut m = [Z; 16];
-    for (col, sb) in PAULI.iter().enumerate() {
-        let x = mul(a, sb);
-        for (row, sa) in PAULI.iter().enumerate() {
-            let y = mul(sa, &x);
-            // tr(Y B†) = Σ_kl Y_kl conj(B_kl).
-            let t =
-                y[0] * b[0].conj() + y[1] * b[1].conj() + y[2] * b[2].conj() + y[3] * b[3].conj();
-            m[4 * row + col] = 0.5 * t;
-        }
-    }
-    m
+    let p: [[C64; 4]; 4] = std::array::from_fn(|x| std::array::from_fn(|y| a[x] * b[y].conj()));
+    let i = |z: C64| C64::new(-z.im, z.re);
+    let h = 0.5;
+    [
+        h * (p[0][0] + p[1][1] + p[2][2] + p[3][3]),
+        h * (p[0][0] - p[1][1] + p[2][2] - p[3][3]),
+        h * (p[0][1] + p[1][0] + p[2][3] + p[3][2]),
+        h * i(-p[0][1] + p[1][0] - p[2][3] + p[3][2]),
+        h * (p[0][0] + p[1][1] - p[2][2] - p[3][3]),
+        h * (p[0][0] - p[1][1] - p[2][2] + p[3][3]),
+        h * (p[0][1] + p[1][0] - p[2][3] - p[3][2]),
+        h * i(-p[0][1] + p[1][0] + p[2][3] - p[3][2]),
+        h * (p[2][0] + p[3][1] + p[0][2] + p[1][3]),
+        h * (p[2][0] - p[3][1] + p[0][2] - p[1][3]),
+        h * (p[2][1] + p[3][0] + p[0][3] + p[1][2]),
+        h * i(-p[2][1] + p[3][0] - p[0][3] + p[1][2]),
+        h * i(-p[2][0] - p[3][1] + p[0][2] + p[1][3]),
+        h * i(-p[2][0] + p[3][1] + p[0][2] - p[1][3]),
+        h * i(-p[2][1] - p[3][0] + p[0][3] + p[1][2]),
+        h * (-p[2][1] + p[3][0] + p[0][3] - p[1][2]),
+    ]
 }
 
 /// The Mueller matrix of one Jones matrix.
@@ -249,6 +252,16 @@ pub fn add_cross(acc: &mut Mueller, z: &[C64; 16], sin: f64, cos: f64, w: f64) {
 mod tests {
     use super::*;
 
+    /// The 2 x 2 product, row-major.
+    fn mul(a: &[C64; 4], b: &[C64; 4]) -> [C64; 4] {
+        [
+            a[0] * b[0] + a[1] * b[2],
+            a[0] * b[1] + a[1] * b[3],
+            a[2] * b[0] + a[3] * b[2],
+            a[2] * b[1] + a[3] * b[3],
+        ]
+    }
+
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol
     }
@@ -337,6 +350,34 @@ mod tests {
         }
         m[5] = 1.5;
         assert!(coherency_eigenvalues(&m)[0] < -0.1);
+    }
+
+    /// `mixed` against the definition, `tr(σ_a A σ_b B†) / 2` by 2 x 2 products.
+    #[test]
+    fn the_mixed_matrix_is_its_definition() {
+        let a: Jones = [
+            C64::new(0.3, -0.2),
+            C64::new(0.05, 0.1),
+            C64::new(-0.12, 0.04),
+            C64::new(-0.6, 0.25),
+        ];
+        let b: Jones = [
+            C64::new(-0.1, 0.4),
+            C64::new(0.2, 0.0),
+            C64::new(0.0, -0.3),
+            C64::new(0.5, 0.1),
+        ];
+        let got = mixed(&a, &b);
+        for (ai, sa) in PAULI.iter().enumerate() {
+            for (bi, sb) in PAULI.iter().enumerate() {
+                let y = mul(sa, &mul(&a, sb));
+                let t = y[0] * b[0].conj()
+                    + y[1] * b[1].conj()
+                    + y[2] * b[2].conj()
+                    + y[3] * b[3].conj();
+                assert!((got[4 * ai + bi] - 0.5 * t).norm() < 1e-15);
+            }
+        }
     }
 
     #[test]
