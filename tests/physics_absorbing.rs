@@ -78,14 +78,7 @@ fn thin_gold_films_tunnel_as_the_independent_tmm_says() {
 /// Unpolarised Fresnel reflectance from vacuum onto complex `n2` (Born & Wolf §14.2),
 /// written independently of the library.
 fn fresnel_r(n2: C, theta: f64) -> f64 {
-    let (si, ci) = theta.sin_cos();
-    let mut nct = (n2 * n2 - si * si).sqrt();
-    if nct.im < 0.0 {
-        nct = -nct;
-    }
-    let rs = (ci - nct) / (ci + nct);
-    let ct = nct / n2;
-    let rp = (n2 * ci - ct) / (n2 * ci + ct);
+    let (rp, rs) = fresnel_amplitudes(C::new(1.0, 0.0), n2, theta);
     0.5 * (rs.norm_sqr() + rp.norm_sqr())
 }
 

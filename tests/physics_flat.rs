@@ -19,11 +19,7 @@ fn exact_tolerance(dropped: f64, kept: f64) -> f64 {
 /// Fresnel reflectance of a single interface from vacuum onto `n2` (complex), unpolarised:
 /// Born & Wolf §1.5.2 / §14.2.
 fn fresnel_r(n2: C, theta: f64) -> f64 {
-    let ci = theta.cos();
-    let si = theta.sin();
-    let ct = (C::new(1.0, 0.0) - (si / n2) * (si / n2)).sqrt();
-    let rs = (ci - n2 * ct) / (ci + n2 * ct);
-    let rp = (n2 * ci - ct) / (n2 * ci + ct);
+    let (rp, rs) = fresnel_amplitudes(C::new(1.0, 0.0), n2, theta);
     0.5 * (rs.norm_sqr() + rp.norm_sqr())
 }
 

@@ -42,19 +42,6 @@ fn diagonal_mueller(a: C, b: C) -> [f64; 16] {
     ]
 }
 
-/// Fresnel amplitude coefficients from `n1` onto `n2` at `theta` (radians, in `n1`):
-/// `r_s` of the electric field and `r_p` of the magnetic field (the transverse one of a TM
-/// wave, so its sign needs no convention for the electric field's direction; Born & Wolf
-/// §1.5.2, with `n cos theta_t = sqrt(n^2 - n1^2 sin^2 theta)` on the decaying branch).
-fn fresnel(n1: C, n2: C, theta: f64) -> (C, C) {
-    let s = n1 * theta.sin();
-    let c1 = (n1 * n1 - s * s).sqrt() / n1;
-    let c2 = (n2 * n2 - s * s).sqrt() / n2;
-    let rs = (n1 * c1 - n2 * c2) / (n1 * c1 + n2 * c2);
-    let rp = (n2 * c1 - n1 * c2) / (n2 * c1 + n1 * c2);
-    (rp, rs)
-}
-
 /// The reflected Mueller matrix of direction `i`, wavelength `j`, summed over the
 /// reflection buckets (a flat sample fills the specular one only), as fractions.
 fn reflected(acc: &Accumulator, i: usize, j: usize) -> [f64; 16] {
@@ -110,7 +97,7 @@ fn single_interfaces_match_the_fresnel_mueller_matrices() {
         let cfg = mueller_config(&thetas, Wavelengths::Monochromatic(vec![548.6]), 16);
         let acc = run(s, &cfg);
         for (i, &t) in thetas.iter().enumerate() {
-            let (rp, rs) = fresnel(C::new(1.0, 0.0), n2, t.to_radians());
+            let (rp, rs) = fresnel_amplitudes(C::new(1.0, 0.0), n2, t.to_radians());
             // One reflection per tree, nothing to interfere with: exact to rounding.
             assert_matrix(
                 &reflected(&acc, i, 0),
@@ -122,9 +109,9 @@ fn single_interfaces_match_the_fresnel_mueller_matrices() {
     }
     // Past Brewster's angle (56.3 deg) glass's m22 = Re(r_p conj r_s) changes sign: the
     // check above is not blind to the p field's sign.
-    let (rp, rs) = fresnel(C::new(1.0, 0.0), C::new(1.5, 0.0), 70f64.to_radians());
+    let (rp, rs) = fresnel_amplitudes(C::new(1.0, 0.0), C::new(1.5, 0.0), 70f64.to_radians());
     assert!((rp * rs.conj()).re > 0.0);
-    let (rp, rs) = fresnel(C::new(1.0, 0.0), C::new(1.5, 0.0), 30f64.to_radians());
+    let (rp, rs) = fresnel_amplitudes(C::new(1.0, 0.0), C::new(1.5, 0.0), 30f64.to_radians());
     assert!((rp * rs.conj()).re < 0.0);
 }
 
@@ -149,9 +136,9 @@ fn a_thin_film_matches_the_airy_sum_in_both_polarisations() {
     let (air, film) = (C::new(1.0, 0.0), C::new(1.33, 0.0));
     for (i, &t) in thetas.iter().enumerate() {
         let th = t.to_radians();
-        let (rp01, rs01) = fresnel(air, film, th);
+        let (rp01, rs01) = fresnel_amplitudes(air, film, th);
         let th1 = (th.sin() / 1.33).asin();
-        let (rp12, rs12) = fresnel(film, air, th1);
+        let (rp12, rs12) = fresnel_amplitudes(film, air, th1);
         for (j, &l) in lambdas.iter().enumerate() {
             let e = C::from_polar(
                 1.0,
@@ -366,9 +353,9 @@ fn the_diffraction_method_carries_the_matrix() {
     let acc = run(&soap, &cfg);
     let th = 30f64.to_radians();
     let (air, film) = (C::new(1.0, 0.0), C::new(1.33, 0.0));
-    let (rp01, rs01) = fresnel(air, film, th);
+    let (rp01, rs01) = fresnel_amplitudes(air, film, th);
     let th1 = (th.sin() / 1.33).asin();
-    let (rp12, rs12) = fresnel(film, air, th1);
+    let (rp12, rs12) = fresnel_amplitudes(film, air, th1);
     for (j, &l) in lambdas.iter().enumerate() {
         let e = C::from_polar(
             1.0,
@@ -537,7 +524,7 @@ fn sp(w: V) -> (V, V) {
 /// own plane of incidence (`s_f = d × h`, `p = s_f × direction` on either side), projected
 /// on the directions' frames.
 fn facet_jones(wi: V, wo: V, h: V, n2: C) -> [[C; 2]; 2] {
-    let (rp, rs) = fresnel(C::new(1.0, 0.0), n2, wi.dot(h).clamp(-1.0, 1.0).acos());
+    let (rp, rs) = fresnel_amplitudes(C::new(1.0, 0.0), n2, wi.dot(h).clamp(-1.0, 1.0).acos());
     let din = -wi;
     let sf = din.cross(h).normalize();
     let (pfi, pfo) = (sf.cross(din), sf.cross(wo));
@@ -652,7 +639,7 @@ fn polarised_light_in_reflects_as_fresnel_says() {
     );
     let cfg = mueller_config(&[60.0], Wavelengths::Monochromatic(vec![550.0]), 8);
     let acc = run(&glass, &cfg);
-    let (rp, rs) = fresnel(C::new(1.0, 0.0), C::new(1.5, 0.0), 60f64.to_radians());
+    let (rp, rs) = fresnel_amplitudes(C::new(1.0, 0.0), C::new(1.5, 0.0), 60f64.to_radians());
     let (rs2, rp2) = (rs.norm_sqr(), rp.norm_sqr());
     for (name, want) in [
         ("s", rs2),

@@ -262,6 +262,24 @@ mod tests {
         ]
     }
 
+    /// Two Jones matrices with every entry complex and no symmetry.
+    fn two_jones() -> (Jones, Jones) {
+        (
+            [
+                C64::new(0.3, -0.2),
+                C64::new(0.05, 0.1),
+                C64::new(-0.12, 0.04),
+                C64::new(-0.6, 0.25),
+            ],
+            [
+                C64::new(-0.1, 0.4),
+                C64::new(0.2, 0.0),
+                C64::new(0.0, -0.3),
+                C64::new(0.5, 0.1),
+            ],
+        )
+    }
+
     fn close(a: f64, b: f64, tol: f64) -> bool {
         (a - b).abs() <= tol
     }
@@ -271,18 +289,7 @@ mod tests {
     /// defined output), and `M(B, A) = conj M(A, B)`.
     #[test]
     fn a_pure_jones_matrix_has_a_rank_one_coherency() {
-        let a: Jones = [
-            C64::new(0.3, -0.2),
-            C64::new(0.05, 0.1),
-            C64::new(-0.12, 0.04),
-            C64::new(-0.6, 0.25),
-        ];
-        let b: Jones = [
-            C64::new(-0.1, 0.4),
-            C64::new(0.2, 0.0),
-            C64::new(0.0, -0.3),
-            C64::new(0.5, 0.1),
-        ];
+        let (a, b) = two_jones();
         let m = mueller(&a);
         let f2: f64 = a.iter().map(|z| z.norm_sqr()).sum();
         assert!(close(m[0], 0.5 * f2, 1e-15));
@@ -355,18 +362,7 @@ mod tests {
     /// `mixed` against the definition, `tr(σ_a A σ_b B†) / 2` by 2 x 2 products.
     #[test]
     fn the_mixed_matrix_is_its_definition() {
-        let a: Jones = [
-            C64::new(0.3, -0.2),
-            C64::new(0.05, 0.1),
-            C64::new(-0.12, 0.04),
-            C64::new(-0.6, 0.25),
-        ];
-        let b: Jones = [
-            C64::new(-0.1, 0.4),
-            C64::new(0.2, 0.0),
-            C64::new(0.0, -0.3),
-            C64::new(0.5, 0.1),
-        ];
+        let (a, b) = two_jones();
         let got = mixed(&a, &b);
         for (ai, sa) in PAULI.iter().enumerate() {
             for (bi, sb) in PAULI.iter().enumerate() {

@@ -219,3 +219,21 @@ pub fn goniospec(args: &[&str]) -> (i32, String, String) {
         String::from_utf8_lossy(&out.stderr).into_owned(),
     )
 }
+
+/// Fresnel amplitude coefficients from `n1` onto `n2` at `theta` (radians, in `n1`):
+/// `(r_p, r_s)`, `r_s` of the electric field and `r_p` of the magnetic field (the transverse
+/// one of a TM wave), Born & Wolf §1.5.2, with `n cos theta_t = sqrt(n^2 - n1^2 sin^2
+/// theta)` on the decaying branch (imaginary part not negative); written independently of
+/// the library.
+pub fn fresnel_amplitudes(n1: C, n2: C, theta: f64) -> (C, C) {
+    let s = n1 * theta.sin();
+    let nc = |n: C| {
+        let v = (n * n - s * s).sqrt();
+        if v.im < 0.0 { -v } else { v }
+    };
+    let (q1, q2) = (nc(n1), nc(n2));
+    let (c1, c2) = (q1 / n1, q2 / n2);
+    let rs = (q1 - q2) / (q1 + q2);
+    let rp = (n2 * c1 - n1 * c2) / (n2 * c1 + n1 * c2);
+    (rp, rs)
+}
