@@ -309,6 +309,52 @@ fn an_unrealisable_matrix_is_refused() {
     );
 }
 
+/// The matrices are stored sparsely (a flat sample fills one bucket of 3,240 keys), and a
+/// payload whose matrices are cut short, name a key out of range or out of order, or carry
+/// bytes past the last cell is refused (re-framed with a valid checksum, so that the
+/// reader's own checks are what refuse it).
+#[test]
+fn the_sparse_matrices_are_read_back_or_refused() {
+    use goniospec::accumulate::file::FORMAT;
+    use goniospec::container::{decode, encode};
+    let glass = stack_sample(
+        "mueller-sparse",
+        "[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n",
+        "air",
+        &[],
+        "glass",
+    );
+    let acc = run(
+        &glass,
+        &mueller_config(&[20.0], Wavelengths::Monochromatic(vec![550.0]), 4),
+    );
+    let bytes = acc.to_bytes();
+    assert_eq!(Accumulator::from_bytes(&bytes, "mem").unwrap(), acc);
+    let frame = decode(&FORMAT, &bytes, "mem").unwrap();
+    let (header, payload) = (frame.header.to_string(), frame.payload.to_vec());
+    // One cell: the fixed part (trees, 3 x 3240 key values, 6 totals), then the count.
+    let keys = 2 * 45 * 36;
+    let at = 8 * (1 + 3 * keys + 6);
+    let count = u64::from_le_bytes(payload[at..at + 8].try_into().unwrap());
+    // The specular bucket; the transmitted beam's.
+    assert_eq!(count, 2);
+    assert_eq!(payload.len(), at + 8 + 2 * 33 * 8);
+    let refused =
+        |p: Vec<u8>| Accumulator::from_bytes(&encode(&FORMAT, &header, &p), "mem").is_err();
+    assert!(refused(payload[..payload.len() - 8].to_vec()));
+    let mut extra = payload.clone();
+    extra.extend_from_slice(&[0; 8]);
+    assert!(refused(extra));
+    let mut out_of_range = payload.clone();
+    out_of_range[at + 8..at + 16].copy_from_slice(&(keys as u64).to_le_bytes());
+    assert!(refused(out_of_range));
+    let mut disordered = payload.clone();
+    let second = at + 8 + 33 * 8;
+    let first_key = disordered[at + 8..at + 16].to_vec();
+    disordered[second..second + 8].copy_from_slice(&first_key);
+    assert!(refused(disordered));
+}
+
 #[test]
 fn the_comparison_modes_are_refused_before_work() {
     let s = shipped("thin-film-600nm.toml");

@@ -267,3 +267,54 @@ pub fn stderr(sum: f64, sumsq: f64, n: u64) -> f64 {
     let var = ((sumsq / n - mean * mean) * n / (n - 1.0)).max(0.0);
     (var / n).sqrt()
 }
+
+/// A `--mueller` cell's matrices in a `.gsa` payload (`accumulate::file`), sparse: the
+/// number of keys with any non-zero sum, then for each, ascending, the key, its 16 sums and
+/// its 16 sums of squares (a lobed sample fills few of its buckets).
+pub(super) fn write_mueller(c: &Cell, put: &mut impl FnMut(f64)) {
+    let held: Vec<usize> = (0..c.mueller.len())
+        .filter(|&k| {
+            c.mueller[k]
+                .iter()
+                .chain(&c.mueller_sq[k])
+                .any(|&v| v != 0.0)
+        })
+        .collect();
+    put(f64::from_bits(held.len() as u64));
+    for k in held {
+        put(f64::from_bits(k as u64));
+        c.mueller[k]
+            .iter()
+            .chain(&c.mueller_sq[k])
+            .for_each(|&v| put(v));
+    }
+}
+
+/// A `--mueller` cell's sparse matrices at `pos` of `payload` into `c` (see
+/// [`write_mueller`]): the count, then each key with its 16 sums and 16 sums of
+/// squares, keys strictly ascending and in range. The position after them, or `None` where
+/// the payload ends first or a key is senseless.
+pub(super) fn read_mueller(payload: &[u8], mut pos: usize, c: &mut Cell) -> Option<usize> {
+    let mut next = || {
+        let b = payload.get(pos..pos + 8)?;
+        pos += 8;
+        Some(f64::from_le_bytes(b.try_into().ok()?))
+    };
+    let n = next()?.to_bits();
+    if n > c.mueller.len() as u64 {
+        return None;
+    }
+    let mut last = None;
+    for _ in 0..n {
+        let k = next()?.to_bits();
+        if k >= c.mueller.len() as u64 || last.is_some_and(|l| k <= l) {
+            return None;
+        }
+        last = Some(k);
+        let k = k as usize;
+        for v in c.mueller[k].iter_mut().chain(c.mueller_sq[k].iter_mut()) {
+            *v = next()?;
+        }
+    }
+    Some(pos)
+}

@@ -7,9 +7,10 @@
 //! t_sumsq, absorbed, dropped` (f64), in global mode the complex amplitude sums (12 f64
 //! per key), and where the header's `error_groups` is set the replicate groups' variance
 //! estimates: a flag (f64 1 or 0: whether the cell has them), `var` per key, `r_var`,
-//! `t_var` (f64; zeros where the flag is 0), and where the settings' `mueller` is set every
-//! key's 16 Mueller sums, then every key's 16 sums of squares (f64). A truncated, corrupted
-//! or senseless file is refused.
+//! `t_var` (f64; zeros where the flag is 0), and where the settings' `mueller` is set the
+//! number of keys that hold Mueller sums (u64), then for each, keys ascending, the key (u64),
+//! its 16 sums and its 16 sums of squares (f64). A truncated, corrupted or senseless file is
+//! refused.
 
 use std::io::Write;
 use std::path::Path;
@@ -374,6 +375,8 @@ impl Accumulator {
             })
     }
 
+    /// The f64 values of a cell's fixed part (after its tree count); a `--mueller` cell's
+    /// matrices follow, as many as it holds.
     fn cell_f64s(&self) -> usize {
         let keys = 2 * self.header.settings.buckets().len();
         let global = if self.header.settings.coherence_mode() == Coherence::Global {
@@ -386,12 +389,7 @@ impl Accumulator {
         } else {
             0
         };
-        let mueller = if self.header.settings.mueller {
-            32 * keys
-        } else {
-            0
-        };
-        3 * keys + 6 + global + groups + mueller
+        3 * keys + 6 + global + groups
     }
 
     /// Serialises to bytes (deterministic).
@@ -420,8 +418,8 @@ impl Accumulator {
             if self.header.error_groups > 0 {
                 c.group_values().into_iter().for_each(&mut put);
             }
-            for m in c.mueller.iter().chain(&c.mueller_sq) {
-                m.iter().for_each(|&v| put(v));
+            if self.header.settings.mueller {
+                super::cell::write_mueller(c, &mut put);
             }
         }
         crate::container::encode(&FORMAT, &header, &out)
@@ -456,26 +454,47 @@ impl Accumulator {
         let ncells = acc.header.settings.theta_i_deg.len() * acc.header.settings.wavelength_count();
         let per = 8 + 8 * acc.cell_f64s();
         let payload = frame.payload;
-        if ncells.checked_mul(per) != Some(payload.len()) {
+        let mueller = acc.header.settings.mueller;
+        let fixed = ncells.checked_mul(per);
+        if fixed.is_none_or(|f| {
+            if mueller {
+                f > payload.len()
+            } else {
+                f != payload.len()
+            }
+        }) {
             return Err(FileError::content(
                 path,
                 format!(
-                    "the header declares {ncells} cells of {per} bytes; the payload holds {} bytes",
+                    "the header declares {ncells} cells of {per} bytes{}; the payload holds {} bytes",
+                    if mueller {
+                        " and their Mueller matrices"
+                    } else {
+                        ""
+                    },
                     payload.len()
                 ),
             ));
         }
         let buckets = acc.header.settings.buckets();
         let global = acc.header.settings.coherence_mode() == Coherence::Global;
-        let mut pos = 0;
-        let mut f = || {
-            let v = f64::from_le_bytes(payload[pos..pos + 8].try_into().expect("8 bytes"));
-            pos += 8;
-            v
+        let truncated = || {
+            FileError::content(
+                path,
+                "a cell's Mueller matrices are cut short or name a senseless bucket key",
+            )
         };
+        let mut pos = 0;
         for _ in 0..ncells {
+            // Every cell's fixed part fits: the payload holds at least the fixed parts of
+            // the cells left, checked above and after each cell's matrices.
+            let mut f = || {
+                let v = f64::from_le_bytes(payload[pos..pos + 8].try_into().expect("8 bytes"));
+                pos += 8;
+                v
+            };
             let mut c = Cell::new(&buckets, global);
-            if acc.header.settings.mueller {
+            if mueller {
                 c = c.with_mueller();
             }
             c.trees = f().to_bits();
@@ -508,9 +527,11 @@ impl Accumulator {
                 c.set_group_values(&v)
                     .map_err(|m| FileError::content(path, m))?;
             }
-            for m in c.mueller.iter_mut().chain(c.mueller_sq.iter_mut()) {
-                for v in m.iter_mut() {
-                    *v = f();
+            if mueller {
+                pos = super::cell::read_mueller(payload, pos, &mut c).ok_or_else(truncated)?;
+                let left = acc.cells.len() + 1;
+                if (ncells - left) * per > payload.len() - pos {
+                    return Err(truncated());
                 }
             }
             let finite = c.sum.iter().chain(&c.sumsq).all(|v| v.is_finite())
@@ -528,6 +549,12 @@ impl Accumulator {
                 return Err(FileError::content(path, "a cell holds non-finite sums"));
             }
             acc.cells.push(c);
+        }
+        if pos != payload.len() {
+            return Err(FileError::content(
+                path,
+                format!("{} bytes follow the last cell", payload.len() - pos),
+            ));
         }
         Ok(acc)
     }
