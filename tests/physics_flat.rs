@@ -25,20 +25,8 @@ fn fresnel_r(n2: C, theta: f64) -> f64 {
 
 #[test]
 fn single_interfaces_match_the_fresnel_equations() {
-    let glass = stack_sample(
-        "glass",
-        "[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n",
-        "air",
-        &[],
-        "glass",
-    );
-    let gold = stack_sample(
-        "gold",
-        "[media.air]\nn = 1.0\n[media.gold]\nn = 0.43\nk = 2.455\n",
-        "air",
-        &[],
-        "gold",
-    );
+    let glass = flat_substrate("glass", 1.5, 0.0);
+    let gold = flat_substrate("gold", 0.43, 2.455);
     let thetas: Vec<f64> = (0..=17).map(|i| 5.0 * i as f64).collect();
     for (s, n2) in [(&glass, C::new(1.5, 0.0)), (&gold, C::new(0.43, 2.455))] {
         let cfg = config(&thetas, Wavelengths::Monochromatic(vec![548.6]), 16);

@@ -42,6 +42,34 @@ fn diagonal_mueller(a: C, b: C) -> [f64; 16] {
     ]
 }
 
+/// The 600 nm soap film (n = 1.33) between air of the film tests.
+fn soap_film(tag: &str) -> goniospec::sample::Sample {
+    stack_sample(
+        tag,
+        "[media.air]\nn = 1.0\n[media.soap]\nn = 1.33\n",
+        "air",
+        &[("soap", 600.0)],
+        "air",
+    )
+}
+
+/// That film's reflected Mueller matrix at `theta_deg` and `lambda_nm`: the Airy sum
+/// `r = (r01 + r12 e^{2i beta}) / (1 + r01 r12 e^{2i beta})`, `beta = 2 pi n d cos theta_1 /
+/// lambda`, for each polarisation (Born & Wolf §7.6.1).
+fn soap_film_mueller(theta_deg: f64, lambda_nm: f64) -> [f64; 16] {
+    let (air, film) = (C::new(1.0, 0.0), C::new(1.33, 0.0));
+    let th = theta_deg.to_radians();
+    let (rp01, rs01) = fresnel_amplitudes(air, film, th);
+    let th1 = (th.sin() / 1.33).asin();
+    let (rp12, rs12) = fresnel_amplitudes(film, air, th1);
+    let e = C::from_polar(
+        1.0,
+        4.0 * std::f64::consts::PI * 1.33 * 600.0 * th1.cos() / lambda_nm,
+    );
+    let airy = |a: C, b: C| (a + b * e) / (1.0 + a * b * e);
+    diagonal_mueller(airy(rp01, rp12), airy(rs01, rs12))
+}
+
 /// The reflected Mueller matrix of direction `i`, wavelength `j`, summed over the
 /// reflection buckets (a flat sample fills the specular one only), as fractions.
 fn reflected(acc: &Accumulator, i: usize, j: usize) -> [f64; 16] {
@@ -78,20 +106,8 @@ fn assert_matrix(got: &[f64; 16], want: &[f64; 16], tol: f64, what: &str) {
 
 #[test]
 fn single_interfaces_match_the_fresnel_mueller_matrices() {
-    let glass = stack_sample(
-        "mueller-glass",
-        "[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n",
-        "air",
-        &[],
-        "glass",
-    );
-    let gold = stack_sample(
-        "mueller-gold",
-        "[media.air]\nn = 1.0\n[media.gold]\nn = 0.43\nk = 2.455\n",
-        "air",
-        &[],
-        "gold",
-    );
+    let glass = flat_substrate("mueller-glass", 1.5, 0.0);
+    let gold = flat_substrate("mueller-gold", 0.43, 2.455);
     let thetas: Vec<f64> = (0..=17).map(|i| 5.0 * i as f64).collect();
     for (s, n2) in [(&glass, C::new(1.5, 0.0)), (&gold, C::new(0.43, 2.455))] {
         let cfg = mueller_config(&thetas, Wavelengths::Monochromatic(vec![548.6]), 16);
@@ -121,31 +137,15 @@ fn single_interfaces_match_the_fresnel_mueller_matrices() {
 /// polarisation (Born & Wolf §7.6.1).
 #[test]
 fn a_thin_film_matches_the_airy_sum_in_both_polarisations() {
-    let soap = stack_sample(
-        "mueller-soap",
-        "[media.air]\nn = 1.0\n[media.soap]\nn = 1.33\n",
-        "air",
-        &[("soap", 600.0)],
-        "air",
-    );
+    let soap = soap_film("mueller-soap");
     let thetas = [0.0, 30.0, 60.0, 75.0];
     let lambdas = vec![450.0, 550.0, 650.0];
     let mut cfg = mueller_config(&thetas, Wavelengths::Monochromatic(lambdas.clone()), 8);
     cfg.rho_nm = f64::INFINITY;
     let acc = run(&soap, &cfg);
-    let (air, film) = (C::new(1.0, 0.0), C::new(1.33, 0.0));
     for (i, &t) in thetas.iter().enumerate() {
-        let th = t.to_radians();
-        let (rp01, rs01) = fresnel_amplitudes(air, film, th);
-        let th1 = (th.sin() / 1.33).asin();
-        let (rp12, rs12) = fresnel_amplitudes(film, air, th1);
         for (j, &l) in lambdas.iter().enumerate() {
-            let e = C::from_polar(
-                1.0,
-                2.0 * 2.0 * std::f64::consts::PI * 1.33 * 600.0 * th1.cos() / l,
-            );
-            let airy = |a: C, b: C| (a + b * e) / (1.0 + a * b * e);
-            let want = diagonal_mueller(airy(rp01, rp12), airy(rs01, rs12));
+            let want = soap_film_mueller(t, l);
             let cell = acc.cell(i, j);
             // What the power cutoff dropped may change the sum by 2 sqrt(D R) + D.
             let d = cell.dropped / cell.trees as f64;
@@ -284,13 +284,7 @@ fn matrices_do_not_depend_on_threads_and_survive_the_file_and_merge() {
 /// passes through; flat glass's buckets have no spread to hide it in.
 #[test]
 fn an_unrealisable_matrix_is_refused() {
-    let s = stack_sample(
-        "mueller-refused",
-        "[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n",
-        "air",
-        &[],
-        "glass",
-    );
+    let s = flat_substrate("mueller-refused", 1.5, 0.0);
     let cfg = mueller_config(&[20.0], Wavelengths::Monochromatic(vec![550.0]), 16);
     let mut acc = run(&s, &cfg);
     assert!(goniospec::simulate::check_physical(&acc, "flat glass", None).is_ok());
@@ -317,13 +311,7 @@ fn an_unrealisable_matrix_is_refused() {
 fn the_sparse_matrices_are_read_back_or_refused() {
     use goniospec::accumulate::file::FORMAT;
     use goniospec::container::{decode, encode};
-    let glass = stack_sample(
-        "mueller-sparse",
-        "[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n",
-        "air",
-        &[],
-        "glass",
-    );
+    let glass = flat_substrate("mueller-sparse", 1.5, 0.0);
     let acc = run(
         &glass,
         &mueller_config(&[20.0], Wavelengths::Monochromatic(vec![550.0]), 4),
@@ -383,13 +371,7 @@ fn the_comparison_modes_are_refused_before_work() {
 /// the run without --mueller bit for bit and every matrix is realisable.
 #[test]
 fn the_diffraction_method_carries_the_matrix() {
-    let soap = stack_sample(
-        "mueller-soap-diffraction",
-        "[media.air]\nn = 1.0\n[media.soap]\nn = 1.33\n",
-        "air",
-        &[("soap", 600.0)],
-        "air",
-    );
+    let soap = soap_film("mueller-soap-diffraction");
     let lambdas = vec![450.0, 550.0, 650.0];
     let cfg = SimConfig {
         coherence: Coherence::Diffraction,
@@ -397,18 +379,8 @@ fn the_diffraction_method_carries_the_matrix() {
         ..mueller_config(&[30.0], Wavelengths::Monochromatic(lambdas.clone()), 1024)
     };
     let acc = run(&soap, &cfg);
-    let th = 30f64.to_radians();
-    let (air, film) = (C::new(1.0, 0.0), C::new(1.33, 0.0));
-    let (rp01, rs01) = fresnel_amplitudes(air, film, th);
-    let th1 = (th.sin() / 1.33).asin();
-    let (rp12, rs12) = fresnel_amplitudes(film, air, th1);
     for (j, &l) in lambdas.iter().enumerate() {
-        let e = C::from_polar(
-            1.0,
-            4.0 * std::f64::consts::PI * 1.33 * 600.0 * th1.cos() / l,
-        );
-        let airy = |a: C, b: C| (a + b * e) / (1.0 + a * b * e);
-        let want = diagonal_mueller(airy(rp01, rp12), airy(rs01, rs12));
+        let want = soap_film_mueller(30.0, l);
         let got = reflected(&acc, 0, j);
         let (g, w): (Vec<f64>, Vec<f64>) = (0..16)
             .map(|k| (got[k] / got[0], want[k] / want[0]))
@@ -676,13 +648,7 @@ fn rough_gold_matches_a_facet_by_facet_fresnel_reference() {
 /// library and through `reflectance --incident`; a state that is none is refused.
 #[test]
 fn polarised_light_in_reflects_as_fresnel_says() {
-    let glass = stack_sample(
-        "mueller-incident",
-        "[media.air]\nn = 1.0\n[media.glass]\nn = 1.5\n",
-        "air",
-        &[],
-        "glass",
-    );
+    let glass = flat_substrate("mueller-incident", 1.5, 0.0);
     let cfg = mueller_config(&[60.0], Wavelengths::Monochromatic(vec![550.0]), 8);
     let acc = run(&glass, &cfg);
     let (rp, rs) = fresnel_amplitudes(C::new(1.0, 0.0), C::new(1.5, 0.0), 60f64.to_radians());

@@ -37,12 +37,8 @@ pub(super) struct BuildArgs {
     /// s, p, +45, -45, circular+ (S3 = +1), circular- (S3 = -1), or a Stokes vector
     /// S0,S1,S2,S3 in the incident direction's s/p frame (docs/physics.md,
     /// "Polarisation"). Each bucket's Mueller matrix applied to it; the .gsb records it.
-    #[arg(long, value_parser = stokes)]
+    #[arg(long, value_parser = goniospec::optics::mueller::stokes_state)]
     incident: Option<[f64; 4]>,
-}
-
-fn stokes(s: &str) -> Result<[f64; 4], goniospec::optics::mueller::BadState> {
-    goniospec::optics::mueller::stokes_state(s)
 }
 
 pub(super) fn build(a: BuildArgs) -> Result<ExitCode> {

@@ -36,12 +36,8 @@ pub(super) struct EvalArgs {
     /// circular-, or S0,S1,S2,S3 in the incident direction's s/p frame); prints instead the
     /// Stokes vector of the light sent out, lambda_nm,S0,S1,S2,S3,dop (1/sr, in the
     /// outgoing direction's frame; S0 the BRDF for that state).
-    #[arg(long, requires = "mueller", value_parser = stokes)]
+    #[arg(long, requires = "mueller", value_parser = goniospec::optics::mueller::stokes_state)]
     incident: Option<[f64; 4]>,
-}
-
-fn stokes(s: &str) -> Result<[f64; 4], goniospec::optics::mueller::BadState> {
-    goniospec::optics::mueller::stokes_state(s)
 }
 
 pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {

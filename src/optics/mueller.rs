@@ -183,7 +183,7 @@ pub fn coherency_eigenvalues(m: &Mueller) -> [f64; 4] {
             }
         }
     }
-    let mut d: Vec<f64> = (0..8).map(|i| a[i][i]).collect();
+    let mut d: [f64; 8] = std::array::from_fn(|i| a[i][i]);
     d.sort_by(f64::total_cmp);
     [d[0], d[2], d[4], d[6]]
 }

@@ -237,3 +237,14 @@ pub fn fresnel_amplitudes(n1: C, n2: C, theta: f64) -> (C, C) {
     let rp = (n2 * c1 - n1 * c2) / (n2 * c1 + n1 * c2);
     (rp, rs)
 }
+
+/// A flat interface from air (n = 1) onto a substrate of index `n + i k`, meshed.
+pub fn flat_substrate(tag: &str, n: f64, k: f64) -> Sample {
+    stack_sample(
+        tag,
+        &format!("[media.air]\nn = 1.0\n[media.substrate]\nn = {n:?}\nk = {k:?}\n"),
+        "air",
+        &[],
+        "substrate",
+    )
+}
