@@ -10,6 +10,7 @@ pub mod fresnel;
 pub mod mie;
 pub mod mueller;
 pub mod particles;
+pub mod rcwa;
 pub mod tmm;
 
 pub use num_complex::Complex64 as C64;
