@@ -24,8 +24,7 @@ fn bessel_j(n: i32, x: f64) -> f64 {
     s * h / PI
 }
 
-/// A sinusoidal grating `z = A sin(2 pi x / period)` (nm) between air and a medium of
-/// index `n`, one period wide and `depth` deep in y, `segments` facets per period.
+/// A sinusoidal grating one period wide ([`sinusoid`]).
 fn grating(
     tag: &str,
     period: f64,
@@ -34,25 +33,7 @@ fn grating(
     k: f64,
     segments: usize,
 ) -> goniospec::sample::Sample {
-    let d = scratch(tag);
-    let ly = period / 8.0;
-    let mut obj = String::new();
-    for i in 0..=segments {
-        let x = period * i as f64 / segments as f64;
-        let z = amp * (2.0 * PI * x / period).sin();
-        obj.push_str(&format!("v {x:?} 0 {z:?}\nv {x:?} {ly:?} {z:?}\n"));
-    }
-    for i in 0..segments {
-        let (a, b, c, e) = (2 * i + 1, 2 * i + 3, 2 * i + 4, 2 * i + 2);
-        obj.push_str(&format!("f {a} {b} {c}\nf {a} {c} {e}\n"));
-    }
-    std::fs::write(d.join("grating.obj"), obj).unwrap();
-    sample_in(
-        &d,
-        &format!(
-            "[sample]\nname = \"grating\"\nunit = \"nm\"\ntile = [{period:?}, {ly:?}]\n[media.air]\nn = 1.0\n[media.m]\nn = {n:?}\nk = {k:?}\n[[interface]]\nmesh = \"grating.obj\"\nfront = \"air\"\nback = \"m\"\n"
-        ),
-    )
+    sinusoid(tag, period, amp, (n, k), segments, 1)
 }
 
 /// In-plane reflected power per 1-degree polar bin, signed by the azimuth (negative

@@ -12,6 +12,7 @@ pub enum ReferenceError {
 }
 
 message_error!(ReferenceError, ReferenceError::Invalid);
+pub mod grating;
 pub mod local_film;
 pub mod stack;
 

@@ -248,3 +248,37 @@ pub fn flat_substrate(tag: &str, n: f64, k: f64) -> Sample {
         "substrate",
     )
 }
+
+/// A sinusoidal grating `z = A sin(2 pi x / period)` (nm) between air above and a medium of
+/// index `n + ik`, `periods` periods wide and `period / 8` deep in y, `segments` facets per
+/// period.
+pub fn sinusoid(
+    tag: &str,
+    period: f64,
+    amp: f64,
+    (n, k): (f64, f64),
+    segments: usize,
+    periods: usize,
+) -> Sample {
+    let d = scratch(tag);
+    let ly = period / 8.0;
+    let total = segments * periods;
+    let width = period * periods as f64;
+    let mut obj = String::new();
+    for i in 0..=total {
+        let x = width * i as f64 / total as f64;
+        let z = amp * (2.0 * std::f64::consts::PI * x / period).sin();
+        obj.push_str(&format!("v {x:?} 0 {z:?}\nv {x:?} {ly:?} {z:?}\n"));
+    }
+    for i in 0..total {
+        let (a, b, c, e) = (2 * i + 1, 2 * i + 3, 2 * i + 4, 2 * i + 2);
+        obj.push_str(&format!("f {a} {b} {c}\nf {a} {c} {e}\n"));
+    }
+    std::fs::write(d.join("grating.obj"), obj).unwrap();
+    sample_in(
+        &d,
+        &format!(
+            "[sample]\nname = \"grating\"\nunit = \"nm\"\ntile = [{width:?}, {ly:?}]\n[media.air]\nn = 1.0\n[media.m]\nn = {n:?}\nk = {k:?}\n[[interface]]\nmesh = \"grating.obj\"\nfront = \"air\"\nback = \"m\"\n"
+        ),
+    )
+}
