@@ -13,7 +13,10 @@
 # tests/interop/vgroove_rcwa.py; `gold_v_grooves_against_rigorous_te_or_warn` in
 # tests/tilted_absorbers.rs compares the rays' TE R, or the warning), and the local
 # transfer-matrix film that test file uses for tilted gold films, against RCWA for TE
-# (tests/interop/roof_rcwa.py). Not run here: the many-particle T-matrix reference for
+# (tests/interop/roof_rcwa.py); and the rigorous solver against independent Fourier modal
+# methods on the same staircases (meent for glass sinusoids, nannos with Li's rule for gold
+# and crossed gratings: tests/interop/rcwa_nannos.py; `against_references` in
+# tests/rcwa.rs compares). Not run here: the many-particle T-matrix reference for
 # dependent scattering (tests/interop/tmatrix_smuthi.py; SMUTHI needs gfortran and an older
 # NumPy), whose stored result tests/particle_media.rs reads; and rough gold's Mueller
 # matrices against NIST SCATMECH's facet model (tests/interop/mueller_scatmech.py; PyPI
@@ -27,10 +30,10 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${1:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 venv=${INTEROP_VENV:-.venv-interop}
-if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython, iadpython, meent, scipy, grcwa" 2>/dev/null; then
-  echo "== making $venv (numpy, mitsuba, miepython, iadpython, meent, scipy, grcwa)"
+if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython, iadpython, meent, scipy, grcwa, nannos" 2>/dev/null; then
+  echo "== making $venv (numpy, mitsuba, miepython, iadpython, meent, scipy, grcwa, nannos)"
   python3 -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5" "meent==0.13.2" "scipy>=1.10" "grcwa==0.1.2"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5" "meent==0.13.2" "scipy>=1.10" "grcwa==0.1.2" "nannos==2.6.5"
 fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
@@ -42,9 +45,11 @@ trap 'rm -rf "$work"' EXIT
 "$venv/bin/python" tests/interop/grating_rayleigh.py "$work/metal.json"
 "$venv/bin/python" tests/interop/vgroove_rcwa.py "$work/vgroove.json"
 "$venv/bin/python" tests/interop/roof_rcwa.py
+"$venv/bin/python" tests/interop/rcwa_nannos.py "$work/rcwa-refs.json"
 GONIOSPEC_RCWA_JSON="$work/rcwa.json" cargo test --release --test diffraction against_rcwa -- --ignored --nocapture
 GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test diffraction metal_ -- --ignored --nocapture
 GONIOSPEC_VGROOVE_JSON="$work/vgroove.json" cargo test --release --test tilted_absorbers gold_v_grooves_against_rigorous -- --ignored --nocapture
+GONIOSPEC_RCWA_REFS_JSON="$work/rcwa-refs.json" cargo test --release --test rcwa against_references -- --ignored --nocapture
 # The peer benchmark (issue 31): Mitsuba 3 and goniospec on the same mesh and rays must hit
 # the same triangle, ray by ray (all but 1e-4: edge ties); its speed figures are printed,
 # speed is not asserted here. Mitsuba's llvm_ad_rgb variant loads the system's LLVM, version 15 or newer (Debian 12: libllvm15;

@@ -445,11 +445,7 @@ fn map_cell(
         ..cfg(theta, lambda, rays, b)
     };
     let (acc, stats) = simulate(s, &c, &|_| {}).unwrap();
-    let mode = match acc.header.settings.methods.first().map(String::as_str) {
-        Some("d") => Coherence::Diffraction,
-        Some(_) => Coherence::Beamlet,
-        None => asked,
-    };
+    let mode = acc.header.settings.cell_mode(0, 0);
     let cell = acc.cell(0, 0);
     let (r, _) = cell.totals(mode, &b);
     let ours: Vec<f64> = (0..2 * b.len())
@@ -520,20 +516,39 @@ fn validity_map() {
     }
 }
 
-/// auto at a grating 1.8 wavelengths wide (990 nm at 550 nm), 30 deg: the tangent plane's
-/// margin k r_c cos^3 theta is about 5.5, below the 35 a coherent specular order asks for
-/// but above the 5 that gratings hold to (docs/validity.md), so auto takes the diffraction
-/// method and gets the Kirchhoff orders (L1 <= 0.06, the tolerance of
-/// `sinusoidal_gratings_match_kirchhoff`, R within 1e-2: the near-field error the map
-/// measures there, 7.7e-3), where rays spread them into one lobe (L1 above 1).
+/// A grating 1.8 wavelengths wide (990 nm at 550 nm), 30 deg: below the 3 wavelengths in
+/// the denser medium where the validity map ends, so auto takes the rigorous solver. The
+/// diffraction method, asked for, still gets the Kirchhoff orders there (the tangent
+/// plane's margin k r_c cos^3 theta is about 5.5, above the 5 gratings hold to; L1 <= 0.06,
+/// the tolerance of `sinusoidal_gratings_match_kirchhoff`, R within 1e-2: the near-field
+/// error the map measures there, 7.7e-3), where rays spread them into one lobe (L1 above
+/// 1); the rigorous solver's orders are near both (L1 below 0.1 against Kirchhoff's, whose
+/// R it corrects by the near field: within 1e-2).
 #[test]
-fn auto_takes_the_orders_of_a_grating_two_wavelengths_wide() {
+fn auto_takes_the_rigorous_solver_at_a_grating_two_wavelengths_wide() {
     let (period, amp) = (990.0, 49.5);
     let s = grating("diffr-auto", period, amp, 1.5, 0.0, 128);
-    let (mode, r, kr, l1, _) = map_cell(&s, period, amp, 30.0, Coherence::Auto, 40_000);
+    let (mode, r_m, kr, l1_m, _) = map_cell(&s, period, amp, 30.0, Coherence::Auto, 4096);
+    assert_eq!(mode, Coherence::Rigorous);
+    println!("rigorous: R {r_m} against Kirchhoff {kr}, L1 {l1_m}");
+    assert!(
+        l1_m < 0.1,
+        "rigorous: L1 {l1_m} against the Kirchhoff orders"
+    );
+    assert!(
+        (r_m - kr).abs() < 1e-2,
+        "rigorous: R {r_m} against Kirchhoff {kr}"
+    );
+    let (mode, r, kr, l1, _) = map_cell(&s, period, amp, 30.0, Coherence::Diffraction, 40_000);
     assert_eq!(mode, Coherence::Diffraction);
-    assert!(l1 < 0.06, "auto: L1 {l1} against the Kirchhoff orders");
-    assert!((r - kr).abs() < 1e-2, "auto: R {r} against Kirchhoff {kr}");
+    assert!(
+        l1 < 0.06,
+        "diffraction: L1 {l1} against the Kirchhoff orders"
+    );
+    assert!(
+        (r - kr).abs() < 1e-2,
+        "diffraction: R {r} against Kirchhoff {kr}"
+    );
     let (_, _, _, l1_rays, _) = map_cell(&s, period, amp, 30.0, Coherence::Beamlet, 40_000);
     assert!(l1_rays > 1.0, "rays came within L1 {l1_rays} of the orders");
 }

@@ -151,9 +151,12 @@ impl Cell {
 
     /// Standard error of the fraction in bucket key `kk` from the per-tree spread
     /// (not defined for global or diffraction mode, whose buckets sum over all trees at
-    /// once: returns `None`).
+    /// once, nor for the rigorous solver, which has no trees: returns `None`).
     pub fn fraction_stderr(&self, kk: usize, mode: Coherence) -> Option<f64> {
-        (!matches!(mode, Coherence::Global | Coherence::Diffraction) && self.trees > 1)
+        (!matches!(
+            mode,
+            Coherence::Global | Coherence::Diffraction | Coherence::Rigorous
+        ) && self.trees > 1)
             .then(|| self.sum_var(kk).sqrt() / self.trees as f64)
     }
 

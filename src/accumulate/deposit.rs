@@ -125,6 +125,7 @@ impl Estimator {
             Coherence::Auto | Coherence::Beamlet | Coherence::Diffraction => {
                 unreachable!("the run gives the estimator beamlet for these")
             }
+            Coherence::Rigorous => unreachable!("the rigorous solver traces no trees"),
             _ if self.mueller => unreachable!("--mueller is refused with {}", self.mode),
             Coherence::Bucket => {
                 // Gondek et al. / the seed: phases relative to a plane through the global

@@ -38,7 +38,7 @@ use super::patch::{Patch, patch_rows};
 use super::{Buckets, key};
 use crate::optics::C64;
 use crate::optics::fresnel::{Field, field_power};
-use crate::optics::mueller::{self, Mueller};
+use crate::optics::mueller::{self, Jones, Mueller};
 use crate::trace::Exit;
 use rustfft::FftPlanner;
 use std::f64::consts::PI;
@@ -207,24 +207,89 @@ pub fn diffract(
     let grids = &mut scratch.grids;
     fft2(grids, [mx, my]);
     let (per_bucket, per_bucket_m, total, orders) = far_field(h, grids, [mx, my], buckets);
+    Ok(Pattern {
+        fallback_tubes: fallback,
+        flipped_tubes: flipped,
+        ..pattern(&per_bucket, &per_bucket_m, h.down, total, orders)
+    })
+}
+
+/// A hemisphere's pattern from its per-bucket powers (and Mueller matrices, where kept):
+/// the buckets that hold any.
+fn pattern(
+    per_bucket: &[f64],
+    per_bucket_m: &[Mueller],
+    down: bool,
+    total: f64,
+    orders: usize,
+) -> Pattern {
     let kept: Vec<usize> = (0..per_bucket.len())
         .filter(|&b| per_bucket[b] != 0.0)
         .collect();
-    Ok(Pattern {
+    Pattern {
         per_key: kept
             .iter()
-            .map(|&b| (key(b, h.down), per_bucket[b]))
+            .map(|&b| (key(b, down), per_bucket[b]))
             .collect(),
-        per_key_mueller: if h.mueller {
-            kept.iter().map(|&b| per_bucket_m[b]).collect()
-        } else {
+        per_key_mueller: if per_bucket_m.is_empty() {
             Vec::new()
+        } else {
+            kept.iter().map(|&b| per_bucket_m[b]).collect()
         },
         total,
         orders,
-        fallback_tubes: fallback,
-        flipped_tubes: flipped,
-    })
+        fallback_tubes: 0,
+        flipped_tubes: 0,
+    }
+}
+
+/// The pattern of plane-wave orders given directly (the rigorous solver's): each order's
+/// travel direction (unit; its transverse part the direction sines) and Jones matrix
+/// scaled to efficiencies (`optics::rcwa::Order::jones`), spread by the illumination's
+/// partial coherence as the diffraction method spreads its orders (`spread`, with `kn` the
+/// wave number in the half-space the orders travel in, 1/nm). Each order's unpolarised
+/// power is its Mueller matrix's `m00`, so the matrices' `m00` are the powers' bits.
+pub fn pattern_of_orders(
+    orders: impl Iterator<Item = (glam::DVec3, Jones)>,
+    buckets: &Buckets,
+    kn: f64,
+    rho_nm: f64,
+    down: bool,
+    with_mueller: bool,
+) -> Pattern {
+    let sigma_s = if rho_nm.is_finite() {
+        1.0 / (kn * rho_nm)
+    } else {
+        0.0
+    };
+    let mut per_bucket = vec![0.0; buckets.len()];
+    let mut per_bucket_m = if with_mueller {
+        vec![[0.0; 16]; buckets.len()]
+    } else {
+        Vec::new()
+    };
+    let (mut total, mut count) = (0.0, 0);
+    for (dir, j) in orders {
+        let m = mueller::mueller(&j);
+        let p = m[0];
+        if p <= 0.0 {
+            continue;
+        }
+        count += 1;
+        total += p;
+        let s = [dir.x, dir.y];
+        spread(buckets, s, sigma_s, down, |b, w, wsum| {
+            per_bucket[b] += p * w / wsum;
+        });
+        if with_mueller {
+            spread(buckets, s, sigma_s, down, |b, w, wsum| {
+                for (a, x) in per_bucket_m[b].iter_mut().zip(&m) {
+                    *a += x * w / wsum;
+                }
+            });
+        }
+    }
+    pattern(&per_bucket, &per_bucket_m, down, total, count)
 }
 
 /// Why the transform cannot run.

@@ -84,6 +84,9 @@ pub struct Settings {
     /// squares of its 16 elements); absent (false) otherwise.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub mueller: bool,
+    /// What the rigorous solver spent where any cell took it; absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rigorous: Option<crate::reference::rigorous::Effort>,
 }
 
 fn is_zero(v: &u64) -> bool {
@@ -178,9 +181,20 @@ impl Header {
         if st.mueller {
             s += "polarisation: every bucket's Mueller matrix kept (--mueller; goniospec eval --mueller)\n";
         }
+        if let Some(e) = st.rigorous.filter(|_| st.rigorous_cells() > 0) {
+            s += &format!(
+                "rigorous solver: harmonics {} per patterned axis, {} slices per structured region, converged to {:.0e} against a check with two thirds of the harmonics and half the slices\n",
+                e.orders.map_or("by wavelength".into(), |m| m.to_string()),
+                e.slices,
+                e.tolerance
+            );
+        }
         if st.coherence == Coherence::Auto {
             let (r, d) = st.method_counts();
-            s += &format!("methods (auto): rays in {r} cells, the diffraction method in {d}\n");
+            s += &format!(
+                "methods (auto): rays in {r} cells, the diffraction method in {d}, the rigorous solver in {}\n",
+                st.rigorous_cells()
+            );
             for (i, t) in st.theta_i_deg.iter().enumerate() {
                 s += &format!("  theta_i {t} deg: {}\n", st.methods_of(i));
             }

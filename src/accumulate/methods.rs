@@ -14,6 +14,7 @@ impl Settings {
         }
         match self.methods.get(i).and_then(|m| m.as_bytes().get(j)) {
             Some(b'd') => Coherence::Diffraction,
+            Some(b'm') => Coherence::Rigorous,
             _ => Coherence::Beamlet,
         }
     }
@@ -24,6 +25,7 @@ impl Settings {
         let nl = self.wavelength_count();
         let name = |j: usize| match self.cell_mode(i, j) {
             Coherence::Diffraction => "diffraction",
+            Coherence::Rigorous => "rigorous",
             _ => "rays",
         };
         let bins = self.wavelength_mode == WavelengthMode::Bins;
@@ -49,8 +51,20 @@ impl Settings {
         }
         parts.join(", ")
     }
-    /// How many cells each method gave, `(rays, diffraction)` (all of one kind for a run
-    /// that is not auto).
+    /// How many cells the rigorous solver gave.
+    pub fn rigorous_cells(&self) -> usize {
+        match self.coherence {
+            Coherence::Auto => self
+                .methods
+                .iter()
+                .map(|m| m.bytes().filter(|&b| b == b'm').count())
+                .sum(),
+            Coherence::Rigorous => self.theta_i_deg.len() * self.wavelength_count(),
+            _ => 0,
+        }
+    }
+    /// How many cells rays and the diffraction method each gave, `(rays, diffraction)`
+    /// (all of one kind for a run that is not auto; [`Settings::rigorous_cells`] apart).
     pub fn method_counts(&self) -> (usize, usize) {
         let cells = self.theta_i_deg.len() * self.wavelength_count();
         match self.coherence {
@@ -60,9 +74,10 @@ impl Settings {
                     .iter()
                     .map(|m| m.bytes().filter(|&b| b == b'd').count())
                     .sum();
-                (cells - d.min(cells), d)
+                (cells - (d + self.rigorous_cells()).min(cells), d)
             }
             Coherence::Diffraction => (0, cells),
+            Coherence::Rigorous => (0, 0),
             _ => (cells, 0),
         }
     }

@@ -48,7 +48,7 @@ use crate::optics::mueller::{Jones, Mueller};
 use glam::DVec3;
 
 /// How contributions interfere (written by name in files: "auto", "beamlet", "bucket",
-/// "global", "diffraction"; an unknown name is refused).
+/// "global", "diffraction", "rigorous"; an unknown name is refused).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Coherence {
@@ -61,6 +61,9 @@ pub enum Coherence {
     Bucket,
     Global,
     Diffraction,
+    /// The Fourier modal method on the sample's tile (`optics::rcwa`,
+    /// `reference::rigorous`): no rays; each cell's orders from Maxwell's equations.
+    Rigorous,
 }
 
 impl Coherence {
@@ -71,6 +74,7 @@ impl Coherence {
             Coherence::Bucket => "bucket",
             Coherence::Global => "global",
             Coherence::Diffraction => "diffraction",
+            Coherence::Rigorous => "rigorous",
         }
     }
     pub fn parse(s: &str) -> Option<Coherence> {
@@ -80,6 +84,7 @@ impl Coherence {
             "bucket" => Some(Coherence::Bucket),
             "global" => Some(Coherence::Global),
             "diffraction" => Some(Coherence::Diffraction),
+            "rigorous" => Some(Coherence::Rigorous),
             _ => None,
         }
     }

@@ -57,13 +57,13 @@ impl Header {
             s.methods.len() == s.theta_i_deg.len()
                 && s.methods
                     .iter()
-                    .all(|m| m.len() == nl && m.bytes().all(|b| b == b'r' || b == b'd'))
+                    .all(|m| m.len() == nl && m.bytes().all(|b| matches!(b, b'r' | b'd' | b'm')))
         } else {
             s.methods.is_empty()
         };
         if !methods_ok {
             return Err(InvalidHeader::from(format!(
-                "methods must be, for coherence = \"auto\" only, one string per incident direction ({}) of one letter per wavelength cell ({nl}), r or d; got {} strings for coherence = \"{}\"",
+                "methods must be, for coherence = \"auto\" only, one string per incident direction ({}) of one letter per wavelength cell ({nl}), r, d or m; got {} strings for coherence = \"{}\"",
                 s.theta_i_deg.len(),
                 s.methods.len(),
                 s.coherence

@@ -102,26 +102,31 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         goniospec::io::write_atomic(r, |w| std::io::Write::write_all(w, text.as_bytes()))
             .with_context(|| format!("writing {}", r.display()))?;
     }
-    eprintln!(
-        "{} trees ({} per direction x {} directions), {} traced trees, {} segments in {:.2} s (set-up {:.2} s): {:.0} trees/s, {:.2} M segments/s; path sharing {}; peak memory {}",
-        stats.trees,
-        stats.trees / cfg.theta_i_deg.len().max(1) as u64,
-        cfg.theta_i_deg.len(),
-        stats.traces,
-        stats.segments,
-        stats.seconds,
-        stats.setup_seconds,
-        stats.trees as f64 / stats.trace_seconds(),
-        stats.segments as f64 / stats.trace_seconds() / 1e6,
-        if stats.path_sharing {
-            "on"
-        } else if stats.wavelength_sharing {
-            "off (wavelengths traced together, rays shared up to dispersive refractions)"
-        } else {
-            "off"
-        },
-        goniospec::io::peak_rss_mb().map_or_else(|| "unknown".into(), |m| format!("{m:.0} MB"))
-    );
+    if stats.traces == 0 && stats.rigorous.iter().any(Option::is_some) {
+        eprintln!("nothing traced: the rigorous solver took every cell");
+    } else {
+        eprintln!(
+            "{} trees ({} per direction x {} directions), {} traced trees, {} segments in {:.2} s (set-up {:.2} s): {:.0} trees/s, {:.2} M segments/s; path sharing {}; peak memory {}",
+            stats.trees,
+            stats.trees / cfg.theta_i_deg.len().max(1) as u64,
+            cfg.theta_i_deg.len(),
+            stats.traces,
+            stats.segments,
+            stats.seconds,
+            stats.setup_seconds,
+            stats.trees as f64 / stats.trace_seconds(),
+            stats.segments as f64 / stats.trace_seconds() / 1e6,
+            if stats.path_sharing {
+                "on"
+            } else if stats.wavelength_sharing {
+                "off (wavelengths traced together, rays shared up to dispersive refractions)"
+            } else {
+                "off"
+            },
+            goniospec::io::peak_rss_mb().map_or_else(|| "unknown".into(), |m| format!("{m:.0} MB"))
+        );
+    }
+    rigorous_summary(&stats, &acc, cfg.rigorous.tolerance);
     if cfg.adaptive() {
         for d in &stats.directions {
             eprintln!("{d}");
@@ -130,7 +135,8 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     let (ray_cells, diffraction_cells) = acc.header.settings.method_counts();
     if cfg.coherence == Coherence::Auto {
         eprintln!(
-            "methods (auto): rays in {ray_cells} cells, the diffraction method in {diffraction_cells} (goniospec info lists them per angle)"
+            "methods (auto): rays in {ray_cells} cells, the diffraction method in {diffraction_cells}, the rigorous solver in {} (goniospec info lists them per angle)",
+            acc.header.settings.rigorous_cells()
         );
     }
     if diffraction_cells > 0 {
@@ -145,6 +151,45 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     }
     outln!("wrote {}", a.output.display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// What the rigorous solver did: its cells, the harmonics and slices, the largest
+/// difference from the coarser check (each cell's was within the tolerance, or the run was
+/// refused) and the time per cell.
+fn rigorous_summary(
+    stats: &goniospec::simulate::SimStats,
+    acc: &goniospec::accumulate::file::Accumulator,
+    tolerance: f64,
+) {
+    let s = &acc.header.settings;
+    let nl = s.wavelength_count().max(1);
+    let cells: Vec<(usize, goniospec::simulate::RigorousCell)> = stats
+        .rigorous
+        .iter()
+        .enumerate()
+        .filter_map(|(k, c)| c.map(|c| (k, c)))
+        .collect();
+    let Some(&(worst, w)) = cells
+        .iter()
+        .max_by(|a, b| a.1.difference.total_cmp(&b.1.difference))
+    else {
+        return;
+    };
+    let most = cells
+        .iter()
+        .map(|c| c.1.harmonics)
+        .fold([0, 0], |a, h| [a[0].max(h[0]), a[1].max(h[1])]);
+    let secs: f64 = cells.iter().map(|c| c.1.seconds).sum();
+    eprintln!(
+        "rigorous solver: {} cells, harmonics up to {:?} per axis, {} slices per structured region; converged: largest difference from the coarser check {:.1e} (tolerance {tolerance:.0e}) at theta_i {} deg, {} nm; {:.3} s per cell",
+        cells.len(),
+        most,
+        w.slices,
+        w.difference,
+        s.theta_i_deg[worst / nl],
+        s.wavelength(worst % nl),
+        secs / cells.len() as f64
+    );
 }
 
 /// What the diffraction method did: the launch lattice, the orders, and how much of the

@@ -319,13 +319,11 @@ fn reduce(mut s: Sliced) -> Sliced {
                 .find(|&d| repeats(d))
                 .unwrap_or(len)
         };
+        s.patterned[axis] = keep > 1;
         if keep == len {
             continue;
         }
         s.period_nm[axis] *= keep as f64 / len as f64;
-        if keep == 1 {
-            s.patterned[axis] = false;
-        }
         for l in &mut s.layers {
             if let SlabIds::Grid { n, ids } = &mut l.1 {
                 let old = *n;

@@ -14,6 +14,7 @@ pub enum ReferenceError {
 message_error!(ReferenceError, ReferenceError::Invalid);
 pub mod grating;
 pub mod local_film;
+pub mod rigorous;
 pub mod stack;
 
 pub use stack::{analytic, stack_indices};

@@ -17,6 +17,8 @@
 //! so a batch unit (one direction) chooses as the whole run does.
 
 use super::SimConfig;
+use super::rigorous_fit::RigorousFit;
+use crate::reference::rigorous::Rigorous;
 use crate::sample::Sample;
 use crate::sample::validity::{self, PHYSICAL_OPTICS_MIN, PHYSICAL_OPTICS_MIN_GRATING};
 
@@ -25,6 +27,9 @@ use crate::sample::validity::{self, PHYSICAL_OPTICS_MIN, PHYSICAL_OPTICS_MIN_GRA
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Choice {
     pub diffraction: Vec<bool>,
+    /// Cells the rigorous solver takes (direction-major), and the sample sliced for it.
+    pub rigorous: Vec<bool>,
+    pub solver: Option<Rigorous>,
     pub notes: Vec<String>,
 }
 
@@ -64,14 +69,35 @@ pub fn choose(
     let refused = diffraction_refused(sample, cfg);
     let mut out = Choice {
         diffraction: vec![false; cfg.theta_i_deg.len() * nl],
+        rigorous: vec![false; cfg.theta_i_deg.len() * nl],
+        solver: None,
         notes: Vec::new(),
     };
     // Cells that needed the method and took rays, per reason: (count, worst cell's need,
     // its angle and wavelength, the reason's figure).
     let mut missed: std::collections::BTreeMap<u8, Missed> = Default::default();
     let mut fits: Vec<Option<Result<(), String>>> = vec![None; nl];
+    let mut rigorous = RigorousFit::new(sample, cfg);
+    let mut rfits: Vec<Option<Option<String>>> = vec![None; nl];
+    // Cells finer than the wavelength that the rigorous solver could not take: the count,
+    // the first one's sheet, wavelength in its denser medium, angle, wavelength and reason.
+    let mut fine: Option<(usize, usize, f64, f64, f64, String)> = None;
     for (di, &theta) in cfg.theta_i_deg.iter().enumerate() {
         for (j, &lambda) in centres.iter().enumerate() {
+            // Ok where the rigorous solver takes the cell, else why not.
+            let mut rfit = || {
+                let refusal = rfits[j].get_or_insert_with(|| rigorous.refusal(lambda));
+                refusal.clone().map_or(Ok(()), Err)
+            };
+            if let Some((iface, lam)) = validity::finer_than_wavelength(sample, sheets, lambda) {
+                match rfit() {
+                    Ok(()) => out.rigorous[di * nl + j] = true,
+                    Err(r) => {
+                        fine.get_or_insert((0, iface, lam, theta, lambda, r)).0 += 1;
+                    }
+                }
+                continue;
+            }
             let Some(need) = cell_needs(sample, sheets, theta, lambda, cfg.rho_nm, bucket_rad)
             else {
                 continue;
@@ -112,6 +138,8 @@ pub fn choose(
             };
             match why {
                 None => out.diffraction[di * nl + j] = true,
+                // Where the tangent plane fails, the rigorous solver holds if it fits.
+                Some((2 | 4, _)) if rfit().is_ok() => out.rigorous[di * nl + j] = true,
                 Some((kind, reason)) => {
                     let m = missed.entry(kind).or_insert_with(|| Missed {
                         cells: 0,
@@ -130,6 +158,17 @@ pub fn choose(
     let total = out.diffraction.len();
     for m in missed.into_values() {
         out.notes.push(m.note(sample, total));
+    }
+    if let Some((cells, i, lam, theta, lambda, reason)) = fine {
+        out.notes.push(format!(
+            "interface {i} ({}) has structure near or below the wavelength at {lambda:.0} nm ({lam:.0} nm in its denser medium; below {} wavelengths of period or {} of curvature radius), where neither rays nor the diffraction method hold, and the rigorous solver cannot take this sample: {reason}; so {cells} cells of {total} (from {theta:.0} deg) took rays, whose R and angular distribution are uncertain there (docs/validity.md)",
+            sample.interfaces[i].mesh_path.display(),
+            validity::MIN_PERIOD_WAVELENGTHS,
+            validity::MIN_CURVATURE_WAVELENGTHS,
+        ));
+    }
+    if out.rigorous.contains(&true) {
+        out.solver = rigorous.into_solver();
     }
     out
 }
@@ -323,17 +362,23 @@ fn methods_fact(
     };
     let choice = choose(sample, &cfg, sheets, &|_| Ok(()));
     // Runs of consecutive angles with the same method.
-    let mut runs: Vec<(bool, f64, f64)> = Vec::new();
-    for (&t, &d) in ctx.theta_i_deg.iter().zip(&choice.diffraction) {
+    let mut runs: Vec<(&str, f64, f64)> = Vec::new();
+    for (k, &t) in ctx.theta_i_deg.iter().enumerate() {
+        let what = if choice.rigorous[k] {
+            "the rigorous solver"
+        } else if choice.diffraction[k] {
+            "the diffraction method"
+        } else {
+            "rays"
+        };
         match runs.last_mut() {
-            Some(last) if last.0 == d => last.2 = t,
-            _ => runs.push((d, t, t)),
+            Some(last) if last.0 == what => last.2 = t,
+            _ => runs.push((what, t, t)),
         }
     }
     let parts: Vec<String> = runs
         .iter()
-        .map(|&(d, a, b)| {
-            let what = if d { "the diffraction method" } else { "rays" };
+        .map(|&(what, a, b)| {
             if a == b {
                 format!("{what} at {a} deg")
             } else {
@@ -349,4 +394,32 @@ fn methods_fact(
         ),
         choice.notes,
     )
+}
+
+/// `Settings::methods` of a `--coherence auto` run: per direction, one letter per
+/// wavelength cell, `m` where the rigorous solver gave the buckets, `d` where the
+/// diffraction method did and `r` where rays did (chosen so, or fallen back:
+/// `DiffractionCell::fell_back`).
+pub(super) fn method_strings(
+    diffraction: &[bool],
+    rigorous: &[bool],
+    cells: &[super::DiffractionCell],
+    nl: usize,
+) -> Vec<String> {
+    let nl = nl.max(1);
+    (0..diffraction.len() / nl)
+        .map(|di| {
+            (di * nl..(di + 1) * nl)
+                .map(|k| {
+                    if rigorous[k] {
+                        'm'
+                    } else if diffraction[k] && !cells[k].fell_back {
+                        'd'
+                    } else {
+                        'r'
+                    }
+                })
+                .collect()
+        })
+        .collect()
 }

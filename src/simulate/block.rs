@@ -8,7 +8,7 @@ use glam::DVec3;
 
 use super::groups::{group_of, group_size};
 use super::launch::{entry_point, lattice_point};
-use super::run::{Overflow, Run, Tracing, Worker, absorbed_power};
+use super::run::{Overflow, Run, Tracing, Worker};
 use crate::accumulate::block::BlockCell;
 use crate::accumulate::{Scratch, diffraction};
 use crate::optics::fresnel::Field;
@@ -391,4 +391,31 @@ impl Run<'_> {
             .unwrap_or_else(std::sync::PoisonError::into_inner);
         *worst = Some(worst.map_or(o, |w| w.worse(o)));
     }
+}
+
+/// Absorbed power of one tree at one wavelength: what entered absorbing media and did not
+/// leave, `1 - R - T - dropped` with the tree's coherent totals (exact in the plane-wave
+/// limit, where the coherent sum is the exact field; docs/design.md §3), or 0 when no power
+/// entered an absorbing medium. Global mode has no per-tree coherent totals; there the
+/// incoherent exit power stands in for `R + T`.
+pub(super) fn absorbed_power(
+    tree: &Tree,
+    lambda: f64,
+    r: f64,
+    t: f64,
+    dropped: f64,
+    global: bool,
+) -> f64 {
+    // A tree with random events (roulette, particle scattering) balances only on average:
+    // its residual is kept even without absorption, so the column sums to 1 and averages
+    // to the true absorption (0 for a lossless sample).
+    if !tree.absorbing && tree.random_events == 0 {
+        return 0.0;
+    }
+    let out = if global {
+        tree.exit_power(lambda)
+    } else {
+        r + t
+    };
+    1.0 - out - dropped
 }

@@ -39,7 +39,10 @@ pub(super) fn error_groups(cfg: &SimConfig, scattering: bool) -> u64 {
     if scattering
         || too_few
         || cfg.random_entry
-        || matches!(cfg.coherence, Coherence::Global | Coherence::Diffraction)
+        || matches!(
+            cfg.coherence,
+            Coherence::Global | Coherence::Diffraction | Coherence::Rigorous
+        )
     {
         0
     } else {

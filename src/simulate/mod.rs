@@ -33,9 +33,12 @@ mod launch;
 mod partial;
 mod physical;
 mod prepare;
+mod rigorous;
+mod rigorous_fit;
 mod run;
 mod settings;
 mod stats;
+mod values;
 mod warnings;
 
 pub use groups::ERROR_GROUPS;
@@ -45,6 +48,7 @@ pub use physical::*;
 use run::{Lost, LostSums, Run};
 pub use settings::*;
 pub use stats::*;
+pub use values::*;
 pub use warnings::run_warnings;
 
 /// What can stop a simulation.
@@ -159,8 +163,24 @@ pub fn simulate(
             Err(SimError::Unphysical(format!(
                 "direction {di} failed as the test asked (SimConfig::fail_direction)"
             )))
+        } else if run.rigorous_only(di) {
+            // Nothing to trace: the cells' one solution each (`rigorous`).
+            run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells)
+                .map(|_| DirectionStats::untraced(cfg.theta_i_deg[di]))
         } else {
             run.direction(di, cfg.theta_i_deg[di], &mut cells, lost, progress)
+                .and_then(|d| {
+                    // What the rays lost or could not trust in a rigorous cell is not
+                    // the cell's.
+                    for k in run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells)? {
+                        limit_dropped[k] = 0.0;
+                        escaped[k] = 0.0;
+                        limit_bound[k] = 0.0;
+                        created[k] = 0.0;
+                        limited[k] = 0.0;
+                    }
+                    Ok(d)
+                })
         };
         let failed = match traced {
             Ok(mut d) => {
@@ -207,6 +227,9 @@ pub fn simulate(
         created,
         limited,
     };
+    for (di, n) in run.rigorous_notes.lock().expect("not poisoned").iter() {
+        run.auto_direction_notes[*di].push(n.clone());
+    }
     let notes = std::mem::take(&mut run.auto_direction_notes);
     let sheets = std::mem::take(&mut run.sheets);
     let (mut acc, stats) = run.finish(cells, lost, directions, start_time)?;

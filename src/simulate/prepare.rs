@@ -23,6 +23,7 @@ pub(super) fn method_refusals(
     cfg: &SimConfig,
     scattering: bool,
 ) -> Result<(), SimError> {
+    rigorous_refusals(sample, cfg)?;
     // Particle media: properties change with the wavelength and free paths are random,
     // so every wavelength is traced on its own; scattered light has random phases, so
     // only the beamlet estimator (which pairs exits of one coherence group) applies.
@@ -185,6 +186,7 @@ pub(super) fn method_choice(
     sheets: &[Option<crate::sample::validity::Scales>],
 ) -> Result<(super::auto::Choice, Vec<Vec<String>>), SimError> {
     use super::auto::{Choice, choose};
+    use crate::reference::rigorous::Rigorous;
     let cells = cfg.theta_i_deg.len() * cfg.wavelengths.count();
     let mut direction_notes = vec![Vec::new(); cfg.theta_i_deg.len()];
     let choice = match cfg.coherence {
@@ -192,9 +194,20 @@ pub(super) fn method_choice(
             diffraction_budget(sample, cfg, scene, lambdas, n_up)?;
             Choice {
                 diffraction: vec![true; cells],
+                rigorous: vec![false; cells],
+                solver: None,
                 notes: Vec::new(),
             }
         }
+        Coherence::Rigorous => Choice {
+            diffraction: vec![false; cells],
+            rigorous: vec![true; cells],
+            solver: Some(
+                Rigorous::new(sample, cfg.rigorous)
+                    .map_err(|e| SimError::Config(format!("sample '{}': {e}", sample.name)))?,
+            ),
+            notes: Vec::new(),
+        },
         Coherence::Auto => {
             let fits = |l: f64| {
                 diffraction_budget(sample, cfg, scene, &[l], n_up).map_err(|e| {
@@ -213,6 +226,8 @@ pub(super) fn method_choice(
         }
         _ => Choice {
             diffraction: vec![false; cells],
+            rigorous: vec![false; cells],
+            solver: None,
             notes: Vec::new(),
         },
     };
@@ -243,6 +258,25 @@ pub(super) fn sharing_refusal(
         return Err(SimError::Config(
             "path sharing needs wavelength-independent interfaces: this sample has an absorbing medium, whose thin films are taken by the transfer matrix, which changes with wavelength"
                 .into(),
+        ));
+    }
+    Ok(())
+}
+
+/// What `--coherence rigorous` cannot take: particle media (random phases), adaptive
+/// budgets (no trees to stop on).
+fn rigorous_refusals(sample: &Sample, cfg: &SimConfig) -> Result<(), SimError> {
+    if cfg.coherence != Coherence::Rigorous {
+        return Ok(());
+    }
+    if sample.media.iter().any(|m| m.scattering.is_some()) {
+        return Err(SimError::Config(
+            "--coherence rigorous solves a deterministic periodic tile, but this sample's particle media scatter with random phases; use --coherence auto (the default)".into(),
+        ));
+    }
+    if cfg.adaptive() {
+        return Err(SimError::Config(
+            "--tolerance and --target-stderr stop on the trees' standard error; --coherence rigorous traces none (its accuracy is --rigorous-tolerance)".into(),
         ));
     }
     Ok(())

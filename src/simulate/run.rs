@@ -127,6 +127,12 @@ pub(super) struct Run<'a> {
     /// transform): all of them with `Coherence::Diffraction`, the choice of
     /// `auto::choose` with `Coherence::Auto`.
     pub(super) cell_diffraction: Vec<bool>,
+    /// Each cell taken by the rigorous solver (`rigorous.rs`), and the sample sliced for it.
+    pub(super) cell_rigorous: Vec<bool>,
+    pub(super) rigorous: Option<crate::reference::rigorous::Rigorous>,
+    pub(super) rigorous_cells: std::sync::Mutex<Vec<Option<super::RigorousCell>>>,
+    /// What an auto run's rigorous cells could not do, with their direction.
+    pub(super) rigorous_notes: std::sync::Mutex<Vec<(usize, String)>>,
     /// `Coherence::Auto`: a diffraction cell whose transform cannot hold the ray field
     /// takes rays (`diffract`) instead of refusing the run.
     pub(super) auto: bool,
@@ -261,6 +267,7 @@ impl<'a> Run<'a> {
             methods: Vec::new(),
             next_event,
             mueller: cfg.mueller,
+            rigorous: choice.rigorous.contains(&true).then_some(cfg.rigorous),
         };
         Ok(Run {
             sample,
@@ -278,6 +285,10 @@ impl<'a> Run<'a> {
             },
             global: cfg.coherence == Coherence::Global,
             cell_diffraction: choice.diffraction,
+            cell_rigorous: choice.rigorous,
+            rigorous: choice.solver,
+            rigorous_cells: std::sync::Mutex::new(vec![None; cfg.theta_i_deg.len() * nl]),
+            rigorous_notes: Default::default(),
             auto: cfg.coherence == Coherence::Auto,
             auto_notes: choice.notes,
             auto_direction_notes: direction_notes,
@@ -593,7 +604,13 @@ impl<'a> Run<'a> {
             limited: lost.limited,
             diffraction: lost.diffraction,
             envelope_violations: self.scene.scatter_violations(),
-            auto_notes: self.auto_notes.clone(),
+            auto_notes: (self.auto_notes.iter())
+                .cloned()
+                .chain(
+                    (self.rigorous_notes.lock().expect("not poisoned").iter()).map(|n| n.1.clone()),
+                )
+                .collect(),
+            rigorous: std::mem::take(&mut *self.rigorous_cells.lock().expect("not poisoned")),
             densest_scatterer: {
                 let s = &self.settings;
                 let mid = s.wavelength(s.wavelength_count() / 2);
@@ -604,7 +621,13 @@ impl<'a> Run<'a> {
         };
         let mut settings = self.settings;
         if self.auto {
-            settings.methods = method_strings(&self.cell_diffraction, &stats.diffraction, self.nl);
+            let solved: Vec<bool> = stats.rigorous.iter().map(Option::is_some).collect();
+            settings.methods = super::auto::method_strings(
+                &self.cell_diffraction,
+                &solved,
+                &stats.diffraction,
+                self.nl,
+            );
         }
         let header = Header {
             settings,
@@ -643,47 +666,4 @@ impl<'a> Run<'a> {
         }
         Ok((acc, stats))
     }
-}
-
-/// `Settings::methods` of a `--coherence auto` run: per direction, one letter per
-/// wavelength cell, `d` where the diffraction method gave the buckets and `r` where rays did
-/// (chosen so, or fallen back: `DiffractionCell::fell_back`).
-fn method_strings(chosen: &[bool], diffraction: &[DiffractionCell], nl: usize) -> Vec<String> {
-    chosen
-        .chunks(nl.max(1))
-        .zip(diffraction.chunks(nl.max(1)))
-        .map(|(c, d)| {
-            c.iter()
-                .zip(d)
-                .map(|(&c, d)| if c && !d.fell_back { 'd' } else { 'r' })
-                .collect()
-        })
-        .collect()
-}
-
-/// Absorbed power of one tree at one wavelength: what entered absorbing media and did not
-/// leave, `1 - R - T - dropped` with the tree's coherent totals (exact in the plane-wave
-/// limit, where the coherent sum is the exact field; docs/design.md §3), or 0 when no power
-/// entered an absorbing medium. Global mode has no per-tree coherent totals; there the
-/// incoherent exit power stands in for `R + T`.
-pub(super) fn absorbed_power(
-    tree: &Tree,
-    lambda: f64,
-    r: f64,
-    t: f64,
-    dropped: f64,
-    global: bool,
-) -> f64 {
-    // A tree with random events (roulette, particle scattering) balances only on average:
-    // its residual is kept even without absorption, so the column sums to 1 and averages
-    // to the true absorption (0 for a lossless sample).
-    if !tree.absorbing && tree.random_events == 0 {
-        return 0.0;
-    }
-    let out = if global {
-        tree.exit_power(lambda)
-    } else {
-        r + t
-    };
-    1.0 - out - dropped
 }

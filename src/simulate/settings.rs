@@ -11,76 +11,12 @@ use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use super::SimError;
+use super::values::{backend, backend_name, coherence, coherence_name, defaults, finite, radius};
 use crate::accel::Backend;
 use crate::accumulate::{Buckets, Coherence, PhasePrecision};
+use crate::reference::rigorous::Effort;
 use crate::spectrum::Wavelengths;
 use crate::trace::TraceLimits;
-
-/// Every front end's defaults for a simulation, in one place (read by [`SimSettings`]'s
-/// `Default` and its flags). The limits of a tree are `TraceLimits::default()`.
-pub mod defaults {
-    /// Incident polar angles, degrees.
-    pub const THETA_I_DEG: [f64; 6] = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0];
-    /// Trees per incident direction.
-    pub const RAYS: u64 = 4096;
-    /// The most trees per direction of an adaptive run (`--tolerance`).
-    pub const MAX_RAYS: u64 = 1_000_000;
-    /// Beamlet radius: the illumination's transverse coherence length, nm.
-    pub const COHERENCE_RADIUS_NM: f64 = crate::sample::validity::DEFAULT_COHERENCE_RADIUS_NM;
-    /// Outgoing buckets per hemisphere, in theta and in phi.
-    pub const THETA_O_BINS: u32 = 45;
-    pub const PHI_O_BINS: u32 = 36;
-    /// Random seed.
-    pub const SEED: u64 = 1;
-    /// The most worker threads a run may ask for (each holds its own scratch buffers).
-    pub const MAX_THREADS: usize = 1024;
-}
-
-/// A value a setting cannot take (the setting's parser says why).
-#[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct BadValue(pub String);
-
-/// A finite number: every floating-point setting goes through this, so NaN and infinity
-/// are refused before any work starts (the CLI names the flag: clap's usage error, exit 2).
-pub fn finite(s: &str) -> Result<f64, BadValue> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| BadValue(format!("'{s}' is not a number")))?;
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        Err(BadValue(format!("{s} is not a finite number")))
-    }
-}
-
-/// A coherence radius, nm: positive, or `inf` for the plane-wave limit.
-pub fn radius(s: &str) -> Result<f64, BadValue> {
-    if s.trim().eq_ignore_ascii_case("inf") {
-        return Ok(f64::INFINITY);
-    }
-    match s.trim().parse::<f64>() {
-        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
-        _ => Err(BadValue(format!(
-            "'{s}' is not a positive radius in nm (or inf)"
-        ))),
-    }
-}
-
-/// A coherence mode by name.
-pub fn coherence(s: &str) -> Result<Coherence, BadValue> {
-    Coherence::parse(s).ok_or_else(|| {
-        BadValue(format!(
-            "unknown coherence '{s}' (auto, beamlet, diffraction, bucket or global)"
-        ))
-    })
-}
-
-/// An accelerator by name.
-pub fn backend(s: &str) -> Result<Backend, BadValue> {
-    s.parse::<Backend>().map_err(|e| BadValue(e.to_string()))
-}
 
 /// Every user knob of one simulation, with its default (`Default`, from [`defaults`]) and
 /// its validation ([`SimSettings::resolve`]). Its fields are the flags of `goniospec
@@ -125,8 +61,12 @@ pub struct SimSettings {
     /// (physical optics on the ray field: grating orders, the coherent specular order of
     /// slightly rough surfaces); trees launch on a lattice, R and T stay the rays', and
     /// the power its transform kept is reported (docs/physics.md, "Diffraction"; where
-    /// each holds: docs/validity.md). bucket and global: the failing comparison modes of
-    /// the seed.
+    /// each holds: docs/validity.md). rigorous: no rays; the Fourier modal method (RCWA)
+    /// solves Maxwell's equations on the periodic tile, sliced along z, for each cell,
+    /// checked for convergence against a coarser solution (--orders, --slices,
+    /// --rigorous-tolerance; docs/physics.md, "The rigorous solver"); for structure near
+    /// or below the wavelength, where rays and the diffraction method do not hold. bucket
+    /// and global: the failing comparison modes of the seed.
     #[arg(long, default_value = "auto", value_parser = coherence)]
     #[serde(deserialize_with = "coherence_name")]
     pub coherence: Coherence,
@@ -194,6 +134,21 @@ pub struct SimSettings {
     #[arg(long)]
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub mueller: bool,
+    /// The rigorous solver's harmonics per patterned axis (orders -M..M); by default the
+    /// orders that propagate in the densest medium plus 12 (1-D) or 3 (crossed gratings).
+    /// The convergence check solves again with two thirds of them.
+    #[arg(long, value_name = "M")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orders: Option<usize>,
+    /// The rigorous solver's slices along z per structured region of the tile (flat layers
+    /// are one exact slice each); the convergence check uses half as many.
+    #[arg(long, default_value_t = Effort::SLICES)]
+    pub slices: usize,
+    /// The largest difference in R, T or any order's efficiency between the rigorous
+    /// solution and its coarser check that a cell may have; a cell above it is refused,
+    /// naming what to raise.
+    #[arg(long, value_parser = finite, default_value_t = Effort::TOLERANCE)]
+    pub rigorous_tolerance: f64,
     /// Debugging only: write results that are physically impossible (R > 1, negative
     /// power, energy created) instead of refusing them with exit status 1. The run still
     /// prints what failed.
@@ -225,6 +180,9 @@ impl Default for SimSettings {
             no_wavelength_sharing: false,
             no_next_event: false,
             mueller: false,
+            orders: None,
+            slices: Effort::SLICES,
+            rigorous_tolerance: Effort::TOLERANCE,
             allow_unphysical: false,
         }
     }
@@ -278,6 +236,11 @@ impl SimSettings {
             wavelength_sharing: !self.no_wavelength_sharing,
             next_event: !self.no_next_event,
             mueller: self.mueller,
+            rigorous: Effort {
+                orders: self.orders,
+                slices: self.slices,
+                tolerance: self.rigorous_tolerance,
+            },
             allow_unphysical: self.allow_unphysical,
             tolerance: self.tolerance,
             target_stderr: self.target_stderr,
@@ -295,48 +258,6 @@ impl SimSettings {
             self.rays
         };
         per.saturating_mul(self.theta_i_deg.len() as u64)
-    }
-}
-
-/// A worker pool of `threads` threads (0: every core), at most [`defaults::MAX_THREADS`].
-/// Results never depend on it.
-pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool, SimError> {
-    if threads > defaults::MAX_THREADS {
-        return Err(SimError::Setting {
-            key: "threads",
-            message: format!(
-                "{threads} is more than {}; 0 uses every core",
-                defaults::MAX_THREADS
-            ),
-        });
-    }
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| SimError::Config(format!("threads: {e}")))
-}
-
-/// A coherence mode by name, refused with [`coherence`]'s words.
-fn coherence_name<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Coherence, D::Error> {
-    coherence(&String::deserialize(d)?).map_err(serde::de::Error::custom)
-}
-
-/// Serde of an optional backend by name (`"embree"`, `"obvhs"`; absent: the default).
-mod backend_name {
-    use crate::accel::Backend;
-    use serde::{Deserialize, Deserializer, Serializer};
-
-    pub fn serialize<S: Serializer>(b: &Option<Backend>, s: S) -> Result<S::Ok, S::Error> {
-        match b {
-            Some(b) => s.serialize_str(b.name()),
-            None => s.serialize_none(),
-        }
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Backend>, D::Error> {
-        let name: Option<String> = Option::deserialize(d)?;
-        name.map(|n| n.parse().map_err(serde::de::Error::custom))
-            .transpose()
     }
 }
 
@@ -369,6 +290,8 @@ pub struct SimConfig {
     pub next_event: bool,
     /// Keep every bucket's Mueller matrix (`accumulate::Cell::mueller`).
     pub mueller: bool,
+    /// What the rigorous solver spends, and the convergence it must reach.
+    pub rigorous: Effort,
     /// Use the reference estimator (`accumulate::Estimator::reference`): the same physics,
     /// slower; for tests.
     pub reference_estimator: bool,
@@ -442,6 +365,7 @@ impl SimConfig {
             wavelength_sharing: true,
             next_event: true,
             mueller: false,
+            rigorous: Effort::default(),
             reference_estimator: false,
             origin_nm: DVec3::ZERO,
             tolerance: None,
@@ -470,6 +394,7 @@ pub fn validity_context(cfg: &SimConfig) -> crate::sample::validity::Context {
         method: match cfg.coherence {
             Coherence::Diffraction => Method::Diffraction,
             Coherence::Auto => Method::Auto,
+            Coherence::Rigorous => Method::Rigorous,
             _ => Method::Rays,
         },
     }
@@ -602,6 +527,7 @@ pub fn validate(cfg: &SimConfig) -> Result<(), SimError> {
         );
     }
     validate_mueller(cfg)?;
+    validate_effort(cfg)?;
     if !(cfg.limits.cutoff >= 0.0 && cfg.limits.cutoff < 1.0) {
         return bad(
             "cutoff",
@@ -675,3 +601,35 @@ const MAX_BUCKETS: u64 = 1 << 22;
 const MAX_ACCUMULATOR_BYTES: u64 = 8 << 30;
 /// The most trees per incident direction any run may ask for.
 pub const MAX_RAYS: u64 = 1_000_000_000_000;
+
+/// The most harmonics per axis `--orders` may ask for, and the most slices.
+pub const MAX_ORDERS: usize = 300;
+pub const MAX_SLICES: usize = 2000;
+
+/// Refuses effort no run can spend, and what the rigorous solver cannot take.
+fn validate_effort(cfg: &SimConfig) -> Result<(), SimError> {
+    let e: Effort = cfg.rigorous;
+    let bad = |key, message: String| Err(SimError::Setting { key, message });
+    if e.orders.is_some_and(|m| m > MAX_ORDERS) {
+        return bad(
+            "orders",
+            format!(
+                "at most {MAX_ORDERS} harmonics per axis (got {:?})",
+                e.orders
+            ),
+        );
+    }
+    if e.slices == 0 || e.slices > MAX_SLICES {
+        return bad(
+            "slices",
+            format!("from 1 to {MAX_SLICES} slices (got {})", e.slices),
+        );
+    }
+    if !(e.tolerance > 0.0 && e.tolerance < 1.0) {
+        return bad(
+            "rigorous_tolerance",
+            format!("a difference in (0, 1) (got {})", e.tolerance),
+        );
+    }
+    Ok(())
+}

@@ -25,6 +25,23 @@ pub struct DirectionStats {
     pub envelope_violations: u64,
 }
 
+impl DirectionStats {
+    /// A direction whose every cell the rigorous solver took: one solution per cell,
+    /// counted as one tree (`simulate::rigorous`).
+    pub fn untraced(theta_i_deg: f64) -> DirectionStats {
+        DirectionStats {
+            theta_i_deg,
+            rays: 1,
+            achieved: None,
+            converged: false,
+            by_median: false,
+            segments: 0,
+            leaks: 0,
+            envelope_violations: 0,
+        }
+    }
+}
+
 impl std::fmt::Display for DirectionStats {
     /// `theta_i 30 deg: 4096 trees, relative standard error 0.0123 (converged)`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -227,6 +244,18 @@ pub struct SimStats {
     /// `--coherence auto`: the cells that needed the diffraction method and took rays,
     /// and why (`auto::choose`).
     pub auto_notes: Vec<String>,
+    /// The rigorous solver, per cell (`None` for cells it did not take).
+    pub rigorous: Vec<Option<RigorousCell>>,
+}
+
+/// What the rigorous solver did in one cell: the harmonics per axis, the slices, its
+/// difference from the coarser check (`reference::rigorous`) and its wall time, s.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RigorousCell {
+    pub harmonics: [usize; 2],
+    pub slices: usize,
+    pub difference: f64,
+    pub seconds: f64,
 }
 
 impl SimStats {
@@ -252,6 +281,11 @@ impl SimStats {
                 .unwrap_or(&[])
                 .to_vec(),
             auto_notes: Vec::new(),
+            rigorous: self
+                .rigorous
+                .get(di * nl..(di + 1) * nl)
+                .unwrap_or(&[])
+                .to_vec(),
             ..self.clone()
         }
     }

@@ -34,8 +34,22 @@ pub(super) fn stored_warnings(
             theta_i_deg: vec![theta],
             ..cfg.clone()
         };
-        let ctx = super::validity_context(&one);
-        let mut found: Vec<String> = validity::assess_scales(sample, sheets, &ctx)
+        let mut ctx = super::validity_context(&one);
+        // The scale findings judge rays and the diffraction method: only over the cells
+        // they gave (none where the rigorous solver gave every cell).
+        let s = &acc.header.settings;
+        let others: Vec<f64> = (0..nl)
+            .filter(|&j| s.cell_mode(di, j) != crate::accumulate::Coherence::Rigorous)
+            .map(|j| s.wavelength(j))
+            .collect();
+        ctx.lambda_min_nm = others.iter().copied().fold(f64::INFINITY, f64::min);
+        ctx.lambda_max_nm = others.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let assessed = if others.is_empty() {
+            Vec::new()
+        } else {
+            validity::assess_scales(sample, sheets, &ctx)
+        };
+        let mut found: Vec<String> = assessed
             .into_iter()
             .chain(small.iter().cloned())
             .map(|f| f.message)

@@ -42,6 +42,9 @@ pub enum Method {
     /// `--coherence auto`: the run takes each cell's method itself (`simulate::auto`),
     /// and says where it could not, so the advice to switch methods is not given here.
     Auto,
+    /// `--coherence rigorous`: Maxwell's equations on the tile; no scale limits it (its
+    /// convergence is checked per cell instead), so nothing here applies.
+    Rigorous,
 }
 
 /// What the run asks of the sample.
@@ -274,9 +277,59 @@ pub fn sheet_scales(sample: &Sample) -> Vec<Option<Scales>> {
         .collect()
 }
 
+/// The wavelength (nm) in the denser of the two media an interface separates, for light of
+/// vacuum wavelength `lambda_nm`.
+fn denser_wavelength(sample: &Sample, itf: &crate::sample::Interface, lambda_nm: f64) -> f64 {
+    let n = [itf.front, itf.back]
+        .iter()
+        .map(|&m| {
+            sample.media[m]
+                .model
+                .eval(lambda_nm)
+                .map_or(1.0, |(n, _)| n)
+        })
+        .fold(1.0, f64::max);
+    lambda_nm / n
+}
+
+/// Whether a sheet's structure is near or below the wavelength `lam` (nm, in the denser
+/// medium), where neither rays nor the diffraction method hold: a period (or lateral
+/// scale) below `MIN_PERIOD_WAVELENGTHS` wavelengths or a curvature radius below
+/// `MIN_CURVATURE_WAVELENGTHS`.
+fn finer_than(sc: &Scales, lam: f64) -> bool {
+    let scale = if sc.period_share >= 0.5 {
+        sc.period_nm
+    } else {
+        sc.lateral_nm
+    };
+    scale < MIN_PERIOD_WAVELENGTHS * lam || sc.curvature_radius_nm < MIN_CURVATURE_WAVELENGTHS * lam
+}
+
+/// The first sheet of `sample` whose structure is near or below the wavelength at
+/// `lambda_nm` ([`finer_than`]): its index and the wavelength in its denser medium, nm.
+pub fn finer_than_wavelength(
+    sample: &Sample,
+    sheets: &[Option<Scales>],
+    lambda_nm: f64,
+) -> Option<(usize, f64)> {
+    sample
+        .interfaces
+        .iter()
+        .zip(sheets)
+        .enumerate()
+        .find_map(|(i, (itf, sc))| {
+            let sc = sc.filter(|s| s.lateral_nm.is_finite())?;
+            let lam = denser_wavelength(sample, itf, lambda_nm);
+            finer_than(&sc, lam).then_some((i, lam))
+        })
+}
+
 /// [`assess`] with the interfaces' scales already measured ([`sheet_scales`]).
 pub fn assess_scales(sample: &Sample, sheets: &[Option<Scales>], ctx: &Context) -> Vec<Finding> {
     let mut out = Vec::new();
+    if ctx.method == Method::Rigorous {
+        return out;
+    }
     let lambda = ctx.lambda_min_nm;
     let cos = ctx.theta_max_deg().to_radians().cos().max(0.05);
     for (i, (itf, sc)) in sample.interfaces.iter().zip(sheets).enumerate() {
@@ -286,15 +339,9 @@ pub fn assess_scales(sample: &Sample, sheets: &[Option<Scales>], ctx: &Context) 
         if !sc.lateral_nm.is_finite() {
             continue;
         }
-        // The wavelength in the denser of the two media.
-        let n = [itf.front, itf.back]
-            .iter()
-            .map(|&m| sample.media[m].model.eval(lambda).map_or(1.0, |(n, _)| n))
-            .fold(1.0, f64::max);
-        let lam = lambda / n;
+        let lam = denser_wavelength(sample, itf, lambda);
         let name = format!("interface {i} ({})", itf.mesh_path.display());
         let grating = sc.period_share >= 0.5;
-        let scale = if grating { sc.period_nm } else { sc.lateral_nm };
         let what = if grating {
             format!("a grating of period {:.0} nm", sc.period_nm)
         } else {
@@ -303,9 +350,12 @@ pub fn assess_scales(sample: &Sample, sheets: &[Option<Scales>], ctx: &Context) 
                 sc.lateral_nm, sc.rms_height_nm, sc.rms_slope
             )
         };
-        if scale < MIN_PERIOD_WAVELENGTHS * lam
-            || sc.curvature_radius_nm < MIN_CURVATURE_WAVELENGTHS * lam
-        {
+        if finer_than(&sc, lam) {
+            // An auto run gives these cells the rigorous solver, and says where it could
+            // not (`simulate::auto`).
+            if ctx.method == Method::Auto {
+                continue;
+            }
             out.push(Finding {
                 message: format!(
                     "{name} has {what} and curvature radius {:.0} nm, near or below the wavelength ({lambda:.0} nm, {lam:.0} nm in the denser medium): neither rays nor physical optics (--coherence diffraction) hold below {MIN_PERIOD_WAVELENGTHS} wavelengths of period or {MIN_CURVATURE_WAVELENGTHS} of curvature radius; use a rigorous solver (RCWA, FDTD) for this structure (docs/validity.md)",

@@ -1,0 +1,243 @@
+//! The rigorous solver on a sample (docs/physics.md, "The rigorous solver"): its tile sliced
+//! twice ([`grating::slice`]: the run's slices, and half as many for the check), the
+//! harmonics chosen per wavelength, and every answer checked for convergence against a
+//! coarser one (two thirds of the harmonics per patterned axis, half the slices). The
+//! difference, the largest over R, T and every order's efficiency in either polarisation,
+//! bounds the coarser solution's error and so, conservatively, the answer's; a cell whose
+//! difference is above the tolerance is refused, naming what to raise.
+
+use glam::DVec3;
+
+use super::grating::{self, SliceError, SliceSpec, Sliced};
+use crate::optics::C64;
+use crate::optics::rcwa::{self, Harmonics, RcwaError, Solution};
+use crate::sample::Sample;
+
+/// What the solver spends: harmonics per patterned axis (`None`: chosen per wavelength,
+/// [`Rigorous::harmonics`]), slices per structured region, pixels per patterned axis, and
+/// the largest difference from the coarser check that a cell may have.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Effort {
+    pub orders: Option<usize>,
+    pub slices: usize,
+    pub tolerance: f64,
+}
+
+impl Effort {
+    pub const SLICES: usize = 24;
+    pub const TOLERANCE: f64 = 2e-3;
+    /// Pixels along a patterned axis of a 1-D and of a 2-D structure (divisible by 1 to
+    /// 6, 8, 9, 10, 12, 15 and 16, so that a tile of that many periods reduces to one).
+    pub const PIXELS_1D: usize = 720;
+    pub const PIXELS_2D: usize = 120;
+    /// Harmonics beyond the propagating ones per patterned axis, by default.
+    pub const MARGIN_1D: usize = 12;
+    pub const MARGIN_2D: usize = 3;
+    /// The most modes (`2 N`, N the harmonics) one slice may have: its eigenproblem's size.
+    pub const MAX_MODES: usize = 1200;
+}
+
+impl Default for Effort {
+    fn default() -> Self {
+        Effort {
+            orders: None,
+            slices: Effort::SLICES,
+            tolerance: Effort::TOLERANCE,
+        }
+    }
+}
+
+/// Why the rigorous solver cannot answer a cell.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RigorousError {
+    #[error(transparent)]
+    Slice(#[from] SliceError),
+    #[error(transparent)]
+    Solver(#[from] RcwaError),
+    #[error(
+        "the medium above the structure ('{0}') absorbs: the rigorous solver takes the light from a lossless half-space"
+    )]
+    AboveAbsorbs(String),
+    #[error(
+        "the rigorous solver needs {modes} modes per slice at {lambda_nm} nm ({harmonics:?} harmonics per axis over a period of {period_nm:?} nm), more than {max}: the tile is too large against the wavelength for it (rays or the diffraction method hold at that scale)"
+    )]
+    TooLarge {
+        modes: usize,
+        harmonics: [usize; 2],
+        period_nm: [f64; 2],
+        lambda_nm: f64,
+        max: usize,
+    },
+    #[error(
+        "the rigorous solver did not converge at theta_i {theta_deg} deg and {lambda_nm} nm: {harmonics:?} harmonics and {slices} slices differ from {coarse:?} and {coarse_slices} by {difference:.2e} in R, T or an order's efficiency (tolerance {tolerance:.1e}); raise --orders or --slices"
+    )]
+    NotConverged {
+        theta_deg: f64,
+        lambda_nm: f64,
+        harmonics: [usize; 2],
+        slices: usize,
+        coarse: [usize; 2],
+        coarse_slices: usize,
+        difference: f64,
+        tolerance: f64,
+    },
+}
+
+/// A sample ready for the solver: its tile sliced at the run's effort and at the check's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rigorous {
+    pub effort: Effort,
+    /// The medium above the structure, by name (for messages).
+    pub above: String,
+    pub fine: Sliced,
+    pub coarse: Sliced,
+}
+
+/// One cell's answer: the solution, the harmonics and slices it took, and its difference
+/// from the coarser check.
+#[derive(Clone, Debug)]
+pub struct Converged {
+    pub solution: Solution,
+    pub harmonics: [usize; 2],
+    pub slices: usize,
+    pub difference: f64,
+}
+
+impl Rigorous {
+    /// Slices `sample` (probing first which axes it is patterned along, at 64 x 64 pixels).
+    pub fn new(sample: &Sample, effort: Effort) -> Result<Rigorous, RigorousError> {
+        let probe = grating::slice(
+            sample,
+            SliceSpec {
+                pixels: [64, 64],
+                slices: 4,
+            },
+        )?;
+        let per = if probe.patterned == [true, true] {
+            Effort::PIXELS_2D
+        } else {
+            Effort::PIXELS_1D
+        };
+        let pixels = probe.patterned.map(|p| if p { per } else { 1 });
+        let at = |slices: usize| {
+            grating::slice(
+                sample,
+                SliceSpec {
+                    pixels,
+                    slices: slices.max(1),
+                },
+            )
+        };
+        Ok(Rigorous {
+            effort,
+            above: sample.media[probe.above].name.clone(),
+            fine: at(effort.slices)?,
+            coarse: at(effort.slices.div_ceil(2))?,
+        })
+    }
+
+    /// The harmonics per axis at `lambda_nm` for light along `d` with the largest real index
+    /// `n_max` among the media: the orders that propagate in the densest medium, plus the
+    /// margin (or `--orders` where given); 0 along an axis the structure does not change
+    /// along.
+    pub fn harmonics(&self, lambda_nm: f64, n_max: f64) -> [usize; 2] {
+        let s = &self.fine;
+        let two_d = s.patterned == [true, true];
+        let margin = if two_d {
+            Effort::MARGIN_2D
+        } else {
+            Effort::MARGIN_1D
+        };
+        [0, 1].map(|a| {
+            if !s.patterned[a] {
+                0
+            } else if let Some(m) = self.effort.orders {
+                m
+            } else {
+                (2.0 * n_max * s.period_nm[a] / lambda_nm).ceil() as usize + margin
+            }
+        })
+    }
+
+    /// Solves one cell: light of `lambda_nm` along `d` (`theta_deg` for messages), the media
+    /// indices `idx` there.
+    pub fn solve(
+        &self,
+        idx: &[C64],
+        lambda_nm: f64,
+        d: DVec3,
+        theta_deg: f64,
+    ) -> Result<Converged, RigorousError> {
+        let above = idx[self.fine.above];
+        if above.im != 0.0 {
+            return Err(RigorousError::AboveAbsorbs(self.above.clone()));
+        }
+        let n_max = idx.iter().map(|n| n.re.abs()).fold(1.0, f64::max);
+        let m = self.harmonics(lambda_nm, n_max);
+        let h = Harmonics { m };
+        let modes = 2 * h.count();
+        if modes > Effort::MAX_MODES {
+            return Err(RigorousError::TooLarge {
+                modes,
+                harmonics: m,
+                period_nm: self.fine.period_nm,
+                lambda_nm,
+                max: Effort::MAX_MODES,
+            });
+        }
+        let coarse_m = m.map(|k| (2 * k).div_ceil(3));
+        let fine = rcwa::solve(&self.fine.structure(idx), lambda_nm, d, h)?;
+        let coarse = rcwa::solve(
+            &self.coarse.structure(idx),
+            lambda_nm,
+            d,
+            Harmonics { m: coarse_m },
+        )?;
+        let difference = difference(&fine, &coarse);
+        let slices = self.effort.slices;
+        if difference > self.effort.tolerance {
+            return Err(RigorousError::NotConverged {
+                theta_deg,
+                lambda_nm,
+                harmonics: m,
+                slices,
+                coarse: coarse_m,
+                coarse_slices: slices.div_ceil(2),
+                difference,
+                tolerance: self.effort.tolerance,
+            });
+        }
+        Ok(Converged {
+            solution: fine,
+            harmonics: m,
+            slices,
+            difference,
+        })
+    }
+}
+
+/// The largest difference between two solutions of one cell: R and T per polarisation, and
+/// every order's efficiency per polarisation (an order missing from one counts as 0).
+pub fn difference(a: &Solution, b: &Solution) -> f64 {
+    let mut d: f64 = 0.0;
+    for pol in 0..2 {
+        d = d.max((a.r[pol] - b.r[pol]).abs());
+        d = d.max((a.t[pol] - b.t[pol]).abs());
+    }
+    let find = |s: &Solution, o: &rcwa::Order| {
+        s.orders
+            .iter()
+            .find(|x| x.m == o.m && x.up == o.up)
+            .copied()
+    };
+    for (x, y) in [(a, b), (b, a)] {
+        for o in &x.orders {
+            let other = find(y, o);
+            for pol in 0..2 {
+                let e = other.map_or(0.0, |p| p.efficiency(pol));
+                d = d.max((o.efficiency(pol) - e).abs());
+            }
+        }
+    }
+    d
+}

@@ -1,0 +1,161 @@
+//! The rigorous solver's cells (`--coherence rigorous`, or the cells `--coherence auto`
+//! gives it): no trees; each (incident direction, wavelength) cell solved by the Fourier
+//! modal method on the sample's sliced tile (`reference::rigorous`), checked for
+//! convergence, and its propagating orders written into the cell's buckets as the
+//! diffraction method writes its orders (spread by the illumination's partial coherence,
+//! `accumulate::diffraction::pattern_of_orders`).
+//!
+//! A rigorous cell holds its one solution as one tree: its sums are the efficiencies, its
+//! sums of squares their squares (no spread: a standard error of 0, and `fraction_stderr`
+//! says none is defined), R and T the solver's, and the absorbed power `1 - R - T`. A
+//! direction whose every cell is rigorous traces nothing and records one tree.
+
+use rayon::prelude::*;
+
+use super::SimError;
+use super::run::Run;
+use crate::accumulate::Cell;
+use crate::accumulate::diffraction::{self, Pattern};
+use crate::geom::from_spherical;
+use crate::reference::rigorous::{Converged, RigorousError};
+
+impl Run<'_> {
+    /// Whether cell (`di`, `j`) takes the rigorous solver.
+    pub(super) fn cell_takes_rigorous(&self, di: usize, j: usize) -> bool {
+        self.cell_rigorous[di * self.nl + j]
+    }
+
+    /// Whether direction `di` traces no tree: `--coherence rigorous`. (An auto run traces
+    /// its rigorous cells' rays too, which a cell the solver cannot converge keeps.)
+    pub(super) fn rigorous_only(&self, di: usize) -> bool {
+        self.cfg.coherence == crate::accumulate::Coherence::Rigorous
+            && (0..self.nl).all(|j| self.cell_takes_rigorous(di, j))
+    }
+
+    /// Solves direction `di`'s rigorous cells (in parallel over wavelengths; each cell on
+    /// its own, so the bytes do not depend on the thread count) and writes them into
+    /// `cells` (the run's, direction-major); returns the cells written. A cell the solver
+    /// cannot answer refuses an explicit run; an auto run keeps that cell's rays and says
+    /// why (`rigorous_notes`).
+    pub(super) fn solve_rigorous(
+        &self,
+        di: usize,
+        theta_deg: f64,
+        cells: &mut [Cell],
+    ) -> Result<Vec<usize>, SimError> {
+        let Some(solver) = &self.rigorous else {
+            return Ok(Vec::new());
+        };
+        let explicit = self.cfg.coherence == crate::accumulate::Coherence::Rigorous;
+        let wi = from_spherical(theta_deg.to_radians(), self.cfg.phi_i_deg.to_radians());
+        let d = -wi;
+        let nl = self.nl;
+        type Solved = Option<(Converged, Pattern, Pattern, f64)>;
+        let solved: Vec<Result<Solved, RigorousError>> = (0..nl)
+            .into_par_iter()
+            .map(|j| -> Result<Solved, RigorousError> {
+                if !self.cell_takes_rigorous(di, j) {
+                    return Ok(None);
+                }
+                let start = std::time::Instant::now();
+                let lambda = self.settings.wavelength(j);
+                let mut idx = Vec::new();
+                self.sample.indices_into(lambda, &mut idx);
+                let c = solver.solve(&idx, lambda, d, theta_deg)?;
+                let n_up = idx[solver.fine.above].re;
+                let n_down = idx[solver.fine.below];
+                let spread = |up: bool, n: f64| {
+                    let orders = c.solution.orders.iter().filter(|o| o.up == up);
+                    diffraction::pattern_of_orders(
+                        orders.map(|o| (o.dir, o.jones)),
+                        &self.cfg.buckets,
+                        2.0 * std::f64::consts::PI / lambda * n,
+                        self.cfg.rho_nm,
+                        !up,
+                        self.cfg.mueller,
+                    )
+                };
+                let up = spread(true, n_up);
+                let down = if n_down.im == 0.0 {
+                    spread(false, n_down.re)
+                } else {
+                    Pattern::default()
+                };
+                Ok(Some((c, up, down, start.elapsed().as_secs_f64())))
+            })
+            .collect();
+        let mut figures = self.rigorous_cells.lock().expect("not poisoned");
+        let mut written = Vec::new();
+        for (j, s) in solved.into_iter().enumerate() {
+            let s = match s {
+                Ok(s) => s,
+                Err(e) if explicit => {
+                    return Err(SimError::Config(format!(
+                        "sample '{}': {e}",
+                        self.sample.name
+                    )));
+                }
+                Err(e) => {
+                    let mut notes = self.rigorous_notes.lock().expect("not poisoned");
+                    notes.push((di, format!("{e}; that cell kept the rays' result")));
+                    continue;
+                }
+            };
+            if let Some((c, up, down, seconds)) = s {
+                written.push(di * nl + j);
+                write_cell(&mut cells[di * nl + j], &c, &up, &down)?;
+                figures[di * nl + j] = Some(super::RigorousCell {
+                    harmonics: c.harmonics,
+                    slices: c.slices,
+                    difference: c.difference,
+                    seconds,
+                });
+            }
+        }
+        Ok(written)
+    }
+}
+
+/// A cell's sums from one rigorous solution (see the module's documentation); refuses an
+/// impossible one (R or T outside [0, 1], or R + T above 1 beyond rounding).
+fn write_cell(
+    cell: &mut Cell,
+    c: &Converged,
+    up: &Pattern,
+    down: &Pattern,
+) -> Result<(), SimError> {
+    let s = &c.solution;
+    let r = 0.5 * (s.r[0] + s.r[1]);
+    let t = 0.5 * (s.t[0] + s.t[1]);
+    let a = 1.0 - r - t;
+    if !(r.is_finite() && t.is_finite()) || r < 0.0 || t < 0.0 || a < -1e-9 {
+        return Err(SimError::Unphysical(format!(
+            "the rigorous solver gave R = {r} and T = {t} (R + T = {}): impossible, so not written; this is a bug, please report it with the sample",
+            r + t
+        )));
+    }
+    cell.trees = 1;
+    cell.sum.fill(0.0);
+    cell.sumsq.fill(0.0);
+    cell.count.fill(0);
+    cell.var.clear();
+    (cell.r_sum, cell.r_sumsq, cell.r_var) = (r, r * r, 0.0);
+    (cell.t_sum, cell.t_sumsq, cell.t_var) = (t, t * t, 0.0);
+    cell.absorbed = a.max(0.0);
+    cell.dropped = 0.0;
+    for &(kk, p) in up.per_key.iter().chain(&down.per_key) {
+        cell.sum[kk as usize] = p;
+        cell.sumsq[kk as usize] = p * p;
+        cell.count[kk as usize] = 1;
+    }
+    if !cell.mueller.is_empty() {
+        cell.mueller.fill([0.0; 16]);
+        cell.mueller_sq.fill([0.0; 16]);
+        let keys = up.per_key.iter().chain(&down.per_key).map(|e| e.0);
+        for (kk, m) in keys.zip(up.per_key_mueller.iter().chain(&down.per_key_mueller)) {
+            cell.mueller[kk as usize] = *m;
+            cell.mueller_sq[kk as usize] = m.map(|x| x * x);
+        }
+    }
+    Ok(())
+}

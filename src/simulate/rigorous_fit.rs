@@ -1,0 +1,88 @@
+//! Whether `--coherence auto` can give a cell the rigorous solver: the sample must be a
+//! deterministic periodic tile it can slice, and the cell's eigenproblem within the budget
+//! an auto run spends on one cell ([`AUTO_MAX_MODES`]); the sliced sample is built once, on
+//! the first cell that asks.
+
+use super::SimConfig;
+use crate::reference::rigorous::Rigorous;
+use crate::sample::Sample;
+
+/// The most modes per slice (twice the harmonics) an auto run gives one cell: about 0.3 s
+/// per slice on one core for a 1-D grating (150 harmonics, `bench rigorous`), so a cell
+/// of the default 24 slices and its check stays within about ten seconds. An explicit
+/// `--coherence rigorous` may go to `reference::rigorous::Effort::MAX_MODES`.
+pub const AUTO_MAX_MODES: usize = 300;
+
+/// Why the solver cannot take a cell, in words.
+struct Refusal(String);
+
+impl Refusal {
+    fn err(self) -> String {
+        self.0
+    }
+}
+
+/// The rigorous solver as an auto run may use it: built on first use, its refusal kept.
+pub struct RigorousFit<'a> {
+    sample: &'a Sample,
+    cfg: &'a SimConfig,
+    solver: Option<Result<Rigorous, String>>,
+}
+
+impl<'a> RigorousFit<'a> {
+    pub fn new(sample: &'a Sample, cfg: &'a SimConfig) -> Self {
+        RigorousFit {
+            sample,
+            cfg,
+            solver: None,
+        }
+    }
+
+    /// Why the solver cannot take a cell at `lambda_nm` (`None` where it can).
+    pub fn refusal(&mut self, lambda_nm: f64) -> Option<String> {
+        self.check(lambda_nm).err().map(Refusal::err)
+    }
+
+    fn check(&mut self, lambda_nm: f64) -> Result<(), Refusal> {
+        let (sample, cfg) = (self.sample, self.cfg);
+        if sample.guard_nm.is_some() {
+            return Err(Refusal(
+                "its sides are open (a guard band), and the solver takes a periodic tile".into(),
+            ));
+        }
+        if sample.media.iter().any(|m| m.scattering.is_some()) {
+            return Err(Refusal(
+                "its particle media scatter with random phases".into(),
+            ));
+        }
+        if cfg.adaptive() {
+            return Err(Refusal(
+                "--tolerance and --target-stderr stop on trees, which it has none of".into(),
+            ));
+        }
+        let solver = self
+            .solver
+            .get_or_insert_with(|| Rigorous::new(sample, cfg.rigorous).map_err(|e| e.to_string()))
+            .as_ref()
+            .map_err(|e| Refusal(e.clone()))?;
+        let mut idx = Vec::new();
+        sample.indices_into(lambda_nm, &mut idx);
+        let n_max = idx.iter().map(|n| n.re.abs()).fold(1.0, f64::max);
+        let m = solver.harmonics(lambda_nm, n_max);
+        let modes = 2 * (2 * m[0] + 1) * (2 * m[1] + 1);
+        if modes > AUTO_MAX_MODES {
+            return Err(Refusal(format!(
+                "it would need {modes} modes per slice ({m:?} harmonics per axis over a period of {:.0} x {:.0} nm), more than the {AUTO_MAX_MODES} an auto run spends on a cell (--coherence rigorous takes up to {})",
+                solver.fine.period_nm[0],
+                solver.fine.period_nm[1],
+                crate::reference::rigorous::Effort::MAX_MODES
+            )));
+        }
+        Ok(())
+    }
+
+    /// The sliced sample, where it was built.
+    pub fn into_solver(self) -> Option<Rigorous> {
+        self.solver.and_then(Result::ok)
+    }
+}

@@ -1,0 +1,146 @@
+//! `--coherence rigorous` end to end: the run's cells against an independent transfer
+//! matrix (a flat film), energy balance and bucket sums of a lossless grating, bytes that do
+//! not depend on the thread count, `--mueller` on top of the same bits, and the refusals.
+
+mod common;
+
+use common::*;
+use goniospec::accumulate::Coherence;
+use goniospec::simulate::{SimConfig, SimError, Wavelengths, simulate};
+
+fn rigorous(theta: &[f64], wavelengths: &str) -> SimConfig {
+    let mut cfg = config(theta, Wavelengths::parse(wavelengths, false).unwrap(), 64);
+    cfg.coherence = Coherence::Rigorous;
+    cfg
+}
+
+/// The reflected and transmitted fractions of a cell summed over its buckets.
+fn bucket_sums(acc: &goniospec::accumulate::file::Accumulator, i: usize, j: usize) -> (f64, f64) {
+    let s = &acc.header.settings;
+    let (c, mode) = (acc.cell(i, j), s.coherence_mode());
+    let b = s.buckets().len();
+    (
+        (0..b).map(|k| c.fraction(2 * k, mode)).sum(),
+        (0..b).map(|k| c.fraction(2 * k + 1, mode)).sum(),
+    )
+}
+
+/// The shipped 600 nm soap film by the rigorous solver: every cell's R and T are the
+/// independent transfer-matrix recursion's (`common::tmm_ref`) at the bin's centre within
+/// 1e-9, and under plane-wave illumination all of R lies in one bucket (a film reflects one
+/// order; a finite coherence radius spreads it as it spreads the diffraction method's).
+#[test]
+fn a_rigorous_run_of_a_flat_film_is_the_tmm() {
+    let s = shipped("flat-soap-film.toml");
+    let mut cfg = rigorous(&[0.0, 45.0, 70.0], "400:700:100");
+    cfg.rho_nm = f64::INFINITY;
+    let acc = run(&s, &cfg);
+    let n = [c(1.0, 0.0), c(1.33, 0.0), c(1.0, 0.0)];
+    for (i, &theta) in cfg.theta_i_deg.iter().enumerate() {
+        for j in 0..3 {
+            let lambda = acc.header.settings.wavelength(j);
+            let (r, t) = totals(&acc, i, j);
+            let (rr, tr) = tmm_ref(&n, &[600.0], lambda, theta.to_radians());
+            assert!(
+                (r - rr).abs() < 1e-9 && (t - tr).abs() < 1e-9,
+                "{theta} deg, {lambda} nm: R {r}, T {t} against the TMM's {rr}, {tr}"
+            );
+            let cell = acc.cell(i, j);
+            let brightest = (0..cell.sum.len())
+                .step_by(2)
+                .map(|k| cell.fraction(k, Coherence::Rigorous))
+                .fold(0.0, f64::max);
+            assert!(
+                (brightest - r).abs() < 1e-12,
+                "one bucket holds R: {brightest} of {r}"
+            );
+        }
+    }
+}
+
+/// A lossless glass sinusoid (period 1 um, amplitude 50 nm): R + T = 1 within 1e-9 in
+/// every cell, the buckets sum to R and T, several orders are lit, and the bytes of a run on
+/// one thread are those of a run on every core.
+#[test]
+fn a_rigorous_grating_run_balances_and_does_not_depend_on_threads() {
+    let s = sinusoid("rig-glass", 1000.0, 50.0, (1.5, 0.0), 256, 1);
+    let cfg = rigorous(&[0.0, 30.0], "500:600:50");
+    let acc = run(&s, &cfg);
+    for i in 0..2 {
+        for j in 0..2 {
+            let (r, t) = totals(&acc, i, j);
+            assert!((r + t - 1.0).abs() < 1e-9, "R + T = {}", r + t);
+            let (br, bt) = bucket_sums(&acc, i, j);
+            assert!(
+                (br - r).abs() < 1e-12 && (bt - t).abs() < 1e-12,
+                "buckets {br}, {bt} against {r}, {t}"
+            );
+            let cell = acc.cell(i, j);
+            let lit = (0..cell.sum.len())
+                .step_by(2)
+                .filter(|&k| cell.sum[k] > 1e-6)
+                .count();
+            assert!(lit >= 3, "reflected orders in {lit} buckets");
+        }
+    }
+    let one = run_on_one_thread(&s, &cfg);
+    assert!(
+        one.to_bytes() == acc.to_bytes(),
+        "the bytes depend on the thread count"
+    );
+}
+
+/// `--mueller` with the rigorous solver on a gold sinusoid: each order is one Jones matrix,
+/// so every bucket's matrix is realisable (the run is refused otherwise), and the matrices'
+/// m00 are the unpolarised run's bits. (The test is of the bookkeeping, so the default
+/// effort's TM convergence on gold, about 5e-2 here, is let through.)
+#[test]
+fn a_rigorous_mueller_run_keeps_the_unpolarised_bits() {
+    let s = sinusoid("rig-gold", 1200.0, 80.0, (0.25, 3.0), 256, 1);
+    let mut cfg = rigorous(&[20.0], "590:610:20");
+    cfg.rigorous.tolerance = 0.2;
+    let plain = run(&s, &cfg);
+    let with = run(
+        &s,
+        &SimConfig {
+            mueller: true,
+            ..cfg
+        },
+    );
+    let (a, b) = (plain.cell(0, 0), with.cell(0, 0));
+    assert_eq!(a.sum, b.sum);
+    let mut held = 0;
+    for (k, m) in b.mueller.iter().enumerate() {
+        assert_eq!(m[0].to_bits(), b.sum[k].to_bits(), "m00 of key {k}");
+        held += usize::from(m[0] > 0.0);
+    }
+    assert!(held >= 2, "the gold grating lights several buckets");
+    let real = with.realisability().expect("a --mueller run");
+    assert_eq!(real.failed, 0);
+    assert!(real.checked >= 2);
+}
+
+/// What the rigorous solver refuses, with the words a user acts on: a cell that does not
+/// converge to the tolerance (naming --orders and --slices), particle media, and settings
+/// out of range.
+#[test]
+fn rigorous_refusals_say_what_to_change() {
+    let s = sinusoid("rig-refuse", 1000.0, 200.0, (0.25, 3.0), 256, 1);
+    let mut cfg = rigorous(&[60.0], "600:610:10");
+    cfg.rigorous.orders = Some(2);
+    cfg.rigorous.slices = 2;
+    let e = simulate(&s, &cfg, &|_| {}).unwrap_err().to_string();
+    assert!(
+        e.contains("did not converge") && e.contains("--orders"),
+        "{e}"
+    );
+    let paint = shipped("paint-pigments.toml");
+    let e = simulate(&paint, &rigorous(&[0.0], "500:600:100"), &|_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("particle media"), "{e}");
+    let mut cfg = rigorous(&[0.0], "500:600:100");
+    cfg.rigorous.slices = 0;
+    let e = simulate(&s, &cfg, &|_| {}).unwrap_err();
+    assert!(matches!(e, SimError::Setting { key: "slices", .. }), "{e}");
+}
