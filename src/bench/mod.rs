@@ -7,6 +7,7 @@ mod converge;
 mod eval;
 mod large;
 mod peer;
+pub mod rigorous;
 mod simulate;
 
 pub use converge::{ConvergeConfig, ConvergeFigure, bucket_noise, converge, seed_check};

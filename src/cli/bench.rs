@@ -67,6 +67,50 @@ pub(super) enum BenchCommand {
     ///
     /// Example: goniospec bench peer --rays 1000000
     Peer(PeerBenchArgs),
+    /// The rigorous solver (--coherence rigorous): the wall time of one cell (one
+    /// wavelength and incident angle) on one thread, for a 1-D grating (period 2 um) at 41
+    /// orders and a crossed grating (period 1 um) at 11 x 11 orders, each a metal relief of
+    /// 24 slices: one solve, and the cell as a run takes it (with its convergence check at
+    /// two thirds of the orders and half the slices).
+    ///
+    /// Example: goniospec bench rigorous
+    Rigorous(RigorousBenchArgs),
+}
+
+#[derive(Args)]
+pub(super) struct RigorousBenchArgs {
+    /// Solves per figure (the median is printed).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=100))]
+    runs: u64,
+}
+
+pub(super) fn bench_rigorous(a: RigorousBenchArgs) -> Result<ExitCode> {
+    use goniospec::bench::rigorous::{grating, time_solve};
+    use goniospec::optics::rcwa::Harmonics;
+    let runs = a.runs as usize;
+    let pool = thread_pool(1)?;
+    pool.install(|| -> Result<()> {
+        for (name, two_d, period, m, pixels) in [
+            ("1d_41_orders", false, 2000.0, [20, 0], 720),
+            ("2d_11x11_orders", true, 1000.0, [5, 5], 96),
+        ] {
+            let fine = grating(two_d, period, 100.0, 24, pixels);
+            let coarse = grating(two_d, period, 100.0, 12, pixels);
+            let (solve, r) = time_solve(&fine, Harmonics { m }, runs)?;
+            let (check, _) = time_solve(
+                &coarse,
+                Harmonics {
+                    m: m.map(|k| (2 * k).div_ceil(3)),
+                },
+                runs,
+            )?;
+            emit(&format!("rigorous_{name}_solve_s: {solve:.4} s"));
+            emit(&format!("rigorous_{name}_cell_s: {:.4} s", solve + check));
+            emit(&format!("rigorous_{name}_r: {r:.6} 1"));
+        }
+        Ok(())
+    })?;
+    Ok(ExitCode::SUCCESS)
 }
 
 #[derive(Args)]

@@ -221,7 +221,7 @@ use analytic::{AnalyticArgs, analytic};
 use batch::{BatchCommand, batch};
 use bench::{
     BenchCommand, bench_converge, bench_eval, bench_large, bench_paints, bench_peer,
-    bench_simulate, bench_trace,
+    bench_rigorous, bench_simulate, bench_trace,
 };
 use build::{BuildArgs, build};
 use check::{CheckArgs, check};
@@ -313,6 +313,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Bench(BenchCommand::Paints(a)) => bench_paints(a),
         Command::Bench(BenchCommand::Converge(a)) => bench_converge(a),
         Command::Bench(BenchCommand::Peer(a)) => bench_peer(a),
+        Command::Bench(BenchCommand::Rigorous(a)) => bench_rigorous(a),
     }
 }
 

@@ -159,6 +159,15 @@ impl Rigorous {
         })
     }
 
+    /// The modes per slice (twice the harmonics) a cell at `lambda_nm` takes: its cost.
+    pub fn modes_at(&self, sample: &Sample, lambda_nm: f64) -> usize {
+        let mut idx = Vec::new();
+        sample.indices_into(lambda_nm, &mut idx);
+        let n_max = idx.iter().map(|n| n.re.abs()).fold(1.0, f64::max);
+        let m = self.harmonics(lambda_nm, n_max);
+        2 * (2 * m[0] + 1) * (2 * m[1] + 1)
+    }
+
     /// Solves one cell: light of `lambda_nm` along `d` (`theta_deg` for messages), the media
     /// indices `idx` there.
     pub fn solve(

@@ -165,14 +165,25 @@ pub fn simulate(
             )))
         } else if run.rigorous_only(di) {
             // Nothing to trace: the cells' one solution each (`rigorous`).
-            run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells)
+            run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &[])
                 .map(|_| DirectionStats::untraced(cfg.theta_i_deg[di]))
         } else {
             run.direction(di, cfg.theta_i_deg[di], &mut cells, lost, progress)
                 .and_then(|d| {
-                    // What the rays lost or could not trust in a rigorous cell is not
-                    // the cell's.
-                    for k in run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells)? {
+                    // What the rays lost or could not trust in a rigorous cell, and what
+                    // the diffraction method had to say of it, is not the cell's.
+                    // Diffraction cells whose transform fell back to rays, or held a share
+                    // it warns about: the rigorous solver's where it fits.
+                    let warned = |c: &DiffractionCell| {
+                        c.orders > 0
+                            && !(DIFFRACTION_RATIO_WARN..=1.0 / DIFFRACTION_RATIO_WARN)
+                                .contains(&c.ratio())
+                    };
+                    let fell: Vec<bool> = (diffraction[di * run.nl..(di + 1) * run.nl].iter())
+                        .map(|c| c.fell_back || warned(c))
+                        .collect();
+                    for k in run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &fell)? {
+                        diffraction[k] = DiffractionCell::default();
                         limit_dropped[k] = 0.0;
                         escaped[k] = 0.0;
                         limit_bound[k] = 0.0;

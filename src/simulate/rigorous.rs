@@ -36,17 +36,27 @@ impl Run<'_> {
     /// its own, so the bytes do not depend on the thread count) and writes them into
     /// `cells` (the run's, direction-major); returns the cells written. A cell the solver
     /// cannot answer refuses an explicit run; an auto run keeps that cell's rays and says
-    /// why (`rigorous_notes`).
+    /// why (`rigorous_notes`). An auto run also gives the solver, where it has one and the
+    /// cell fits `AUTO_MAX_MODES`, the cells whose diffraction transform could not hold the
+    /// ray field or held a share it warns about (`fell_back`, per cell of the direction),
+    /// rather than leaving them rays or an uncertain transform.
     pub(super) fn solve_rigorous(
         &self,
         di: usize,
         theta_deg: f64,
         cells: &mut [Cell],
+        fell_back: &[bool],
     ) -> Result<Vec<usize>, SimError> {
         let Some(solver) = &self.rigorous else {
             return Ok(Vec::new());
         };
         let explicit = self.cfg.coherence == crate::accumulate::Coherence::Rigorous;
+        let takes = |j: usize| {
+            self.cell_takes_rigorous(di, j)
+                || (fell_back.get(j).copied().unwrap_or(false)
+                    && solver.modes_at(self.sample, self.settings.wavelength(j))
+                        <= super::rigorous_fit::AUTO_MAX_MODES)
+        };
         let wi = from_spherical(theta_deg.to_radians(), self.cfg.phi_i_deg.to_radians());
         let d = -wi;
         let nl = self.nl;
@@ -54,7 +64,7 @@ impl Run<'_> {
         let solved: Vec<Result<Solved, RigorousError>> = (0..nl)
             .into_par_iter()
             .map(|j| -> Result<Solved, RigorousError> {
-                if !self.cell_takes_rigorous(di, j) {
+                if !takes(j) {
                     return Ok(None);
                 }
                 let start = std::time::Instant::now();

@@ -65,14 +65,10 @@ impl<'a> RigorousFit<'a> {
             .get_or_insert_with(|| Rigorous::new(sample, cfg.rigorous).map_err(|e| e.to_string()))
             .as_ref()
             .map_err(|e| Refusal(e.clone()))?;
-        let mut idx = Vec::new();
-        sample.indices_into(lambda_nm, &mut idx);
-        let n_max = idx.iter().map(|n| n.re.abs()).fold(1.0, f64::max);
-        let m = solver.harmonics(lambda_nm, n_max);
-        let modes = 2 * (2 * m[0] + 1) * (2 * m[1] + 1);
+        let modes = solver.modes_at(sample, lambda_nm);
         if modes > AUTO_MAX_MODES {
             return Err(Refusal(format!(
-                "it would need {modes} modes per slice ({m:?} harmonics per axis over a period of {:.0} x {:.0} nm), more than the {AUTO_MAX_MODES} an auto run spends on a cell (--coherence rigorous takes up to {})",
+                "it would need {modes} modes per slice over a period of {:.0} x {:.0} nm, more than the {AUTO_MAX_MODES} an auto run spends on a cell (--coherence rigorous takes up to {})",
                 solver.fine.period_nm[0],
                 solver.fine.period_nm[1],
                 crate::reference::rigorous::Effort::MAX_MODES
