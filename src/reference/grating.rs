@@ -223,7 +223,7 @@ pub fn slice(sample: &Sample, spec: SliceSpec) -> Result<Sliced, SliceError> {
             });
         }
     }
-    let planes = boundaries(&cols);
+    let planes = boundaries(sample, &cols);
     let mut layers = Vec::new();
     for w in planes.windows(2) {
         let (top, bottom) = (w[0], w[1]);
@@ -257,9 +257,12 @@ pub fn slice(sample: &Sample, spec: SliceSpec) -> Result<Sliced, SliceError> {
     }))
 }
 
-/// The heights that bound slices: the top and bottom transitions of all columns, and every
-/// height where all columns have a transition (to 1e-9 nm), from the top down.
-fn boundaries(cols: &[Column]) -> Vec<f64> {
+/// The heights that bound slices, from the top down: the top and bottom transitions of all
+/// columns, every height where all columns have a transition (to 1e-9 nm), and each
+/// interface's extent in z (with its coating's, at the steepest facet's vertical
+/// thickness), so that a structured band is sliced on its own and the flat layers between
+/// bands stay single exact slices.
+fn boundaries(sample: &Sample, cols: &[Column]) -> Vec<f64> {
     let top = cols
         .iter()
         .map(|c| c[0].0)
@@ -277,6 +280,23 @@ fn boundaries(cols: &[Column]) -> Vec<f64> {
             planes.push(h);
         }
     }
+    for iface in &sample.interfaces {
+        let m = &iface.mesh;
+        let (lo, hi) = m
+            .positions_nm
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p.z), b.max(p.z))
+            });
+        let depth: f64 = iface.coating.iter().map(|c| c.1).sum();
+        let nz_min = (0..m.triangles.len())
+            .map(|t| m.area_vector(t))
+            .filter(|a| a.z != 0.0)
+            .map(|a| a.z.abs() / a.length())
+            .fold(1.0, f64::min);
+        planes.extend([lo, hi, lo - depth / nz_min, hi + depth / nz_min]);
+    }
+    planes.retain(|&h| h <= top && h >= bottom);
     planes.sort_by(|a, b| b.total_cmp(a));
     planes.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
     planes
