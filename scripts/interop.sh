@@ -50,6 +50,7 @@ GONIOSPEC_RCWA_JSON="$work/rcwa.json" cargo test --release --test diffraction ag
 GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test diffraction metal_ -- --ignored --nocapture
 GONIOSPEC_VGROOVE_JSON="$work/vgroove.json" cargo test --release --test tilted_absorbers gold_v_grooves_against_rigorous -- --ignored --nocapture
 GONIOSPEC_RCWA_REFS_JSON="$work/rcwa-refs.json" cargo test --release --test rcwa against_references -- --ignored --nocapture
+GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test rcwa gold_sinusoids_against_rayleigh_fourier -- --ignored --nocapture
 # The peer benchmark (issue 31): Mitsuba 3 and goniospec on the same mesh and rays must hit
 # the same triangle, ray by ray (all but 1e-4: edge ties); its speed figures are printed,
 # speed is not asserted here. Mitsuba's llvm_ad_rgb variant loads the system's LLVM, version 15 or newer (Debian 12: libllvm15;

@@ -602,3 +602,91 @@ fn against_references() {
         }
     }
 }
+
+/// Gold sinusoids against the Rayleigh-Fourier method (tests/interop/grating_rayleigh.py,
+/// written in this project but independent of this solver, converged in orders, checked on
+/// energy and against grcwa in TE; valid for these profiles, K A <= 0.32 < 0.448): the 2 um
+/// gratings of A = 20 to 100 nm at 0 and 30 deg, 550 nm, as staircases of 48 slices at 61
+/// harmonics, each beside the check a run makes (24 slices, 41 harmonics). TE within 2e-3
+/// (measured: 1e-5 to 4e-5). TM on gold converges as 1/M (docs/physics.md): where the
+/// check's difference is within the default tolerance, the answer is within 2.5 times it
+/// of the reference, and elsewhere the difference is above the tolerance, so that a run
+/// would not have claimed the cell (measured: TE 1e-5 to 2e-4 off; TM 1.2e-2 to 6.4e-2 off
+/// with differences 6e-3 to 2.5e-2, every one above the tolerance).
+#[test]
+#[ignore]
+fn gold_sinusoids_against_rayleigh_fourier() {
+    let path = std::env::var("GONIOSPEC_METAL_GRATING_JSON")
+        .expect("GONIOSPEC_METAL_GRATING_JSON: run make interop");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let lambda = v["lambda_nm"].as_f64().unwrap();
+    let n = C64::new(v["n"].as_f64().unwrap(), v["k"].as_f64().unwrap());
+    let mut checked = 0;
+    for g in v["gratings"].as_array().unwrap() {
+        let (period, amp) = (
+            g["period_nm"].as_f64().unwrap(),
+            g["amplitude_nm"].as_f64().unwrap(),
+        );
+        if period != 2000.0 {
+            continue;
+        }
+        let staircase = |slices: usize| Structure {
+            period_nm: [period, 1.0],
+            eps_above: 1.0,
+            layers: (0..slices)
+                .map(|k| {
+                    let dz = 2.0 * amp / slices as f64;
+                    let z = amp - (k as f64 + 0.5) * dz;
+                    let cells = 2000;
+                    let eps = (0..cells)
+                        .map(|i| {
+                            let x = (i as f64 + 0.5) / cells as f64;
+                            if amp * (2.0 * std::f64::consts::PI * x).sin() > z {
+                                n * n
+                            } else {
+                                C64::new(1.0, 0.0)
+                            }
+                        })
+                        .collect();
+                    Layer {
+                        thickness_nm: dz,
+                        slab: Slab::Grid(Grid { n: [cells, 1], eps }),
+                    }
+                })
+                .collect(),
+            eps_below: n * n,
+        };
+        let (fine, coarse) = (staircase(48), staircase(24));
+        for case in g["cases"].as_array().unwrap() {
+            let theta = case["theta_deg"].as_f64().unwrap();
+            if theta > 30.0 {
+                continue;
+            }
+            let d = incident(theta, 0.0);
+            let a = rcwa::solve(&fine, lambda, d, Harmonics { m: [30, 0] }).unwrap();
+            let b = rcwa::solve(&coarse, lambda, d, Harmonics { m: [20, 0] }).unwrap();
+            let (te, tm) = (
+                case["r_te"].as_f64().unwrap(),
+                case["r_tm"].as_f64().unwrap(),
+            );
+            // `mueller::frame`'s s is E along y (TE) off the normal, but along x (TM) at it.
+            let (ite, itm) = if theta == 0.0 { (1, 0) } else { (0, 1) };
+            let (a_te, a_tm) = (a.r[ite], a.r[itm]);
+            let spread = [(a_te - b.r[ite]).abs(), (a_tm - b.r[itm]).abs()];
+            println!(
+                "gold 2 um, A {amp} nm, {theta} deg: TE {:.5} against {te:.5} (change {:.1e}); TM {:.5} against {tm:.5} (change {:.1e})",
+                a_te, spread[0], a_tm, spread[1]
+            );
+            assert!((a_te - te).abs() < 2e-3, "TE");
+            let tol = goniospec::reference::rigorous::Effort::TOLERANCE;
+            assert!(
+                spread[1] > tol || (a_tm - tm).abs() < 2.5 * spread[1] + 1e-4,
+                "TM: {a_tm} against {tm}, claimed with a difference of {:.1e}",
+                spread[1]
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 6, "the 2 um gratings at 0 and 30 deg");
+}

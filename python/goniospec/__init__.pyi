@@ -63,7 +63,7 @@ class Accumulator:
     @property
     def methods(self) -> list[str]:
         """Per incident direction under coherence="auto", one letter per wavelength cell:
-        r (rays) or d (the diffraction method); empty otherwise."""
+        r (rays), d (the diffraction method) or m (the rigorous solver); empty otherwise."""
     def __repr__(self) -> str:
         """Accumulator('sample': theta_i_deg, phi_i_deg, wavelengths, trees, method)."""
 
@@ -76,7 +76,7 @@ def simulate(
     rays: int = 4096,
     *,
     seed: int = 1,
-    coherence: Literal["auto", "beamlet", "diffraction", "bucket", "global"] = "auto",
+    coherence: Literal["auto", "beamlet", "diffraction", "rigorous", "bucket", "global"] = "auto",
     coherence_radius_nm: float = 5000.0,
     cutoff: float = 1e-10,
     monochromatic: bool = False,
@@ -93,12 +93,17 @@ def simulate(
     no_wavelength_sharing: bool = False,
     no_next_event: bool = False,
     mueller: bool = False,
+    orders: int | None = None,
+    slices: int = 24,
+    rigorous_tolerance: float = 5e-3,
     progress: bool | None = None,
 ) -> Accumulator:
     """goniospec simulate's flags as keywords (the same settings type, defaults and checks;
     an unknown keyword is a ValueError): theta_i_deg and phi_i_deg in degrees (their old
     names theta_i and phi_i, the flags', are still taken for one release), wavelengths in nm as
-    --wavelengths, coherence_radius_nm in nm, cutoff a fraction of launched power.
+    --wavelengths, coherence_radius_nm in nm, cutoff a fraction of launched power; orders,
+    slices and rigorous_tolerance the rigorous solver's effort (coherence="rigorous", or
+    auto's cells finer than the wavelength).
     progress: a bar on sys.stderr when it is a terminal (None), always (True), never (False)."""
 def analytic(sample: Sample, theta_i_deg: float, wavelengths: str = "380:780:10", monochromatic: bool = False) -> dict[str, npt.NDArray[np.float64]]:
     """Transfer-matrix lambda_nm, Rs, Rp, R, Ts, Tp, T of a [stack] sample, and delta_deg, the

@@ -481,3 +481,22 @@ def test_one_name_for_one_thing_and_reprs_that_say_what_they_hold(tmp_path):
                      "method auto (radius 5000 nm)"]:
             assert part in text, (part, text)
     assert repr(again).startswith("Brdf(") and "table" in repr(again)
+
+
+def test_the_rigorous_solver_is_the_clis_and_conserves_energy(tmp_path):
+    """coherence="rigorous" with its effort keywords: the bytes of the CLI's run, and the
+    lossless transparent hologram's R + T = 1 (the solver's own balance)."""
+    s = gs.Sample.load(mesh("hri-hologram.toml"))
+    acc = gs.simulate(s, theta_i_deg=[0, 30], wavelengths="500:600:50", coherence="rigorous",
+                      orders=20, slices=12, rigorous_tolerance=0.05)
+    acc.save(tmp_path / "py.gsa")
+    subprocess.run([CLI, "simulate", mesh("hri-hologram.toml"), "--theta-i", "0,30", "--wavelengths",
+                    "500:600:50", "--coherence", "rigorous", "--orders", "20", "--slices", "12",
+                    "--rigorous-tolerance", "0.05", "-o", str(tmp_path / "cli.gsa")],
+                   check=True, cwd=ROOT, capture_output=True)
+    assert (tmp_path / "py.gsa").read_bytes() == (tmp_path / "cli.gsa").read_bytes()
+    for theta in (0, 30):
+        r = acc.reflectance(theta)
+        assert np.all(np.abs(r["R"] + r["T"] - 1) < 1e-9), r
+    with pytest.raises(ValueError, match="slices"):
+        gs.simulate(s, theta_i_deg=[0], coherence="rigorous", slices=0)

@@ -101,18 +101,7 @@ mod tests {
     fn done(pattern: &str) -> Vec<Option<DirectionStats>> {
         pattern
             .chars()
-            .map(|c| {
-                (c == 'x').then_some(DirectionStats {
-                    theta_i_deg: 0.0,
-                    rays: 1,
-                    achieved: None,
-                    converged: false,
-                    by_median: false,
-                    segments: 0,
-                    leaks: 0,
-                    envelope_violations: 0,
-                })
-            })
+            .map(|c| (c == 'x').then_some(DirectionStats::untraced(0.0)))
             .collect()
     }
 

@@ -7,9 +7,10 @@ use super::SimConfig;
 use crate::reference::rigorous::Rigorous;
 use crate::sample::Sample;
 
-/// The most modes per slice (twice the harmonics) an auto run gives one cell: about 0.3 s
-/// per slice on one core for a 1-D grating (150 harmonics, `bench rigorous`), so a cell
-/// of the default 24 slices and its check stays within about ten seconds. An explicit
+/// The most modes per slice (twice the harmonics) an auto run gives one cell: a 1-D
+/// grating of 150 harmonics, whose cell of the default 24 slices and its check takes a few
+/// seconds on one core (41 orders: 0.14 s, `bench rigorous`; the eigenproblem grows as the
+/// cube). An explicit
 /// `--coherence rigorous` may go to `reference::rigorous::Effort::MAX_MODES`.
 pub const AUTO_MAX_MODES: usize = 300;
 

@@ -390,7 +390,7 @@ impl<'a> Run<'a> {
         };
         let nl = self.nl;
         Err(SimError::Unphysical(format!(
-            "sample '{}', theta_i {} deg, wavelength {} nm: the diffraction transform holds {:.3} of the ray field's power in propagating orders (outside [{DIFFRACTION_RATIO_REFUSED}, {:.2}]): the rays sample the field too coarsely for it (raise --rays), or the sample has structure near or below the wavelength, where neither rays nor physical optics hold (use a rigorous solver: RCWA, FDTD). (The method traces the most oblique incidence first, so this is found before the rest of the run)",
+            "sample '{}', theta_i {} deg, wavelength {} nm: the diffraction transform holds {:.3} of the ray field's power in propagating orders (outside [{DIFFRACTION_RATIO_REFUSED}, {:.2}]): the rays sample the field too coarsely for it (raise --rays), or the sample has structure near or below the wavelength, where neither rays nor physical optics hold (use --coherence rigorous, or --coherence auto, which takes it). (The method traces the most oblique incidence first, so this is found before the rest of the run)",
             self.sample.name,
             self.cfg
                 .theta_i_deg
@@ -457,14 +457,8 @@ impl<'a> Run<'a> {
                 {
                     // The caller gets SimError::Cancelled: these sums are never used.
                     return Ok(DirectionStats {
-                        theta_i_deg: theta_deg,
                         rays: start,
-                        achieved: None,
-                        converged: false,
-                        by_median: false,
-                        segments: 0,
-                        leaks: 0,
-                        envelope_violations: 0,
+                        ..DirectionStats::untraced(theta_deg)
                     });
                 }
                 let chunk = (CHUNK_BLOCKS_PER_THREAD * rayon::current_num_threads() as u64)

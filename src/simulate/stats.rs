@@ -27,7 +27,7 @@ pub struct DirectionStats {
 
 impl DirectionStats {
     /// A direction whose every cell the rigorous solver took: one solution per cell,
-    /// counted as one tree (`simulate::rigorous`).
+    /// counted as one tree (`simulate::rigorous`); nothing traced, nothing met.
     pub fn untraced(theta_i_deg: f64) -> DirectionStats {
         DirectionStats {
             theta_i_deg,

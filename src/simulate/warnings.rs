@@ -169,7 +169,7 @@ fn fell_back_warning(acc: &Accumulator, stats: &SimStats) -> Option<String> {
     let nl = s.wavelength_count().max(1);
     let theta = s.theta_i_deg.get(k / nl).copied().unwrap_or(f64::NAN);
     Some(format!(
-        "in {} cells the diffraction transform held a share of the ray field's power in propagating orders outside [{}, {:.2}] (at worst {:.3}, theta_i {theta} deg, {} nm), so those cells took rays: their angular distribution misses the interference the method was chosen for (their total R is the rays'). More --rays sample the field more finely; where the ratio does not improve, the tangent plane fails and a rigorous solver holds these cells (docs/validity.md)",
+        "in {} cells the diffraction transform held a share of the ray field's power in propagating orders outside [{}, {:.2}] (at worst {:.3}, theta_i {theta} deg, {} nm), so those cells took rays: their angular distribution misses the interference the method was chosen for (their total R is the rays'). More --rays sample the field more finely; where the ratio does not improve, the tangent plane fails and the rigorous solver (--coherence rigorous) holds these cells (docs/validity.md)",
         fell.len(),
         super::DIFFRACTION_RATIO_REFUSED,
         1.0 / super::DIFFRACTION_RATIO_REFUSED,
@@ -223,7 +223,7 @@ fn diffraction_warning(acc: &Accumulator, stats: &SimStats) -> Option<String> {
     let lambda = s.wavelength(k % nl);
     Some(if r < 1.0 {
         format!(
-            "the diffraction transform held {r:.3} of the ray field's power in propagating orders (theta_i {theta} deg, {lambda} nm): the rest fell beyond the horizon or was not resolved, so the angular distribution is uncertain by about {:.2}: raise --rays, or check the sample against a rigorous solver where its structure nears the wavelength (docs/physics.md, \"Diffraction\")",
+            "the diffraction transform held {r:.3} of the ray field's power in propagating orders (theta_i {theta} deg, {lambda} nm): the rest fell beyond the horizon or was not resolved, so the angular distribution is uncertain by about {:.2}: raise --rays, or use --coherence rigorous where its structure nears the wavelength (docs/physics.md, \"Diffraction\")",
             1.0 - r
         )
     } else {

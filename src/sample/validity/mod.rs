@@ -20,7 +20,7 @@
 //!   needs curvature radii and periods of a few wavelengths: `k r_c cos^3 theta >> 1`
 //!   (Ogilvy, Theory of Wave Scattering from Random Rough Surfaces, 1991, §4.2).
 //!   Below a period of 3 wavelengths, or a curvature radius of half a wavelength, nothing
-//!   here holds and a rigorous solver (RCWA, FDTD) is the tool.
+//!   here holds and the rigorous solver (`--coherence rigorous`) is the tool.
 //! - The total R, which both methods take from the rays, is off where a metal grating's
 //!   order meets a surface plasmon (TM absorption) and where structure is smooth against
 //!   the wavelength at grazing light (the wave sees the mean plane): measured on gold
@@ -358,7 +358,7 @@ pub fn assess_scales(sample: &Sample, sheets: &[Option<Scales>], ctx: &Context) 
             }
             out.push(Finding {
                 message: format!(
-                    "{name} has {what} and curvature radius {:.0} nm, near or below the wavelength ({lambda:.0} nm, {lam:.0} nm in the denser medium): neither rays nor physical optics (--coherence diffraction) hold below {MIN_PERIOD_WAVELENGTHS} wavelengths of period or {MIN_CURVATURE_WAVELENGTHS} of curvature radius; use a rigorous solver (RCWA, FDTD) for this structure (docs/validity.md)",
+                    "{name} has {what} and curvature radius {:.0} nm, near or below the wavelength ({lambda:.0} nm, {lam:.0} nm in the denser medium): neither rays nor physical optics (--coherence diffraction) hold below {MIN_PERIOD_WAVELENGTHS} wavelengths of period or {MIN_CURVATURE_WAVELENGTHS} of curvature radius; use --coherence rigorous (the Fourier modal method) or --coherence auto, which takes it (docs/validity.md)",
                     sc.curvature_radius_nm
                 ),
             });
