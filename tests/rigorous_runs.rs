@@ -182,7 +182,7 @@ fn shipped_rigorous_samples_take_the_solver_or_say_why_not() {
         foil.header
             .warnings
             .iter()
-            .any(|w| w.contains("did not converge") && w.contains("kept the rays")),
+            .any(|w| w.contains("did not converge") && w.contains("kept the result")),
         "{:?}",
         foil.header.warnings
     );

@@ -107,7 +107,13 @@ impl Run<'_> {
                 }
                 Err(e) => {
                     let mut notes = self.rigorous_notes.lock().expect("not poisoned");
-                    notes.push((di, format!("{e}; that cell kept the rays' result")));
+                    // Rays, or a diffraction cell's transform the solver was to replace.
+                    notes.push((
+                        di,
+                        format!(
+                            "{e}; that cell kept the result of the method it had (goniospec info lists it)"
+                        ),
+                    ));
                     continue;
                 }
             };
