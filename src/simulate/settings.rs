@@ -54,8 +54,9 @@ pub struct SimSettings {
     /// cell takes the method its scales call for, recorded in the .gsa (goniospec info
     /// lists them): the diffraction method where a coherent specular order or grating
     /// orders matter at the coherence radius and the tangent plane holds
-    /// (k r_c cos^3 theta >= 35), rays (beamlet) elsewhere; the run says where a cell
-    /// needed the diffraction method and could not have it. beamlet: each tree is
+    /// (k r_c cos^3 theta >= 35), the rigorous solver where structure is finer than three
+    /// wavelengths or the tangent plane fails and it fits (300 modes per slice), rays
+    /// (beamlet) elsewhere; the run says where a cell needed a method and could not have it. beamlet: each tree is
     /// coherent within itself (films, coatings) and incoherent with the others: the ray
     /// method. diffraction: every tree's exits add as fields over the periodic tile
     /// (physical optics on the ray field: grating orders, the coherent specular order of
