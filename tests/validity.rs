@@ -146,7 +146,7 @@ fn warnings_fire_where_the_methods_stop() {
         &cosine("validity-1um", 1000.0, 50.0, 128),
         &ctx(Method::Rays),
     );
-    says_once(&one, &["rigorous solver", "period 1000 nm"]);
+    says_once(&one, &["--coherence rigorous", "period 1000 nm"]);
 
     let five = cosine("validity-5um", 5000.0, 250.0, 256);
     let w = validity::assess(&five, &ctx(Method::Rays));
