@@ -427,6 +427,45 @@ fn a_meshed_sinusoid_slices_to_its_own_staircase() {
     }
 }
 
+/// A reference's JSON, from the file the environment variable `var` names (`make interop`
+/// writes it).
+fn reference_json(var: &str) -> serde_json::Value {
+    let path = std::env::var(var).unwrap_or_else(|_| panic!("{var}: run make interop"));
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// The staircase of `slices` slices of a 1-D profile `z = amp * shape(2π x / Λ)` (`shape`
+/// cos or sin, of peak 1) on `cells` pixels: `eps` below the profile, air above, each
+/// slice sampled at its mid-height.
+fn profile_staircase(
+    amp: f64,
+    shape: fn(f64) -> f64,
+    eps: C64,
+    slices: usize,
+    cells: usize,
+) -> Vec<Layer> {
+    let dz = 2.0 * amp / slices as f64;
+    (0..slices)
+        .map(|j| {
+            let z = amp - (j as f64 + 0.5) * dz;
+            let eps = (0..cells)
+                .map(|i| {
+                    let x = (i as f64 + 0.5) / cells as f64;
+                    if amp * shape(2.0 * std::f64::consts::PI * x) > z {
+                        eps
+                    } else {
+                        C64::new(1.0, 0.0)
+                    }
+                })
+                .collect();
+            Layer {
+                thickness_nm: dz,
+                slab: Slab::Grid(Grid { n: [cells, 1], eps }),
+            }
+        })
+        .collect()
+}
+
 /// One reference case's staircase, rebuilt from the formula the reference evaluated
 /// (tests/interop/rcwa_nannos.py).
 fn reference_structure(case: &serde_json::Value) -> (Structure, Harmonics) {
@@ -441,30 +480,11 @@ fn reference_structure(case: &serde_json::Value) -> (Structure, Harmonics) {
     let x = |i: usize| (i as f64 + 0.5) / cells as f64;
     let (layers, two_d) = match case["kind"].as_str().unwrap() {
         "sinusoid" => {
-            let (amp, k) = (
-                f("amplitude_nm"),
-                case["slices_n"].as_u64().unwrap() as usize,
-            );
-            let dz = 2.0 * amp / k as f64;
-            let layers = (0..k)
-                .map(|j| {
-                    let z = amp - (j as f64 + 0.5) * dz;
-                    let eps = (0..cells)
-                        .map(|i| {
-                            if amp * (2.0 * std::f64::consts::PI * x(i)).cos() > z {
-                                eps
-                            } else {
-                                air
-                            }
-                        })
-                        .collect();
-                    Layer {
-                        thickness_nm: dz,
-                        slab: Slab::Grid(Grid { n: [cells, 1], eps }),
-                    }
-                })
-                .collect();
-            (layers, false)
+            let k = case["slices_n"].as_u64().unwrap() as usize;
+            (
+                profile_staircase(f("amplitude_nm"), f64::cos, eps, k, cells),
+                false,
+            )
         }
         "lamellar" => {
             let eps = (0..cells)
@@ -524,10 +544,7 @@ fn reference_structure(case: &serde_json::Value) -> (Structure, Harmonics) {
 #[test]
 #[ignore]
 fn against_references() {
-    let path = std::env::var("GONIOSPEC_RCWA_REFS_JSON")
-        .expect("GONIOSPEC_RCWA_REFS_JSON: run make interop");
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let v = reference_json("GONIOSPEC_RCWA_REFS_JSON");
     for case in v["cases"].as_array().unwrap() {
         let name = case["name"].as_str().unwrap();
         let (s, h) = reference_structure(case);
@@ -616,10 +633,7 @@ fn against_references() {
 #[test]
 #[ignore]
 fn gold_sinusoids_against_rayleigh_fourier() {
-    let path = std::env::var("GONIOSPEC_METAL_GRATING_JSON")
-        .expect("GONIOSPEC_METAL_GRATING_JSON: run make interop");
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let v = reference_json("GONIOSPEC_METAL_GRATING_JSON");
     let lambda = v["lambda_nm"].as_f64().unwrap();
     let n = C64::new(v["n"].as_f64().unwrap(), v["k"].as_f64().unwrap());
     let mut checked = 0;
@@ -634,27 +648,7 @@ fn gold_sinusoids_against_rayleigh_fourier() {
         let staircase = |slices: usize| Structure {
             period_nm: [period, 1.0],
             eps_above: 1.0,
-            layers: (0..slices)
-                .map(|k| {
-                    let dz = 2.0 * amp / slices as f64;
-                    let z = amp - (k as f64 + 0.5) * dz;
-                    let cells = 2000;
-                    let eps = (0..cells)
-                        .map(|i| {
-                            let x = (i as f64 + 0.5) / cells as f64;
-                            if amp * (2.0 * std::f64::consts::PI * x).sin() > z {
-                                n * n
-                            } else {
-                                C64::new(1.0, 0.0)
-                            }
-                        })
-                        .collect();
-                    Layer {
-                        thickness_nm: dz,
-                        slab: Slab::Grid(Grid { n: [cells, 1], eps }),
-                    }
-                })
-                .collect(),
+            layers: profile_staircase(amp, f64::sin, n * n, slices, 2000),
             eps_below: n * n,
         };
         let (fine, coarse) = (staircase(48), staircase(24));

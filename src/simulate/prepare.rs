@@ -263,21 +263,13 @@ pub(super) fn sharing_refusal(
     Ok(())
 }
 
-/// What `--coherence rigorous` cannot take: particle media (random phases), adaptive
-/// budgets (no trees to stop on).
+/// What `--coherence rigorous` cannot take (`rigorous_fit::rigorous_refused`: open sides,
+/// particle media, adaptive budgets), before any work.
 fn rigorous_refusals(sample: &Sample, cfg: &SimConfig) -> Result<(), SimError> {
-    if cfg.coherence != Coherence::Rigorous {
-        return Ok(());
+    match super::rigorous_fit::rigorous_refused(sample, cfg) {
+        Some(why) if cfg.coherence == Coherence::Rigorous => Err(SimError::Config(format!(
+            "--coherence rigorous solves a deterministic periodic tile, but {why}; use --coherence auto (the default)"
+        ))),
+        _ => Ok(()),
     }
-    if sample.media.iter().any(|m| m.scattering.is_some()) {
-        return Err(SimError::Config(
-            "--coherence rigorous solves a deterministic periodic tile, but this sample's particle media scatter with random phases; use --coherence auto (the default)".into(),
-        ));
-    }
-    if cfg.adaptive() {
-        return Err(SimError::Config(
-            "--tolerance and --target-stderr stop on the trees' standard error; --coherence rigorous traces none (its accuracy is --rigorous-tolerance)".into(),
-        ));
-    }
-    Ok(())
 }

@@ -14,12 +14,19 @@ use crate::sample::Sample;
 /// `--coherence rigorous` may go to `reference::rigorous::Effort::MAX_MODES`.
 pub const AUTO_MAX_MODES: usize = 300;
 
-/// Why the solver cannot take a cell, in words.
-struct Refusal(String);
-
-impl Refusal {
-    fn err(self) -> String {
-        self.0
+/// Why the rigorous solver cannot take `sample` under `cfg` at all (`None` where it can):
+/// what `--coherence rigorous` refuses (`prepare`) and what keeps auto's cells from it.
+pub fn rigorous_refused(sample: &Sample, cfg: &SimConfig) -> Option<&'static str> {
+    if sample.guard_nm.is_some() {
+        Some("its sides are open (a guard band), and the solver takes a periodic tile")
+    } else if sample.media.iter().any(|m| m.scattering.is_some()) {
+        Some("its particle media scatter with random phases")
+    } else if cfg.adaptive() {
+        Some(
+            "--tolerance and --target-stderr stop on the trees' standard error, and the solver traces none (its accuracy is --rigorous-tolerance)",
+        )
+    } else {
+        None
     }
 }
 
@@ -41,41 +48,26 @@ impl<'a> RigorousFit<'a> {
 
     /// Why the solver cannot take a cell at `lambda_nm` (`None` where it can).
     pub fn refusal(&mut self, lambda_nm: f64) -> Option<String> {
-        self.check(lambda_nm).err().map(Refusal::err)
-    }
-
-    fn check(&mut self, lambda_nm: f64) -> Result<(), Refusal> {
         let (sample, cfg) = (self.sample, self.cfg);
-        if sample.guard_nm.is_some() {
-            return Err(Refusal(
-                "its sides are open (a guard band), and the solver takes a periodic tile".into(),
-            ));
+        if let Some(why) = rigorous_refused(sample, cfg) {
+            return Some(why.into());
         }
-        if sample.media.iter().any(|m| m.scattering.is_some()) {
-            return Err(Refusal(
-                "its particle media scatter with random phases".into(),
-            ));
-        }
-        if cfg.adaptive() {
-            return Err(Refusal(
-                "--tolerance and --target-stderr stop on trees, which it has none of".into(),
-            ));
-        }
-        let solver = self
+        let solver = match self
             .solver
             .get_or_insert_with(|| Rigorous::new(sample, cfg.rigorous).map_err(|e| e.to_string()))
-            .as_ref()
-            .map_err(|e| Refusal(e.clone()))?;
+        {
+            Ok(s) => s,
+            Err(e) => return Some(e.clone()),
+        };
         let modes = solver.modes_at(sample, lambda_nm);
-        if modes > AUTO_MAX_MODES {
-            return Err(Refusal(format!(
+        (modes > AUTO_MAX_MODES).then(|| {
+            format!(
                 "it would need {modes} modes per slice over a period of {:.0} x {:.0} nm, more than the {AUTO_MAX_MODES} an auto run spends on a cell (--coherence rigorous takes up to {})",
                 solver.fine.period_nm[0],
                 solver.fine.period_nm[1],
                 crate::reference::rigorous::Effort::MAX_MODES
-            )));
-        }
-        Ok(())
+            )
+        })
     }
 
     /// The sliced sample, where it was built.
