@@ -33,11 +33,14 @@ test: deps
 ## cycles, the floors of docs/design.md §9, string errors; limits in
 ## scripts/house-limits.toml), then formatting and lints, as CI applies them: the Embree
 ## build and the build without it.
+# The Embree-less build has its own target folder, so that switching between the two does
+# not rebuild goniospec each time; CI, which builds each once, shares the dependencies.
+NO_EMBREE_TARGET ?= $(or $(CARGO_TARGET_DIR),target)/no-embree
 lint: deps
 	python3 scripts/house-figures.py --check
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --all-targets -- -D warnings
-	GONIOSPEC_NO_EMBREE=1 CARGO_TARGET_DIR=$(or $(CARGO_TARGET_DIR),target)/no-embree $(CARGO) clippy --all-targets -- -D warnings
+	GONIOSPEC_NO_EMBREE=1 CARGO_TARGET_DIR=$(NO_EMBREE_TARGET) $(CARGO) clippy --all-targets -- -D warnings
 
 ## Install system packages when missing.
 deps:

@@ -21,35 +21,7 @@
 use faer::Mat;
 use faer::linalg::solvers::DenseSolveCore;
 
-use super::{C64, RcwaError};
-
-/// A slice's permittivity on a pixel grid, `eps[iy * nx + ix]`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Grid {
-    pub n: [usize; 2],
-    pub eps: Vec<C64>,
-}
-
-/// The harmonics kept: `-m[0]..=m[0]` along x and `-m[1]..=m[1]` along y; harmonic
-/// `(p, q)` is row `(q + m[1]) (2 m[0] + 1) + (p + m[0])`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Harmonics {
-    pub m: [usize; 2],
-}
-
-impl Harmonics {
-    pub fn count(self) -> usize {
-        (2 * self.m[0] + 1) * (2 * self.m[1] + 1)
-    }
-    /// Harmonic `(p, q)` of row `i`.
-    pub fn pq(self, i: usize) -> [i64; 2] {
-        let w = 2 * self.m[0] + 1;
-        [
-            (i % w) as i64 - self.m[0] as i64,
-            (i / w) as i64 - self.m[1] as i64,
-        ]
-    }
-}
+use super::{C64, Grid, Harmonics, RcwaError};
 
 fn sinc(u: f64) -> f64 {
     if u == 0.0 { 1.0 } else { u.sin() / u }
