@@ -20,7 +20,8 @@
 # dependent scattering (tests/interop/tmatrix_smuthi.py; SMUTHI needs gfortran and an older
 # NumPy), whose stored result tests/particle_media.rs reads; and rough gold's Mueller
 # matrices against NIST SCATMECH's facet model (tests/interop/mueller_scatmech.py; PyPI
-# pyscatmech builds from C++ in minutes).
+# pyscatmech builds from C++ in minutes), and the rigorous solver against SCATMECH's RCW
+# models (tests/interop/rcw_scatmech.py, whose stored output tests/rcwa_scatmech.rs reads).
 #
 #   scripts/interop.sh [GONIOSPEC_BINARY]
 #

@@ -2,7 +2,8 @@
 //! here: the Airy sum of a film (closed form), energy conservation of lossless gratings,
 //! the effective medium of sub-wavelength lamellae (the static limit, where Li's inverse
 //! rule is what makes TM right on metals), and reciprocity of the order efficiencies.
-//! Rigorous solvers from PyPI are the references of `tests/interop/rcwa_meent.py`.
+//! Rigorous solvers from PyPI are the references of `tests/interop/rcwa_nannos.py` (and NIST
+//! SCATMECH those of `tests/rcwa_scatmech.rs`).
 
 mod common;
 
