@@ -389,15 +389,23 @@ impl<'a> Run<'a> {
             return Ok(());
         };
         let nl = self.nl;
+        let theta = (self.cfg.theta_i_deg.get(k / nl).copied()).unwrap_or(f64::NAN);
+        let lambda = self.settings.wavelength(k % nl);
+        // Where the tangent plane fails, more trees sample the same wrong field: the seed's
+        // film at 75 deg and 495 nm held 1.276, 1.252 and 1.270 at 4,096, 16,384 and 65,536
+        // trees (issue 48), so the advice to raise --rays would only fail later.
+        let margin = super::auto::physical_optics_margin(self.sample, &self.sheets, theta, lambda);
+        let advice = if margin < crate::sample::validity::PHYSICAL_OPTICS_MIN {
+            format!(
+                "the tangent plane the method rests on fails at this angle (k r_c cos^3 theta = {margin:.1}, below {}; Ogilvy 1991, §4.2), and more --rays do not bring the transform back there: --coherence auto takes rays in such cells, or leave this angle out",
+                crate::sample::validity::PHYSICAL_OPTICS_MIN
+            )
+        } else {
+            "the rays sample the field too coarsely for it (raise --rays), or the sample has structure near or below the wavelength, where neither rays nor physical optics hold (use --coherence rigorous, or --coherence auto, which takes it)".to_string()
+        };
         Err(SimError::Unphysical(format!(
-            "sample '{}', theta_i {} deg, wavelength {} nm: the diffraction transform holds {:.3} of the ray field's power in propagating orders (outside [{DIFFRACTION_RATIO_REFUSED}, {:.2}]): the rays sample the field too coarsely for it (raise --rays), or the sample has structure near or below the wavelength, where neither rays nor physical optics hold (use --coherence rigorous, or --coherence auto, which takes it). (The method traces the most oblique incidence first, so this is found before the rest of the run)",
+            "sample '{}', theta_i {theta} deg, wavelength {lambda} nm: the diffraction transform holds {:.3} of the ray field's power in propagating orders (outside [{DIFFRACTION_RATIO_REFUSED}, {:.2}]): {advice}. (The method traces the most oblique incidence first, so this is found before the rest of the run)",
             self.sample.name,
-            self.cfg
-                .theta_i_deg
-                .get(k / nl)
-                .copied()
-                .unwrap_or(f64::NAN),
-            self.settings.wavelength(k % nl),
             d.ratio(),
             1.0 / DIFFRACTION_RATIO_REFUSED
         )))
