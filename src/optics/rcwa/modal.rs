@@ -102,6 +102,67 @@ fn patterned(k: &Wavevectors, grid: &Grid, h: Harmonics) -> Result<Modes, RcwaEr
     })
 }
 
+/// In the classical mount (`ky = 0` for every harmonic) `P` and `Q` have no diagonal
+/// blocks, so `PQ = diag(P_xy Q_yx, P_yx Q_xy)`: the modes with `E_x` (and `H_y`: TM for a
+/// grating along x) and those with `E_y` (and `H_x`: TE) never mix, and every matrix after
+/// them (interfaces, star products) is block diagonal too. Block `b` (0: `E_x`, 1: `E_y`)
+/// of slab `slab` has `N x N` modes: the `2N x 2N` eigenproblem's cost (`O(N^3)`) split in
+/// two quarters, and the same for the scattering matrices.
+fn block_modes(k: &Wavevectors, slab: &Slab, h: Harmonics, b: usize) -> Result<Modes, RcwaError> {
+    let n = k.kx.len();
+    let kx = &k.kx;
+    let grid = match slab {
+        Slab::Grid(g) => g,
+        &Slab::Uniform(eps) => {
+            let gamma: Vec<C64> = kx.iter().map(|&x| branch(eps - x * x)).collect();
+            // V = -Q W Γ⁻¹ with W = I: Q_yx = ε for E_x, Q_xy = kx² - ε for E_y.
+            let v = Mat::from_fn(n, n, |i, j| {
+                if i != j {
+                    C64::new(0.0, 0.0)
+                } else if b == 0 {
+                    -eps / gamma[j]
+                } else {
+                    -(kx[j] * kx[j] - eps) / gamma[j]
+                }
+            });
+            return Ok(Modes { w: None, v, gamma });
+        }
+    };
+    // The block's Q (Q_yx = ε_xx, or Q_xy = Kx² - ε_yy) and P Q.
+    let (q, omega2) = if b == 0 {
+        let eps = fourier::laurent(grid, h, |e| e);
+        let ez_inv = eps.partial_piv_lu().inverse();
+        if !ez_inv.norm_l2().is_finite() {
+            return Err(RcwaError::Singular("the permittivity's Toeplitz matrix"));
+        }
+        let exx = fourier::inverse_rule(grid, h, 0)?;
+        // P_xy = I - Kx εz⁻¹ Kx.
+        let p = Mat::from_fn(n, n, |i, j| {
+            C64::new(if i == j { 1.0 } else { 0.0 }, 0.0) - ez_inv[(i, j)] * (kx[i] * kx[j])
+        });
+        let omega2 = &p * &exx;
+        (exx, omega2)
+    } else {
+        let eyy = fourier::inverse_rule(grid, h, 1)?;
+        // P_yx = -I, so P_yx Q_xy = ε_yy - Kx².
+        let q = Mat::from_fn(n, n, |i, j| {
+            C64::new(if i == j { kx[i] * kx[i] } else { 0.0 }, 0.0) - eyy[(i, j)]
+        });
+        let omega2 = Mat::from_fn(n, n, |i, j| -q[(i, j)]);
+        (q, omega2)
+    };
+    let evd = omega2.eigen().map_err(|_| RcwaError::Eigen(n))?;
+    let w = evd.U().to_owned();
+    let gamma: Vec<C64> = evd.S().column_vector().iter().map(|&l| branch(l)).collect();
+    let qw = &q * &w;
+    let v = Mat::from_fn(n, n, |i, j| -qw[(i, j)] / gamma[j]);
+    Ok(Modes {
+        w: Some(w),
+        v,
+        gamma,
+    })
+}
+
 /// A scattering matrix: `[c_a^-; c_b^+] = [[s11, s12], [s21, s22]] [c_a^+; c_b^-]`, `a` above
 /// and `b` below, `+` down-going and `-` up-going.
 struct Smatrix {
@@ -207,17 +268,48 @@ pub(super) fn solve(
     let k0 = 2.0 * std::f64::consts::PI / lambda_nm;
     let above = homogeneous(&k, C64::new(s.eps_above, 0.0));
     let below = homogeneous(&k, s.eps_below);
-    let mut total: Option<Smatrix> = None;
-    let mut prev = &above;
-    let modes: Vec<Modes> = s
-        .layers
-        .iter()
-        .map(|l| match &l.slab {
+    let total = if k.ky.iter().all(|&y| y == 0.0) {
+        // The classical mount: two independent N x N problems (`block_modes`).
+        let x = chain(s, k0, |slab| block_modes(&k, slab, h, 0))?;
+        let y = chain(s, k0, |slab| block_modes(&k, slab, h, 1))?;
+        let diag = |a: &Mat<C64>, b: &Mat<C64>| {
+            Mat::from_fn(2 * n, 2 * n, |i, j| match (i / n, j / n) {
+                (0, 0) => a[(i, j)],
+                (1, 1) => b[(i - n, j - n)],
+                _ => C64::new(0.0, 0.0),
+            })
+        };
+        Smatrix {
+            s11: diag(&x.s11, &y.s11),
+            s12: diag(&x.s12, &y.s12),
+            s21: diag(&x.s21, &y.s21),
+            s22: diag(&x.s22, &y.s22),
+        }
+    } else {
+        chain(s, k0, |slab| match slab {
             Slab::Uniform(e) => Ok(homogeneous(&k, *e)),
             Slab::Grid(g) => patterned(&k, g, h),
-        })
+        })?
+    };
+    Ok(orders(&k, &total, h, d, s, &above, &below))
+}
+
+/// The stack's scattering matrix, each slab's modes (the half-spaces' too) from `modes`.
+fn chain(
+    s: &Structure,
+    k0: f64,
+    modes: impl Fn(&Slab) -> Result<Modes, RcwaError>,
+) -> Result<Smatrix, RcwaError> {
+    let above = modes(&Slab::Uniform(C64::new(s.eps_above, 0.0)))?;
+    let below = modes(&Slab::Uniform(s.eps_below))?;
+    let layers: Vec<Modes> = s
+        .layers
+        .iter()
+        .map(|l| modes(&l.slab))
         .collect::<Result<_, _>>()?;
-    for (l, m) in s.layers.iter().zip(&modes) {
+    let mut total: Option<Smatrix> = None;
+    let mut prev = &above;
+    for (l, m) in s.layers.iter().zip(&layers) {
         let i = interface(prev, m)?;
         let joined = match total {
             None => i,
@@ -227,11 +319,10 @@ pub(super) fn solve(
         prev = m;
     }
     let last = interface(prev, &below)?;
-    let total = match total {
+    Ok(match total {
         None => last,
         Some(t) => star(&t, &last),
-    };
-    Ok(orders(&k, &total, h, d, s, &above, &below))
+    })
 }
 
 /// The propagating orders' Jones matrices from the stack's scattering matrix.
