@@ -51,8 +51,19 @@ fn auto_takes_each_method_where_the_scales_call_for_it_and_gives_its_result() {
     assert!(notes.contains("k r_c cos^3 theta = 2.4"), "{notes}");
     assert!(notes.contains("2 cells of 4 (from 75 deg)"), "{notes}");
     assert!(!notes.contains("--coherence"), "{notes}");
+    // What would hold them is said as a fact of this sample: the rigorous solver, beyond
+    // whose limit the film's 20 um tile lies in both axes.
+    assert!(
+        notes.contains("the rigorous solver cannot take them: it would need"),
+        "{notes}"
+    );
+    assert!(
+        notes.contains("more than the solver takes (1200)"),
+        "{notes}"
+    );
     let warnings = goniospec::simulate::run_warnings(&s, &auto, &stats).join("\n");
     assert!(warnings.contains("tangent plane"), "{warnings}");
+    assert!(!warnings.contains("--coherence"), "{warnings}");
     // Each cell is its method's own result on the same trees: 0 deg against an explicit
     // diffraction run, 75 deg against the beamlet estimator on the same R2 points.
     let diffraction = traced(&s, &film_cfg(Coherence::Diffraction, &[0.0], 400));

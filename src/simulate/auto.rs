@@ -136,23 +136,33 @@ pub fn choose(
             } else {
                 None
             };
-            match why {
-                None => out.diffraction[di * nl + j] = true,
-                // Where the tangent plane fails, the rigorous solver holds if it fits.
-                Some((2 | 4, _)) if rfit().is_ok() => out.rigorous[di * nl + j] = true,
-                Some((kind, reason)) => {
-                    let m = missed.entry(kind).or_insert_with(|| Missed {
-                        cells: 0,
-                        need: need.clone(),
-                        theta,
-                        lambda,
-                        reason,
-                        theta_min: theta,
-                    });
-                    m.cells += 1;
-                    m.theta_min = m.theta_min.min(theta);
-                }
-            }
+            let Some((kind, reason)) = why else {
+                out.diffraction[di * nl + j] = true;
+                continue;
+            };
+            // Where the tangent plane fails, the rigorous solver holds if it fits; where it
+            // does not, the note says why.
+            let solver = match kind {
+                2 | 4 => match rfit() {
+                    Ok(()) => {
+                        out.rigorous[di * nl + j] = true;
+                        continue;
+                    }
+                    Err(r) => Some(r),
+                },
+                _ => None,
+            };
+            let m = missed.entry(kind).or_insert_with(|| Missed {
+                cells: 0,
+                need: need.clone(),
+                theta,
+                lambda,
+                reason,
+                solver,
+                theta_min: theta,
+            });
+            m.cells += 1;
+            m.theta_min = m.theta_min.min(theta);
         }
     }
     let total = out.diffraction.len();
@@ -181,6 +191,9 @@ struct Missed {
     theta: f64,
     lambda: f64,
     reason: String,
+    /// Why the rigorous solver could not take them, where it would hold (the tangent plane
+    /// fails, or a sheet is too deep).
+    solver: Option<String>,
     theta_min: f64,
 }
 
@@ -207,8 +220,16 @@ impl Missed {
                 self.lambda
             ),
         };
+        // What would hold these cells, as a fact of this sample: the rigorous solver, where
+        // it could not take them here. (Not advice to switch: an auto run already takes it
+        // wherever it fits.)
+        let beyond = self.solver.as_ref().map_or(String::new(), |why| {
+            format!(
+                ". Neither method holds these cells' angular distribution, and the rigorous solver cannot take them: {why}"
+            )
+        });
         format!(
-            "{what}. The diffraction method holds that, but {}; so {} cells of {total} (from {:.0} deg) took rays, and their angular distribution misses it (their total R is the rays'). Neither method holds these cells' angular distribution; a rigorous solver does (docs/validity.md)",
+            "{what}. The diffraction method holds that, but {}; so {} cells of {total} (from {:.0} deg) took rays, and their angular distribution misses it (their total R is the rays'){beyond} (docs/validity.md)",
             self.reason, self.cells, self.theta_min
         )
     }

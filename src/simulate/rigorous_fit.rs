@@ -60,12 +60,19 @@ impl<'a> RigorousFit<'a> {
             Err(e) => return Some(e.clone()),
         };
         let modes = solver.modes_at(sample, lambda_nm);
+        let max = crate::reference::rigorous::Effort::MAX_MODES;
+        // Where an explicit run could take the cell, say so; beyond that, only the limit.
+        let limit = if modes > max {
+            format!("more than the solver takes ({max})")
+        } else {
+            format!(
+                "more than the {AUTO_MAX_MODES} an auto run spends on a cell (--coherence rigorous takes up to {max})"
+            )
+        };
         (modes > AUTO_MAX_MODES).then(|| {
             format!(
-                "it would need {modes} modes per slice over a period of {:.0} x {:.0} nm, more than the {AUTO_MAX_MODES} an auto run spends on a cell (--coherence rigorous takes up to {})",
-                solver.fine.period_nm[0],
-                solver.fine.period_nm[1],
-                crate::reference::rigorous::Effort::MAX_MODES
+                "it would need {modes} modes per slice over a period of {:.0} x {:.0} nm, {limit}",
+                solver.fine.period_nm[0], solver.fine.period_nm[1],
             )
         })
     }

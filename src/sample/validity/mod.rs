@@ -578,7 +578,7 @@ fn smooth_at_grazing(sample: &Sample, sheet: &Sheet, ctx: &Context) -> Option<Fi
             if (tilted - flat).abs() > R_TOLERANCE {
                 return Some(Finding {
                     message: format!(
-                        "{name} has {what}: at {theta:.0} deg and {lambda:.0} nm it is smooth against the wavelength (Rayleigh g = {g:.2}), so the wave reflects from its mean plane (R {flat:.3}, the flat interface's) while rays average over facet tilts of {:.1} deg (about {tilted:.3}); the run's total R is uncertain by about {:.3} there. The flat interface's R is the better estimate at this angle; a rigorous solver settles it (docs/validity.md)",
+                        "{name} has {what}: at {theta:.0} deg and {lambda:.0} nm it is smooth against the wavelength (Rayleigh g = {g:.2}), so the wave reflects from its mean plane (R {flat:.3}, the flat interface's) while rays average over facet tilts of {:.1} deg (about {tilted:.3}); the run's total R is uncertain by about {:.3} there. The flat interface's R is the better estimate at this angle (docs/validity.md)",
                         tilt.to_degrees(),
                         (tilted - flat).abs()
                     ),
