@@ -16,7 +16,9 @@
 # (tests/interop/roof_rcwa.py); and the rigorous solver against independent Fourier modal
 # methods on the same staircases (meent for glass sinusoids, nannos with Li's rule for gold
 # and crossed gratings: tests/interop/rcwa_nannos.py; `against_references` in
-# tests/rcwa.rs compares). Not run here: the many-particle T-matrix reference for
+# tests/rcwa.rs compares), and the C-method on gold sinusoids in TE and TM against the same
+# Rayleigh-Fourier references (`gold_sinusoids_in_tm_against_rayleigh_fourier` in
+# tests/cmethod.rs). Not run here: the many-particle T-matrix reference for
 # dependent scattering (tests/interop/tmatrix_smuthi.py; SMUTHI needs gfortran and an older
 # NumPy), whose stored result tests/particle_media.rs reads; and rough gold's Mueller
 # matrices against NIST SCATMECH's facet model (tests/interop/mueller_scatmech.py; PyPI
@@ -52,6 +54,7 @@ GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test diff
 GONIOSPEC_VGROOVE_JSON="$work/vgroove.json" cargo test --release --test tilted_absorbers gold_v_grooves_against_rigorous -- --ignored --nocapture
 GONIOSPEC_RCWA_REFS_JSON="$work/rcwa-refs.json" cargo test --release --test rcwa against_references -- --ignored --nocapture
 GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test rcwa gold_sinusoids_against_rayleigh_fourier -- --ignored --nocapture
+GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test cmethod gold_sinusoids_in_tm_against_rayleigh_fourier -- --ignored --nocapture
 # The peer benchmark (issue 31): Mitsuba 3 and goniospec on the same mesh and rays must hit
 # the same triangle, ray by ray (all but 1e-4: edge ties); its speed figures are printed,
 # speed is not asserted here. Mitsuba's llvm_ad_rgb variant loads the system's LLVM, version 15 or newer (Debian 12: libllvm15;

@@ -180,11 +180,17 @@ fn rigorous_summary(
         .map(|c| c.1.harmonics)
         .fold([0, 0], |a, h| [a[0].max(h[0]), a[1].max(h[1])]);
     let secs: f64 = cells.iter().map(|c| c.1.seconds).sum();
+    let sliced = cells.iter().map(|c| c.1.slices).max().unwrap_or(0);
+    let curvilinear = cells.iter().filter(|c| c.1.slices == 0).count();
+    let how = match (sliced, curvilinear) {
+        (0, _) => "the C-method on the bare relief (unsliced)".to_string(),
+        (k, 0) => format!("{k} slices per structured region"),
+        (k, c) => format!("{k} slices per structured region, the C-method (unsliced) in {c} cells"),
+    };
     eprintln!(
-        "rigorous solver: {} cells, harmonics up to {:?} per axis, {} slices per structured region; converged: largest difference from the coarser check {:.1e} (tolerance {tolerance:.0e}) at theta_i {} deg, {} nm; {:.3} s per cell",
+        "rigorous solver: {} cells, harmonics up to {:?} per axis, {how}; converged: largest difference from the coarser check {:.1e} (tolerance {tolerance:.0e}) at theta_i {} deg, {} nm; {:.3} s per cell",
         cells.len(),
         most,
-        w.slices,
         w.difference,
         s.theta_i_deg[worst / nl],
         s.wavelength(worst % nl),

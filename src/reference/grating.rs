@@ -193,6 +193,37 @@ fn medium_at(col: &Column, above: usize, z: f64) -> usize {
     m
 }
 
+/// The tile's one interface as a relief `z = a(x)` for the C-method: `samples` heights (nm)
+/// over one period `period_nm` along x, at `x_i = (i + ½) Λ / samples`, where every column
+/// crosses exactly one uncoated interface and the structure does not change along y
+/// (`None` elsewhere: several interfaces, coatings, overhangs, a crossed pattern).
+pub fn relief(sample: &Sample, period_nm: f64, samples: usize) -> Option<Vec<f64>> {
+    let periods = (sample.tile_nm[0] / period_nm).round();
+    if periods < 1.0 || (periods * period_nm - sample.tile_nm[0]).abs() > 1e-6 * period_nm {
+        return None;
+    }
+    let (cols, _) = columns(sample, [samples * periods as usize, 1]).ok()?;
+    let heights: Vec<f64> = cols
+        .iter()
+        .take(samples)
+        .map(|c| {
+            let mut c = c.clone();
+            // A column through a shared edge meets both triangles, at one height.
+            c.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-9 && a.1 == b.1);
+            (c.len() == 1).then(|| c[0].0)
+        })
+        .collect::<Option<_>>()?;
+    // The same relief along y: a second row, across the tile, sees the same heights.
+    let (cross, _) = columns(sample, [samples * periods as usize, 2]).ok()?;
+    let row = samples * periods as usize;
+    let same = (0..samples).all(|i| {
+        [&cross[i], &cross[row + i]]
+            .iter()
+            .all(|c| c.first().is_some_and(|c| (c.0 - heights[i]).abs() < 1e-6))
+    });
+    same.then_some(heights)
+}
+
 /// Slices `sample`'s tile (see the module's documentation).
 pub fn slice(sample: &Sample, spec: SliceSpec) -> Result<Sliced, SliceError> {
     if sample.guard_nm.is_some() {

@@ -27,6 +27,8 @@
 // The solver proper needs faer; the `rigorous` feature (on by default) brings it. The fuzz
 // harnesses, which exercise the parsers only, build without it.
 #[cfg(feature = "rigorous")]
+mod cmethod;
+#[cfg(feature = "rigorous")]
 pub mod fourier;
 #[cfg(feature = "rigorous")]
 mod modal;
@@ -140,6 +142,8 @@ pub enum RcwaError {
         "this build of goniospec has no rigorous solver (built without the `rigorous` feature)"
     )]
     NotBuilt,
+    #[error("{0}")]
+    Unsupported(&'static str),
 }
 
 /// Solves `s` for light of `lambda_nm` (nm, in vacuum) travelling along `d` (unit, `d.z < 0`)
@@ -150,6 +154,35 @@ pub fn solve(s: &Structure, lambda_nm: f64, d: DVec3, h: Harmonics) -> Result<So
     #[cfg(not(feature = "rigorous"))]
     {
         let _ = (s, lambda_nm, d, h);
+        Err(RcwaError::NotBuilt)
+    }
+}
+
+/// A 1-D relief `z = a(x)` (nm) between two half-spaces, sampled at `x_i = i Λ / S`
+/// (`heights_nm[i]`), for the C-method ([`solve_profile`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Profile {
+    pub period_nm: f64,
+    pub heights_nm: Vec<f64>,
+    /// The half-space above (lossless) and below.
+    pub eps_above: f64,
+    pub eps_below: C64,
+}
+
+/// Solves the smooth relief `p` by the C-method (curvilinear coordinates: no staircase, so
+/// TM on metals converges fast) for light of `lambda_nm` along `d` (unit, in the plane
+/// across the grooves: `d.y = 0`, `d.z < 0`) with harmonics `-m..=m`.
+pub fn solve_profile(
+    p: &Profile,
+    lambda_nm: f64,
+    d: DVec3,
+    m: usize,
+) -> Result<Solution, RcwaError> {
+    #[cfg(feature = "rigorous")]
+    return cmethod::solve(p, lambda_nm, d, m);
+    #[cfg(not(feature = "rigorous"))]
+    {
+        let _ = (p, lambda_nm, d, m);
         Err(RcwaError::NotBuilt)
     }
 }

@@ -1,0 +1,331 @@
+//! The C-method (Chandezon's curvilinear coordinates) for a smooth 1-D relief `z = a(x)`
+//! between two half-spaces in the classical mount (docs/physics.md, "The rigorous solver:
+//! smooth metal reliefs").
+//!
+//! A staircase of a smooth metal profile puts a right-angled metal corner at every step,
+//! whose field singularities the Fourier modal method resolves only as `1 / M` in TM. In
+//! the coordinates `(x, u = z - a(x))` the interface is the plane `u = 0` and nothing is
+//! sliced: the Helmholtz equation for `F` (`E_y` in TE, `H_y` in TM), with lengths in units
+//! of `1 / k0`, is the first-order system (Chandezon, Maystre & Raoult 1980, J. Opt. 11,
+//! 235; in the form of Li, Chandezon, Granet & Plumey 1999, Appl. Opt. 38, 304)
+//!
+//! ```text
+//! ∂u F = w (G + ȧ ∂x F),     ∂u G = −∂x (w ∂x F − w ȧ G) − ε F,     w = 1 / (1 + ȧ²)
+//! ```
+//!
+//! where `G = (1 + ȧ²) ∂u F − ȧ ∂x F` is `|∇(z − a)|` times the normal derivative, so that
+//! `F` and `G / η` (`η = 1` in TE, `ε` in TM) are continuous across `u = 0`. With Floquet
+//! harmonics `α_n = n_1 sin θ + n λ / Λ` and the Toeplitz matrices `W = [[w]]`, `P =
+//! [[w ȧ]]`, the modes `e^{iρu}` of a medium are the eigenvectors of
+//!
+//! ```text
+//! M = [ i P α        W     ]       M [f; g] = iρ [f; g].
+//!     [ α W α − ε    i α P ]
+//! ```
+//!
+//! Plane waves are modes: `e^{i(α_n x ± β_n z)}` is `e^{±iβ_n u}` times `e^{i(α_n x ±
+//! β_n a(x))}`, with `G = i(±β_n − α_n ȧ) F`. The propagating orders' modes are taken in
+//! that closed form (their amplitudes are the orders' plane-wave amplitudes), the
+//! evanescent ones from `M`: in the medium above those with `Re(iρ) < 0` (decaying upward),
+//! below those with `Re(iρ) > 0`. Matching `F` and `G / η` harmonic by harmonic gives the
+//! reflected and transmitted amplitudes.
+
+use faer::Mat;
+use faer::linalg::solvers::Solve;
+use glam::DVec3;
+
+use super::{C64, Order, Profile, RcwaError, Solution};
+use crate::optics::mueller::frame;
+
+const I: C64 = C64::new(0.0, 1.0);
+
+/// The profile's samples and their functions, and the Fourier coefficients the method
+/// takes, `c[n + kmax]` for `n` in `-kmax..=kmax`.
+struct Sampled {
+    /// `k0 a(x_i)` at `x_i = i Λ / S`.
+    a: Vec<f64>,
+    /// `da/dx` at the same points (spectral derivative of the samples).
+    slope: Vec<f64>,
+}
+
+/// `(1 / S) Σ f_i e^{-2πi n i / S}` for `n` in `-kmax..=kmax`.
+fn coefficients(f: &[C64], kmax: usize) -> Vec<C64> {
+    let s = f.len();
+    let k = kmax as i64;
+    (-k..=k)
+        .map(|n| {
+            let sum: C64 = f
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| {
+                    let ph = -2.0 * std::f64::consts::PI * (n * i as i64) as f64 / s as f64;
+                    v * C64::from_polar(1.0, ph)
+                })
+                .sum();
+            sum / s as f64
+        })
+        .collect()
+}
+
+fn sampled(p: &Profile, k0: f64) -> Sampled {
+    let s = p.heights_nm.len();
+    let h: Vec<C64> = p.heights_nm.iter().map(|&z| C64::new(z, 0.0)).collect();
+    // The derivative of the samples' trigonometric interpolant (no Nyquist term).
+    let kmax = (s - 1) / 2;
+    let c = coefficients(&h, kmax);
+    let two_pi_l = 2.0 * std::f64::consts::PI / p.period_nm;
+    let slope = (0..s)
+        .map(|i| {
+            c.iter()
+                .enumerate()
+                .map(|(k, &ck)| {
+                    let n = k as i64 - kmax as i64;
+                    let ph = 2.0 * std::f64::consts::PI * (n * i as i64) as f64 / s as f64;
+                    (I * (n as f64 * two_pi_l) * ck * C64::from_polar(1.0, ph)).re
+                })
+                .sum()
+        })
+        .collect();
+    Sampled {
+        a: p.heights_nm.iter().map(|z| k0 * z).collect(),
+        slope,
+    }
+}
+
+/// Toeplitz matrix `T_ij = c[i - j]` of `n` harmonics from coefficients `c[k + 2m]`.
+fn toeplitz(c: &[C64], n: usize) -> Mat<C64> {
+    let m = (n - 1) / 2;
+    Mat::from_fn(n, n, |i, j| c[i + 2 * m - j])
+}
+
+/// A set of modes at `u = 0`: columns `[f; g]`.
+type Columns = Vec<(Vec<C64>, Vec<C64>)>;
+
+/// The closed-form mode of the plane wave of harmonic `n` (index `idx` among the `N`)
+/// travelling up (`up`) or down with `kz = beta` (real): `f_m = c_{m-n}[e^{±iβa}]`,
+/// `g_m = c_{m-n}[i(±β − α_n ȧ) e^{±iβa}]`.
+fn plane_wave(
+    sm: &Sampled,
+    alpha: f64,
+    beta: f64,
+    up: bool,
+    idx: usize,
+    n: usize,
+) -> (Vec<C64>, Vec<C64>) {
+    let sb = if up { beta } else { -beta };
+    let e: Vec<C64> = sm.a.iter().map(|&a| C64::from_polar(1.0, sb * a)).collect();
+    let ge: Vec<C64> = e
+        .iter()
+        .zip(&sm.slope)
+        .map(|(&e, &d)| I * (sb - alpha * d) * e)
+        .collect();
+    let kmax = n - 1;
+    let (ce, cg) = (coefficients(&e, kmax), coefficients(&ge, kmax));
+    // Row m (harmonic index) takes coefficient m - idx, at kmax + m - idx.
+    let f = (0..n).map(|m| ce[kmax + m - idx]).collect();
+    let g = (0..n).map(|m| cg[kmax + m - idx]).collect();
+    (f, g)
+}
+
+/// The medium's evanescent modes that decay away from the interface (`up`: into `u > 0`),
+/// from the eigenvectors of `M`, `count` of them.
+fn evanescent(
+    sm: &Sampled,
+    alpha: &[f64],
+    eps: C64,
+    up: bool,
+    count: usize,
+    kmax: usize,
+) -> Result<Columns, RcwaError> {
+    let n = alpha.len();
+    if count == 0 {
+        return Ok(Vec::new());
+    }
+    let w: Vec<C64> = sm
+        .slope
+        .iter()
+        .map(|d| C64::new(1.0 / (1.0 + d * d), 0.0))
+        .collect();
+    let pw: Vec<C64> = sm
+        .slope
+        .iter()
+        .map(|d| C64::new(d / (1.0 + d * d), 0.0))
+        .collect();
+    let (tw, tp) = (
+        toeplitz(&coefficients(&w, kmax), n),
+        toeplitz(&coefficients(&pw, kmax), n),
+    );
+    let m = Mat::from_fn(2 * n, 2 * n, |i, j| {
+        let (bi, ii, bj, jj) = (i / n, i % n, j / n, j % n);
+        match (bi, bj) {
+            (0, 0) => I * tp[(ii, jj)] * alpha[jj],
+            (0, _) => tw[(ii, jj)],
+            (1, 0) => {
+                alpha[ii] * tw[(ii, jj)] * alpha[jj]
+                    - if ii == jj { eps } else { C64::new(0.0, 0.0) }
+            }
+            _ => I * alpha[ii] * tp[(ii, jj)],
+        }
+    });
+    let evd = m.eigen().map_err(|_| RcwaError::Eigen(n))?;
+    let (u, s) = (evd.U(), evd.S().column_vector());
+    let mut idx: Vec<usize> = (0..2 * n).collect();
+    // iρ's real part: negative for modes decaying upward, positive downward.
+    idx.sort_by(|&a, &b| s[a].re.total_cmp(&s[b].re));
+    let chosen: Vec<usize> = if up {
+        idx[..count].to_vec()
+    } else {
+        idx[2 * n - count..].to_vec()
+    };
+    let scale = s.iter().map(|l| l.norm()).fold(1.0, f64::max);
+    if chosen
+        .iter()
+        .any(|&k| if up { s[k].re } else { -s[k].re } > -1e-9 * scale)
+    {
+        return Err(RcwaError::Singular(
+            "the C-method's evanescent modes do not separate from the propagating ones",
+        ));
+    }
+    Ok(chosen
+        .into_iter()
+        .map(|k| {
+            (
+                (0..n).map(|i| u[(i, k)]).collect(),
+                (0..n).map(|i| u[(n + i, k)]).collect(),
+            )
+        })
+        .collect())
+}
+
+/// `kz / k0` of harmonic `alpha` in `eps` where it propagates.
+fn propagating(eps: C64, alpha: f64) -> Option<f64> {
+    (eps.im == 0.0 && eps.re > alpha * alpha).then(|| (eps.re - alpha * alpha).sqrt())
+}
+
+/// Solves the relief `p` for light of `lambda_nm` along `d` (unit, `d.y = 0`, `d.z < 0`)
+/// with harmonics `-m..=m`.
+pub(super) fn solve(
+    p: &Profile,
+    lambda_nm: f64,
+    d: DVec3,
+    m: usize,
+) -> Result<Solution, RcwaError> {
+    if p.eps_above.is_nan() || p.eps_above <= 0.0 {
+        return Err(RcwaError::AboveLossy(p.eps_above));
+    }
+    if d.z.is_nan() || d.z >= 0.0 {
+        return Err(RcwaError::Direction);
+    }
+    if d.y != 0.0 {
+        return Err(RcwaError::Unsupported(
+            "the C-method here takes the classical mount only (light in the plane across the grooves)",
+        ));
+    }
+    let n = 2 * m + 1;
+    let kmax = 2 * m;
+    if p.heights_nm.len() <= 2 * kmax + 1 {
+        return Err(RcwaError::Unsupported(
+            "the relief has fewer samples than the harmonics need (4 m + 2)",
+        ));
+    }
+    let k0 = 2.0 * std::f64::consts::PI / lambda_nm;
+    let sm = sampled(p, k0);
+    let n1 = p.eps_above.sqrt();
+    let (e1, e2) = (C64::new(p.eps_above, 0.0), p.eps_below);
+    let alpha: Vec<f64> = (0..n)
+        .map(|i| n1 * d.x + (i as f64 - m as f64) * lambda_nm / p.period_nm)
+        .collect();
+    let beta0 = -n1 * d.z;
+    // Up-going modes above: the propagating plane waves, then the evanescent modes.
+    let prop1: Vec<(usize, f64)> = (0..n)
+        .filter_map(|i| propagating(e1, alpha[i]).map(|b| (i, b)))
+        .collect();
+    let prop2: Vec<(usize, f64)> = (0..n)
+        .filter_map(|i| propagating(e2, alpha[i]).map(|b| (i, b)))
+        .collect();
+    let mut above: Columns = prop1
+        .iter()
+        .map(|&(i, b)| plane_wave(&sm, alpha[i], b, true, i, n))
+        .collect();
+    above.extend(evanescent(&sm, &alpha, e1, true, n - prop1.len(), kmax)?);
+    let mut below: Columns = prop2
+        .iter()
+        .map(|&(i, b)| plane_wave(&sm, alpha[i], b, false, i, n))
+        .collect();
+    below.extend(evanescent(&sm, &alpha, e2, false, n - prop2.len(), kmax)?);
+    let incident = plane_wave(&sm, alpha[m], beta0, false, m, n);
+    // Each propagating order's amplitude per unit incident F, TE (F = E_y, η = 1) and TM
+    // (F = H_y, η = ε): reflected orders first, then transmitted.
+    let nprop = prop1.len() + prop2.len();
+    let mut amps = [
+        vec![C64::new(0.0, 0.0); nprop],
+        vec![C64::new(0.0, 0.0); nprop],
+    ];
+    for (pol, out) in amps.iter_mut().enumerate() {
+        let eta = |e: C64| if pol == 1 { e } else { C64::new(1.0, 0.0) };
+        let a = Mat::from_fn(2 * n, 2 * n, |r, c| {
+            let (col, sign, e) = if c < n {
+                (&above[c], 1.0, e1)
+            } else {
+                (&below[c - n], -1.0, e2)
+            };
+            if r < n {
+                col.0[r] * sign
+            } else {
+                col.1[r - n] * sign / eta(e)
+            }
+        });
+        let rhs = Mat::from_fn(2 * n, 1, |r, _| {
+            if r < n {
+                -incident.0[r]
+            } else {
+                -incident.1[r - n] / eta(e1)
+            }
+        });
+        let x = a.partial_piv_lu().solve(&rhs);
+        if !x.norm_l2().is_finite() {
+            return Err(RcwaError::Singular("the C-method's boundary system"));
+        }
+        for k in 0..prop1.len() {
+            out[k] = x[(k, 0)];
+        }
+        for k in 0..prop2.len() {
+            out[prop1.len() + k] = x[(n + k, 0)];
+        }
+    }
+    let (p_in, s_in) = frame(d);
+    let mut sol = Solution::default();
+    let orders = prop1
+        .iter()
+        .map(|&(i, b)| (i, b, true, e1))
+        .chain(prop2.iter().map(|&(i, b)| (i, b, false, e2)));
+    for (slot, (i, b, up, e)) in orders.enumerate() {
+        let nm = e.re.sqrt();
+        let dir = DVec3::new(alpha[i], 0.0, if up { b } else { -b }) / nm;
+        let (p_out, s_out) = frame(dir);
+        // Unit incident E along `e_in`: TE part F = ŷ·E, TM part F = H_y = n1 ŷ·(d × E).
+        // The order's E: TE F ŷ, TM (1 / n) H × k̂ with H = F ŷ; scaled so that |J|² is
+        // the efficiency (power flux ∝ |E|² kz).
+        let scale = (b / beta0).sqrt();
+        let field = |e_in: DVec3| {
+            let te = amps[0][slot] * DVec3::Y.dot(e_in);
+            let tm = amps[1][slot] * (n1 * DVec3::Y.dot(d.cross(e_in))) / nm;
+            let y_cross_k = DVec3::Y.cross(dir);
+            let onto = |v: DVec3| (te * DVec3::Y.dot(v) + tm * y_cross_k.dot(v)) * scale;
+            (onto(p_out), onto(s_out))
+        };
+        let (pp, sp) = field(p_in);
+        let (ps, ss) = field(s_in);
+        let o = Order {
+            m: [i as i64 - m as i64, 0],
+            up,
+            dir,
+            jones: [pp, ps, sp, ss],
+        };
+        let tot = if up { &mut sol.r } else { &mut sol.t };
+        tot[0] += o.efficiency(0);
+        tot[1] += o.efficiency(1);
+        sol.orders.push(o);
+    }
+    Ok(sol)
+}
