@@ -1,6 +1,6 @@
 //! The C-method (Chandezon's curvilinear coordinates) for a smooth 1-D relief `z = a(x)`
-//! between two half-spaces in the classical mount (docs/physics.md, "The rigorous solver:
-//! smooth metal reliefs").
+//! between two half-spaces in the classical mount (docs/physics.md, "The rigorous solver",
+//! "Smooth bare reliefs: the C-method").
 //!
 //! A staircase of a smooth metal profile puts a right-angled metal corner at every step,
 //! whose field singularities the Fourier modal method resolves only as `1 / M` in TM. In
