@@ -63,3 +63,27 @@ pub fn time_solve(s: &Structure, h: Harmonics, runs: usize) -> Result<(f64, f64)
     times.sort_by(f64::total_cmp);
     Ok((times[times.len() / 2], r))
 }
+
+/// The median wall time of `runs` C-method solves of the 1-D relief `z = amp cos 2πx/Λ`
+/// (the metal of [`grating`], 1,024 heights) with harmonics `-m..=m`, s, and the last R.
+pub fn time_profile(period: f64, amp: f64, m: usize, runs: usize) -> Result<(f64, f64), RcwaError> {
+    let p = rcwa::Profile {
+        period_nm: period,
+        heights_nm: (0..1024)
+            .map(|i| amp * (2.0 * std::f64::consts::PI * i as f64 / 1024.0).cos())
+            .collect(),
+        eps_above: 1.0,
+        eps_below: C64::new(-40.0, 15.0),
+    };
+    let d = DVec3::new(30f64.to_radians().sin(), 0.0, -(30f64.to_radians().cos()));
+    let mut times = Vec::with_capacity(runs);
+    let mut r = 0.0;
+    for _ in 0..runs {
+        let t = Instant::now();
+        let sol = rcwa::solve_profile(&p, 550.0, d, m)?;
+        times.push(t.elapsed().as_secs_f64());
+        r = 0.5 * (sol.r[0] + sol.r[1]);
+    }
+    times.sort_by(f64::total_cmp);
+    Ok((times[times.len() / 2], r))
+}

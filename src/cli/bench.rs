@@ -71,7 +71,8 @@ pub(super) enum BenchCommand {
     /// wavelength and incident angle) on one thread, for a 1-D grating (period 2 um) at 41
     /// orders and a crossed grating (period 1 um) at 11 x 11 orders, each a metal relief of
     /// 24 slices: one solve, and the cell as a run takes it (with its convergence check at
-    /// two thirds of the orders and half the slices).
+    /// two thirds of the orders and half the slices); and the 1-D relief by the C-method,
+    /// unsliced, as a run takes a bare smooth relief.
     ///
     /// Example: goniospec bench rigorous
     Rigorous(RigorousBenchArgs),
@@ -85,7 +86,7 @@ pub(super) struct RigorousBenchArgs {
 }
 
 pub(super) fn bench_rigorous(a: RigorousBenchArgs) -> Result<ExitCode> {
-    use goniospec::bench::rigorous::{grating, time_solve};
+    use goniospec::bench::rigorous::{grating, time_profile, time_solve};
     use goniospec::optics::rcwa::Harmonics;
     let runs = a.runs as usize;
     let pool = thread_pool(1)?;
@@ -108,6 +109,18 @@ pub(super) fn bench_rigorous(a: RigorousBenchArgs) -> Result<ExitCode> {
             emit(&format!("rigorous_{name}_cell_s: {:.4} s", solve + check));
             emit(&format!("rigorous_{name}_r: {r:.6} 1"));
         }
+        // The same 1-D relief by the C-method (a bare smooth relief: no slices), with its
+        // check at two thirds of the harmonics.
+        let (solve, r) = time_profile(2000.0, 100.0, 20, runs)?;
+        let (check, _) = time_profile(2000.0, 100.0, 14, runs)?;
+        emit(&format!(
+            "rigorous_1d_cmethod_41_orders_solve_s: {solve:.4} s"
+        ));
+        emit(&format!(
+            "rigorous_1d_cmethod_41_orders_cell_s: {:.4} s",
+            solve + check
+        ));
+        emit(&format!("rigorous_1d_cmethod_41_orders_r: {r:.6} 1"));
         Ok(())
     })?;
     Ok(ExitCode::SUCCESS)

@@ -48,21 +48,48 @@ struct Sampled {
     slope: Vec<f64>,
 }
 
-/// `(1 / S) Σ f_i e^{-2πi n i / S}` for `n` in `-kmax..=kmax`.
+/// `(1 / S) Σ f_i e^{-2πi n i / S}` for `n` in `-kmax..=kmax`, from a table of the `S`
+/// roots of unity (the exponent taken modulo `S`, so no sine is evaluated per term).
 fn coefficients(f: &[C64], kmax: usize) -> Vec<C64> {
     let s = f.len();
+    let roots: Vec<C64> = (0..s)
+        .map(|k| C64::from_polar(1.0, -2.0 * std::f64::consts::PI * k as f64 / s as f64))
+        .collect();
     let k = kmax as i64;
     (-k..=k)
         .map(|n| {
-            let sum: C64 = f
-                .iter()
-                .enumerate()
-                .map(|(i, &v)| {
-                    let ph = -2.0 * std::f64::consts::PI * (n * i as i64) as f64 / s as f64;
-                    v * C64::from_polar(1.0, ph)
-                })
-                .sum();
+            let step = n.rem_euclid(s as i64) as usize;
+            let (mut at, mut sum) = (0usize, C64::new(0.0, 0.0));
+            for &v in f {
+                sum += v * roots[at];
+                at += step;
+                if at >= s {
+                    at -= s;
+                }
+            }
             sum / s as f64
+        })
+        .collect()
+}
+
+/// `Σ_k g_k e^{-2πi k i / S}` for every `i` in `0..S` (`S` the length of `g`), conjugated:
+/// the inverse transform of `conj(g)`.
+fn coefficients_at(g: &[C64]) -> Vec<C64> {
+    let s = g.len();
+    let roots: Vec<C64> = (0..s)
+        .map(|k| C64::from_polar(1.0, -2.0 * std::f64::consts::PI * k as f64 / s as f64))
+        .collect();
+    (0..s)
+        .map(|i| {
+            let (mut at, mut sum) = (0usize, C64::new(0.0, 0.0));
+            for &v in g {
+                sum += v * roots[at];
+                at += i;
+                if at >= s {
+                    at -= s;
+                }
+            }
+            sum.conj()
         })
         .collect()
 }
@@ -74,18 +101,20 @@ fn sampled(p: &Profile, k0: f64) -> Sampled {
     let kmax = (s - 1) / 2;
     let c = coefficients(&h, kmax);
     let two_pi_l = 2.0 * std::f64::consts::PI / p.period_nm;
-    let slope = (0..s)
-        .map(|i| {
-            c.iter()
-                .enumerate()
-                .map(|(k, &ck)| {
-                    let n = k as i64 - kmax as i64;
-                    let ph = 2.0 * std::f64::consts::PI * (n * i as i64) as f64 / s as f64;
-                    (I * (n as f64 * two_pi_l) * ck * C64::from_polar(1.0, ph)).re
-                })
-                .sum()
-        })
+    // ȧ(x_i) = Σ_n i n (2π / Λ) c_n e^{2πi n i / S}: the derivative's coefficients taken
+    // back to the samples, conjugating the forward transform.
+    let d: Vec<C64> = c
+        .iter()
+        .enumerate()
+        .map(|(k, &ck)| (I * ((k as f64 - kmax as f64) * two_pi_l) * ck).conj())
         .collect();
+    let mut full = vec![C64::new(0.0, 0.0); s];
+    for (k, &dk) in d.iter().enumerate() {
+        full[(k as i64 - kmax as i64).rem_euclid(s as i64) as usize] = dk;
+    }
+    // Σ_n d_n e^{2πi n i / S} = conj(Σ_n conj(d_n) e^{-2πi n i / S}) = S conj(c'_i).
+    let back = coefficients_at(&full);
+    let slope = back.iter().map(|b| b.re).collect();
     Sampled {
         a: p.heights_nm.iter().map(|z| k0 * z).collect(),
         slope,
@@ -203,19 +232,13 @@ fn propagating(eps: C64, alpha: f64) -> Option<f64> {
 }
 
 /// Solves the relief `p` for light of `lambda_nm` along `d` (unit, `d.y = 0`, `d.z < 0`)
-/// with harmonics `-m..=m`.
+/// with harmonics `-m..=m` (the incidence checked by [`super::solve_profile`]).
 pub(super) fn solve(
     p: &Profile,
     lambda_nm: f64,
     d: DVec3,
     m: usize,
 ) -> Result<Solution, RcwaError> {
-    if p.eps_above.is_nan() || p.eps_above <= 0.0 {
-        return Err(RcwaError::AboveLossy(p.eps_above));
-    }
-    if d.z.is_nan() || d.z >= 0.0 {
-        return Err(RcwaError::Direction);
-    }
     if d.y != 0.0 {
         return Err(RcwaError::Unsupported(
             "the C-method here takes the classical mount only (light in the plane across the grooves)",

@@ -146,9 +146,22 @@ pub enum RcwaError {
     Unsupported(&'static str),
 }
 
+/// What both solvers require of the light: a lossless half-space above with a positive
+/// permittivity `eps_above`, and `d` travelling down into the sample.
+fn check_incidence(eps_above: f64, d: DVec3) -> Result<(), RcwaError> {
+    if eps_above.is_nan() || eps_above <= 0.0 {
+        return Err(RcwaError::AboveLossy(eps_above));
+    }
+    if d.z.is_nan() || d.z >= 0.0 {
+        return Err(RcwaError::Direction);
+    }
+    Ok(())
+}
+
 /// Solves `s` for light of `lambda_nm` (nm, in vacuum) travelling along `d` (unit, `d.z < 0`)
 /// in the half-space above, keeping the harmonics `h`.
 pub fn solve(s: &Structure, lambda_nm: f64, d: DVec3, h: Harmonics) -> Result<Solution, RcwaError> {
+    check_incidence(s.eps_above, d)?;
     #[cfg(feature = "rigorous")]
     return modal::solve(s, lambda_nm, d, h);
     #[cfg(not(feature = "rigorous"))]
@@ -178,6 +191,7 @@ pub fn solve_profile(
     d: DVec3,
     m: usize,
 ) -> Result<Solution, RcwaError> {
+    check_incidence(p.eps_above, d)?;
     #[cfg(feature = "rigorous")]
     return cmethod::solve(p, lambda_nm, d, m);
     #[cfg(not(feature = "rigorous"))]

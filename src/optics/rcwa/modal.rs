@@ -242,19 +242,13 @@ fn propagate(s: Smatrix, m: &Modes, d: f64) -> Smatrix {
     }
 }
 
-/// [`super::solve`], with faer.
+/// [`super::solve`], with faer (the incidence checked there).
 pub(super) fn solve(
     s: &Structure,
     lambda_nm: f64,
     d: DVec3,
     h: Harmonics,
 ) -> Result<Solution, RcwaError> {
-    if s.eps_above.is_nan() || s.eps_above <= 0.0 {
-        return Err(RcwaError::AboveLossy(s.eps_above));
-    }
-    if d.z.is_nan() || d.z >= 0.0 {
-        return Err(RcwaError::Direction);
-    }
     let n_above = s.eps_above.sqrt();
     let n = h.count();
     let k = Wavevectors {
