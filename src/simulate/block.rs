@@ -315,6 +315,12 @@ impl Run<'_> {
             &mut w.deps,
             &mut w.glob,
         );
+        // Next-event estimation spread over the reflected buckets (`Tree::nee`).
+        w.deps.extend(
+            (tree.nee.iter().enumerate())
+                .filter(|(_, v)| **v != 0.0)
+                .map(|(b, v)| (crate::accumulate::key(b, false), *v)),
+        );
         let (r, t) = w
             .dense
             .add_tree(j, &w.deps, &w.glob, w.scratch.mueller_deposits());

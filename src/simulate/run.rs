@@ -207,7 +207,15 @@ impl<'a> Run<'a> {
                 });
             }
         }
-        let next_event = scattering && cfg.next_event && scene.enable_next_event();
+        // Spread over every bucket where the estimator sums each exit's power alone
+        // (Mueller runs keep one direction per event: its exits carry Jones matrices).
+        let spread = (matches!(cfg.coherence, Coherence::Beamlet | Coherence::Auto)
+            && !cfg.mueller)
+            .then_some(crate::trace::SpreadGrid {
+                theta_bins: cfg.buckets.theta_bins,
+                phi_bins: cfg.buckets.phi_bins,
+            });
+        let next_event = scattering && cfg.next_event && scene.enable_next_event(spread);
         let index_at = |l: f64| -> Vec<C64> {
             let mut v = Vec::new();
             sample.indices_into(l, &mut v);

@@ -33,10 +33,11 @@ mod escape;
 mod events;
 mod film;
 mod random;
+mod spread;
 mod tree;
 mod walk;
 
-pub use escape::NEE_ROULETTE;
+pub use escape::{NEE_ROULETTE, SPREAD_ROULETTE, SpreadGrid};
 pub use random::{ROULETTE_AFTER_SEGMENTS, ROULETTE_BELOW};
 
 pub use events::{PLANE_WAVE_TILT, deflection, event_weights, recombination_weight};
@@ -199,9 +200,14 @@ impl<'a> Scene<'a> {
     }
 
     /// Turns next-event estimation on where it applies (a scattering layer of a flat stack
-    /// under clear layers only: `escape`); returns whether it does.
-    pub fn enable_next_event(&mut self) -> bool {
-        self.escape = escape::Escape::of(self.sample);
+    /// under clear layers only: `escape`); returns whether it does. With `spread`, a
+    /// shallow event's estimate goes to every bucket of that grid at once ([`Tree::nee`],
+    /// `spread`), else to one direction as an exit of its own.
+    pub fn enable_next_event(&mut self, spread: Option<SpreadGrid>) -> bool {
+        self.escape = escape::Escape::of(self.sample).map(|mut e| {
+            e.spread = spread.map(|g| (g, spread::polar_edges(g)));
+            e
+        });
         self.escape.is_some()
     }
 

@@ -97,6 +97,12 @@ pub struct Tree {
     /// exits and dropped power never hold more than `1 + excess` incoherently
     /// ([`Tree::overflow`]).
     pub excess: f64,
+    /// Next-event estimation spread over the reflected hemisphere's buckets (`spread`):
+    /// power per bucket (fraction of launched), in `Buckets::index` order; empty where
+    /// the run does not spread.
+    pub nee: Vec<f64>,
+    /// Scratch for `spread`: `(sin, cos)` of each azimuth sector's direction.
+    pub(super) spread_azimuths: Vec<(f64, f64)>,
     /// Scratch for coated interfaces (indices and thicknesses of one event's stack).
     pub(super) n_buf: Vec<C64>,
     pub(super) d_buf: Vec<f64>,
@@ -114,6 +120,7 @@ impl Tree {
         self.segments = 0;
         self.random_events = 0;
         self.excess = 0.0;
+        self.nee.fill(0.0);
     }
 
     /// Records an event that took a field of power `p_in` (fraction of launched, both

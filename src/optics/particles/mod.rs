@@ -48,6 +48,7 @@ use glam::DVec3;
 pub const THETA_INTERVALS: usize = 256;
 use sizes::size_integral;
 pub use sizes::{MAX_RADIUS_NM, Radius, SIZE_TOLERANCE, TAIL_Z};
+pub use towards::{COHERENCY_POINTS, Coherency};
 
 /// Why a particle medium cannot be tabulated.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -150,6 +151,8 @@ pub struct LambdaEntry {
     sizes: Vec<SizeEntry>,
     /// Cumulative probability of each size at a scattering event.
     size_cdf: Vec<f64>,
+    /// The size-averaged scattered coherency over `sin(theta / 2)`, once asked (`towards`).
+    coherency: std::sync::OnceLock<Box<[[f64; 4]]>>,
 }
 
 /// A scattering medium ready for the tracer.
@@ -591,6 +594,7 @@ fn lambda_entry(
         size_change: integral.change,
         sizes,
         size_cdf,
+        coherency: std::sync::OnceLock::new(),
     })
 }
 
