@@ -46,8 +46,8 @@ pub const NEE_ROULETTE: f64 = 1e-3;
 /// An event `h` nm below the top of its layer is spread with probability `exp(-mu_ext h)
 /// / SPREAD_ROULETTE` (the best-case survival to the top over this) and its estimate
 /// weighted by the inverse; the others make none (`next_event`). A spread costs one evaluation
-/// per bucket (1,620 on the default grid, about 15 ns each), so this trades the noise of
-/// the roulette against the number of spreads. Measured on the white paint
+/// per bucket (1,620 on the default grid; the spread was 57 % of the white paint's
+/// profile), so this trades the noise of the roulette against the number of spreads. Measured on the white paint
 /// (`meshes/paint-pigments.toml`, 30 deg, 40 bins, 1,024 trees, `bench converge`'s
 /// figure): 0.3 gave 0.034 in 80 s, 1 gave 0.035 in 49 s, 2 gave 0.041 in 18 s, 3 gave
 /// 0.046 in 17.7 s, 5 gave 0.055 in 12.4 s (before the evaluation was made 1.6 times

@@ -1,8 +1,9 @@
 //! Next-event estimation spread over every outgoing bucket (issue 49; docs/physics.md,
-//! "Next-event estimation"): where a volume event lies shallow enough, its straight
-//! escape is estimated towards one direction in each bucket of the reflected hemisphere
-//! at once, instead of one direction in all, and the power is added to the tree's
-//! [`Tree::nee`] buckets directly.
+//! "Next-event estimation"): a volume event that the roulette of `escape::next_event`
+//! picks (with probability `exp(-mu_ext h) / SPREAD_ROULETTE`, weighted by the inverse)
+//! has its straight escape estimated towards one direction in each bucket of the
+//! reflected hemisphere at once, instead of one direction in all, and the power is added
+//! to the tree's [`Tree::nee`] buckets directly.
 //!
 //! The buckets are rectangles in the cosine map `(u1, u2) = (sin^2 theta_o, phi_o / 2 pi)`,
 //! where the density `cos theta_o / pi` per steradian is uniform
@@ -16,7 +17,7 @@
 //!  sum_{s, p} T_pol <|E_pol|^2>`,
 //!
 //! with `<|E_pol|^2>` the expected scattered power along the exit's s and p axes, taken
-//! from the size-averaged coherency ([`Coherency`]) and the incident fields' own
+//! from the size-averaged coherency (`particles::Coherency`) and the incident fields' own
 //! coherency matrix `W = (1/2) sum_pol f f^H` (the two polarisations averaged, as every
 //! exit's power is): `<|a|^2> = p^T W p`, `<a conj(b)> = p^T W e_perp` for the
 //! components `a`, `b` in and perpendicular to the scattering plane.

@@ -48,15 +48,15 @@ struct Sampled {
     slope: Vec<f64>,
 }
 
-/// `(1 / S) Σ f_i e^{-2πi n i / S}` for `n` in `-kmax..=kmax`, from a table of the `S`
-/// roots of unity (the exponent taken modulo `S`, so no sine is evaluated per term).
-fn coefficients(f: &[C64], kmax: usize) -> Vec<C64> {
+/// `Σ_i f_i e^{-2πi n i / S}` for each `n` of `orders` (`S` the length of `f`), from a
+/// table of the `S` roots of unity (the exponent taken modulo `S`, so no sine is evaluated
+/// per term).
+fn dft(f: &[C64], orders: impl Iterator<Item = i64>) -> Vec<C64> {
     let s = f.len();
     let roots: Vec<C64> = (0..s)
         .map(|k| C64::from_polar(1.0, -2.0 * std::f64::consts::PI * k as f64 / s as f64))
         .collect();
-    let k = kmax as i64;
-    (-k..=k)
+    orders
         .map(|n| {
             let step = n.rem_euclid(s as i64) as usize;
             let (mut at, mut sum) = (0usize, C64::new(0.0, 0.0));
@@ -67,30 +67,24 @@ fn coefficients(f: &[C64], kmax: usize) -> Vec<C64> {
                     at -= s;
                 }
             }
-            sum / s as f64
+            sum
         })
         .collect()
+}
+
+/// `(1 / S) Σ f_i e^{-2πi n i / S}` for `n` in `-kmax..=kmax`.
+fn coefficients(f: &[C64], kmax: usize) -> Vec<C64> {
+    let k = kmax as i64;
+    let s = f.len() as f64;
+    dft(f, -k..=k).into_iter().map(|c| c / s).collect()
 }
 
 /// `Σ_k g_k e^{-2πi k i / S}` for every `i` in `0..S` (`S` the length of `g`), conjugated:
 /// the inverse transform of `conj(g)`.
 fn coefficients_at(g: &[C64]) -> Vec<C64> {
-    let s = g.len();
-    let roots: Vec<C64> = (0..s)
-        .map(|k| C64::from_polar(1.0, -2.0 * std::f64::consts::PI * k as f64 / s as f64))
-        .collect();
-    (0..s)
-        .map(|i| {
-            let (mut at, mut sum) = (0usize, C64::new(0.0, 0.0));
-            for &v in g {
-                sum += v * roots[at];
-                at += i;
-                if at >= s {
-                    at -= s;
-                }
-            }
-            sum.conj()
-        })
+    dft(g, 0..g.len() as i64)
+        .into_iter()
+        .map(|c| c.conj())
         .collect()
 }
 
