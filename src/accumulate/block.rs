@@ -34,6 +34,9 @@ pub(crate) struct BlockCell {
     /// The diffraction method: every exit's contribution, tree by tree
     /// (`diffraction::contribution`).
     pub(crate) diffraction: Vec<super::diffraction::Contribution>,
+    /// The diffraction method under path sharing: every exit once for all wavelengths, in
+    /// the cell of the direction's first bin that diffracts (`diffraction::SharedExit`).
+    pub(crate) shared: Vec<super::diffraction::SharedExit>,
 }
 
 /// Per-thread dense accumulators with touched lists: no allocation and no hashing per

@@ -35,37 +35,14 @@
 //! spread. `rho = inf` deposits each order in the bucket of its direction.
 
 use super::patch::{Patch, patch_rows};
+use super::tube::cos_of;
+pub use super::tube::{Contribution, Launches, SharedExit, TubeShape, contribution, tube_shapes};
 use super::{Buckets, key};
 use crate::optics::C64;
-use crate::optics::fresnel::{Field, field_power};
+use crate::optics::fresnel::field_power;
 use crate::optics::mueller::{self, Jones, Mueller};
-use crate::trace::Exit;
 use rustfft::FftPlanner;
 use std::f64::consts::PI;
-
-/// One exit's contribution at one wavelength: its tree, point, direction, and the field of
-/// both incident polarisations with its phase.
-#[derive(Clone, Copy, Debug)]
-pub struct Contribution {
-    /// The tree (its index on the launch lattice) and the exit's place in the tree's list:
-    /// the same exit of the neighbouring trees gives the tube's shape.
-    pub tree: u32,
-    pub slot: u32,
-    /// Exit point on the exit plane, nm (world frame, not wrapped).
-    pub x: [f64; 2],
-    /// Transverse components of the unit direction of travel.
-    pub w: [f64; 2],
-    /// `e_j exp(i (psi_j - k_in . x_j)) exp(-k Im OPL_j)`: the power-normalised field with
-    /// its phase at the exit point, less the incident wave's transverse phase.
-    pub a: [Field; 2],
-    /// The tube's cross-section relative to the launched one, tracked through its
-    /// refractions ([`Exit::tube`]); used where no neighbouring tree has the same exit.
-    pub tube: f64,
-    /// The facets the ray met ([`Exit::path`]).
-    pub path: u64,
-    /// Left through the bottom plane (transmission).
-    pub down: bool,
-}
 
 /// The largest grid (cells) one hemisphere's field may use at one wavelength: 2^24 cells
 /// of 16 bytes, 256 MiB, per field component.
@@ -111,31 +88,6 @@ fn spacing(lambda_nm: f64, n_out: f64, sigma_nm: f64) -> f64 {
     2.0 * PI / (2.0 * k * n_out + ALIAS_MARGIN / sigma_nm)
 }
 
-/// The contribution of exit `slot` of tree `tree` at wave number `k` (1/nm, vacuum), for an
-/// incident wave whose phase at the tree's launch point is `entry_phase` and whose
-/// transverse wave vector is `k_in` (1/nm).
-pub fn contribution(
-    exit: &Exit,
-    tree: u32,
-    slot: u32,
-    k: f64,
-    entry_phase: f64,
-    k_in: [f64; 2],
-) -> Contribution {
-    let psi = entry_phase + k * exit.opl.re - (k_in[0] * exit.x.x + k_in[1] * exit.x.y);
-    let f = C64::from_polar((-k * exit.opl.im).exp(), psi);
-    Contribution {
-        tree,
-        slot,
-        x: [exit.x.x, exit.x.y],
-        w: [exit.dir.x, exit.dir.y],
-        a: [exit.e[0].map(|c| c * f), exit.e[1].map(|c| c * f)],
-        tube: exit.tube,
-        path: exit.path,
-        down: !exit.up,
-    }
-}
-
 /// What one hemisphere of one wavelength diffracted into.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Pattern {
@@ -177,6 +129,18 @@ pub struct Hemisphere {
     pub mueller: bool,
 }
 
+impl Hemisphere {
+    /// Where its tubes were launched, and which way they leave ([`tube_shapes`]).
+    pub fn launches(&self) -> Launches {
+        Launches {
+            tile_nm: self.tile_nm,
+            lattice: self.lattice,
+            cos_i: self.cos_i,
+            down: self.down,
+        }
+    }
+}
+
 /// Probabilists' Gauss-Hermite rule of 5 points for a standard normal variable (nodes
 /// `0, +-sqrt(5 - sqrt 10), +-sqrt(5 + sqrt 10)`; Abramowitz & Stegun 25.4.46 rescaled).
 const GH5: [(f64, f64); 5] = [
@@ -188,10 +152,13 @@ const GH5: [(f64, f64); 5] = [
 ];
 
 /// The orders of one hemisphere from its contributions (in tree order: the sums are the
-/// same bits whatever produced them), deposited into `buckets`.
+/// same bits whatever produced them), deposited into `buckets`. `shapes`, where given, are
+/// [`tube_shapes`] of these contributions' geometry (the same at every wavelength under
+/// path sharing, so found once); otherwise they are found here.
 pub fn diffract(
     h: &Hemisphere,
     contribs: &[Contribution],
+    shapes: Option<&[TubeShape]>,
     buckets: &Buckets,
     scratch: &mut Scratch,
 ) -> Result<Pattern, DiffractionError> {
@@ -203,7 +170,7 @@ pub fn diffract(
             lambda_nm: h.lambda_nm,
         });
     }
-    let (fallback, flipped) = exit_plane_field(h, contribs, [mx, my], scratch);
+    let (fallback, flipped) = exit_plane_field(h, contribs, shapes, [mx, my], scratch);
     let grids = &mut scratch.grids;
     fft2(grids, [mx, my]);
     let (per_bucket, per_bucket_m, total, orders) = far_field(h, grids, [mx, my], buckets);
@@ -313,6 +280,7 @@ pub enum DiffractionError {
 fn exit_plane_field(
     h: &Hemisphere,
     contribs: &[Contribution],
+    shapes: Option<&[TubeShape]>,
     [mx, my]: [usize; 2],
     scratch: &mut Scratch,
 ) -> (usize, usize) {
@@ -325,21 +293,13 @@ fn exit_plane_field(
     // mapped to the exit plane by its Jacobian.
     let step = [h.tile_nm[0] / nx as f64, h.tile_nm[1] / ny as f64];
     let sig0 = [PATCH_SIGMA_STEPS * step[0], PATCH_SIGMA_STEPS * step[1]];
-    // Where each tree's exits start in `contribs` (which is in tree order, slot order).
-    let mut first = vec![0usize; n_trees + 1];
-    for c in contribs {
-        first[c.tree as usize + 1] += 1;
-    }
-    for i in 0..n_trees {
-        first[i + 1] += first[i];
-    }
-    let exit_of = |tree: u64, slot: u32| -> Option<&Contribution> {
-        let (a, b) = (first[tree as usize], first[tree as usize + 1]);
-        contribs[a..b].get(slot as usize).filter(|c| c.slot == slot)
-    };
-    let family = |tree: u64, path: u64| -> Option<&Contribution> {
-        let (a, b) = (first[tree as usize], first[tree as usize + 1]);
-        contribs[a..b].iter().find(|c| c.path == path)
+    let found;
+    let shapes = match shapes {
+        Some(s) => s,
+        None => {
+            found = tube_shapes(&h.launches(), contribs);
+            &found[..]
+        }
     };
     // The six components of a cell side by side (re, im of each), so a patch cell is one
     // contiguous update; split into six grids for the transforms at the end.
@@ -351,20 +311,12 @@ fn exit_plane_field(
     cells.clear();
     cells.resize(mx * my, [0.0; 12]);
     let (mut fallback, mut flipped) = (0usize, 0usize);
-    for c in contribs.iter().filter(|c| c.down == h.down) {
-        let cos_j = (1.0 - c.w[0] * c.w[0] - c.w[1] * c.w[1]).max(1e-12).sqrt();
-        let jac = match (
-            tube_column(c, 0, h, step, cos_j, &exit_of, &family),
-            tube_column(c, 1, h, step, cos_j, &exit_of, &family),
-        ) {
-            (Some(a), Some(b)) => [[a[0], b[0]], [a[1], b[1]]],
-            _ => {
-                // No neighbour with this exit: the tube as tracked through plane facets.
-                fallback += 1;
-                let f = (c.tube * h.cos_i / cos_j).sqrt();
-                [[f, 0.0], [0.0, f]]
-            }
-        };
+    let tubes = contribs.iter().filter(|c| c.down == h.down);
+    assert_eq!(tubes.clone().count(), shapes.len(), "one shape per tube");
+    for (c, shape) in tubes.zip(shapes) {
+        let cos_j = cos_of(c);
+        let jac = shape.jac;
+        fallback += usize::from(shape.fallback);
         let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
         // Exit-plane area per launch area (a tube reflected an even number of times by
         // crossed facets comes out mirrored, det < 0: counted, not a focus).
@@ -373,6 +325,9 @@ fn exit_plane_field(
         }
         let f = det.abs().max(1e-12);
         let amp = (f * h.cos_i / cos_j).sqrt();
+        // The tube's mass on the exit plane against the incident wave's share of one tree,
+        // which sets where its patch is cut (`patch::radius`).
+        let mass = amp * field_power(&c.a[0]).max(field_power(&c.a[1])).sqrt();
         // Covariance of the mapped patch, J diag(sig0^2) J^T, at least half a cell.
         let floor = 0.25 * dx.max(dy).powi(2);
         let (s0, s1) = (sig0[0].powi(2), sig0[1].powi(2));
@@ -390,6 +345,7 @@ fn exit_plane_field(
             patch,
             [ixx, iyy, ixy],
             cxx.sqrt(),
+            super::patch::radius(mass),
             q,
             xw,
             [dx, dy],
@@ -531,87 +487,6 @@ fn far_field(
         }
     }
     (per_bucket, per_bucket_m, total, orders)
-}
-
-/// One column of a tube's Jacobian `d(exit point) / d(launch point)` along lattice axis
-/// `axis`, from the neighbouring trees' exit on the same path (the same facets met alike:
-/// the same affine map, so their points give the tube's exact shape), or else their exit
-/// in the same place of the tree with nearly the same direction (a curved surface sampled
-/// by about one ray per facet, mapped smoothly): central differences, or one-sided where
-/// one neighbour is missing or only the other is on the same path.
-#[allow(clippy::too_many_arguments)]
-fn tube_column<'c>(
-    c: &Contribution,
-    axis: usize,
-    h: &Hemisphere,
-    step: [f64; 2],
-    cos_j: f64,
-    exit_of: &dyn Fn(u64, u32) -> Option<&'c Contribution>,
-    family: &dyn Fn(u64, u64) -> Option<&'c Contribution>,
-) -> Option<[f64; 2]> {
-    let [nx, ny] = h.lattice;
-    if (axis == 0 && nx == 1) || (axis == 1 && ny == 1) {
-        return None;
-    }
-    let (ix, iy) = (u64::from(c.tree) % nx, u64::from(c.tree) / nx);
-    let along = |dir: i64| -> Option<([f64; 2], bool)> {
-        let (mut jx, mut jy) = (ix as i64, iy as i64);
-        let mut wrap = [0.0; 2];
-        if axis == 0 {
-            jx += dir;
-            if jx < 0 || jx >= nx as i64 {
-                wrap[0] = -dir as f64 * h.tile_nm[0];
-                jx = jx.rem_euclid(nx as i64);
-            }
-        } else {
-            jy += dir;
-            if jy < 0 || jy >= ny as i64 {
-                wrap[1] = -dir as f64 * h.tile_nm[1];
-                jy = jy.rem_euclid(ny as i64);
-            }
-        }
-        let tree = jy as u64 * nx + jx as u64;
-        let reach = 16.0 * step[axis] / cos_j;
-        let column = |o: &Contribution| {
-            let d = [o.x[0] - wrap[0] - c.x[0], o.x[1] - wrap[1] - c.x[1]];
-            // Squared lengths: `hypot`'s care for overflow costs 5 % of the run here.
-            (d[0] * d[0] + d[1] * d[1] < reach * reach).then(|| {
-                [
-                    dir as f64 * d[0] / step[axis],
-                    dir as f64 * d[1] / step[axis],
-                ]
-            })
-        };
-        // The same path: the same affine map from launch to exit, exactly.
-        if let Some(v) = family(tree, c.path).and_then(column) {
-            return Some((v, true));
-        }
-        // Otherwise the same place in the tree, nearly the same direction: a curved
-        // surface sampled by about one ray per facet, mapped smoothly.
-        let o = exit_of(tree, c.slot)?;
-        let dw2 = (o.w[0] - c.w[0]).powi(2) + (o.w[1] - c.w[1]).powi(2);
-        if o.down != c.down || dw2 >= 0.0625 {
-            return None;
-        }
-        column(o).map(|v| (v, false))
-    };
-    match (along(1), along(-1)) {
-        (Some((a, sa)), Some((b, sb))) => {
-            let len = |v: [f64; 2]| (v[0] * v[0] + v[1] * v[1]).sqrt();
-            let diff = len([a[0] - b[0], a[1] - b[1]]);
-            if diff <= 0.25 * (len(a) + len(b)) {
-                // The two sides agree: a smooth map, sampled either side.
-                Some([0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])])
-            } else if sa != sb {
-                // An edge on one side: the side on the same path.
-                Some(if sa { a } else { b })
-            } else {
-                // An edge the paths do not tell apart: the side without the jump.
-                Some(if len(a) <= len(b) { a } else { b })
-            }
-        }
-        (a, b) => a.or(b).map(|x| x.0),
-    }
 }
 
 /// Spreads the order at transverse direction `s` by the illumination's angular spread

@@ -36,6 +36,7 @@ mod patch;
 pub mod phase;
 pub mod polarimetric;
 mod prepare;
+mod tube;
 mod validate;
 
 pub use buckets::Buckets;

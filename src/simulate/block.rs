@@ -337,7 +337,21 @@ impl Run<'_> {
                 });
             }
         }
-        if self.cell_diffracts(l.di, j) {
+        if self.cell_diffracts(l.di, j) && self.tracing == Tracing::Shared {
+            // One traced tree serves every bin: its exits once, with the first bin that
+            // diffracts (`Run::diffract` forms each bin's contributions).
+            if (0..j).all(|b| !self.cell_diffracts(l.di, b)) {
+                cell.shared
+                    .extend(tree.exits.iter().enumerate().map(|(slot, x)| {
+                        diffraction::SharedExit {
+                            tree: l.i as u32,
+                            slot: slot as u32,
+                            origin: l.world_origin,
+                            exit: *x,
+                        }
+                    }));
+            }
+        } else if self.cell_diffracts(l.di, j) {
             // At the bin's centre (`jittered_lambda`).
             let k = 2.0 * std::f64::consts::PI / self.cfg.wavelengths.centre(j);
             let entry_phase = est.entry_phase(k, l.d, l.world_origin);

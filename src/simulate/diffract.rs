@@ -21,48 +21,87 @@ impl Run<'_> {
         di: usize,
         wi: DVec3,
         contribs: &[Vec<diffraction::Contribution>],
+        shared: &[diffraction::SharedExit],
         cells: &mut [Cell],
         out: &mut [DiffractionCell],
     ) -> Result<(), SimError> {
         let d = -wi;
-        let results: Vec<Result<_, diffraction::DiffractionError>> = contribs
-            .par_iter()
-            .enumerate()
-            .map_init(diffraction::Scratch::default, |scratch, (j, list)| {
-                if !self.cell_diffracts(di, j) {
-                    return Ok(None);
-                }
-                // Every tree of the bin took its centre (`block`).
-                let lambda = self.settings.wavelength(j);
-                let k = 2.0 * std::f64::consts::PI / lambda;
-                let mut idx = Vec::new();
-                self.sample.indices_into(lambda, &mut idx);
-                let n_sub = idx[self.scene.substrate];
-                let h = diffraction::Hemisphere {
-                    tile_nm: self.sample.tile_nm,
-                    lambda_nm: lambda,
-                    n_out: self.est.n_up,
-                    k_in: [k * self.est.n_up * d.x, k * self.est.n_up * d.y],
-                    cos_i: -d.z,
-                    lattice: self.lattice,
-                    rho_nm: self.cfg.rho_nm,
-                    down: false,
-                    mueller: self.cfg.mueller,
-                };
-                let up = diffraction::diffract(&h, list, &self.cfg.buckets, scratch)?;
-                // An absorbing substrate transmits nothing (no exit leaves downwards).
-                let down = if n_sub.im == 0.0 && list.iter().any(|c| c.down) {
-                    let h = diffraction::Hemisphere {
-                        n_out: n_sub.re,
-                        down: true,
-                        ..h
+        let hemisphere = |j: usize, down: bool, n_out: f64| {
+            let lambda = self.settings.wavelength(j);
+            let k = 2.0 * std::f64::consts::PI / lambda;
+            diffraction::Hemisphere {
+                tile_nm: self.sample.tile_nm,
+                lambda_nm: lambda,
+                n_out,
+                k_in: [k * self.est.n_up * d.x, k * self.est.n_up * d.y],
+                cos_i: -d.z,
+                lattice: self.lattice,
+                rho_nm: self.cfg.rho_nm,
+                down,
+                mueller: self.cfg.mueller,
+            }
+        };
+        // Under path sharing the tubes' shapes are the same in every bin: found once.
+        let first = (0..contribs.len()).find(|&j| self.cell_diffracts(di, j));
+        let shapes = match first {
+            Some(j) if !shared.is_empty() => {
+                let mut list = Vec::new();
+                self.contributions(j, d, shared, &mut list);
+                let (up, down) = rayon::join(
+                    || {
+                        diffraction::tube_shapes(
+                            &hemisphere(j, false, self.est.n_up).launches(),
+                            &list,
+                        )
+                    },
+                    || {
+                        diffraction::tube_shapes(
+                            &hemisphere(j, true, self.est.n_up).launches(),
+                            &list,
+                        )
+                    },
+                );
+                Some((up, down))
+            }
+            _ => None,
+        };
+        let results: Vec<Result<_, diffraction::DiffractionError>> = (0..contribs.len())
+            .into_par_iter()
+            .map_init(
+                || (diffraction::Scratch::default(), Vec::new()),
+                |(scratch, formed), j| {
+                    if !self.cell_diffracts(di, j) {
+                        return Ok(None);
+                    }
+                    // Every tree of the bin took its centre (`block`).
+                    let lambda = self.settings.wavelength(j);
+                    let list: &[diffraction::Contribution] = if shared.is_empty() {
+                        &contribs[j]
+                    } else {
+                        self.contributions(j, d, shared, formed);
+                        formed
                     };
-                    diffraction::diffract(&h, list, &self.cfg.buckets, scratch)?
-                } else {
-                    diffraction::Pattern::default()
-                };
-                Ok(Some((up, down)))
-            })
+                    let mut idx = Vec::new();
+                    self.sample.indices_into(lambda, &mut idx);
+                    let n_sub = idx[self.scene.substrate];
+                    let buckets = &self.cfg.buckets;
+                    let h = hemisphere(j, false, self.est.n_up);
+                    let shape = |down: bool| {
+                        shapes
+                            .as_ref()
+                            .map(|(u, dn)| if down { &dn[..] } else { &u[..] })
+                    };
+                    let up = diffraction::diffract(&h, list, shape(false), buckets, scratch)?;
+                    // An absorbing substrate transmits nothing (no exit leaves downwards).
+                    let down = if n_sub.im == 0.0 && list.iter().any(|c| c.down) {
+                        let h = hemisphere(j, true, n_sub.re);
+                        diffraction::diffract(&h, list, shape(true), buckets, scratch)?
+                    } else {
+                        diffraction::Pattern::default()
+                    };
+                    Ok(Some((up, down)))
+                },
+            )
             .collect();
         for (j, res) in results.into_iter().enumerate() {
             let Some((up, down)) = res.map_err(|e| SimError::Config(e.to_string()))? else {
@@ -125,5 +164,25 @@ impl Run<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Bin `j`'s contributions of the exits kept once for every bin (path sharing), into
+    /// `out`: as `tally` forms them per bin (`diffraction::contribution` at the bin's
+    /// centre, the incident phase at each tree's launch point), so the bits are the same.
+    fn contributions(
+        &self,
+        j: usize,
+        d: DVec3,
+        shared: &[diffraction::SharedExit],
+        out: &mut Vec<diffraction::Contribution>,
+    ) {
+        let k = 2.0 * std::f64::consts::PI / self.cfg.wavelengths.centre(j);
+        let n_up = self.est.n_up;
+        let k_in = [k * n_up * d.x, k * n_up * d.y];
+        out.clear();
+        out.extend(shared.iter().map(|s| {
+            let entry_phase = self.est.entry_phase(k, d, s.origin);
+            diffraction::contribution(&s.exit, s.tree, s.slot, k, entry_phase, k_in)
+        }));
     }
 }

@@ -457,6 +457,8 @@ impl<'a> Run<'a> {
         let mut contribs = std::mem::take(&mut *self.contribs.lock().expect("not poisoned"));
         contribs.resize_with(nl, Vec::new);
         contribs.iter_mut().for_each(Vec::clear);
+        // Under path sharing, every exit once for all bins, in block order.
+        let mut shared: Vec<diffraction::SharedExit> = Vec::new();
         let mut reserved = false;
         loop {
             let end = (start + batch).min(target);
@@ -512,6 +514,7 @@ impl<'a> Run<'a> {
                             gs.add(b, j, &bc);
                         }
                         contribs[j].extend(bc.diffraction);
+                        shared.extend(bc.shared);
                         let k = di * nl + j;
                         lost.limit_dropped[k] += bc.dropped_limit;
                         lost.escaped[k] += bc.escaped;
@@ -539,6 +542,7 @@ impl<'a> Run<'a> {
                         di,
                         wi,
                         &contribs,
+                        &shared,
                         &mut cells[di * nl..(di + 1) * nl],
                         &mut lost.diffraction[di * nl..(di + 1) * nl],
                     )?;
