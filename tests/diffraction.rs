@@ -499,10 +499,10 @@ fn validity_map() {
                     let margin = goniospec::simulate::auto::physical_optics_margin(
                         &s, &sheets, theta, lambda,
                     );
-                    let m = if mode == Coherence::Diffraction {
-                        "diffraction"
-                    } else {
-                        "rays"
+                    let m = match mode {
+                        Coherence::Diffraction => "diffraction",
+                        Coherence::Rigorous => "rigorous",
+                        _ => "rays",
                     };
                     row += &format!(" {m} ({margin:.1}), {:.1e}, {l1:.3} |", (r - kr).abs());
                 } else if mode == Coherence::Diffraction {
