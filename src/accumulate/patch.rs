@@ -34,6 +34,8 @@ pub(super) fn radius(m: f64) -> f64 {
 /// weights run four wide (`machine::with_avx2`) instead of along one chain of dependent
 /// multiplications.
 const LANES: usize = 4;
+// The row set-up in `patch_rows` writes the first four Gaussians out by hand.
+const _: () = assert!(LANES == 4);
 
 /// One tube's patch on the grid, row by row: each row's run of cells inside the ellipse
 /// `quad <= radius^2`, and every cell's weight, the Gaussian times the plane wave. A row's
