@@ -352,19 +352,14 @@ impl Run<'_> {
                     }));
             }
         } else if self.cell_diffracts(l.di, j) {
-            // At the bin's centre (`jittered_lambda`).
-            let k = 2.0 * std::f64::consts::PI / self.cfg.wavelengths.centre(j);
-            let entry_phase = est.entry_phase(k, l.d, l.world_origin);
-            let k_in = k * est.n_up;
-            let k_in = [k_in * l.d.x, k_in * l.d.y];
             for (slot, x) in tree.exits.iter().enumerate() {
-                cell.diffraction.push(diffraction::contribution(
+                cell.diffraction.push(self.contribution_in_bin(
+                    j,
+                    l.d,
+                    l.world_origin,
                     x,
                     l.i as u32,
                     slot as u32,
-                    k,
-                    entry_phase,
-                    k_in,
                 ));
             }
         }

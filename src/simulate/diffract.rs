@@ -167,8 +167,7 @@ impl Run<'_> {
     }
 
     /// Bin `j`'s contributions of the exits kept once for every bin (path sharing), into
-    /// `out`: as `tally` forms them per bin (`diffraction::contribution` at the bin's
-    /// centre, the incident phase at each tree's launch point), so the bits are the same.
+    /// `out`, each as `tally` forms a bin's own ([`Run::contribution_in_bin`]).
     fn contributions(
         &self,
         j: usize,
@@ -176,13 +175,30 @@ impl Run<'_> {
         shared: &[diffraction::SharedExit],
         out: &mut Vec<diffraction::Contribution>,
     ) {
-        let k = 2.0 * std::f64::consts::PI / self.cfg.wavelengths.centre(j);
-        let n_up = self.est.n_up;
-        let k_in = [k * n_up * d.x, k * n_up * d.y];
         out.clear();
-        out.extend(shared.iter().map(|s| {
-            let entry_phase = self.est.entry_phase(k, d, s.origin);
-            diffraction::contribution(&s.exit, s.tree, s.slot, k, entry_phase, k_in)
-        }));
+        out.extend(
+            shared
+                .iter()
+                .map(|s| self.contribution_in_bin(j, d, s.origin, &s.exit, s.tree, s.slot)),
+        );
+    }
+
+    /// Exit `slot` of tree `tree` (launched at `origin`, world nm, along `d`) as bin `j`'s
+    /// contribution: at the bin's centre (`jittered_lambda`), with the incident wave's
+    /// phase at the launch point. The one place both paths form it, so they give the same
+    /// bits.
+    pub(super) fn contribution_in_bin(
+        &self,
+        j: usize,
+        d: DVec3,
+        origin: DVec3,
+        exit: &crate::trace::Exit,
+        tree: u32,
+        slot: u32,
+    ) -> diffraction::Contribution {
+        let k = 2.0 * std::f64::consts::PI / self.cfg.wavelengths.centre(j);
+        let entry_phase = self.est.entry_phase(k, d, origin);
+        let kn = k * self.est.n_up;
+        diffraction::contribution(exit, tree, slot, k, entry_phase, [kn * d.x, kn * d.y])
     }
 }
