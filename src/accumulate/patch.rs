@@ -30,49 +30,68 @@ pub(super) fn radius(m: f64) -> f64 {
     r2.max(MIN_RADIUS * MIN_RADIUS).sqrt()
 }
 
-/// Cells a row is computed in at once: four lanes of independent recurrences, so the
-/// weights run four wide (`machine::with_avx2`) instead of along one chain of dependent
+/// Rows whose weights are computed at once: four lanes, one row each, stepping along
+/// their rows together (`machine::with_avx2`), instead of one chain of dependent
 /// multiplications.
 const LANES: usize = 4;
-// The row set-up in `patch_rows` writes the first four Gaussians out by hand.
-const _: () = assert!(LANES == 4);
 
 /// One tube's patch on the grid, row by row: each row's run of cells inside the ellipse
-/// `quad <= radius^2`, and every cell's weight, the Gaussian times the plane wave. A row's
-/// first [`LANES`] Gaussians and the phase at its first cell are evaluated for all rows at
-/// once (`phase::exp_batch`, `phase::sin_cos_batch`); the rest of the row follows by
-/// recurrence, each lane `LANES` cells on: the Gaussian's ratio over `LANES` cells shrinks
-/// by `exp(-ixx (LANES dx)^2)` per step, and the phase turns by `q_x LANES dx`. A cell
-/// costs a few multiplications and no transcendental function.
+/// `quad <= radius^2`, and every cell's weight, the Gaussian times the plane wave.
+///
+/// The weight `w(u, v) = exp(-quad(u, v) / 2) exp(i q . (u, v))` is the exponential of a
+/// quadratic in `(u, v)`, so its ratio from one cell to the next along a row, `w(u + dx, v)
+/// / w(u, v)`, is itself geometric: it shrinks by `alpha = exp(-ixx dx^2)` per column and
+/// by `beta = exp(-ixy dx dy)` per row, and the ratio from one row to the next shrinks by
+/// `gamma = exp(-iyy dy^2)` per row and by `beta` per column (the phase's ratios are the
+/// constant turns `exp(i q_x dx)` and `exp(i q_y dy)`). A patch therefore costs a handful
+/// of exponentials and sines at its first cell; every row's first weight follows from the
+/// row before by a few multiplications, and every other cell from its neighbour by two.
 #[derive(Default)]
 pub(super) struct Patch {
-    /// `(first cell's index in the grid's row, first column, cells, first weight)` per row.
+    /// `(first cell's index in the grid's row, first column, cells, its group's first
+    /// weight)` per row; row `r`'s weights are lane `r % LANES` of its group's.
     rows: Vec<(usize, usize, usize, usize)>,
-    /// Per row: the Gaussian's exponent at the first two cells, then their exponentials.
+    /// The rows' runs of cells that do not cross the tile's edge (`machine::Run`).
+    runs: Vec<crate::machine::Run>,
+    /// Per row: its grid row and first column, unwrapped.
+    at: Vec<(i64, i64)>,
+    /// Per row: the Gaussian, its ratio to the next column and the plane wave at the row's
+    /// first cell.
+    start: Vec<[f64; 4]>,
+    /// The exponents and phases at the patch's first cell, and their values.
     arg: Vec<f64>,
     gauss: Vec<f64>,
-    /// Per row: the plane wave's phase at its first cell, its sine and cosine.
     phase: Vec<f64>,
     sin: Vec<f64>,
     cos: Vec<f64>,
-    /// Per cell of every row, padded to whole lanes: the weight's real and imaginary parts.
-    w_re: Vec<f64>,
-    w_im: Vec<f64>,
+    /// Per cell of the longest row of each group of [`LANES`] rows, the group's rows side
+    /// by side: the weights' real and imaginary parts.
+    w_re: Vec<[f64; LANES]>,
+    w_im: Vec<[f64; LANES]>,
     /// The Gaussian's sum over the patch's cells.
     sum: f64,
     mx: usize,
 }
 
-/// `ceil x` for `|x| < 2^53` (the C library's `ceil` is a call on baseline x86-64).
-fn ceil_i(x: f64) -> i64 {
-    let t = x as i64;
-    if (t as f64) < x { t + 1 } else { t }
+/// `1.5 2^52`: adding it to `|x| < 2^51` rounds `x` to the nearest integer in the low bits
+/// of the sum's mantissa (the conversion `as i64` instead costs a saturation check).
+const ROUND: f64 = 6_755_399_441_055_744.0;
+
+/// The integer nearest `x`, for `|x| < 2^51`.
+fn round_i(x: f64) -> i64 {
+    (x + ROUND).to_bits() as i64 - ROUND.to_bits() as i64
 }
 
-/// `floor x` for `|x| < 2^53`.
+/// `ceil x` for `|x| < 2^51` (the C library's `ceil` is a call on baseline x86-64).
+fn ceil_i(x: f64) -> i64 {
+    let t = round_i(x);
+    t + i64::from((t as f64) < x)
+}
+
+/// `floor x` for `|x| < 2^51`.
 fn floor_i(x: f64) -> i64 {
-    let t = x as i64;
-    if (t as f64) > x { t - 1 } else { t }
+    let t = round_i(x);
+    t - i64::from((t as f64) > x)
 }
 
 /// `i mod n` in `0..n`, without the division where `i` is already in range.
@@ -84,15 +103,19 @@ fn wrap(i: i64, n: usize) -> usize {
     }
 }
 
+/// Where the exponents of a patch's first cell would leave the range in which `exp` and
+/// its reciprocal are both finite and normal, the patch takes the C library's `exp`. (It
+/// cannot for a valid patch: the covariance's floor of a quarter cell squared bounds
+/// `ixx dx^2`, `iyy dy^2` and `|ixy| dx dy` by 4, and the first cell lies in the ellipse,
+/// where the Gaussian's gradient is at most `radius sqrt(ixx)`, so every exponent is within
+/// 20 of 0.)
+const EXP_SAFE: f64 = 700.0;
+
 /// Lays out the patch of a tube at `xw` (nm, in the tile) with inverse covariance `[ixx,
 /// iyy, ixy]` (1/nm^2), horizontal standard deviation `sx` (nm), cut at `radius` standard
 /// deviations ([`radius`]), and transverse wave vector `q` (1/nm) on the grid of `[mx,
-/// my]` cells of `[dx, dy]` nm; with every cell's weight and the Gaussian's sum.
-///
-/// Only a row's first two Gaussians are exponentials (`phase::exp_batch`, for all rows at
-/// once); the rest follow from their ratio `rho` and the per-cell shrink `s = exp(-ixx
-/// dx^2)`: `g_l = g_0 rho^l s^(l (l - 1) / 2)`. A row's first phase is one sine and cosine
-/// (`phase::sin_cos_batch`, for all rows at once), the rest the column step's powers.
+/// my]` cells of `[dx, dy]` nm; with every cell's weight and the Gaussian's sum (see
+/// [`Patch`] for the recurrences).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn patch_rows(
     p: &mut Patch,
@@ -105,8 +128,11 @@ pub(super) fn patch_rows(
     [mx, my]: [usize; 2],
 ) -> &mut Patch {
     p.rows.clear();
-    p.arg.clear();
-    p.phase.clear();
+    p.runs.clear();
+    p.at.clear();
+    p.start.clear();
+    p.mx = mx;
+    p.sum = 0.0;
     let r2 = radius * radius;
     let (inv_ixx, inv_dx) = (1.0 / ixx, 1.0 / dx);
     // The ellipse's extent in y: quad is at least (iyy - ixy^2 / ixx) v^2 = v^2 / cyy.
@@ -117,7 +143,6 @@ pub(super) fn patch_rows(
         floor_i((xw[0] + hx) * inv_dx),
     );
     let (y0, y1) = (ceil_i((xw[1] - hy) / dy), floor_i((xw[1] + hy) / dy));
-    let mut cells = 0;
     for iy in y0..=y1 {
         let v = iy as f64 * dy - xw[1];
         // The row's cells inside the ellipse: ixx u^2 + 2 ixy v u + iyy v^2 <= r2.
@@ -132,99 +157,151 @@ pub(super) fn patch_rows(
         if lo > hi {
             continue;
         }
-        let u = lo as f64 * dx - xw[0];
-        let e = |u: f64| -0.5 * (ixx * u * u + 2.0 * ixy * u * v + iyy * v * v);
-        p.arg.push(e(u));
-        p.arg.push(e(u + dx));
-        p.phase.push(q[0] * u + q[1] * v);
         let n = (hi - lo + 1) as usize;
-        p.rows.push((wrap(iy, my) * mx, wrap(lo, mx), n, cells));
-        cells += n.div_ceil(LANES) * LANES;
+        p.at.push((iy, lo));
+        p.rows.push((wrap(iy, my) * mx, wrap(lo, mx), n, 0));
     }
-    // The per-cell shrink's exponent and the column step's phase ride in the same batches,
-    // last. Quadratic forms are never positive, so the exponentials stay in exp_batch's
-    // range.
-    p.arg.push(-ixx * dx * dx);
-    p.phase.push(q[0] * dx);
-    super::phase::exp_batch(&p.arg, &mut p.gauss);
+    let Some(&(iy0, lo0)) = p.at.first() else {
+        return p;
+    };
+    let (alpha, tx) = row_starts(p, [ixx, iyy, ixy], q, xw, [dx, dy], (iy0, lo0));
+    // Each group of LANES rows gets its longest row's length of weights.
+    let mut cells = 0;
+    for group in p.rows.chunks_mut(LANES) {
+        let len = group.iter().map(|r| r.2).max().unwrap_or(0);
+        for r in group {
+            r.3 = cells;
+        }
+        cells += len;
+    }
+    p.w_re.resize(cells, [0.0; LANES]);
+    p.w_im.resize(cells, [0.0; LANES]);
+    for (r, &(base, first, n, at)) in p.rows.iter().enumerate() {
+        // The row's cells in runs that do not cross the tile's edge.
+        let (mut col, mut done) = (first, 0);
+        while done < n {
+            let len = (n - done).min(mx - col);
+            p.runs.push((base + col, at + done, len, r % LANES));
+            done += len;
+            col = 0;
+        }
+    }
+    fill_weights(p, alpha, tx);
+    p
+}
+
+/// Every row's first cell (`Patch::start`) from the patch's first, at grid row `iy0` and
+/// column `lo0`: its Gaussian, ratios and phase evaluated there, then carried from row to
+/// row by the recurrences of [`Patch`]. Returns the shrink of the column ratio per column,
+/// `exp(-ixx dx^2)`, and the phase's turn per column.
+fn row_starts(
+    p: &mut Patch,
+    [ixx, iyy, ixy]: [f64; 3],
+    q: [f64; 2],
+    xw: [f64; 2],
+    [dx, dy]: [f64; 2],
+    (iy0, lo0): (i64, i64),
+) -> (f64, C64) {
+    // The patch's first cell: the Gaussian's exponent there and its steps one column right
+    // and one row up; the constant shrinks; the phase there and its turns per column and row.
+    let (u0, v0) = (lo0 as f64 * dx - xw[0], iy0 as f64 * dy - xw[1]);
+    let e = |u: f64, v: f64| -0.5 * (ixx * u * u + 2.0 * ixy * u * v + iyy * v * v);
+    let e00 = e(u0, v0);
+    let ln_col = e(u0 + dx, v0) - e00;
+    let ln_row = e(u0, v0 + dy) - e00;
+    let ln_beta = -ixy * dx * dy;
+    let (ln_alpha, ln_gamma) = (-ixx * dx * dx, -iyy * dy * dy);
+    // exp_batch takes arguments <= 0: a positive one is taken as the reciprocal of its
+    // negative's exponential.
+    let args = [e00, ln_col, ln_row, ln_beta, ln_alpha, ln_gamma];
+    p.arg.clear();
+    p.arg.extend(args.iter().map(|x| -x.abs()));
+    if args.iter().all(|x| x.abs() < EXP_SAFE) {
+        super::phase::exp_batch(&p.arg, &mut p.gauss);
+        for (g, x) in p.gauss.iter_mut().zip(args) {
+            if x > 0.0 {
+                *g = 1.0 / *g;
+            }
+        }
+    } else {
+        p.gauss.clear();
+        p.gauss.extend(args.iter().map(|x| x.exp()));
+    }
+    let [g00, col0, row0, beta, alpha, gamma] = [0, 1, 2, 3, 4, 5].map(|i| p.gauss[i]);
+    let (inv_alpha, inv_beta) = (1.0 / alpha, 1.0 / beta);
+    p.phase.clear();
+    p.phase
+        .extend([q[0] * u0 + q[1] * v0, q[0] * dx, q[1] * dy]);
     super::phase::sin_cos_batch(&p.phase, &mut p.sin, &mut p.cos);
-    p.mx = mx;
-    let s = p.gauss[p.gauss.len() - 1];
-    // s^(LANES l) for l in 0..LANES, s^(LANES (LANES - 1) / 2), and s^(LANES^2): how much
-    // a lane's ratio over LANES cells shrinks per LANES cells.
-    let mut s_lanes = [1.0; LANES];
-    let s4 = s * s * s * s;
-    for l in 1..LANES {
-        s_lanes[l] = s_lanes[l - 1] * s4;
+    let ph0 = C64::new(p.cos[0], p.sin[0]);
+    let tx = C64::new(p.cos[1], p.sin[1]);
+    let ty = C64::new(p.cos[2], p.sin[2]);
+    // Every row's first cell from the last one's: rows up, then columns right or left.
+    let (mut g, mut gc, mut gr, mut ph) = (g00, col0, row0, ph0);
+    let (mut iy, mut col) = (iy0, lo0);
+    for &(row, lo) in &p.at {
+        while iy < row {
+            g *= gr;
+            gr *= gamma;
+            gc *= beta;
+            ph *= ty;
+            iy += 1;
+        }
+        while col < lo {
+            g *= gc;
+            gc *= alpha;
+            gr *= beta;
+            ph *= tx;
+            col += 1;
+        }
+        while col > lo {
+            gc *= inv_alpha;
+            gr *= inv_beta;
+            g /= gc;
+            ph *= tx.conj();
+            col -= 1;
+        }
+        p.start.push([g, gc, ph.re, ph.im]);
     }
-    let s6 = s * s * s * s * s * s;
-    let shrink = s4 * s4 * s4 * s4;
-    // The phase's turn over 0..=LANES cells.
-    let col_step = C64::new(p.cos[p.cos.len() - 1], p.sin[p.sin.len() - 1]);
-    let mut turn = [C64::new(1.0, 0.0); LANES + 1];
-    for l in 1..=LANES {
-        turn[l] = turn[l - 1] * col_step;
-    }
-    let t4 = turn[LANES];
-    p.w_re.resize(cells, 0.0);
-    p.w_im.resize(cells, 0.0);
+    (alpha, tx)
+}
+
+/// Every row's weights and the Gaussian's sum (`Patch::w_re`, `w_im`, `sum`), four rows at a
+/// time from their first cells (`machine::row_weights`).
+fn fill_weights(p: &mut Patch, alpha: f64, tx: C64) {
     let Patch {
         rows,
-        gauss,
-        sin,
-        cos,
+        start,
         w_re,
         w_im,
         sum,
         ..
     } = p;
-    *sum = crate::machine::with_avx2(
-        #[inline(always)]
-        move || {
-            let mut lane_sum = [0.0; LANES];
-            for (r, &(_, _, n, at)) in rows.iter().enumerate() {
-                // g_l = g_0 rho^l s^(l (l - 1) / 2) and the ratio g_(l + LANES) / g_l =
-                // rho^LANES s^(LANES (LANES - 1) / 2) s^(LANES l), for l in 0..LANES.
-                let g0 = gauss[2 * r];
-                let g1 = gauss[2 * r + 1];
-                let rho = g1 / g0;
-                let g2 = g1 * rho * s;
-                let g3 = g2 * rho * s * s;
-                let mut gl = [g0, g1, g2, g3];
-                let rho2 = rho * rho;
-                let r0 = rho2 * rho2 * s6;
-                let mut ratio: [f64; LANES] = std::array::from_fn(|l| r0 * s_lanes[l]);
-                let ph = C64::new(cos[r], sin[r]);
-                let mut re: [f64; LANES] = std::array::from_fn(|l| (ph * turn[l]).re);
-                let mut im: [f64; LANES] = std::array::from_fn(|l| (ph * turn[l]).im);
-                let chunks = n.div_ceil(LANES);
-                let (w_re, w_im) = (
-                    &mut w_re[at..at + chunks * LANES],
-                    &mut w_im[at..at + chunks * LANES],
-                );
-                for (c, (wr, wi)) in w_re
-                    .chunks_exact_mut(LANES)
-                    .zip(w_im.chunks_exact_mut(LANES))
-                    .enumerate()
-                {
-                    // The row's last chunk holds cells beyond it, which count for nothing.
-                    let live = n - c * LANES;
-                    let mask: [f64; LANES] = std::array::from_fn(|l| f64::from(u8::from(l < live)));
-                    for l in 0..LANES {
-                        wr[l] = re[l] * gl[l];
-                        wi[l] = im[l] * gl[l];
-                        lane_sum[l] += gl[l] * mask[l];
-                        gl[l] *= ratio[l];
-                        ratio[l] *= shrink;
-                        (re[l], im[l]) =
-                            (re[l] * t4.re - im[l] * t4.im, re[l] * t4.im + im[l] * t4.re);
-                    }
-                }
-            }
-            lane_sum.iter().sum()
-        },
-    );
-    p
+    let mut lane_sum = [0.0; LANES];
+    for (group, st) in rows.chunks(LANES).zip(start.chunks(LANES)) {
+        // A group short of LANES rows runs its missing lanes on nothing (no cells).
+        let lane = |l: usize, k: usize| st.get(l).map_or(0.0, |s| s[k]);
+        let n: [usize; LANES] = std::array::from_fn(|l| group.get(l).map_or(0, |r| r.2));
+        let len = n.iter().copied().max().unwrap_or(0);
+        let at = group[0].3;
+        let s = crate::machine::row_weights(
+            &mut w_re[at..at + len],
+            &mut w_im[at..at + len],
+            crate::machine::RowLanes {
+                g: std::array::from_fn(|l| lane(l, 0)),
+                r: std::array::from_fn(|l| lane(l, 1)),
+                re: std::array::from_fn(|l| lane(l, 2)),
+                im: std::array::from_fn(|l| lane(l, 3)),
+                n: n.map(|n| n as f64),
+            },
+            alpha,
+            [tx.re, tx.im],
+        );
+        for l in 0..LANES {
+            lane_sum[l] += s[l];
+        }
+    }
+    *sum = lane_sum.iter().sum();
 }
 
 impl Patch {
@@ -247,22 +324,7 @@ impl Patch {
             im[2 * comp] = -v.im;
             im[2 * comp + 1] = v.re;
         }
-        for &(base, first, n, at) in &self.rows {
-            // The row's cells in runs that do not cross the tile's edge.
-            let (mut col, mut done) = (first, 0);
-            while done < n {
-                let len = (n - done).min(self.mx - col);
-                crate::machine::splat_cells(
-                    &mut cells[base + col..base + col + len],
-                    &self.w_re[at + done..at + done + len],
-                    &self.w_im[at + done..at + done + len],
-                    &re,
-                    &im,
-                );
-                done += len;
-                col = 0;
-            }
-        }
+        crate::machine::splat_cells(cells, &self.runs, &self.w_re, &self.w_im, &re, &im);
     }
 }
 
@@ -329,7 +391,7 @@ mod tests {
         // (inverse covariance from cxx, cyy, cxy in nm^2; radius; q in 1/nm; point in nm;
         // spacing in nm; cells).
         type Case = ([f64; 3], f64, [f64; 2], [f64; 2], [f64; 2], [usize; 2]);
-        let cases: [Case; 4] = [
+        let cases: [Case; 5] = [
             (
                 [15_000.0, 15_000.0, 0.0],
                 5.0,
@@ -362,6 +424,16 @@ mod tests {
                 [100.0, 100.0],
                 [9, 8],
             ),
+            // A tube squeezed to the covariance's floor across and stretched along a
+            // diagonal (correlation 0.99): the recurrences' ratios at their extremes.
+            (
+                [2_600.0, 250_000.0, 0.99 * (2_600.0f64 * 250_000.0).sqrt()],
+                5.0,
+                [-0.015, 0.012],
+                [1503.1, 1188.4],
+                [100.0, 101.0],
+                [30, 31],
+            ),
         ];
         for (k, &([cxx, cyy, cxy], radius, q, xw, d, n)) in cases.iter().enumerate() {
             let det = cxx * cyy - cxy * cxy;
@@ -387,6 +459,35 @@ mod tests {
                         w[i]
                     );
                 }
+            }
+        }
+    }
+
+    /// `ceil_i` and `floor_i` against the library's, at integers, halves, either side of
+    /// them and far out.
+    #[test]
+    fn ceil_and_floor_are_the_librarys() {
+        for x in [
+            0.0f64,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.5,
+            -2.5,
+            3.4999,
+            -3.4999,
+            1e-300,
+            -1e-300,
+            123456.75,
+            -98765.25,
+            1.0e15 + 0.5,
+            -(1.0e15 + 0.5),
+        ] {
+            for y in [x, x.next_up(), x.next_down()] {
+                assert_eq!(ceil_i(y), y.ceil() as i64, "ceil {y}");
+                assert_eq!(floor_i(y), y.floor() as i64, "floor {y}");
             }
         }
     }
