@@ -31,7 +31,7 @@ pub(super) fn radius(m: f64) -> f64 {
 }
 
 /// Rows whose weights are computed at once: four lanes, one row each, stepping along
-/// their rows together (`machine::with_avx2`), instead of one chain of dependent
+/// their rows together (`machine::row_weights`), instead of one chain of dependent
 /// multiplications.
 const LANES: usize = 4;
 
@@ -70,7 +70,6 @@ pub(super) struct Patch {
     w_im: Vec<[f64; LANES]>,
     /// The Gaussian's sum over the patch's cells.
     sum: f64,
-    mx: usize,
 }
 
 /// `1.5 2^52`: adding it to `|x| < 2^51` rounds `x` to the nearest integer in the low bits
@@ -131,7 +130,6 @@ pub(super) fn patch_rows(
     p.runs.clear();
     p.at.clear();
     p.start.clear();
-    p.mx = mx;
     p.sum = 0.0;
     let r2 = radius * radius;
     let (inv_ixx, inv_dx) = (1.0 / ixx, 1.0 / dx);
@@ -181,7 +179,12 @@ pub(super) fn patch_rows(
         let (mut col, mut done) = (first, 0);
         while done < n {
             let len = (n - done).min(mx - col);
-            p.runs.push((base + col, at + done, len, r % LANES));
+            p.runs.push(crate::machine::Run {
+                cell: base + col,
+                weight: at + done,
+                len,
+                lane: r % LANES,
+            });
             done += len;
             col = 0;
         }

@@ -117,11 +117,21 @@ pub fn prefetch<T>(r: &T) {
     let _ = r;
 }
 
-/// A run of a patch's cells along one grid row: `(first cell, first weight, cells, lane)`.
-pub type Run = (usize, usize, usize, usize);
+/// A run of a patch's cells along one grid row, within the tile.
+#[derive(Clone, Copy, Debug)]
+pub struct Run {
+    /// The run's first cell, an index into the grid's cells.
+    pub cell: usize,
+    /// Its first weight, an index into the weights (each holding four rows' side by side).
+    pub weight: usize,
+    /// Its number of cells.
+    pub len: usize,
+    /// Which of the four rows' weights is this run's, 0 to 3.
+    pub lane: usize,
+}
 
-/// `cells[c0 + c][i] += re[i] w_re[w0 + c][lane] + im[i] w_im[w0 + c][lane]` for every run
-/// `(c0, w0, n, lane)` of `runs`, every `c < n` and each of a cell's twelve reals (the
+/// `cells[cell + c][i] += re[i] w_re[weight + c][lane] + im[i] w_im[weight + c][lane]` for
+/// every [`Run`] of `runs`, every `c < len` and each of a cell's twelve reals (the
 /// weights of four rows side by side, this row's in `lane`): the diffraction method's splat
 /// of one patch (a complex field of six components times each cell's complex weight,
 /// written as two real products). Where the CPU has AVX2 a cell is three 256-bit updates;
@@ -155,7 +165,12 @@ pub fn splat_cells(
 #[allow(clippy::type_complexity)]
 fn run_slices<'a>(
     cells: &'a mut [[f64; 12]],
-    &(c0, w0, n, lane): &Run,
+    &Run {
+        cell: c0,
+        weight: w0,
+        len: n,
+        lane,
+    }: &Run,
     w_re: &'a [[f64; 4]],
     w_im: &'a [[f64; 4]],
 ) -> (&'a mut [[f64; 12]], &'a [[f64; 4]], &'a [[f64; 4]], usize) {
@@ -355,13 +370,19 @@ mod tests {
             .map(|c| std::array::from_fn(|i| (c * 12 + i) as f64 * 1e-5 - 1e-3))
             .collect();
         // Runs of every lane, one of them overlapping another, one empty.
-        let runs: [Run; 5] = [
+        let runs = [
             (0, 0, 37, 0),
             (3, 5, 20, 1),
             (10, 1, 12, 2),
             (30, 20, 7, 3),
             (4, 9, 0, 2),
-        ];
+        ]
+        .map(|(cell, weight, len, lane)| Run {
+            cell,
+            weight,
+            len,
+            lane,
+        });
         for k in 0..runs.len() - 1 {
             let mut a = start.clone();
             splat_portable(&mut a, &runs[k..], &w_re, &w_im, &re, &im);
