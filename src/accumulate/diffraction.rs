@@ -24,7 +24,7 @@
 //! patches sum to a uniform field to 6e-6). The sum is evaluated on a grid over the tile (the
 //! patches splatted, then one FFT per field component): a non-uniform FFT of type 1 by
 //! Gaussian gridding (Greengard & Lee, SIAM Review 46 (2004) 443), on a grid just fine enough
-//! that no patch's spectrum folds onto a propagating order ([`spacing`]).
+//! that no patch's spectrum folds onto a propagating order ([`period`]).
 //!
 //! Partial coherence: the illumination's transverse coherence is Gaussian with the coherence
 //! radius `rho` (`|mu(dx)| = exp(-|dx|^2 / (2 rho^2))`), which is an incoherent spread of
@@ -34,6 +34,7 @@
 //! convolved with that spread; it is deposited through a 5 x 5 Gauss-Hermite rule over the
 //! spread. `rho = inf` deposits each order in the bucket of its direction.
 
+use super::buckets::SineIndex;
 use super::patch::{Patch, patch_rows};
 use super::tube::cos_of;
 pub use super::tube::{Contribution, Launches, SharedExit, TubeShape, contribution, tube_shapes};
@@ -49,13 +50,27 @@ use std::f64::consts::PI;
 pub const MAX_GRID_CELLS: usize = 1 << 24;
 
 /// Grid cells `[x, y]` over the tile for one hemisphere at `lambda_nm`, for trees on the
-/// launch lattice `lattice` (see [`spacing`]).
+/// launch lattice `lattice`, whatever directions the tubes take: the most [`diffract`] can
+/// use (its grid is sized by the tubes' own directions, [`period`]), so a run's memory is
+/// checked against it before any tracing.
 pub fn grid_cells(tile_nm: [f64; 2], lambda_nm: f64, n_out: f64, lattice: [u64; 2]) -> [usize; 2] {
-    let dx = spacing(lambda_nm, n_out, patch_sigma_nm(tile_nm, lattice));
-    [
-        (tile_nm[0] / dx).ceil().max(1.0) as usize,
-        (tile_nm[1] / dx).ceil().max(1.0) as usize,
-    ]
+    let kn = 2.0 * PI / lambda_nm * n_out;
+    let p = 2.0 * kn + ALIAS_MARGIN / patch_sigma_nm(tile_nm, lattice);
+    cells_for(tile_nm, kn, [p, p])
+}
+
+/// Cells `[x, y]` for the grid periods `p` (1/nm, in `G`, per axis): `p L / (2 pi)` cells
+/// over a tile side `L`, and at least the disk of propagating orders' width plus three, so
+/// the window [`far_field`] reads (centred on `-k_in`, rounded to an order) holds every
+/// propagating order.
+fn cells_for(tile_nm: [f64; 2], kn: f64, p: [f64; 2]) -> [usize; 2] {
+    let axis = |a: usize| {
+        let per_order = 2.0 * PI / tile_nm[a];
+        let need = (p[a] / per_order).ceil();
+        let disk = (2.0 * kn / per_order).ceil() + 3.0;
+        need.max(disk).max(1.0) as usize
+    };
+    [axis(0), axis(1)]
 }
 
 /// A tube's patch at launch, as a standard deviation in launch steps: a lattice of such
@@ -64,7 +79,7 @@ pub fn grid_cells(tile_nm: [f64; 2], lambda_nm: f64, n_out: f64, lattice: [u64; 
 const PATCH_SIGMA_STEPS: f64 = 0.8;
 
 /// How far, in standard deviations of a patch's spectrum, its aliases stay from every
-/// propagating order ([`spacing`]): there the spectrum is down to `exp(-8) = 3.4e-4` in
+/// propagating order ([`period`]): there the spectrum is down to `exp(-8) = 3.4e-4` in
 /// amplitude, `1.1e-7` in power, and only at the horizon.
 const ALIAS_MARGIN: f64 = 4.0;
 
@@ -73,19 +88,45 @@ fn patch_sigma_nm(tile_nm: [f64; 2], lattice: [u64; 2]) -> f64 {
     PATCH_SIGMA_STEPS * (tile_nm[0] / lattice[0] as f64).min(tile_nm[1] / lattice[1] as f64)
 }
 
-/// Grid spacing, nm. The gridded field carries the incident wave's transverse phase
-/// removed, so a tube leaving along `w` is a patch whose spectrum is a Gaussian of standard
-/// deviation `1 / sigma` about `G = k n_out w_t - k_in`, inside the disk of propagating
-/// orders `|k_in + G| < k n_out`. The grid's period in `G`, `2 pi / dx`, folds the spectrum
-/// by that period, and the folded copy's centre is at least `2 pi / dx - 2 k n_out` from the
-/// disk. That distance is made `ALIAS_MARGIN / sigma` for the unmapped patch:
-/// `2 pi / dx = 2 k n_out + ALIAS_MARGIN / sigma`. (Before issue 31 the spacing was `lambda
-/// / (4 (n_out + n_in))`, a margin of `6 k` in air whatever the patch: 1.2 to 2.6 times as
-/// many cells per patch at 16,384 trees on 20 um, 380-780 nm.) The orders are read from the
-/// window of `G` centred on `-k_in` (`far_field`), which holds the disk.
-fn spacing(lambda_nm: f64, n_out: f64, sigma_nm: f64) -> f64 {
-    let k = 2.0 * PI / lambda_nm;
-    2.0 * PI / (2.0 * k * n_out + ALIAS_MARGIN / sigma_nm)
+/// The grid's period in `G` per axis, 1/nm, for these tubes. The gridded field carries the
+/// incident wave's transverse phase removed, so a tube leaving along `w` is a patch whose
+/// spectrum is a Gaussian of standard deviation `1 / sigma` about `G = k n_out w_t - k_in`,
+/// and the propagating orders are the disk `|k_in + G| < k n_out`. Sampling on a grid of
+/// spacing `dx` folds the spectrum by the period `P = 2 pi / dx` (Goodman, Introduction to
+/// Fourier Optics, 3rd ed., §2.4), so along an axis a tube's folded copy lies at least `P -
+/// k n_out (1 + |w_t|)` from the disk. That distance is made `M_t / sigma`, with `M_t` the
+/// margin for the tube's strength ([`alias_margin`]) and `sigma` the unmapped patch's
+/// ([`patch_sigma_nm`]): `P = max over tubes of k n_out (1 + |w_t|) + M_t / sigma`, and at
+/// least `2 k n_out`, the disk's width, which the window of orders read must hold.
+///
+/// (Until 2026-12-06 every tube was taken to leave at the horizon, `P = 2 k n_out + 4 /
+/// sigma` on both axes; a sample whose light leaves near the normal needs about two thirds
+/// of the cells a patch took then. Before issue 31 the spacing was `lambda / (4 (n_out +
+/// n_in))` whatever the patch: 1.2 to 2.6 times as many cells per patch at 16,384 trees on
+/// 20 um, 380-780 nm.)
+fn period<'a>(h: &Hemisphere, tubes: impl Iterator<Item = (&'a Contribution, f64)>) -> [f64; 2] {
+    let kn = 2.0 * PI / h.lambda_nm * h.n_out;
+    let inv_sigma = 1.0 / patch_sigma_nm(h.tile_nm, h.lattice);
+    let mut p = [2.0 * kn; 2];
+    for (c, mass) in tubes {
+        let margin = alias_margin(mass) * inv_sigma;
+        for (a, pa) in p.iter_mut().enumerate() {
+            *pa = pa.max(kn * (1.0 + c.w[a].abs()) + margin);
+        }
+    }
+    p
+}
+
+/// The margin, in standard deviations of a patch's spectrum, by which the folded copy of a
+/// tube of mass `m` (`patch::radius`) stays off the propagating orders: [`ALIAS_MARGIN`] for
+/// a tube as strong as the incident wave or stronger, and for a weaker one where its copy
+/// falls to the same absolute level, `m exp(-M^2 / 2) = exp(-ALIAS_MARGIN^2 / 2)` (0 for a
+/// tube already weaker than that level: its copy's peak is below it), as its patch is cut.
+fn alias_margin(m: f64) -> f64 {
+    if m >= 1.0 || m.is_nan() {
+        return ALIAS_MARGIN;
+    }
+    (ALIAS_MARGIN * ALIAS_MARGIN + 2.0 * m.ln()).max(0.0).sqrt()
 }
 
 /// What one hemisphere of one wavelength diffracted into.
@@ -162,7 +203,25 @@ pub fn diffract(
     buckets: &Buckets,
     scratch: &mut Scratch,
 ) -> Result<Pattern, DiffractionError> {
-    let [mx, my] = grid_cells(h.tile_nm, h.lambda_nm, h.n_out, h.lattice);
+    let found;
+    let shapes = match shapes {
+        Some(s) => s,
+        None => {
+            found = tube_shapes(&h.launches(), contribs);
+            &found[..]
+        }
+    };
+    let tubes = contribs.iter().filter(|c| c.down == h.down);
+    assert_eq!(tubes.clone().count(), shapes.len(), "one shape per tube");
+    let p = period(
+        h,
+        tubes
+            .clone()
+            .zip(shapes)
+            .map(|(c, s)| (c, footprint(h, c, s).1)),
+    );
+    let kn = 2.0 * PI / h.lambda_nm * h.n_out;
+    let [mx, my] = cells_for(h.tile_nm, kn, p);
     if mx.saturating_mul(my) > MAX_GRID_CELLS {
         return Err(DiffractionError::GridTooLarge {
             cells: [mx, my],
@@ -170,7 +229,7 @@ pub fn diffract(
             lambda_nm: h.lambda_nm,
         });
     }
-    let (fallback, flipped) = exit_plane_field(h, contribs, shapes, [mx, my], scratch);
+    let (fallback, flipped) = exit_plane_field(h, tubes.zip(shapes), [mx, my], scratch);
     let grids = &mut scratch.grids;
     fft2(grids, [mx, my]);
     let (per_bucket, per_bucket_m, total, orders) = far_field(h, grids, [mx, my], buckets);
@@ -179,6 +238,19 @@ pub fn diffract(
         flipped_tubes: flipped,
         ..pattern(&per_bucket, &per_bucket_m, h.down, total, orders)
     })
+}
+
+/// A tube's patch amplitude on the exit plane, `sqrt(f cos theta_i / cos theta_j)` with `f
+/// = |det J|` its footprint's area per launch area, and its mass: that times its stronger
+/// polarisation's field, against the incident wave's share of one tree (which sets where
+/// its patch is cut, `patch::radius`, and how far its folded copy must stay off the
+/// orders, [`alias_margin`]).
+fn footprint(h: &Hemisphere, c: &Contribution, shape: &TubeShape) -> (f64, f64) {
+    let jac = shape.jac;
+    let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
+    let amp = (det.abs().max(1e-12) * h.cos_i / cos_of(c)).sqrt();
+    let mass = amp * field_power(&c.a[0]).max(field_power(&c.a[1])).sqrt();
+    (amp, mass)
 }
 
 /// A hemisphere's pattern from its per-bucket powers (and Mueller matrices, where kept):
@@ -229,6 +301,9 @@ pub fn pattern_of_orders(
     } else {
         0.0
     };
+    let finder = SineIndex::new(buckets);
+    // Each spread node's last bucket: the next order's node is near it.
+    let mut near = [[0u32; 2]; 25];
     let mut per_bucket = vec![0.0; buckets.len()];
     let mut per_bucket_m = if with_mueller {
         vec![[0.0; 16]; buckets.len()]
@@ -245,11 +320,11 @@ pub fn pattern_of_orders(
         count += 1;
         total += p;
         let s = [dir.x, dir.y];
-        spread(buckets, s, sigma_s, down, |b, w, wsum| {
+        spread(&finder, s, sigma_s, &mut near, |b, w, wsum| {
             per_bucket[b] += p * w / wsum;
         });
         if with_mueller {
-            spread(buckets, s, sigma_s, down, |b, w, wsum| {
+            spread(&finder, s, sigma_s, &mut near, |b, w, wsum| {
                 for (a, x) in per_bucket_m[b].iter_mut().zip(&m) {
                     *a += x * w / wsum;
                 }
@@ -277,10 +352,9 @@ pub enum DiffractionError {
 /// cells: six grids (two polarisations x three components), each tube a Gaussian patch
 /// carrying its field and the plane wave's phase. Also the tubes whose shape came from
 /// their own tracked cross-section (no neighbour on the same exit) and the mirrored ones.
-fn exit_plane_field(
+fn exit_plane_field<'a>(
     h: &Hemisphere,
-    contribs: &[Contribution],
-    shapes: Option<&[TubeShape]>,
+    tubes: impl Iterator<Item = (&'a Contribution, &'a TubeShape)>,
     [mx, my]: [usize; 2],
     scratch: &mut Scratch,
 ) -> (usize, usize) {
@@ -293,14 +367,6 @@ fn exit_plane_field(
     // mapped to the exit plane by its Jacobian.
     let step = [h.tile_nm[0] / nx as f64, h.tile_nm[1] / ny as f64];
     let sig0 = [PATCH_SIGMA_STEPS * step[0], PATCH_SIGMA_STEPS * step[1]];
-    let found;
-    let shapes = match shapes {
-        Some(s) => s,
-        None => {
-            found = tube_shapes(&h.launches(), contribs);
-            &found[..]
-        }
-    };
     // The six components of a cell side by side (re, im of each), so a patch cell is one
     // contiguous update; split into six grids for the transforms at the end.
     let Scratch {
@@ -311,23 +377,15 @@ fn exit_plane_field(
     cells.clear();
     cells.resize(mx * my, [0.0; 12]);
     let (mut fallback, mut flipped) = (0usize, 0usize);
-    let tubes = contribs.iter().filter(|c| c.down == h.down);
-    assert_eq!(tubes.clone().count(), shapes.len(), "one shape per tube");
-    for (c, shape) in tubes.zip(shapes) {
-        let cos_j = cos_of(c);
+    for (c, shape) in tubes {
         let jac = shape.jac;
         fallback += usize::from(shape.fallback);
-        let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
-        // Exit-plane area per launch area (a tube reflected an even number of times by
-        // crossed facets comes out mirrored, det < 0: counted, not a focus).
-        if det < 0.0 {
+        // A tube reflected an even number of times by crossed facets comes out mirrored,
+        // det < 0: counted, not a focus.
+        if jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0] < 0.0 {
             flipped += 1;
         }
-        let f = det.abs().max(1e-12);
-        let amp = (f * h.cos_i / cos_j).sqrt();
-        // The tube's mass on the exit plane against the incident wave's share of one tree,
-        // which sets where its patch is cut (`patch::radius`).
-        let mass = amp * field_power(&c.a[0]).max(field_power(&c.a[1])).sqrt();
+        let (amp, mass) = footprint(h, c, shape);
         // Covariance of the mapped patch, J diag(sig0^2) J^T, at least half a cell.
         let floor = 0.25 * dx.max(dy).powi(2);
         let (s0, s1) = (sig0[0].powi(2), sig0[1].powi(2));
@@ -412,7 +470,7 @@ fn far_field(
     let kn = 2.0 * PI / h.lambda_nm * h.n_out;
     // FFT bin `i` holds every order `m = i (mod cells)`; the one read is the `m` in the
     // window of `cells` orders centred on `-k_in`, which holds the disk of propagating
-    // orders (see `spacing`).
+    // orders (see `period`).
     let window = |axis: usize, cells: usize| -> i64 {
         let centre = (-h.k_in[axis] * h.tile_nm[axis] / (2.0 * PI)).round() as i64;
         centre - (cells / 2) as i64
@@ -426,6 +484,9 @@ fn far_field(
     } else {
         0.0
     };
+    let finder = SineIndex::new(buckets);
+    // Each spread node's last bucket: the next order's node is near it.
+    let mut near = [[0u32; 2]; 25];
     let mut per_bucket = vec![0.0; buckets.len()];
     let mut per_bucket_m = if h.mueller {
         vec![[0.0; 16]; buckets.len()]
@@ -468,7 +529,7 @@ fn far_field(
             }
             orders += 1;
             total += p;
-            spread(buckets, s, sigma_s, h.down, |b, w, wsum| {
+            spread(&finder, s, sigma_s, &mut near, |b, w, wsum| {
                 per_bucket[b] += p * w / wsum;
             });
             if h.mueller {
@@ -478,7 +539,7 @@ fn far_field(
                 let wv = glam::DVec3::from_array(w);
                 let mut m = mueller::mueller(&mueller::jones(&perps, wv)).map(|x| x * cz / h.cos_i);
                 m[0] = p;
-                spread(buckets, s, sigma_s, h.down, |b, w, wsum| {
+                spread(&finder, s, sigma_s, &mut near, |b, w, wsum| {
                     for (a, x) in per_bucket_m[b].iter_mut().zip(&m) {
                         *a += x * w / wsum;
                     }
@@ -492,37 +553,34 @@ fn far_field(
 /// Spreads the order at transverse direction `s` by the illumination's angular spread
 /// `sigma_s` (standard deviation of each transverse component), through the 5 x 5
 /// Gauss-Hermite rule: `add(bucket, w, wsum)` for each node's bucket, its share `w / wsum`
-/// of the nodes within the horizon (`(1, 1)` for a single direction).
+/// of the nodes within the horizon (`(1, 1)` for a single direction). `near` holds each
+/// node's bucket for the order before, where its search starts (`SineIndex::index_near`).
 fn spread(
-    buckets: &Buckets,
+    finder: &SineIndex,
     s: [f64; 2],
     sigma_s: f64,
-    down: bool,
+    near: &mut [[u32; 2]; 25],
     mut add: impl FnMut(usize, f64, f64),
 ) {
-    let dir = |t: [f64; 2]| {
-        let cz = (1.0 - t[0] * t[0] - t[1] * t[1]).max(0.0).sqrt();
-        glam::DVec3::new(t[0], t[1], if down { -cz } else { cz })
-    };
     if sigma_s == 0.0 {
-        add(buckets.index(dir(s)), 1.0, 1.0);
+        add(finder.index_near(s, &mut near[12]), 1.0, 1.0);
         return;
     }
     let mut nodes = [(0usize, 0.0f64); 25];
     let mut n = 0;
     let mut wsum = 0.0;
-    for &(a, wa) in &GH5 {
-        for &(b, wb) in &GH5 {
+    for (i, &(a, wa)) in GH5.iter().enumerate() {
+        for (j, &(b, wb)) in GH5.iter().enumerate() {
             let t = [s[0] + sigma_s * a, s[1] + sigma_s * b];
             if t[0] * t[0] + t[1] * t[1] < 1.0 {
-                nodes[n] = (buckets.index(dir(t)), wa * wb);
+                nodes[n] = (finder.index_near(t, &mut near[5 * i + j]), wa * wb);
                 wsum += wa * wb;
                 n += 1;
             }
         }
     }
     if n == 0 {
-        add(buckets.index(dir(s)), 1.0, 1.0);
+        add(finder.index(s), 1.0, 1.0);
         return;
     }
     for &(b, w) in &nodes[..n] {
