@@ -213,13 +213,11 @@ pub fn diffract(
     };
     let tubes = contribs.iter().filter(|c| c.down == h.down);
     assert_eq!(tubes.clone().count(), shapes.len(), "one shape per tube");
-    let p = period(
-        h,
-        tubes
-            .clone()
-            .zip(shapes)
-            .map(|(c, s)| (c, footprint(h, c, s).1)),
-    );
+    // Each tube's amplitude and mass, found once for the grid and the splat.
+    let mut foot = std::mem::take(&mut scratch.foot);
+    foot.clear();
+    foot.extend(tubes.clone().zip(shapes).map(|(c, s)| footprint(h, c, s)));
+    let p = period(h, tubes.clone().zip(&foot).map(|(c, f)| (c, f.1)));
     let kn = 2.0 * PI / h.lambda_nm * h.n_out;
     let [mx, my] = cells_for(h.tile_nm, kn, p);
     if mx.saturating_mul(my) > MAX_GRID_CELLS {
@@ -229,7 +227,14 @@ pub fn diffract(
             lambda_nm: h.lambda_nm,
         });
     }
-    let (fallback, flipped) = exit_plane_field(h, tubes.zip(shapes), [mx, my], scratch);
+    let flagged = exit_plane_field(
+        h,
+        tubes.zip(shapes).zip(foot.iter().copied()),
+        [mx, my],
+        scratch,
+    );
+    scratch.foot = foot;
+    let (fallback, flipped) = flagged;
     let grids = &mut scratch.grids;
     fft2(grids, [mx, my]);
     let (per_bucket, per_bucket_m, total, orders) = far_field(h, grids, [mx, my], buckets);
@@ -350,11 +355,11 @@ pub enum DiffractionError {
 
 /// The exit-plane field of every tube leaving into hemisphere `h`, gridded on `mx x my`
 /// cells: six grids (two polarisations x three components), each tube a Gaussian patch
-/// carrying its field and the plane wave's phase. Also the tubes whose shape came from
+/// carrying its field and the plane wave's phase (each tube with its [`footprint`]). Also the tubes whose shape came from
 /// their own tracked cross-section (no neighbour on the same exit) and the mirrored ones.
 fn exit_plane_field<'a>(
     h: &Hemisphere,
-    tubes: impl Iterator<Item = (&'a Contribution, &'a TubeShape)>,
+    tubes: impl Iterator<Item = ((&'a Contribution, &'a TubeShape), (f64, f64))>,
     [mx, my]: [usize; 2],
     scratch: &mut Scratch,
 ) -> (usize, usize) {
@@ -373,11 +378,12 @@ fn exit_plane_field<'a>(
         cells,
         grids,
         patch,
+        ..
     } = scratch;
     cells.clear();
     cells.resize(mx * my, [0.0; 12]);
     let (mut fallback, mut flipped) = (0usize, 0usize);
-    for (c, shape) in tubes {
+    for ((c, shape), (amp, mass)) in tubes {
         let jac = shape.jac;
         fallback += usize::from(shape.fallback);
         // A tube reflected an even number of times by crossed facets comes out mirrored,
@@ -385,7 +391,6 @@ fn exit_plane_field<'a>(
         if jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0] < 0.0 {
             flipped += 1;
         }
-        let (amp, mass) = footprint(h, c, shape);
         // Covariance of the mapped patch, J diag(sig0^2) J^T, at least half a cell.
         let floor = 0.25 * dx.max(dy).powi(2);
         let (s0, s1) = (sig0[0].powi(2), sig0[1].powi(2));
@@ -432,6 +437,8 @@ pub struct Scratch {
     cells: Vec<[f64; 12]>,
     grids: Vec<Vec<C64>>,
     patch: Patch,
+    /// Each tube's [`footprint`].
+    foot: Vec<(f64, f64)>,
 }
 
 /// One 2-D forward FFT per grid, in place: `V_m = sum_g v(x_g) exp(-i G_m . x_g)`.
@@ -644,7 +651,8 @@ mod tests {
             let kn = 2.0 * PI / h.lambda_nm;
             let [mx, my] = cells_for(h.tile_nm, kn, period(&h, [(&c, mass)].into_iter()));
             let mut scratch = Scratch::default();
-            exit_plane_field(&h, [(&c, &shape)].into_iter(), [mx, my], &mut scratch);
+            let tube = ((&c, &shape), (amp, mass));
+            exit_plane_field(&h, [tube].into_iter(), [mx, my], &mut scratch);
             fft2(&mut scratch.grids, [mx, my]);
             // The covariance the splat used: the unmapped patch plus its floor, a quarter of
             // the larger cell side squared.
