@@ -65,23 +65,54 @@ fn sin_cos_body(phase: &[f64], sin: &mut Vec<f64>, cos: &mut Vec<f64>) {
         return;
     }
     for ((&x, s), c) in phase.iter().zip(sin.iter_mut()).zip(cos.iter_mut()) {
-        let t = x * std::f64::consts::FRAC_2_PI + ROUND;
-        let q = t.to_bits() & 3;
-        let n = t - ROUND;
-        let r = ((x - n * PIO2_1) - n * PIO2_2) - n * PIO2_3;
-        let z = r * r;
-        let ps = S[0] + z * (S[1] + z * (S[2] + z * (S[3] + z * (S[4] + z * (S[5] + z * S[6])))));
-        let sr = r + r * z * ps;
-        let pc = C[0]
-            + z * (C[1]
-                + z * (C[2] + z * (C[3] + z * (C[4] + z * (C[5] + z * (C[6] + z * C[7]))))));
-        let cr = 1.0 + z * pc;
-        // x = n pi/2 + r: rotate by the quadrant.
-        let (a, b) = if q & 1 == 1 { (cr, -sr) } else { (sr, cr) };
-        let sign = if q & 2 == 2 { -1.0 } else { 1.0 };
-        *s = sign * a;
-        *c = sign * b;
+        (*s, *c) = sin_cos_kernel(x);
     }
+}
+
+/// `(sin x, cos x)` of one phase, the same bits as [`sin_cos_batch`] gives it (the C
+/// library's beyond [`MAX_PHASE`], and for NaN).
+pub fn sin_cos(x: f64) -> (f64, f64) {
+    if x.abs() <= MAX_PHASE {
+        sin_cos_kernel(x)
+    } else {
+        x.sin_cos()
+    }
+}
+
+/// `sin x` and `cos x` for every `x` of `phase`, into `sin` and `cos` (resized), each the
+/// same bits as [`sin_cos`] gives it, whatever else the batch holds (where
+/// [`sin_cos_batch`] sends a whole batch to the C library for one phase out of range).
+pub fn sin_cos_each(phase: &[f64], sin: &mut Vec<f64>, cos: &mut Vec<f64>) {
+    if phase.iter().all(|x| x.abs() <= MAX_PHASE) {
+        sin_cos_batch(phase, sin, cos);
+    } else {
+        sin.clear();
+        cos.clear();
+        for &x in phase {
+            let (s, c) = sin_cos(x);
+            sin.push(s);
+            cos.push(c);
+        }
+    }
+}
+
+/// `sin x` and `cos x` for `|x| <= MAX_PHASE` (see the module's note on the method).
+#[inline(always)]
+fn sin_cos_kernel(x: f64) -> (f64, f64) {
+    let t = x * std::f64::consts::FRAC_2_PI + ROUND;
+    let q = t.to_bits() & 3;
+    let n = t - ROUND;
+    let r = ((x - n * PIO2_1) - n * PIO2_2) - n * PIO2_3;
+    let z = r * r;
+    let ps = S[0] + z * (S[1] + z * (S[2] + z * (S[3] + z * (S[4] + z * (S[5] + z * S[6])))));
+    let sr = r + r * z * ps;
+    let pc = C[0]
+        + z * (C[1] + z * (C[2] + z * (C[3] + z * (C[4] + z * (C[5] + z * (C[6] + z * C[7]))))));
+    let cr = 1.0 + z * pc;
+    // x = n pi/2 + r: rotate by the quadrant.
+    let (a, b) = if q & 1 == 1 { (cr, -sr) } else { (sr, cr) };
+    let sign = if q & 2 == 2 { -1.0 } else { 1.0 };
+    (sign * a, sign * b)
 }
 
 /// `ln 2 = LN2_1 + LN2_2`, the first with 32 significant bits so `n LN2_1` is exact for
@@ -211,6 +242,40 @@ mod tests {
         exp_batch(&neg, &mut e2);
         assert_eq!(bits(&e1), bits(&e2));
         eprintln!("AVX2 path taken: {}", crate::machine::avx2_enabled());
+    }
+
+    /// One phase at a time (`sin_cos`) and a batch with a phase out of range among them
+    /// (`sin_cos_each`) give each phase the bits the batch gives it alone: the contribution
+    /// of an exit is formed both ways (one per exit while tracing, a bin's at once under
+    /// path sharing).
+    #[test]
+    fn one_at_a_time_and_mixed_batches_give_the_batch_bits() {
+        let x = phases(10_001, 1e5);
+        let (mut s, mut c) = (Vec::new(), Vec::new());
+        sin_cos_batch(&x, &mut s, &mut c);
+        for (i, &v) in x.iter().enumerate() {
+            let (si, ci) = sin_cos(v);
+            assert_eq!(
+                (si.to_bits(), ci.to_bits()),
+                (s[i].to_bits(), c[i].to_bits())
+            );
+        }
+        let mut mixed = x.clone();
+        mixed[17] = 1e9;
+        mixed[4000] = f64::NAN;
+        let (mut sm, mut cm) = (Vec::new(), Vec::new());
+        sin_cos_each(&mixed, &mut sm, &mut cm);
+        for i in 0..mixed.len() {
+            if i == 17 || i == 4000 {
+                continue;
+            }
+            assert_eq!(
+                (sm[i].to_bits(), cm[i].to_bits()),
+                (s[i].to_bits(), c[i].to_bits())
+            );
+        }
+        assert_eq!((sm[17], cm[17]), 1e9f64.sin_cos());
+        assert!(sm[4000].is_nan() && cm[4000].is_nan());
     }
 
     #[test]

@@ -52,8 +52,34 @@ pub fn contribution(
     entry_phase: f64,
     k_in: [f64; 2],
 ) -> Contribution {
-    let psi = entry_phase + k * exit.opl.re - (k_in[0] * exit.x.x + k_in[1] * exit.x.y);
-    let f = C64::from_polar((-k * exit.opl.im).exp(), psi);
+    let psi = exit_phase(exit, k, entry_phase, k_in);
+    contribution_at(exit, tree, slot, k, crate::accumulate::phase::sin_cos(psi))
+}
+
+/// The phase `psi_j - k_in . x_j` (rad) of an exit's [`Contribution`] at wave number `k`
+/// (1/nm): the incident wave's phase at the launch point, `entry_phase`, plus `k Re OPL`,
+/// less the incident wave's transverse phase at the exit point.
+pub fn exit_phase(exit: &Exit, k: f64, entry_phase: f64, k_in: [f64; 2]) -> f64 {
+    entry_phase + k * exit.opl.re - (k_in[0] * exit.x.x + k_in[1] * exit.x.y)
+}
+
+/// An exit's [`Contribution`] at wave number `k` (1/nm) from the sine and cosine of its
+/// [`exit_phase`] (`phase::sin_cos`'s bits, however they were evaluated): the field times
+/// `exp(i psi) exp(-k Im OPL)`.
+pub fn contribution_at(
+    exit: &Exit,
+    tree: u32,
+    slot: u32,
+    k: f64,
+    (sin, cos): (f64, f64),
+) -> Contribution {
+    // exp(-0) is 1 exactly: a lossless path skips the call.
+    let decay = if exit.opl.im == 0.0 {
+        1.0
+    } else {
+        (-k * exit.opl.im).exp()
+    };
+    let f = C64::new(decay * cos, decay * sin);
     Contribution {
         tree,
         slot,
