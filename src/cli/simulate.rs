@@ -140,7 +140,9 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         );
     }
     if diffraction_cells > 0 {
-        diffraction_summary(&stats, &s, &acc, a.settings.rays);
+        // The trees the run asked for its lattice: the flag's, or those it raised to.
+        let asked = acc.header.rays_asked.unwrap_or(a.settings.rays);
+        diffraction_summary(&stats, &s, &acc, asked);
     }
     for w in goniospec::simulate::run_warnings(&s, &acc, &stats) {
         if w.starts_with("open sides") {

@@ -33,6 +33,7 @@ mod launch;
 mod partial;
 mod physical;
 mod prepare;
+mod raise;
 mod rigorous;
 mod rigorous_fit;
 mod run;
@@ -102,16 +103,43 @@ fn traced_config<'a>(sample: &Sample, cfg: &'a SimConfig) -> std::borrow::Cow<'a
     }
 }
 
-/// Runs the simulation. `progress` receives the number of trees finished so far.
+/// Runs the simulation. `progress` receives the number of trees finished so far (from 0
+/// again where the diffraction method raises its trees).
 ///
 /// Three stages: [`Run::prepare`] (scene, media, estimator, the header's settings),
 /// [`Run::direction`] for every incident direction (blocks of trees traced in parallel and
 /// reduced in block order), and [`Run::finish`] (statistics, header, and the refusal of
-/// impossible results).
+/// impossible results). Where the diffraction method's transform cannot hold the rays'
+/// power at the trees asked, the run raises them within `max_rays` while that helps
+/// ([`raise`]).
 pub fn simulate(
     sample: &Sample,
     cfg: &SimConfig,
     progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Accumulator, SimStats), SimError> {
+    raise::simulate_raising(sample, cfg, progress)
+}
+
+/// One run at `cfg`'s trees ([`simulate`]), with the cell where the diffraction method's
+/// transform could not hold the rays' power, where that refused it.
+fn simulate_once(
+    sample: &Sample,
+    cfg: &SimConfig,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (
+    Result<(Accumulator, SimStats), SimError>,
+    Option<raise::Unheld>,
+) {
+    let mut unheld = None;
+    let result = run_once(sample, cfg, progress, &mut unheld);
+    (result, unheld)
+}
+
+fn run_once(
+    sample: &Sample,
+    cfg: &SimConfig,
+    progress: &(dyn Fn(u64) + Sync),
+    unheld: &mut Option<raise::Unheld>,
 ) -> Result<(Accumulator, SimStats), SimError> {
     validate(cfg)?;
     let asked = cfg.rays;
@@ -199,7 +227,9 @@ pub fn simulate(
                 d.leaks = c.leaks.load(Ordering::Relaxed) - before.1;
                 d.envelope_violations = run.scene.scatter_violations() - before.2;
                 done[di] = Some(d);
-                run.diffraction_refusal(&diffraction, di * run.nl..(di + 1) * run.nl)
+                let range = di * run.nl..(di + 1) * run.nl;
+                *unheld = run.unheld(&diffraction, range.clone());
+                run.diffraction_refusal(&diffraction, range)
                     .err()
                     .inspect(|_| done[di] = None)
             }

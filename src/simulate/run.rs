@@ -371,6 +371,30 @@ impl<'a> Run<'a> {
         }
     }
 
+    /// The first cell of `range` whose diffraction transform held a share of the ray
+    /// field's power outside `[DIFFRACTION_RATIO_REFUSED, 1 / DIFFRACTION_RATIO_REFUSED]`,
+    /// in a run of the diffraction method (an auto run takes rays in such cells).
+    pub(super) fn unheld(
+        &self,
+        diffraction: &[DiffractionCell],
+        range: std::ops::Range<usize>,
+    ) -> Option<super::raise::Unheld> {
+        if self.cfg.coherence != Coherence::Diffraction {
+            return None;
+        }
+        let k = range.clone().find(|&k| {
+            let d = &diffraction[k];
+            d.rays_r + d.rays_t > 0.0
+                && !(d.ratio() >= DIFFRACTION_RATIO_REFUSED
+                    && d.ratio() <= 1.0 / DIFFRACTION_RATIO_REFUSED)
+        })?;
+        Some(super::raise::Unheld {
+            theta_deg: (self.cfg.theta_i_deg.get(k / self.nl).copied()).unwrap_or(f64::NAN),
+            lambda_nm: self.settings.wavelength(k % self.nl),
+            ratio: diffraction[k].ratio(),
+        })
+    }
+
     /// Refuses the diffraction method's result where, in the cells `range`, its transform
     /// held a share of the ray field's power outside `[DIFFRACTION_RATIO_REFUSED,
     /// 1 / DIFFRACTION_RATIO_REFUSED]`. Checked after each direction (the most oblique
@@ -381,40 +405,28 @@ impl<'a> Run<'a> {
         diffraction: &[DiffractionCell],
         range: std::ops::Range<usize>,
     ) -> Result<(), SimError> {
-        if self.cfg.coherence != Coherence::Diffraction {
-            return Ok(());
-        }
-        let Some((k, d)) = diffraction[range.clone()]
-            .iter()
-            .zip(range)
-            .map(|(d, k)| (k, d))
-            .filter(|(_, d)| d.rays_r + d.rays_t > 0.0)
-            .find(|(_, d)| {
-                !(d.ratio() >= DIFFRACTION_RATIO_REFUSED
-                    && d.ratio() <= 1.0 / DIFFRACTION_RATIO_REFUSED)
-            })
-        else {
+        let Some(unheld) = self.unheld(diffraction, range) else {
             return Ok(());
         };
-        let nl = self.nl;
-        let theta = (self.cfg.theta_i_deg.get(k / nl).copied()).unwrap_or(f64::NAN);
-        let lambda = self.settings.wavelength(k % nl);
-        // Where the tangent plane fails, more trees sample the same wrong field: the seed's
-        // film at 75 deg and 495 nm held 1.276, 1.252 and 1.270 at 4,096, 16,384 and 65,536
-        // trees (issue 48), so the advice to raise --rays would only fail later.
+        let (theta, lambda) = (unheld.theta_deg, unheld.lambda_nm);
+        // Where the tangent plane fails, more trees may sample the same wrong field: the
+        // seed's film at 75 deg and 495 nm held 1.276, 1.252 and 1.270 at 4,096, 16,384 and
+        // 65,536 trees (issue 48). Yet rough glass at 40 deg and 500 nm, below the same
+        // margin, held 0.50 at 256 trees and 0.92 at 1,024: the run raises its trees while
+        // that helps (`raise`), and says what it tried.
         let margin = super::auto::physical_optics_margin(self.sample, &self.sheets, theta, lambda);
         let advice = if margin < crate::sample::validity::PHYSICAL_OPTICS_MIN {
             format!(
-                "the tangent plane the method rests on fails at this angle (k r_c cos^3 theta = {margin:.1}, below {}; Ogilvy 1991, §4.2), and more --rays do not bring the transform back there: --coherence auto takes rays in such cells, or leave this angle out",
+                "the tangent plane the method rests on fails at this angle (k r_c cos^3 theta = {margin:.1}, below {}; Ogilvy 1991, §4.2), where more trees need not bring the transform back: --coherence auto takes rays in such cells, or leave this angle out",
                 crate::sample::validity::PHYSICAL_OPTICS_MIN
             )
         } else {
-            "the rays sample the field too coarsely for it (raise --rays), or the sample has structure near or below the wavelength, where neither rays nor physical optics hold (use --coherence rigorous, or --coherence auto, which takes it)".to_string()
+            "the rays sample the field too coarsely for it (raise --rays, or --max-rays for the run to raise them itself), or the sample has structure near or below the wavelength, where neither rays nor physical optics hold (use --coherence rigorous, or --coherence auto, which takes it)".to_string()
         };
         Err(SimError::Unphysical(format!(
-            "sample '{}', theta_i {theta} deg, wavelength {lambda} nm: the diffraction transform holds {:.3} of the ray field's power in propagating orders (outside [{DIFFRACTION_RATIO_REFUSED}, {:.2}]): {advice}. (The method traces the most oblique incidence first, so this is found before the rest of the run)",
+            "sample '{}', theta_i {theta} deg, wavelength {lambda} nm: the diffraction transform holds {:.3} of the ray field's power in propagating orders (outside [{DIFFRACTION_RATIO_REFUSED}, {:.2}]): {advice}. (The method traces the most oblique incidence first, so this is found before the rest of the run.)",
             self.sample.name,
-            d.ratio(),
+            unheld.ratio,
             1.0 / DIFFRACTION_RATIO_REFUSED
         )))
     }

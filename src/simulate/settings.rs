@@ -108,7 +108,10 @@ pub struct SimSettings {
     #[arg(long, value_parser = finite)]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_stderr: Option<f64>,
-    /// Largest number of rays per incident direction with --tolerance or --target-stderr.
+    /// Largest number of rays per incident direction with --tolerance or --target-stderr,
+    /// and where --coherence diffraction raises its own: where its transform cannot hold
+    /// the rays' power at --rays, the run is made again with four times the trees while
+    /// that brings it nearer (a warning stored with the result says so).
     #[arg(long, default_value_t = defaults::MAX_RAYS)]
     pub max_rays: u64,
     /// Trace every wavelength separately even when no medium is dispersive or absorbing
@@ -309,6 +312,8 @@ pub struct SimConfig {
     /// holding [`super::BRIGHT_SHARE`] of each wavelength's reflected power) is at most
     /// this. At most one of the two.
     pub target_stderr: Option<f64>,
+    /// The most trees per direction an adaptive budget spends, and the most the
+    /// diffraction method raises its trees to (`simulate::raise`; 0: never raised).
     pub max_rays: u64,
     /// Entry points: the R2 low-discrepancy sequence (default), or independent uniform
     /// points (plain Monte Carlo, for convergence studies).

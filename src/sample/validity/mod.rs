@@ -243,7 +243,7 @@ fn tangent_plane_fails(
     let first = failing.iter().copied().fold(f64::INFINITY, f64::min);
     (!failing.is_empty()).then(|| Finding {
         message: format!(
-            "{} has {} and curvature radius {:.0} nm: at {} deg the tangent plane the diffraction method rests on fails at {lambda:.0} nm (k r_c cos^3 theta = {:.1} at {first} deg, below {min}; Ogilvy 1991, §4.2), so its angular distribution is uncertain there, and where its transform holds the rays' power outside [0.8, 1.25] the run stops (it traces the most oblique direction first). --coherence auto takes rays in those cells (docs/validity.md)",
+            "{} has {} and curvature radius {:.0} nm: at {} deg the tangent plane the diffraction method rests on fails at {lambda:.0} nm (k r_c cos^3 theta = {:.1} at {first} deg, below {min}; Ogilvy 1991, §4.2), so its angular distribution is uncertain there, and where its transform holds the rays' power outside [0.8, 1.25] the run raises its trees within --max-rays while that helps, then stops (it traces the most oblique direction first). --coherence auto takes rays in those cells (docs/validity.md)",
             sheet.name,
             sheet.what,
             sheet.sc.curvature_radius_nm,
