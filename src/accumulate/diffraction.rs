@@ -107,14 +107,14 @@ fn patch_sigma_nm(tile_nm: [f64; 2], lattice: [u64; 2]) -> f64 {
 /// of the cells a patch took then. Before issue 31 the spacing was `lambda / (4 (n_out +
 /// n_in))` whatever the patch: 1.2 to 2.6 times as many cells per patch at 16,384 trees on
 /// 20 um, 380-780 nm.)
-fn period<'a>(h: &Hemisphere, tubes: impl Iterator<Item = (&'a Contribution, f64)>) -> [f64; 2] {
+fn period(h: &Hemisphere, tubes: impl Iterator<Item = ([f64; 2], f64)>) -> [f64; 2] {
     let kn = 2.0 * PI / h.lambda_nm * h.n_out;
     let inv_sigma = 1.0 / patch_sigma_nm(h.tile_nm, h.lattice);
     let mut p = [2.0 * kn; 2];
-    for (c, mass) in tubes {
+    for (w, mass) in tubes {
         let margin = alias_margin(mass) * inv_sigma;
         for (a, pa) in p.iter_mut().enumerate() {
-            *pa = pa.max(kn * (1.0 + c.w[a].abs()) + margin);
+            *pa = pa.max(kn * (1.0 + w[a].abs()) + margin);
         }
     }
     p
@@ -215,12 +215,18 @@ pub fn diffract(
         }
     };
     let tubes = contribs.iter().filter(|c| c.down == h.down);
-    assert_eq!(tubes.clone().count(), shapes.len(), "one shape per tube");
-    // Each tube's amplitude and mass, found once for the grid and the splat.
+    debug_assert_eq!(tubes.clone().count(), shapes.len(), "one shape per tube");
+    // Each tube's amplitude and mass, found once for the grid and the splat, with its
+    // direction: the grid's period is found from these, not from another pass over the
+    // contributions (160 bytes a tube; each pass over a wavelength's 137,000 was 22 MB).
     let mut foot = std::mem::take(&mut scratch.foot);
     foot.clear();
-    foot.extend(tubes.clone().zip(shapes).map(|(c, s)| footprint(h, c, s)));
-    let p = period(h, tubes.clone().zip(&foot).map(|(c, f)| (c, f.1)));
+    foot.extend(tubes.clone().zip(shapes).map(|(c, s)| {
+        let (amp, mass) = footprint(h, c, s);
+        (amp, mass, c.w)
+    }));
+    assert_eq!(foot.len(), shapes.len(), "one shape per tube");
+    let p = period(h, foot.iter().map(|f| (f.2, f.1)));
     let kn = 2.0 * PI / h.lambda_nm * h.n_out;
     let [mx, my] = cells_for(h.tile_nm, kn, p);
     if mx.saturating_mul(my) > MAX_GRID_CELLS {
@@ -232,7 +238,7 @@ pub fn diffract(
     }
     let flagged = exit_plane_field(
         h,
-        tubes.zip(shapes).zip(foot.iter().copied()),
+        tubes.zip(shapes).zip(foot.iter().map(|f| (f.0, f.1))),
         [mx, my],
         scratch,
     );
@@ -467,7 +473,7 @@ pub struct Scratch {
     grids: Vec<Vec<C64>>,
     patches: Patches,
     /// Each tube's [`footprint`].
-    foot: Vec<(f64, f64)>,
+    foot: Vec<(f64, f64, [f64; 2])>,
 }
 
 /// One 2-D forward FFT per grid, in place: `V_m = sum_g v(x_g) exp(-i G_m . x_g)`.

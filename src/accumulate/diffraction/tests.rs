@@ -78,7 +78,7 @@ fn a_lone_oblique_tube_has_its_patch_s_transform_in_every_order() {
         let shape = UNMAPPED;
         let (amp, mass) = footprint(&h, &c, &shape);
         let kn = 2.0 * PI / h.lambda_nm;
-        let [mx, my] = cells_for(h.tile_nm, kn, period(&h, [(&c, mass)].into_iter()));
+        let [mx, my] = cells_for(h.tile_nm, kn, period(&h, [(c.w, mass)].into_iter()));
         let mut scratch = Scratch::default();
         let tube = ((&c, &shape), (amp, mass));
         exit_plane_field(&h, [tube].into_iter(), [mx, my], &mut scratch);
@@ -146,7 +146,7 @@ fn a_tube_below_the_alias_level_keeps_its_own_order_exactly() {
     let shape = UNMAPPED;
     let (amp, mass) = footprint(&h, &c, &shape);
     assert!(mass < super::super::patch::POINT_MASS, "mass {mass}");
-    let [mx, my] = cells_for(h.tile_nm, kn, period(&h, [(&c, mass)].into_iter()));
+    let [mx, my] = cells_for(h.tile_nm, kn, period(&h, [(c.w, mass)].into_iter()));
     let mut scratch = Scratch::default();
     exit_plane_field(
         &h,
