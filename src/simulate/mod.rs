@@ -120,21 +120,8 @@ pub fn simulate(
     raise::simulate_raising(sample, cfg, progress)
 }
 
-/// One run at `cfg`'s trees ([`simulate`]), with the cell where the diffraction method's
-/// transform could not hold the rays' power, where that refused it.
-fn simulate_once(
-    sample: &Sample,
-    cfg: &SimConfig,
-    progress: &(dyn Fn(u64) + Sync),
-) -> (
-    Result<(Accumulator, SimStats), SimError>,
-    Option<raise::Unheld>,
-) {
-    let mut unheld = None;
-    let result = run_once(sample, cfg, progress, &mut unheld);
-    (result, unheld)
-}
-
+/// One run at `cfg`'s trees ([`simulate`]); where the diffraction method's transform could
+/// not hold the rays' power and that refused it, the cell is put in `unheld`.
 fn run_once(
     sample: &Sample,
     cfg: &SimConfig,
@@ -227,11 +214,11 @@ fn run_once(
                 d.leaks = c.leaks.load(Ordering::Relaxed) - before.1;
                 d.envelope_violations = run.scene.scatter_violations() - before.2;
                 done[di] = Some(d);
-                let range = di * run.nl..(di + 1) * run.nl;
-                *unheld = run.unheld(&diffraction, range.clone());
-                run.diffraction_refusal(&diffraction, range)
-                    .err()
-                    .inspect(|_| done[di] = None)
+                *unheld = run.unheld(&diffraction, di * run.nl..(di + 1) * run.nl);
+                unheld.as_ref().map(|u| {
+                    done[di] = None;
+                    run.diffraction_refusal(u)
+                })
             }
             Err(e) => Some(e),
         };

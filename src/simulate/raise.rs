@@ -16,7 +16,7 @@
 //! A raised run is the run at those trees, byte for byte, but for the warning stored with
 //! it that says what was raised and why.
 
-use super::{SimConfig, SimError, simulate_once};
+use super::{SimConfig, SimError, run_once};
 use crate::accumulate::Coherence;
 use crate::accumulate::file::Accumulator;
 use crate::sample::Sample;
@@ -49,7 +49,8 @@ pub(super) fn simulate_raising(
     let mut now = cfg.clone();
     let mut tried: Vec<(u64, Unheld)> = Vec::new();
     loop {
-        let (result, unheld) = simulate_once(sample, &now, progress);
+        let mut unheld = None;
+        let result = run_once(sample, &now, progress, &mut unheld);
         let Some(u) = unheld else {
             // Said where the run's own warnings are: printed, and stored in the `.gsa`.
             return result.map(|(mut acc, mut stats)| {
@@ -60,10 +61,12 @@ pub(super) fn simulate_raising(
                 (acc, stats)
             });
         };
+        // A transform that held nothing (or NaN) is infinitely far (or not comparable): a
+        // raise from it helps only where the next one holds something.
         let distance = |u: &Unheld| u.ratio.ln().abs();
-        let helped = tried
-            .last()
-            .is_none_or(|(_, before)| distance(&u) <= MIN_GAIN * distance(before));
+        let helped = tried.last().is_none_or(|(_, before)| {
+            distance(&u).is_finite() && distance(&u) <= MIN_GAIN * distance(before)
+        });
         tried.push((now.rays, u));
         let next = now.rays.saturating_mul(FACTOR);
         let cancelled = cfg

@@ -395,19 +395,13 @@ impl<'a> Run<'a> {
         })
     }
 
-    /// Refuses the diffraction method's result where, in the cells `range`, its transform
-    /// held a share of the ray field's power outside `[DIFFRACTION_RATIO_REFUSED,
-    /// 1 / DIFFRACTION_RATIO_REFUSED]`. Checked after each direction (the most oblique
-    /// first, where the rays sample the field most coarsely), so a run that will be refused
-    /// stops at the first such direction, not after the others (issue 48: 2 min 40 s).
-    pub(super) fn diffraction_refusal(
-        &self,
-        diffraction: &[DiffractionCell],
-        range: std::ops::Range<usize>,
-    ) -> Result<(), SimError> {
-        let Some(unheld) = self.unheld(diffraction, range) else {
-            return Ok(());
-        };
+    /// The refusal of the diffraction method's result where its transform held a share of
+    /// the ray field's power outside `[DIFFRACTION_RATIO_REFUSED, 1 /
+    /// DIFFRACTION_RATIO_REFUSED]` ([`Run::unheld`]). Checked after each direction (the most
+    /// oblique first, where the rays sample the field most coarsely), so a run that will be
+    /// refused stops at the first such direction, not after the others (issue 48: 2 min
+    /// 40 s).
+    pub(super) fn diffraction_refusal(&self, unheld: &super::raise::Unheld) -> SimError {
         let (theta, lambda) = (unheld.theta_deg, unheld.lambda_nm);
         // Where the tangent plane fails, more trees may sample the same wrong field: the
         // seed's film at 75 deg and 495 nm held 1.276, 1.252 and 1.270 at 4,096, 16,384 and
@@ -423,12 +417,12 @@ impl<'a> Run<'a> {
         } else {
             "the rays sample the field too coarsely for it (raise --rays, or --max-rays for the run to raise them itself), or the sample has structure near or below the wavelength, where neither rays nor physical optics hold (use --coherence rigorous, or --coherence auto, which takes it)".to_string()
         };
-        Err(SimError::Unphysical(format!(
+        SimError::Unphysical(format!(
             "sample '{}', theta_i {theta} deg, wavelength {lambda} nm: the diffraction transform holds {:.3} of the ray field's power in propagating orders (outside [{DIFFRACTION_RATIO_REFUSED}, {:.2}]): {advice}. (The method traces the most oblique incidence first, so this is found before the rest of the run.)",
             self.sample.name,
             unheld.ratio,
             1.0 / DIFFRACTION_RATIO_REFUSED
-        )))
+        ))
     }
 
     /// Stage 2: every tree of incident direction `di`, in batches (one for a fixed budget;

@@ -138,8 +138,7 @@ impl Patches {
             (1.0 - tx) * ty,
             tx * ty,
         ];
-        let (u0, v0) = (ix as f64 * dx - s.xw[0], iy as f64 * dy - s.xw[1]);
-        let phases = [s.q[0] * u0 + s.q[1] * v0, s.q[0] * dx, s.q[1] * dy];
+        let phases = point_phases(&s, self.d);
         let alone = !phases
             .iter()
             .all(|x| x.abs() <= crate::accumulate::phase::MAX_PHASE);
@@ -158,14 +157,7 @@ impl Patches {
     pub(in crate::accumulate) fn point(&mut self, i: usize) -> Option<([usize; 4], [C64; 4])> {
         let (cells, share) = self.points[i]?;
         let sc: [[f64; 2]; 3] = if self.alone[i] {
-            let s = &self.specs[i];
-            let [dx, dy] = self.d;
-            let (u0, v0) = (
-                floor_i(s.xw[0] / dx) as f64 * dx - s.xw[0],
-                floor_i(s.xw[1] / dy) as f64 * dy - s.xw[1],
-            );
-            let phases = [s.q[0] * u0 + s.q[1] * v0, s.q[0] * dx, s.q[1] * dy];
-            phases
+            point_phases(&self.specs[i], self.d)
                 .map(crate::accumulate::phase::sin_cos)
                 .map(|(s, c)| [s, c])
         } else {
@@ -219,6 +211,16 @@ impl Patches {
         finish(p, rows, self.m[0], alpha, tx);
         p
     }
+}
+
+/// A four-cell tube's phases (rad): the plane wave at its lower-left cell, `q . (x_cell -
+/// x_w)`, and its turns per column and per row, on the grid of `[dx, dy]` nm.
+fn point_phases(s: &Spec, [dx, dy]: [f64; 2]) -> [f64; 3] {
+    let (u0, v0) = (
+        floor_i(s.xw[0] / dx) as f64 * dx - s.xw[0],
+        floor_i(s.xw[1] / dy) as f64 * dy - s.xw[1],
+    );
+    [s.q[0] * u0 + s.q[1] * v0, s.q[0] * dx, s.q[1] * dy]
 }
 
 /// `g[k] = exp(-|x_k|)` becomes `exp(x_k)`: its reciprocal where `x_k > 0`.
