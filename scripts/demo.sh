@@ -11,9 +11,10 @@ $G check meshes/thin-film-600nm.toml --leak-rays 5000 | tail -2
 echo "== simulating (incident angles 0..85 deg every 5 deg, 40 bins 380..780 nm; each cell's method chosen by --coherence auto)"
 # The run's warnings go to the terminal as they come and into warnings.txt, which the
 # summary repeats (issue 48: summary.txt recorded none of them).
-$G simulate meshes/thin-film-600nm.toml --theta-i 0,5,10,15,20,25,30,35,40,45,50,55,60,65,70,75,80,85 \
-  --rays 4096 -o "$OUT/thin-film-600nm.gsa" 2> >(tee "$OUT/warnings.txt" >&2)
-sleep 0.2  # the tee of standard error finishes writing
+# The braces make this shell open the pipe to tee, so that `wait $!` can wait for it.
+{ $G simulate meshes/thin-film-600nm.toml --theta-i 0,5,10,15,20,25,30,35,40,45,50,55,60,65,70,75,80,85 \
+  --rays 4096 -o "$OUT/thin-film-600nm.gsa"; } 2> >(tee "$OUT/warnings.txt" >&2)
+wait $!  # tee has written all of standard error
 $G build "$OUT/thin-film-600nm.gsa" --repr table -o "$OUT/thin-film-600nm.gsb"
 echo "== rendering a sphere (512 x 512, 16 spp)"
 $G render "$OUT/thin-film-600nm.gsb" -o "$OUT/thin-film-600nm-sphere.exr" --env constant --light dir:50,-120

@@ -253,10 +253,19 @@ fn rays_alone_miss_the_orders() {
     assert!(l1 > 0.3, "rays alone came within L1 {l1} of the orders");
 }
 
+/// What the patches' cut may add to a flat film's transform, as a share of its power. Each
+/// tube's patch is cut where its Gaussian falls to `exp(-r^2 / 2)` of its peak (`r = 4`
+/// standard deviations, `patch::PATCH_RADIUS`) and renormalised, so the lattice's summed
+/// field departs from uniform by at most twice the Gaussian's share beyond the cut, `2
+/// exp(-8)` of it; that departure has no mean (the renormalisation), so it adds power only
+/// in spurious orders, at most its square: `4 exp(-16) = 4.5e-7` (docs/physics.md, "The
+/// patches' cut"). The uncut lattice's own ripple, 4e-11, is below it.
+const CUT_POWER: f64 = 4.0 * 1.125_351_747_192_591e-7;
+
 /// A flat film is one order: the diffraction method gives the transfer-matrix R and T
-/// (to 1e-9: the launch lattice's spurious orders carry 4e-11) and, in the plane-wave
-/// limit, puts it all in the specular bucket; a finite coherence radius spreads it over
-/// neighbouring buckets and keeps the total.
+/// (within [`CUT_POWER`] of their power) and, in the plane-wave limit, puts it all in the
+/// specular bucket; a finite coherence radius spreads it over neighbouring buckets and
+/// keeps the total.
 #[test]
 fn flat_films_are_unchanged() {
     let s = shipped("flat-soap-film.toml");
@@ -282,8 +291,10 @@ fn flat_films_are_unchanged() {
             };
             let (acc, stats) = simulate(&s, &c, &|_| {}).unwrap();
             let d = stats.diffraction[0];
-            assert!((d.r - r_ref).abs() < 1e-9, "R {} against {r_ref}", d.r);
-            assert!((d.t - t_ref).abs() < 1e-9, "T {} against {t_ref}", d.t);
+            // The spurious orders add to the transform's total, never take from it.
+            let near = |x: f64, x_ref: f64| x >= x_ref - 1e-12 && x <= x_ref * (1.0 + CUT_POWER);
+            assert!(near(d.r, r_ref), "R {} against {r_ref}", d.r);
+            assert!(near(d.t, t_ref), "T {} against {t_ref}", d.t);
             let cell = acc.cell(0, 0);
             let (r, t) = cell.totals(Coherence::Diffraction, &b);
             assert!((r - r_ref).abs() < 1e-9 && (t - t_ref).abs() < 1e-9);
@@ -293,8 +304,10 @@ fn flat_films_are_unchanged() {
             assert!((up - r_ref).abs() < 1e-9, "buckets sum to {up}, R {r_ref}");
             let f = cell.fraction(2 * b.index(specular(theta)), Coherence::Diffraction);
             if rho.is_infinite() {
+                // The orders carry the rays' R: the spurious ones' share is the
+                // specular bucket's deficit.
                 assert!(
-                    (f - r_ref).abs() < 1e-9,
+                    f <= r_ref + 1e-12 && f >= r_ref * (1.0 - CUT_POWER),
                     "specular bucket {f} against R {r_ref}"
                 );
             } else {

@@ -245,7 +245,7 @@ pub fn diffract(
     scratch.foot = foot;
     let (fallback, flipped) = flagged;
     let grids = &mut scratch.grids;
-    fft2(grids, [mx, my]);
+    fft2(grids, [mx, my], &mut scratch.fft);
     let (per_bucket, per_bucket_m, total, orders) = far_field(h, grids, [mx, my], buckets);
     Ok(Pattern {
         fallback_tubes: fallback,
@@ -474,25 +474,43 @@ pub struct Scratch {
     patches: Patches,
     /// Each tube's [`footprint`].
     foot: Vec<(f64, f64, [f64; 2])>,
+    /// The FFTs' plans (kept: planning a prime length, as Rader's algorithm, was about 1 %
+    /// of a run made anew for every transform) and their buffers.
+    fft: Ffts,
 }
 
-/// One 2-D forward FFT per grid, in place: `V_m = sum_g v(x_g) exp(-i G_m . x_g)`.
-fn fft2(grids: &mut [Vec<C64>], [mx, my]: [usize; 2]) {
-    let mut planner = FftPlanner::<f64>::new();
+/// [`fft2`]'s plans, kept from transform to transform, and its buffers.
+#[derive(Default)]
+pub(super) struct Ffts {
+    planner: Option<FftPlanner<f64>>,
+    columns: Vec<C64>,
+    work: Vec<C64>,
+}
+
+/// One 2-D forward FFT per grid, in place: `V_m = sum_g v(x_g) exp(-i G_m . x_g)`. The
+/// rows are transformed in one call, then the columns, gathered side by side.
+fn fft2(grids: &mut [Vec<C64>], [mx, my]: [usize; 2], ffts: &mut Ffts) {
+    let planner = ffts.planner.get_or_insert_with(FftPlanner::new);
     let fx = planner.plan_fft_forward(mx);
     let fy = planner.plan_fft_forward(my);
-    let mut col = vec![C64::new(0.0, 0.0); my];
+    let zero = C64::new(0.0, 0.0);
+    let scratch = fx
+        .get_inplace_scratch_len()
+        .max(fy.get_inplace_scratch_len());
+    ffts.work.resize(scratch, zero);
+    ffts.columns.resize(mx * my, zero);
     for g in grids.iter_mut() {
-        for row in g.chunks_exact_mut(mx) {
-            fx.process(row);
-        }
-        for ix in 0..mx {
-            for (iy, v) in col.iter_mut().enumerate() {
-                *v = g[iy * mx + ix];
+        let g = &mut g[..mx * my];
+        fx.process_with_scratch(g, &mut ffts.work);
+        for (iy, row) in g.chunks_exact(mx).enumerate() {
+            for (ix, v) in row.iter().enumerate() {
+                ffts.columns[ix * my + iy] = *v;
             }
-            fy.process(&mut col);
-            for (iy, v) in col.iter().enumerate() {
-                g[iy * mx + ix] = *v;
+        }
+        fy.process_with_scratch(&mut ffts.columns, &mut ffts.work);
+        for (iy, row) in g.chunks_exact_mut(mx).enumerate() {
+            for (ix, v) in row.iter_mut().enumerate() {
+                *v = ffts.columns[ix * my + iy];
             }
         }
     }

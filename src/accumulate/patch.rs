@@ -9,11 +9,18 @@ mod chunk;
 pub(super) use chunk::{CHUNK, POINT_MASS, Patches, Spec};
 
 /// Patches of a tube whose field is as strong as the incident wave's are cut where their
-/// exponent reaches `-PATCH_RADIUS^2 / 2`: `exp(-12.5) = 3.7e-6` of the patch's peak is left
-/// out (and renormalised). (At 4 the cells cut off a coarse grid differ from patch to patch
-/// enough that a flat film's patches no longer sum to a uniform field to 1e-9 in power.)
-/// Weaker tubes are cut where their field falls to the same absolute level ([`radius`]).
-pub(super) const PATCH_RADIUS: f64 = 5.0;
+/// exponent reaches `-PATCH_RADIUS^2 / 2`: `exp(-8) = 3.4e-4` of the patch's peak, the level
+/// every other approximation of the transform is held to (the aliases' margin,
+/// `diffraction::ALIAS_MARGIN`, and the four-cell tubes, [`POINT_MASS`]). The weight left
+/// out is renormalised, so the lattice's summed field departs from uniform by at most `2
+/// exp(-8)` of it, without mean: a flat film's spurious orders carry at most `4 exp(-16) =
+/// 4.5e-7` of its power (`tests/diffraction.rs`, `flat_films_are_unchanged`).
+///
+/// (Until 2026-12-06 the cut was at 5 standard deviations, `exp(-12.5)`: 1.56 times the
+/// cells a patch takes now, for a BRDF that differs from this one by a hundredth of the
+/// method's own error at 4,096 trees; docs/physics.md, "The patches' cut".) Weaker tubes are
+/// cut where their field falls to the same absolute level ([`radius`]).
+pub(super) const PATCH_RADIUS: f64 = 4.0;
 
 /// The smallest radius a patch is cut at, in standard deviations: a tube too weak for any
 /// of its field to reach the cut still carries its power, through its central cells.

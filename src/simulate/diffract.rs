@@ -1,6 +1,8 @@
 //! The diffraction method's last step for one incident direction: the kept exits of every
 //! wavelength transformed into Floquet orders, which replace the cell's buckets.
 
+use std::sync::Mutex;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -26,21 +28,7 @@ impl Run<'_> {
         out: &mut [DiffractionCell],
     ) -> Result<(), SimError> {
         let d = -wi;
-        let hemisphere = |j: usize, down: bool, n_out: f64| {
-            let lambda = self.settings.wavelength(j);
-            let k = 2.0 * std::f64::consts::PI / lambda;
-            diffraction::Hemisphere {
-                tile_nm: self.sample.tile_nm,
-                lambda_nm: lambda,
-                n_out,
-                k_in: [k * self.est.n_up * d.x, k * self.est.n_up * d.y],
-                cos_i: -d.z,
-                lattice: self.lattice,
-                rho_nm: self.cfg.rho_nm,
-                down,
-                mueller: self.cfg.mueller,
-            }
-        };
+        let hemisphere = |j: usize, down: bool, n_out: f64| self.hemisphere(j, d, down, n_out);
         // Under path sharing the tubes' shapes are the same in every bin: found once.
         let first = (0..contribs.len()).find(|&j| self.cell_diffracts(di, j));
         let shapes = match first {
@@ -55,48 +43,30 @@ impl Run<'_> {
             }
             _ => None,
         };
-        let results: Vec<Result<_, diffraction::DiffractionError>> = (0..contribs.len())
-            .into_par_iter()
-            .map_init(
-                <(diffraction::Scratch, Vec<_>, Phases)>::default,
-                |(scratch, formed, phases), j| {
-                    if !self.cell_diffracts(di, j) {
-                        return Ok(None);
-                    }
-                    // Every tree of the bin took its centre (`block`).
-                    let lambda = self.settings.wavelength(j);
-                    let list: &[diffraction::Contribution] = if shared.is_empty() {
-                        &contribs[j]
-                    } else {
-                        self.contributions(j, d, shared, formed, phases);
-                        formed
-                    };
-                    let mut idx = Vec::new();
-                    self.sample.indices_into(lambda, &mut idx);
-                    let n_sub = idx[self.scene.substrate];
-                    let buckets = &self.cfg.buckets;
-                    let h = hemisphere(j, false, self.est.n_up);
-                    let shape = |down: bool| {
-                        shapes
-                            .as_ref()
-                            .map(|(u, dn)| if down { &dn[..] } else { &u[..] })
-                    };
-                    let up = diffraction::diffract(&h, list, shape(false), buckets, scratch)?;
-                    // An absorbing substrate transmits nothing (no exit leaves downwards).
-                    let down = if n_sub.im == 0.0 && list.iter().any(|c| c.down) {
-                        let h = hemisphere(j, true, n_sub.re);
-                        diffraction::diffract(&h, list, shape(true), buckets, scratch)?
-                    } else {
-                        diffraction::Pattern::default()
-                    };
-                    Ok(Some((up, down)))
-                },
-            )
+        // Work is taken a wavelength at a time, shortest first (its grid and its patches
+        // are the largest), as each thread comes free, and each wavelength's two
+        // hemispheres are transformed side by side: the last wavelengths left are the
+        // cheapest, so no thread waits long on another. Each wavelength's result is its
+        // own, whoever computed it.
+        let pool = Mutex::new(Vec::new());
+        let mut results: Vec<(usize, Result<_, diffraction::DiffractionError>)> = (0..contribs
+            .len())
+            .filter(|&j| self.cell_diffracts(di, j))
+            .par_bridge()
+            .map_init(<(Vec<_>, Phases)>::default, |(formed, phases), j| {
+                // Every tree of the bin took its centre (`block`).
+                let list: &[diffraction::Contribution] = if shared.is_empty() {
+                    &contribs[j]
+                } else {
+                    self.contributions(j, d, shared, formed, phases);
+                    formed
+                };
+                (j, self.transform_bin(j, d, list, shapes.as_ref(), &pool))
+            })
             .collect();
-        for (j, res) in results.into_iter().enumerate() {
-            let Some((up, down)) = res.map_err(|e| SimError::Config(e.to_string()))? else {
-                continue;
-            };
+        results.sort_by_key(|r| r.0);
+        for (j, res) in results {
+            let (up, down) = res.map_err(|e| SimError::Config(e.to_string()))?;
             let cell = &mut cells[j];
             let n = cell.trees as f64;
             let (r_ray, t_ray) = (cell.r_sum / n, cell.t_sum / n);
@@ -156,6 +126,71 @@ impl Run<'_> {
         Ok(())
     }
 
+    /// The transform's settings for bin `j`'s hemisphere (`down`, into the real index
+    /// `n_out`), for light travelling along `d`.
+    fn hemisphere(&self, j: usize, d: DVec3, down: bool, n_out: f64) -> diffraction::Hemisphere {
+        let lambda = self.settings.wavelength(j);
+        let k = 2.0 * std::f64::consts::PI / lambda;
+        diffraction::Hemisphere {
+            tile_nm: self.sample.tile_nm,
+            lambda_nm: lambda,
+            n_out,
+            k_in: [k * self.est.n_up * d.x, k * self.est.n_up * d.y],
+            cos_i: -d.z,
+            lattice: self.lattice,
+            rho_nm: self.cfg.rho_nm,
+            down,
+            mueller: self.cfg.mueller,
+        }
+    }
+
+    /// Bin `j`'s two hemispheres transformed from its contributions `list` (`shapes`, the
+    /// tubes' up and down, where found once), side by side where their grids are small,
+    /// each with a scratch from `pool`.
+    fn transform_bin(
+        &self,
+        j: usize,
+        d: DVec3,
+        list: &[diffraction::Contribution],
+        shapes: Option<&Shapes>,
+        pool: &Mutex<Vec<diffraction::Scratch>>,
+    ) -> Result<(diffraction::Pattern, diffraction::Pattern), diffraction::DiffractionError> {
+        let lambda = self.settings.wavelength(j);
+        let mut idx = Vec::new();
+        self.sample.indices_into(lambda, &mut idx);
+        let n_sub = idx[self.scene.substrate];
+        let side = |down: bool, n_out: f64| {
+            let h = self.hemisphere(j, d, down, n_out);
+            let shape = shapes.map(|(u, dn)| if down { &dn[..] } else { &u[..] });
+            let mut scratch = pool.lock().expect("not poisoned").pop().unwrap_or_default();
+            let out = diffraction::diffract(&h, list, shape, &self.cfg.buckets, &mut scratch);
+            pool.lock().expect("not poisoned").push(scratch);
+            out
+        };
+        // An absorbing substrate transmits nothing (no exit leaves downwards).
+        let transmits = n_sub.im == 0.0 && list.iter().any(|c| c.down);
+        let down = || {
+            if transmits {
+                side(true, n_sub.re)
+            } else {
+                Ok(diffraction::Pattern::default())
+            }
+        };
+        // Side by side only where two grids a thread are small: a grid may take up to 3 GiB
+        // with its buffers (`diffraction::MAX_GRID_CELLS`).
+        let cells = |n_out| {
+            let [mx, my] =
+                diffraction::grid_cells(self.sample.tile_nm, lambda, n_out, self.lattice);
+            mx.saturating_mul(my)
+        };
+        let (up, down) = if cells(self.est.n_up).max(cells(n_sub.re)) <= SIDE_BY_SIDE_CELLS {
+            rayon::join(|| side(false, self.est.n_up), down)
+        } else {
+            (side(false, self.est.n_up), down())
+        };
+        Ok((up?, down?))
+    }
+
     /// Bin `j`'s contributions of the exits kept once for every bin (path sharing), into
     /// `out`, each the bits `tally` forms a bin's own with ([`Run::contribution_in_bin`]):
     /// their phases first, then every sine and cosine in one batch (`phase::sin_cos_each`;
@@ -204,6 +239,13 @@ impl Run<'_> {
         diffraction::contribution(exit, tree, slot, k, entry_phase, [kn * d.x, kn * d.y])
     }
 }
+
+/// The largest grid (cells) whose two hemispheres are transformed side by side: 200 MB
+/// with its buffers.
+const SIDE_BY_SIDE_CELLS: usize = 1 << 20;
+
+/// The tubes' shapes of both hemispheres (up, down), found once under path sharing.
+type Shapes = (Vec<diffraction::TubeShape>, Vec<diffraction::TubeShape>);
 
 /// A thread's buffers for a bin's exit phases and their sines and cosines.
 #[derive(Default)]

@@ -82,7 +82,7 @@ fn a_lone_oblique_tube_has_its_patch_s_transform_in_every_order() {
         let mut scratch = Scratch::default();
         let tube = ((&c, &shape), (amp, mass));
         exit_plane_field(&h, [tube].into_iter(), [mx, my], &mut scratch);
-        fft2(&mut scratch.grids, [mx, my]);
+        fft2(&mut scratch.grids, [mx, my], &mut scratch.fft);
         // The covariance the splat used: the unmapped patch plus its floor, a quarter of
         // the larger cell side squared.
         let dx = (h.tile_nm[0] / mx as f64).max(h.tile_nm[1] / my as f64);
@@ -159,7 +159,7 @@ fn a_tube_below_the_alias_level_keeps_its_own_order_exactly() {
     assert!((c.x[0] / dx).fract() > 0.05 && (c.x[1] / dx).fract() > 0.05);
     let nonzero = scratch.grids[0].iter().filter(|v| v.norm() > 0.0).count();
     assert_eq!(nonzero, 4, "cells holding the tube's field");
-    fft2(&mut scratch.grids, [mx, my]);
+    fft2(&mut scratch.grids, [mx, my], &mut scratch.fft);
     let var = (PATCH_SIGMA_STEPS * 500.0).powi(2) + 0.25 * dx * dx;
     let peak = m * amp / 64.0;
     let cell_of = |o: [i64; 2]| {
