@@ -658,3 +658,24 @@ fn one_bad_material_is_marked_and_the_library_is_written() {
     let film = &html[html.find("data-name=\"film\"").unwrap()..];
     assert!(film[..film.find("</tr>").unwrap()].contains("&#9888;"));
 }
+
+/// A batch unit runs at its plan's trees: at 8 trees the film's transform cannot hold the
+/// rays' power (an auto run alone would raise its trees), yet its units keep 8, so the
+/// material's units merge into the plan's run, and its cells that cannot hold take rays
+/// with the warning that says so.
+#[test]
+fn batch_units_do_not_raise_their_trees() {
+    let d = scratch("batch-no-raise");
+    let p = plan(&d, 8);
+    let b = d.join("b");
+    one_process(&p, &b);
+    let unit = b.join("units").join("thin-film-600nm").join("0000.gsa");
+    let acc = goniospec::accumulate::file::Accumulator::read(&unit).unwrap();
+    assert_eq!(acc.header.rays_asked, Some(8));
+    let w = &acc.header.warnings;
+    assert!(
+        w.iter().any(|w| w.contains("so those cells took rays")),
+        "{w:?}"
+    );
+    assert!(!w.iter().any(|w| w.contains("raised its trees")), "{w:?}");
+}

@@ -423,6 +423,8 @@ impl Manifest {
         Ok(SimConfig {
             theta_i_deg: vec![u.theta_i_deg],
             first_direction: u.direction as u64,
+            // A raise is the whole run's, which its units could not merge into.
+            raise_trees: false,
             ..whole
         })
     }

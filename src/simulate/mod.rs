@@ -121,12 +121,14 @@ pub fn simulate(
 }
 
 /// One run at `cfg`'s trees ([`simulate`]); where the diffraction method's transform could
-/// not hold the rays' power and that refused it, the cell is put in `unheld`.
+/// not hold the rays' power and that refused it, the cell is put in `unheld`. `pilot`: an
+/// auto run stops likewise where a cell took rays for it, instead of going on (`raise`).
 fn run_once(
     sample: &Sample,
     cfg: &SimConfig,
     progress: &(dyn Fn(u64) + Sync),
     unheld: &mut Option<raise::Unheld>,
+    pilot: bool,
 ) -> Result<(Accumulator, SimStats), SimError> {
     validate(cfg)?;
     let asked = cfg.rays;
@@ -136,6 +138,7 @@ fn run_once(
     let start_time = Instant::now();
     let mut run = Run::prepare(sample, cfg)?;
     run.lattice = lattice;
+    run.pilot = pilot && cfg.coherence == Coherence::Auto;
     run.rays_asked = asked;
     run.setup_seconds = start_time.elapsed().as_secs_f64();
     let mut cells: Vec<Cell> = (0..cfg.theta_i_deg.len() * run.nl)
@@ -153,9 +156,10 @@ fn run_once(
     // Every direction draws its own random streams and fills its own cells, so the order
     // they are traced in changes no byte. The diffraction method traces the most oblique
     // first: it is where the rays sample the field most coarsely, and a direction its
-    // transform cannot hold is refused as soon as it is done (`diffraction_refusal`).
+    // transform cannot hold is refused as soon as it is done (`diffraction_refusal`); so
+    // is an auto run that may raise its trees (`pilot`) where a cell took rays for it.
     let mut order: Vec<usize> = (0..cfg.theta_i_deg.len()).collect();
-    if cfg.coherence == Coherence::Diffraction {
+    if cfg.coherence == Coherence::Diffraction || run.pilot {
         order.sort_by(|&a, &b| cfg.theta_i_deg[b].total_cmp(&cfg.theta_i_deg[a]));
     }
     let mut done: Vec<Option<DirectionStats>> = (0..order.len()).map(|_| None).collect();

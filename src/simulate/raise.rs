@@ -15,6 +15,15 @@
 //!
 //! A raised run is the run at those trees, byte for byte, but for the warning stored with
 //! it that says what was raised and why.
+//!
+//! Under `--coherence auto` a cell whose transform cannot hold takes rays rather than
+//! refusing the run; while a raise is possible, such a cell stops the run after its
+//! direction all the same (`Run::pilot`, the most oblique traced first), and the run is
+//! raised as an explicit one is. Once raising stops (past `max_rays`, or not helping), the
+//! run is made at the last trees that helped without stopping, and the cells it still
+//! cannot hold take rays, as they would unraised. The seed's film at 50 deg and 385 nm held
+//! 0.67 at 16 trees and holds at 64; the holographic foil at 40 deg and 500 nm held 0.28,
+//! 0.52 and 0.51 at 16, 64 and 256, so it runs at 64.
 
 use super::{SimConfig, SimError, run_once};
 use crate::accumulate::Coherence;
@@ -41,20 +50,31 @@ const FACTOR: u64 = 4;
 const MIN_GAIN: f64 = 0.9;
 
 /// [`super::simulate`]: one run, raised while the diffraction method needs it and it helps.
+///
+/// An explicit diffraction run that cannot be raised further is refused, with what it
+/// tried. An auto run whose cells cannot hold takes rays in them, as it would unraised: it
+/// is a pilot only while a raise is possible, and once raising stops it is made without
+/// stopping, at the last trees that helped, saying what it tried.
 pub(super) fn simulate_raising(
     sample: &Sample,
     cfg: &SimConfig,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Accumulator, SimStats), SimError> {
+    let auto = cfg.coherence == Coherence::Auto;
     let mut now = cfg.clone();
     let mut tried: Vec<(u64, Unheld)> = Vec::new();
+    // An auto run's raising stopped, and why: its last run takes rays where it cannot hold.
+    let mut settled: Option<String> = None;
     loop {
+        let next = now.rays.saturating_mul(FACTOR);
+        let pilot = auto && settled.is_none() && barrier(sample, cfg, &now, next, &[]).is_none();
         let mut unheld = None;
-        let result = run_once(sample, &now, progress, &mut unheld);
+        let result = run_once(sample, &now, progress, &mut unheld, pilot);
         let Some(u) = unheld else {
             // Said where the run's own warnings are: printed, and stored in the `.gsa`.
             return result.map(|(mut acc, mut stats)| {
-                if let Some(w) = raised_warning(&tried, now.rays) {
+                let rays_fell = stats.diffraction.iter().any(|d| d.fell_back);
+                if let Some(w) = raised_warning(&tried, now.rays, settled.as_deref(), rays_fell) {
                     acc.header.warnings.push(w.clone());
                     stats.auto_notes.push(w);
                 }
@@ -68,49 +88,81 @@ pub(super) fn simulate_raising(
             distance(&u).is_finite() && distance(&u) <= MIN_GAIN * distance(before)
         });
         tried.push((now.rays, u));
-        let next = now.rays.saturating_mul(FACTOR);
         let cancelled = cfg
             .cancel
             .as_ref()
             .is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed));
-        let stop = if cfg.coherence != Coherence::Diffraction || cancelled {
+        let stop = if cancelled || !(auto || cfg.coherence == Coherence::Diffraction) {
             Some(String::new())
         } else if !helped {
-            Some(format!(
-                " Raising the trees did not bring it nearer ({}).",
-                history(&tried)
-            ))
-        } else if cfg.max_rays < now.rays {
-            Some(format!(
-                " Give --max-rays (at least {next}) for the run to raise its trees itself."
-            ))
-        } else if next > cfg.max_rays {
-            Some(if tried.len() > 1 {
-                format!(
-                    " The run raised its trees within --max-rays {} ({}); {next} would pass it.",
-                    cfg.max_rays,
-                    history(&tried)
-                )
+            Some(if auto {
+                " Raising them further did not bring it nearer.".to_string()
             } else {
                 format!(
-                    " Raising the trees to {next}, as the run would, passes --max-rays {}.",
-                    cfg.max_rays
+                    " Raising the trees did not bring it nearer ({}).",
+                    history(&tried)
                 )
             })
         } else {
-            let raised = SimConfig {
-                rays: next,
-                ..now.clone()
-            };
-            // A raise the run's memory cannot take is not tried.
-            match super::preflight(sample, &raised) {
-                Ok(()) => None,
-                Err(e) => Some(format!(" Raising the trees to {next} was refused: {e}")),
-            }
+            // An auto run's warning lists what it tried once (`raised_warning`).
+            barrier(sample, cfg, &now, next, if auto { &[] } else { &tried })
         };
         match stop {
-            Some(why) => return result.map_err(|e| with_history(e, &why)),
             None => now.rays = next,
+            Some(why) if auto && !cancelled => {
+                // Made once more, not stopping: at the trees before a raise that did not
+                // help (the same result for less), else at these.
+                if !helped {
+                    now.rays = tried[tried.len() - 2].0;
+                }
+                settled = Some(why);
+            }
+            Some(why) => return result.map_err(|e| with_history(e, &why)),
+        }
+    }
+}
+
+/// Why the run at `now`'s trees could not be raised to `next` (`None`: it could): no
+/// budget, past `--max-rays`, or past what the run's memory takes.
+fn barrier(
+    sample: &Sample,
+    cfg: &SimConfig,
+    now: &SimConfig,
+    next: u64,
+    tried: &[(u64, Unheld)],
+) -> Option<String> {
+    if !cfg.raise_trees {
+        Some(
+            " A batch unit runs at its plan's trees and does not raise them (its material's units must merge into one run): raise the plan's rays."
+                .to_string(),
+        )
+    } else if cfg.max_rays < now.rays {
+        Some(format!(
+            " Give --max-rays (at least {next}) for the run to raise its trees itself."
+        ))
+    } else if next > cfg.max_rays {
+        // `tried` holds this try too: more than it, and the run has raised already.
+        Some(if tried.len() > 1 {
+            format!(
+                " The run raised its trees within --max-rays {} ({}); {next} would pass it.",
+                cfg.max_rays,
+                history(tried)
+            )
+        } else {
+            format!(
+                " Raising the trees to {next}, as the run would, passes --max-rays {}.",
+                cfg.max_rays
+            )
+        })
+    } else {
+        let raised = SimConfig {
+            rays: next,
+            ..now.clone()
+        };
+        // A raise the run's memory cannot take is not tried.
+        match super::preflight(sample, &raised) {
+            Ok(()) => None,
+            Err(e) => Some(format!(" Raising the trees to {next} was refused: {e}")),
         }
     }
 }
@@ -145,12 +197,31 @@ fn history(tried: &[(u64, Unheld)]) -> String {
 }
 
 /// The warning a raised run stores: what the transform held at the trees asked and each
-/// raise, and the trees it ran at.
-fn raised_warning(tried: &[(u64, Unheld)], rays: u64) -> Option<String> {
+/// raise, and the trees it ran at. An auto run's cells that still could not hold took rays
+/// where `rays_fell`; `settled` says why its raising stopped.
+fn raised_warning(
+    tried: &[(u64, Unheld)],
+    rays: u64,
+    settled: Option<&str>,
+    rays_fell: bool,
+) -> Option<String> {
     let first = tried.first()?;
-    Some(format!(
-        "the diffraction transform could not hold the rays' power at {} trees ({}), so the run raised its trees to {rays} per direction (within --max-rays), where it held; the result is that of --rays {rays} (docs/physics.md, \"Diffraction\")",
-        first.0,
-        history(tried)
-    ))
+    let history = history(tried);
+    let why = settled.unwrap_or("");
+    Some(if rays == first.0 {
+        // Raising did not help: the run is the one asked for.
+        format!(
+            "the diffraction transform could not hold the rays' power at {rays} trees ({history}), and raising them did not bring it nearer, so the run is that of --rays {rays}; the cells it cannot hold took rays (the warning on them says which; docs/physics.md, \"Diffraction\")"
+        )
+    } else if rays_fell {
+        format!(
+            "the diffraction transform could not hold the rays' power at {} trees ({history}), so the run raised its trees to {rays} per direction (within --max-rays); the cells it still could not hold there took rays (the warning on them says which).{why} The result is that of --rays {rays} (docs/physics.md, \"Diffraction\")",
+            first.0
+        )
+    } else {
+        format!(
+            "the diffraction transform could not hold the rays' power at {} trees ({history}), so the run raised its trees to {rays} per direction (within --max-rays), where it held; the result is that of --rays {rays} (docs/physics.md, \"Diffraction\")",
+            first.0
+        )
+    })
 }

@@ -143,6 +143,10 @@ pub(super) struct Run<'a> {
     /// The sample's sheets' scales (`validity::sheet_scales`).
     pub(super) sheets: Vec<Option<crate::sample::validity::Scales>>,
     pub(super) lattice: [u64; 2],
+    /// `Coherence::Auto` with trees to raise to (`raise`): a cell whose transform cannot
+    /// hold the ray field stops the run after its direction ([`Run::unheld`]), where it
+    /// would otherwise take rays.
+    pub(super) pilot: bool,
     /// Replicate groups per direction (`Header::error_groups`; 0 for none).
     pub(super) error_groups: u64,
     pub(super) nl: usize,
@@ -302,6 +306,7 @@ impl<'a> Run<'a> {
             auto_direction_notes: direction_notes,
             sheets,
             lattice: [cfg.rays, 1],
+            pilot: false,
             nl,
             lambda_max,
             fixed_indices: index_at(lambda_max),
@@ -379,15 +384,19 @@ impl<'a> Run<'a> {
         diffraction: &[DiffractionCell],
         range: std::ops::Range<usize>,
     ) -> Option<super::raise::Unheld> {
-        if self.cfg.coherence != Coherence::Diffraction {
+        let k = if self.cfg.coherence == Coherence::Diffraction {
+            range.clone().find(|&k| {
+                let d = &diffraction[k];
+                d.rays_r + d.rays_t > 0.0
+                    && !(d.ratio() >= DIFFRACTION_RATIO_REFUSED
+                        && d.ratio() <= 1.0 / DIFFRACTION_RATIO_REFUSED)
+            })?
+        } else if self.pilot {
+            // An auto cell that took rays for it (and that the rigorous solver did not take).
+            range.clone().find(|&k| diffraction[k].fell_back)?
+        } else {
             return None;
-        }
-        let k = range.clone().find(|&k| {
-            let d = &diffraction[k];
-            d.rays_r + d.rays_t > 0.0
-                && !(d.ratio() >= DIFFRACTION_RATIO_REFUSED
-                    && d.ratio() <= 1.0 / DIFFRACTION_RATIO_REFUSED)
-        })?;
+        };
         Some(super::raise::Unheld {
             theta_deg: (self.cfg.theta_i_deg.get(k / self.nl).copied()).unwrap_or(f64::NAN),
             lambda_nm: self.settings.wavelength(k % self.nl),

@@ -109,9 +109,11 @@ pub struct SimSettings {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_stderr: Option<f64>,
     /// Largest number of rays per incident direction with --tolerance or --target-stderr,
-    /// and where --coherence diffraction raises its own: where its transform cannot hold
+    /// and where the diffraction method raises its own: where its transform cannot hold
     /// the rays' power at --rays, the run is made again with four times the trees while
-    /// that brings it nearer (a warning stored with the result says so).
+    /// that brings it nearer (a warning stored with the result says so). Past it, or where
+    /// raising does not help, --coherence diffraction refuses the run and auto gives those
+    /// cells to rays.
     #[arg(long, default_value_t = defaults::MAX_RAYS)]
     pub max_rays: u64,
     /// Trace every wavelength separately even when no medium is dispersive or absorbing
@@ -313,8 +315,13 @@ pub struct SimConfig {
     /// this. At most one of the two.
     pub target_stderr: Option<f64>,
     /// The most trees per direction an adaptive budget spends, and the most the
-    /// diffraction method raises its trees to (`simulate::raise`; 0: never raised).
+    /// diffraction method raises its trees to, explicit or under auto (`simulate::raise`;
+    /// 0: never raised).
     pub max_rays: u64,
+    /// Whether the diffraction method may raise its trees within `max_rays` (default
+    /// `true`). A batch unit may not: a material's units run one direction each and must
+    /// merge into the plan's run at its trees, whereas a raise is the whole run's.
+    pub raise_trees: bool,
     /// Entry points: the R2 low-discrepancy sequence (default), or independent uniform
     /// points (plain Monte Carlo, for convergence studies).
     pub random_entry: bool,
@@ -378,6 +385,7 @@ impl SimConfig {
             tolerance: None,
             target_stderr: None,
             max_rays: 0,
+            raise_trees: true,
             random_entry: false,
             precision: PhasePrecision::F64,
             allow_unphysical: false,
