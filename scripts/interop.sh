@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Interop with the renderers people use: exports RGL .bsdf files and checks them with an
-# independent reader and with Mitsuba 3 (tests/interop/rgl_mitsuba.py); Mueller-matrix
+# independent reader and with Mitsuba 3 (tests/interop/rgl_mitsuba.py); the measured RGL
+# files read by Mitsuba 3 against goniospec's reader, and `compare`'s colours and CIEDE2000
+# against colour-science (tests/interop/measured_mitsuba.py); Mueller-matrix
 # BRDFs as Mitsuba's measured_polarized files, against its own conductor and rendered with
 # its Stokes integrator (tests/interop/mueller_mitsuba.py); and the Mie series
 # against the PyPI miepython package (tests/interop/mie_miepython.py), and volume scattering
@@ -33,14 +35,15 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${1:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 venv=${INTEROP_VENV:-.venv-interop}
-if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython, iadpython, meent, scipy, grcwa, nannos" 2>/dev/null; then
-  echo "== making $venv (numpy, mitsuba, miepython, iadpython, meent, scipy, grcwa, nannos)"
+if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython, iadpython, meent, scipy, grcwa, nannos, colour" 2>/dev/null; then
+  echo "== making $venv (numpy, mitsuba, miepython, iadpython, meent, scipy, grcwa, nannos, colour-science)"
   python3 -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5" "meent==0.13.2" "scipy>=1.10" "grcwa==0.1.2" "nannos==2.6.5"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5" "meent==0.13.2" "scipy>=1.10" "grcwa==0.1.2" "nannos==2.6.5" "colour-science>=0.4"
 fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 "$venv/bin/python" tests/interop/rgl_mitsuba.py "$bin" "$work"
+"$venv/bin/python" tests/interop/measured_mitsuba.py "$bin" "$work/measured"
 "$venv/bin/python" tests/interop/mueller_mitsuba.py "$bin" "$work/mueller"
 "$venv/bin/python" tests/interop/mie_miepython.py "$bin"
 "$venv/bin/python" tests/interop/rt_iadpython.py "$bin" "$work/rt"

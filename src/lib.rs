@@ -28,6 +28,7 @@ pub mod batch;
 pub mod bench;
 pub mod brdf;
 pub mod check;
+pub mod compare;
 pub mod container;
 pub mod export;
 pub mod fit;

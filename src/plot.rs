@@ -123,7 +123,7 @@ pub fn hemisphere_colours(
     n: usize,
 ) -> Vec<Option<[f64; 3]>> {
     let lambdas = &brdf.meta().lambda_nm;
-    let weights = colour::bin_weights(lambdas);
+    let weights = colour::channel_weights(brdf.meta());
     let wi = from_spherical(theta_i_deg.to_radians(), phi_i_deg.to_radians());
     let forward = (phi_i_deg + 180.0).to_radians();
     (0..n * n)
@@ -172,6 +172,9 @@ pub fn wavelength_colour(l: f64) -> (u8, u8, u8) {
 /// Everything a lobe plot shows.
 pub struct LobePlot {
     pub title: String,
+    /// The BRDF's channels are linear sRGB (an RGB measured file), not wavelengths: the
+    /// curves are labelled R, G and B.
+    pub rgb: bool,
     pub theta_i_deg: f64,
     pub lobe: Lobe,
     pub map: Vec<Option<[f64; 3]>>,
@@ -205,6 +208,7 @@ impl LobePlot {
         }
         Ok(LobePlot {
             title: format!("{} at theta_i = {theta_i_deg} deg", brdf.meta().sample_name),
+            rgb: brdf.meta().rgb,
             theta_i_deg,
             lobe,
             map: hemisphere_colours(brdf, theta_i_deg, phi_i_deg, map_n),
@@ -305,8 +309,16 @@ impl LobePlot {
             .map_err(|e| err(&e))?
             .label("mirror direction")
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK));
-        for (l, values) in &self.lobe.curves {
+        for (k, (l, values)) in self.lobe.curves.iter().enumerate() {
             let (r, g, b) = wavelength_colour(*l);
+            let label = if self.rgb {
+                ["R (linear sRGB)", "G", "B"]
+                    .get(k)
+                    .unwrap_or(&"")
+                    .to_string()
+            } else {
+                format!("{l:.0} nm")
+            };
             let c = RGBColor(r, g, b);
             chart
                 .draw_series(LineSeries::new(
@@ -317,7 +329,7 @@ impl LobePlot {
                     ShapeStyle::from(&c).stroke_width(2),
                 ))
                 .map_err(|e| err(&e))?
-                .label(format!("{l:.0} nm"))
+                .label(label)
                 .legend(move |(x, y)| {
                     PathElement::new(
                         vec![(x, y), (x + 16, y)],

@@ -50,6 +50,7 @@ fn lambert(albedo: f64) -> Lambert {
             median_rel_stderr: None,
             trees_per_direction: None,
             incident_stokes: None,
+            rgb: false,
         },
     }
 }

@@ -76,6 +76,7 @@ pub fn analytic_buckets(ni: usize, tb: u32, pb: u32, lambdas: &[f64]) -> crate::
             median_rel_stderr: None,
             trees_per_direction: None,
             incident_stokes: None,
+            rgb: false,
         },
     }
 }

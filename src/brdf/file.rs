@@ -298,9 +298,10 @@ fn decode(header: Header, mut arrays: Vec<Vec<f64>>) -> Result<Representation, B
                 meta: header.meta,
             }))
         }
-        Kind::Analytic => Err(BrdfError::from(
-            "an analytic BRDF cannot be stored in a file",
-        )),
+        Kind::Analytic | Kind::Measured => Err(BrdfError::from(format!(
+            "a BRDF of kind {} cannot be stored in a .gsb",
+            header.meta.repr
+        ))),
     }
 }
 

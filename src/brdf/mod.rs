@@ -38,6 +38,9 @@ pub enum Kind {
     Table,
     /// A closed-form model (tests, benchmarks); never stored in a `.gsb`.
     Analytic,
+    /// A measured material read from an RGL `.bsdf` (`export::measured`); never stored in
+    /// a `.gsb`.
+    Measured,
 }
 
 impl Kind {
@@ -50,6 +53,7 @@ impl Kind {
             Kind::Subdivided => "subdivided",
             Kind::Table => "table",
             Kind::Analytic => "analytic",
+            Kind::Measured => "measured",
         }
     }
 
@@ -131,6 +135,12 @@ pub struct Meta {
     /// matrices); absent for unpolarised light.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub incident_stokes: Option<[f64; 4]>,
+    /// The channels are linear sRGB (red, green, blue: IEC 61966-2-1 primaries, D65
+    /// white), not wavelength bins: a measured file in the RGL database's RGB form.
+    /// `lambda_nm` then holds the primaries' dominant wavelengths, for labels and curve
+    /// colours only; colour is computed with [`crate::render::colour::channel_weights`].
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub rgb: bool,
 }
 
 impl Meta {
@@ -275,6 +285,7 @@ impl BucketData {
                 median_rel_stderr: rel.get(rel.len() / 2).copied(),
                 trees_per_direction: Some(acc.header.rays_per_direction.clone()),
                 incident_stokes: None,
+                rgb: false,
             },
         }
     }
@@ -418,10 +429,11 @@ impl Representation {
                 Representation::Subdivided(subdivided::SubdividedBrdf::build(data, o.tolerance))
             }
             Kind::Table => Representation::Table(table::TableBrdf::build(data)),
-            Kind::Analytic => {
-                return Err(BrdfError::from(
-                    "an analytic BRDF is not built from buckets",
-                ));
+            Kind::Analytic | Kind::Measured => {
+                return Err(BrdfError::from(format!(
+                    "a representation of kind {} is not built from buckets",
+                    kind.name()
+                )));
             }
         })
     }

@@ -4,8 +4,10 @@ use super::{Args, Context, ExitCode, PathBuf, Result, bail, finite};
 
 #[derive(Args)]
 pub(super) struct EvalArgs {
-    /// A built BRDF (.gsb); with --mueller, the accumulator (.gsa) of a run simulated
-    /// with --mueller.
+    /// A built BRDF (.gsb), or an RGL .bsdf (a measured material of the RGL database, or
+    /// one goniospec exported), evaluated as the database's loader and Mitsuba 3 evaluate
+    /// it; with --mueller, the accumulator (.gsa) of a run simulated with --mueller. An
+    /// RGB .bsdf prints linear sRGB triples, r,g,b (or pair,r,g,b), instead of spectra.
     file: PathBuf,
     /// Incident polar angle, degrees.
     #[arg(long, value_parser = finite, required_unless_present = "pairs")]
@@ -41,11 +43,12 @@ pub(super) struct EvalArgs {
 }
 
 pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {
-    use goniospec::brdf::{self, Brdf};
     if a.mueller {
         return eval_mueller(&a);
     }
-    let r = brdf::file::read(&a.file)?;
+    let material = super::Material::open(&a.file)?;
+    let r = material.brdf();
+    let rgb = material.is_rgb();
     let lambdas = r.meta().lambda_nm.clone();
     let d = |t: f64, p: f64| -> Result<glam::DVec3> {
         if !(0.0..=90.0).contains(&t) {
@@ -62,9 +65,14 @@ pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {
             let wi = d(a.theta_i.expect("clap requires it"), a.phi_i)?;
             let wo = d(a.theta_o.expect("clap requires it"), a.phi_o)?;
             r.eval(wi, wo, &mut out);
-            outln!("lambda_nm,brdf");
-            for (l, v) in lambdas.iter().zip(&out) {
-                outln!("{l},{v:.8e}");
+            if rgb {
+                outln!("r,g,b");
+                outln!("{:.8e},{:.8e},{:.8e}", out[0], out[1], out[2]);
+            } else {
+                outln!("lambda_nm,brdf");
+                for (l, v) in lambdas.iter().zip(&out) {
+                    outln!("{l},{v:.8e}");
+                }
             }
         }
         Some(p) => {
@@ -112,12 +120,22 @@ pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {
             }
             let mut all = vec![0.0; pairs.len() * lambdas.len()];
             r.eval_batch(&pairs, &mut all);
-            outln!("pair,lambda_nm,brdf");
-            for (i, chunk) in all.chunks(lambdas.len()).enumerate() {
-                for (l, v) in lambdas.iter().zip(chunk) {
-                    outln!("{i},{l},{v:.8e}");
+            let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+            use std::io::Write as _;
+            if rgb {
+                writeln!(out, "pair,r,g,b")?;
+                for (i, c) in all.chunks(3).enumerate() {
+                    writeln!(out, "{i},{:.8e},{:.8e},{:.8e}", c[0], c[1], c[2])?;
+                }
+            } else {
+                writeln!(out, "pair,lambda_nm,brdf")?;
+                for (i, chunk) in all.chunks(lambdas.len()).enumerate() {
+                    for (l, v) in lambdas.iter().zip(chunk) {
+                        writeln!(out, "{i},{l},{v:.8e}")?;
+                    }
                 }
             }
+            out.flush().context("writing to standard output")?;
         }
     }
     Ok(ExitCode::SUCCESS)

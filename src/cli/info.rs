@@ -4,7 +4,8 @@ use super::{Accumulator, Args, Backend, Context, ExitCode, PathBuf, Result, acce
 
 #[derive(Args)]
 pub(super) struct InfoArgs {
-    /// A .gsa, .gsb or .bsdf file.
+    /// A .gsa, .gsb or .bsdf file (an RGL tensor file: a measured material of the RGL
+    /// database, or one goniospec exported).
     file: PathBuf,
 }
 
@@ -53,6 +54,10 @@ pub(super) fn info(a: InfoArgs) -> Result<ExitCode> {
         let fields = goniospec::export::tensor::from_bytes(&bytes)
             .map_err(|m| anyhow::anyhow!("{}: {m}", a.file.display()))?;
         outln!("{}: RGL tensor file (.bsdf)", a.file.display());
+        match goniospec::export::measured::MeasuredBrdf::from_fields(&fields) {
+            Ok(m) => outln!("{}", m.describe().trim_end()),
+            Err(e) => outln!("not a BRDF the RGL readers evaluate: {e}"),
+        }
         outln!(
             "{}",
             goniospec::export::tensor::describe(&fields).trim_end()

@@ -67,8 +67,18 @@ enum Command {
     /// pair,lambda_nm,brdf for the pairs of --pairs FILE.csv (columns theta_i,phi_i,
     /// theta_o,phi_o in degrees).
     Eval(EvalArgs),
-    /// Describe a .gsa, .gsb or .bsdf (RGL tensor) file.
+    /// Describe a .gsa, .gsb or .bsdf (RGL tensor) file: a measured material's incident
+    /// angles, grids and form.
     Info(InfoArgs),
+    /// Compare two materials, a simulation beside a measurement or any two BRDFs (.gsb,
+    /// .gsa, or an RGL .bsdf, measured or exported): CIEDE2000 of the reflected colour per
+    /// incident angle over the lit directions, lobe peaks and widths, flop index and colour
+    /// travel, on the measurement's own angles and directions; with -o, CSV, JSON and a
+    /// picture (docs/measured.md).
+    ///
+    /// Example: goniospec compare paint.gsb data/measured/colodur_napoli_4f_rgb.bsdf -o out/cmp
+    #[command(verbatim_doc_comment)]
+    Compare(CompareArgs),
     /// Export a built BRDF for other tools: an RGL tensor file (.bsdf) that Mitsuba 3's and
     /// pbrt-v4's `measured` material load (the RGL parameterisation warps the tabulation
     /// by the sample's microfacet distribution, taken from --sample), or a NumPy archive.
@@ -203,6 +213,7 @@ mod batch;
 mod bench;
 mod build;
 mod check;
+mod compare;
 mod eval;
 mod export;
 mod fit;
@@ -225,6 +236,7 @@ use bench::{
 };
 use build::{BuildArgs, build};
 use check::{CheckArgs, check};
+use compare::{CompareArgs, compare};
 use eval::{EvalArgs, eval};
 use export::{ExportArgs, export};
 use fit::{FitArgs, fit};
@@ -297,6 +309,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Build(a) => build(a),
         Command::Eval(a) => eval(a),
         Command::Info(a) => info(a),
+        Command::Compare(a) => compare(a),
         Command::Export(a) => export(a),
         Command::Plot(a) => plot(a),
         Command::Batch(c) => batch(c),
@@ -406,6 +419,36 @@ fn keep_alive(bar: &indicatif::ProgressBar, what: &str) {
             );
         }
     });
+}
+
+/// A BRDF named on the command line: a built `.gsb`, or an RGL `.bsdf` (a material of the
+/// RGL database, measured, or one goniospec exported), told apart by their magic bytes.
+struct Material(Box<dyn goniospec::brdf::Brdf + Sync>);
+
+impl Material {
+    fn open(path: &std::path::Path) -> Result<Material> {
+        use std::io::Read;
+        let mut head = [0u8; 12];
+        std::fs::File::open(path)
+            .and_then(|mut f| f.read(&mut head))
+            .with_context(|| format!("opening {}", path.display()))?;
+        Ok(Material(
+            if goniospec::export::tensor::is_tensor_file(&head) {
+                Box::new(goniospec::export::measured::MeasuredBrdf::read(path)?)
+            } else {
+                Box::new(goniospec::brdf::file::read(path)?)
+            },
+        ))
+    }
+
+    fn brdf(&self) -> &(dyn goniospec::brdf::Brdf + Sync) {
+        self.0.as_ref()
+    }
+
+    /// Whether the channels are linear sRGB (an RGB `.bsdf`), not wavelength bins.
+    fn is_rgb(&self) -> bool {
+        self.0.meta().rgb
+    }
 }
 
 /// The requested backend, or the default; refuses one this build lacks.

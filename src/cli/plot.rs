@@ -4,7 +4,8 @@ use super::{Args, ExitCode, OutputKind, PathBuf, Result, bail, finite, guard_out
 
 #[derive(Args)]
 pub(super) struct PlotArgs {
-    /// The built BRDF (.gsb).
+    /// The built BRDF (.gsb), or an RGL .bsdf (measured, or exported); an RGB .bsdf is
+    /// drawn with one curve per channel, coloured as the channel.
     input: PathBuf,
     /// Incident polar angle, degrees in [0, 90).
     #[arg(long, value_parser = finite)]
@@ -27,7 +28,6 @@ pub(super) struct PlotArgs {
 }
 
 pub(super) fn plot(a: PlotArgs) -> Result<ExitCode> {
-    use goniospec::brdf;
     guard_output(&a.output, &[a.input.as_path()], OutputKind::Image, a.force)?;
     if !matches!(
         a.output.extension().and_then(|e| e.to_str()),
@@ -38,14 +38,22 @@ pub(super) fn plot(a: PlotArgs) -> Result<ExitCode> {
             a.output.display()
         );
     }
-    let r = brdf::file::read(&a.input)?;
+    let material = super::Material::open(&a.input)?;
+    let r = material.brdf();
     let pool = thread_pool(a.threads)?;
     let plot = pool
         .install(|| {
-            goniospec::plot::LobePlot::new(&r, a.theta_i, a.phi_i, usize::from(a.map_resolution))
+            goniospec::plot::LobePlot::new(r, a.theta_i, a.phi_i, usize::from(a.map_resolution))
         })
         .map_err(anyhow::Error::msg)?;
     plot.write(&a.output)?;
-    outln!("wrote {}", a.output.display());
+    if material.is_rgb() {
+        outln!(
+            "wrote {} (an RGB file: curves and colours of its linear sRGB channels)",
+            a.output.display()
+        );
+    } else {
+        outln!("wrote {}", a.output.display());
+    }
     Ok(ExitCode::SUCCESS)
 }

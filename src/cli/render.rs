@@ -7,7 +7,8 @@ use super::{
 
 #[derive(Args)]
 pub(super) struct RenderArgs {
-    /// A built BRDF (.gsb); or give --simulate SAMPLE.toml instead.
+    /// A built BRDF (.gsb), or an RGL .bsdf (a measured material, rendered in its RGB
+    /// channels where the file is RGB); or give --simulate SAMPLE.toml instead.
     #[arg(required_unless_present = "simulate", conflicts_with = "simulate")]
     file: Option<PathBuf>,
     /// Simulate the sample first, only at the incident angles the image needs.
@@ -159,7 +160,6 @@ pub(super) fn parse_shape(s: &str) -> Result<ShapeArg, String> {
 }
 
 pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
-    use goniospec::brdf::{self, Brdf};
     use goniospec::render::{self, Env};
     let v = &a.view;
     let shape = shape_of(&v.shape)?;
@@ -171,11 +171,14 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     let cfg = v.config(&shape)?;
     let env = cfg.env;
     let pool = thread_pool(a.threads)?;
-    let r = match (&a.file, &a.simulate) {
-        (Some(f), _) => brdf::file::read(f)?,
-        (None, Some(sp)) => pool.install(|| scene_driven(&a, sp, &shape, &cfg))?,
-        (None, None) => bail!("give a .gsb file or --simulate SAMPLE.toml"),
+    let material = match (&a.file, &a.simulate) {
+        (Some(f), _) => super::Material::open(f)?,
+        (None, Some(sp)) => super::Material(Box::new(
+            pool.install(|| scene_driven(&a, sp, &shape, &cfg))?,
+        )),
+        (None, None) => bail!("give a .gsb or .bsdf file, or --simulate SAMPLE.toml"),
     };
+    let r = material.brdf();
     // The image holds RGB and a spectrum per pixel (f32): refuse what cannot fit.
     let bins = r.meta().lambda_nm.len() as f64;
     let bytes = f64::from(a.view.width) * f64::from(a.view.height) * 4.0 * (3.0 + bins) * 2.0;
@@ -192,16 +195,13 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     }
     let t0 = std::time::Instant::now();
     let albedo = if env == Env::Constant {
-        Some(pool.install(|| render::albedo_table(&r, 90)))
+        Some(pool.install(|| render::albedo_table(r, 90)))
     } else {
         None
     };
     let bar = progress_bar(u64::from(a.view.height), "rows");
-    let img = pool.install(|| {
-        render::render(&r, &shape, &cfg, albedo.as_deref(), &|n| {
-            bar.set_position(n)
-        })
-    });
+    let img = pool
+        .install(|| render::render(r, &shape, &cfg, albedo.as_deref(), &|n| bar.set_position(n)));
     bar.finish_and_clear();
     let secs = t0.elapsed().as_secs_f64();
     // Both files are written before either replaces an old one.
@@ -212,12 +212,16 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
         render::stage_png(&img, &png).with_context(|| format!("writing {}", png.display()))?;
     goniospec::io::commit_all(vec![exr_file, png_file])
         .with_context(|| format!("replacing {} and {}", a.output.display(), png.display()))?;
+    let channels = if material.is_rgb() {
+        "in RGB, the file's form (linear sRGB channels, not spectra)".to_string()
+    } else {
+        format!("{} wavelength bins", r.meta().lambda_nm.len())
+    };
     outln!(
-        "rendered {}x{} at {} spp, {} wavelength bins ({} representation) in {secs:.2} s: {} and {}",
+        "rendered {}x{} at {} spp, {channels} ({} representation) in {secs:.2} s: {} and {}",
         a.view.width,
         a.view.height,
         a.view.spp,
-        r.meta().lambda_nm.len(),
         r.meta().repr,
         a.output.display(),
         png.display()

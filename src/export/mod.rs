@@ -2,8 +2,12 @@
 //! Mitsuba 3 and pbrt-v4 ([`rgl`], [`tensor`]) with a scene for each that shows it as
 //! `goniospec render` does ([`scene`]), NumPy arrays ([`npz`]), the MERL format of
 //! fitting tools ([`merl`], sRGB only), and Mitsuba 3's polarised measured format
-//! ([`pbsdf`], from a `--mueller` accumulator).
+//! ([`pbsdf`], from a `--mueller` accumulator); and the other way in, measured materials
+//! of the RGL database read as its loader reads them ([`measured`], over the reader's
+//! interpolants, [`marginal`]).
 
+pub mod marginal;
+pub mod measured;
 pub mod merl;
 pub mod npz;
 pub mod pbsdf;

@@ -12,9 +12,11 @@
 //! data      each field's array, C order, at its offset (8-byte aligned here)
 //! ```
 //!
-//! Data types are Mitsuba's `Struct::Type` codes: UInt8 = 1, Float32 = 10 (the only two
-//! the `measured` plugin uses), UInt16 = 3 (the `measured_polarized` plugin's
-//! wavelengths); Float64 = 11 is read too.
+//! Data types are Mitsuba's `Struct::Type` codes (`include/mitsuba/core/struct.h`, and the
+//! RGL loader's `Tensor::Type` in `powitacq.inl`, which numbers them alike): UInt8 = 1,
+//! Int8 = 2, UInt16 = 3, Int16 = 4, UInt32 = 5, Int32 = 6, UInt64 = 7, Int64 = 8,
+//! Float16 = 9, Float32 = 10, Float64 = 11. Every one is read (the measured files of the
+//! RGL database store `version` as UInt32); the writer uses UInt8, UInt16 and Float32.
 
 use super::ExportError;
 use std::io::Write;
@@ -26,37 +28,63 @@ const MAGIC: &[u8; 12] = b"tensor_file\0";
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dtype {
     UInt8 = 1,
+    Int8 = 2,
     UInt16 = 3,
+    Int16 = 4,
+    UInt32 = 5,
+    Int32 = 6,
+    UInt64 = 7,
+    Int64 = 8,
+    Float16 = 9,
     Float32 = 10,
     Float64 = 11,
 }
 
 impl Dtype {
+    /// Every type, in code order.
+    pub const ALL: [Dtype; 11] = [
+        Dtype::UInt8,
+        Dtype::Int8,
+        Dtype::UInt16,
+        Dtype::Int16,
+        Dtype::UInt32,
+        Dtype::Int32,
+        Dtype::UInt64,
+        Dtype::Int64,
+        Dtype::Float16,
+        Dtype::Float32,
+        Dtype::Float64,
+    ];
     fn from_code(c: u8) -> Option<Dtype> {
-        match c {
-            1 => Some(Dtype::UInt8),
-            3 => Some(Dtype::UInt16),
-            10 => Some(Dtype::Float32),
-            11 => Some(Dtype::Float64),
-            _ => None,
-        }
+        Dtype::ALL.into_iter().find(|d| *d as u8 == c)
     }
     /// Bytes per element.
     pub fn size(self) -> usize {
         match self {
-            Dtype::UInt8 => 1,
-            Dtype::UInt16 => 2,
-            Dtype::Float32 => 4,
-            Dtype::Float64 => 8,
+            Dtype::UInt8 | Dtype::Int8 => 1,
+            Dtype::UInt16 | Dtype::Int16 | Dtype::Float16 => 2,
+            Dtype::UInt32 | Dtype::Int32 | Dtype::Float32 => 4,
+            Dtype::UInt64 | Dtype::Int64 | Dtype::Float64 => 8,
         }
     }
     pub fn name(self) -> &'static str {
         match self {
             Dtype::UInt8 => "uint8",
+            Dtype::Int8 => "int8",
             Dtype::UInt16 => "uint16",
+            Dtype::Int16 => "int16",
+            Dtype::UInt32 => "uint32",
+            Dtype::Int32 => "int32",
+            Dtype::UInt64 => "uint64",
+            Dtype::Int64 => "int64",
+            Dtype::Float16 => "float16",
             Dtype::Float32 => "float32",
             Dtype::Float64 => "float64",
         }
+    }
+    /// Whether the type holds floating-point values.
+    pub fn is_float(self) -> bool {
+        matches!(self, Dtype::Float16 | Dtype::Float32 | Dtype::Float64)
     }
 }
 
@@ -103,26 +131,65 @@ impl Field {
             data: values.iter().flat_map(|v| v.to_le_bytes()).collect(),
         }
     }
-    /// The values as f64 (float fields), C order.
+    /// The element count (the product of the shape), or `None` where it overflows.
+    pub fn len(&self) -> Option<u64> {
+        self.shape.iter().try_fold(1u64, |a, &s| a.checked_mul(s))
+    }
+
+    /// Whether the field holds no element.
+    pub fn is_empty(&self) -> bool {
+        self.len() == Some(0)
+    }
+
+    /// The values as f64, C order: integers exactly up to 2^53, half floats by IEEE
+    /// 754-2008 binary16 ([`f16_to_f64`]).
     pub fn values_f64(&self) -> Vec<f64> {
+        let n = self.dtype.size();
+        let words = self.data.chunks_exact(n);
+        let b = |c: &[u8], k: usize| -> [u8; 8] {
+            let mut a = [0u8; 8];
+            a[..k].copy_from_slice(&c[..k]);
+            a
+        };
         match self.dtype {
-            Dtype::UInt8 => self.data.iter().map(|&b| f64::from(b)).collect(),
-            Dtype::UInt16 => self
-                .data
-                .chunks_exact(2)
+            Dtype::UInt8 => self.data.iter().map(|&v| f64::from(v)).collect(),
+            Dtype::Int8 => self.data.iter().map(|&v| f64::from(v as i8)).collect(),
+            Dtype::UInt16 => words
                 .map(|c| f64::from(u16::from_le_bytes([c[0], c[1]])))
                 .collect(),
-            Dtype::Float32 => self
-                .data
-                .chunks_exact(4)
-                .map(|c| f64::from(f32::from_le_bytes(c.try_into().expect("4 bytes"))))
+            Dtype::Int16 => words
+                .map(|c| f64::from(i16::from_le_bytes([c[0], c[1]])))
                 .collect(),
-            Dtype::Float64 => self
-                .data
-                .chunks_exact(8)
-                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+            Dtype::UInt32 => words
+                .map(|c| f64::from(u32::from_le_bytes([c[0], c[1], c[2], c[3]])))
                 .collect(),
+            Dtype::Int32 => words
+                .map(|c| f64::from(i32::from_le_bytes([c[0], c[1], c[2], c[3]])))
+                .collect(),
+            Dtype::UInt64 => words.map(|c| u64::from_le_bytes(b(c, 8)) as f64).collect(),
+            Dtype::Int64 => words.map(|c| i64::from_le_bytes(b(c, 8)) as f64).collect(),
+            Dtype::Float16 => words
+                .map(|c| f16_to_f64(u16::from_le_bytes([c[0], c[1]])))
+                .collect(),
+            Dtype::Float32 => words
+                .map(|c| f64::from(f32::from_le_bytes([c[0], c[1], c[2], c[3]])))
+                .collect(),
+            Dtype::Float64 => words.map(|c| f64::from_le_bytes(b(c, 8))).collect(),
         }
+    }
+}
+
+/// An IEEE 754-2008 binary16 value (1 sign bit, 5 exponent bits of bias 15, 10 fraction
+/// bits; subnormals, infinities and NaN included) as f64, exactly.
+pub fn f16_to_f64(bits: u16) -> f64 {
+    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = i32::from((bits >> 10) & 0x1f);
+    let frac = f64::from(bits & 0x3ff);
+    sign * match exp {
+        0 => frac * 2f64.powi(-24),
+        31 if frac == 0.0 => f64::INFINITY,
+        31 => f64::NAN,
+        e => (1.0 + frac / 1024.0) * 2f64.powi(e - 15),
     }
 }
 
@@ -196,6 +263,10 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Vec<Field>, ExportError> {
         )));
     }
     let count = u32::from_le_bytes(take(&mut pos, 4)?.try_into().expect("4 bytes"));
+    // Every field's data lies within the file, and real files never overlap their fields:
+    // the fields together may hold at most the file's own size, so that a header naming
+    // many fields over the same bytes cannot make the reader allocate more than it read.
+    let mut total = 0u64;
     let mut fields = Vec::new();
     for _ in 0..count {
         let nlen = u16::from_le_bytes(take(&mut pos, 2)?.try_into().expect("2 bytes")) as usize;
@@ -221,6 +292,13 @@ pub fn from_bytes(bytes: &[u8]) -> Result<Vec<Field>, ExportError> {
             .checked_add(len)
             .filter(|&e| e <= bytes.len() as u64)
             .ok_or_else(|| format!("field '{name}' reaches past the end of the file"))?;
+        total += len;
+        if total > bytes.len() as u64 {
+            return Err(ExportError::from(format!(
+                "the fields up to '{name}' hold {total} bytes, more than the file's {}",
+                bytes.len()
+            )));
+        }
         fields.push(Field {
             name,
             dtype,
@@ -269,6 +347,80 @@ mod tests {
         assert_eq!(u64::from_le_bytes(b[39..47].try_into().unwrap()), 1); // shape
         assert_eq!(off % 8, 0);
         assert_eq!(b[off], 1);
+    }
+
+    /// Every dtype of the format reads, with its code, size and values: integers of each
+    /// width and sign, and IEEE binary16 at its landmarks (1, -2, the largest normal
+    /// 65504, the smallest subnormal 2^-24, infinity), written here byte by byte.
+    #[test]
+    fn every_dtype_reads() {
+        let field = |dtype: Dtype, data: Vec<u8>| Field {
+            name: "x".into(),
+            dtype,
+            shape: vec![(data.len() / dtype.size()) as u64],
+            data,
+        };
+        let cases: Vec<(Dtype, Vec<u8>, Vec<f64>)> = vec![
+            (Dtype::UInt8, vec![0, 255], vec![0.0, 255.0]),
+            (Dtype::Int8, vec![0x80, 0x7f], vec![-128.0, 127.0]),
+            (Dtype::UInt16, vec![0xff, 0xff], vec![65535.0]),
+            (Dtype::Int16, vec![0x00, 0x80], vec![-32768.0]),
+            (
+                Dtype::UInt32,
+                vec![1, 0, 0, 0, 0, 0, 0, 0x80],
+                vec![1.0, 2147483648.0],
+            ),
+            (Dtype::Int32, vec![0xff, 0xff, 0xff, 0xff], vec![-1.0]),
+            (
+                Dtype::UInt64,
+                vec![0, 0, 0, 0, 1, 0, 0, 0],
+                vec![4294967296.0],
+            ),
+            (
+                Dtype::Int64,
+                vec![0xfe, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff],
+                vec![-2.0],
+            ),
+            (
+                Dtype::Float16,
+                vec![0x00, 0x3c, 0x00, 0xc0, 0xff, 0x7b, 0x01, 0x00, 0x00, 0x7c],
+                vec![1.0, -2.0, 65504.0, 2f64.powi(-24), f64::INFINITY],
+            ),
+            (
+                Dtype::Float32,
+                0.15625f32.to_le_bytes().to_vec(),
+                vec![0.15625],
+            ),
+            (Dtype::Float64, (-1.5f64).to_le_bytes().to_vec(), vec![-1.5]),
+        ];
+        for (code, (dtype, data, want)) in (1u8..).zip(cases) {
+            assert_eq!(dtype as u8, code);
+            let f = field(dtype, data);
+            let bytes = to_bytes(std::slice::from_ref(&f));
+            let back = from_bytes(&bytes).unwrap();
+            assert_eq!(back[0].dtype, dtype);
+            assert_eq!(back[0].values_f64(), want, "{}", dtype.name());
+        }
+        assert!(f16_to_f64(0x7e00).is_nan());
+        assert_eq!(f16_to_f64(0x8000).to_bits(), (-0.0f64).to_bits());
+    }
+
+    /// A header whose fields all point at the same bytes would make the reader copy the
+    /// file many times over: refused once the fields hold more than the file.
+    #[test]
+    fn fields_holding_more_than_the_file_are_refused() {
+        let f = Field::f32("a", &[64], &[1.0; 64]);
+        let mut many = to_bytes(&[f.clone(), f.clone(), f.clone()]);
+        // Each field's header: name length, name, ndim, dtype, then its data offset.
+        let header = |k: usize| 18 + k * (2 + 1 + 2 + 1 + 8 + 8) + 2 + 1 + 2 + 1;
+        // Point the second and third fields at the first one's data.
+        let off = u64::from_le_bytes(many[header(0)..header(0) + 8].try_into().unwrap());
+        for k in 1..3 {
+            many[header(k)..header(k) + 8].copy_from_slice(&off.to_le_bytes());
+        }
+        many.truncate(off as usize + 256 + 8);
+        let e = from_bytes(&many).unwrap_err().to_string();
+        assert!(e.contains("more than the file"), "{e}");
     }
 
     #[test]

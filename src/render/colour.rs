@@ -116,6 +116,35 @@ pub fn xyz_to_linear_srgb(x: [f64; 3]) -> [f64; 3] {
     ]
 }
 
+/// Linear sRGB to XYZ (D65 white, Y = 1 for white): the exact inverse of
+/// [`xyz_to_linear_srgb`]'s matrix, so that a colour goes there and back unchanged, and
+/// `(1, 1, 1)` is the matrix's own white `(0.9505, 1.0000, 1.0890)`.
+pub fn linear_srgb_to_xyz(rgb: [f64; 3]) -> [f64; 3] {
+    static M: OnceLock<glam::DMat3> = OnceLock::new();
+    let m = M.get_or_init(|| {
+        glam::DMat3::from_cols_array(&[
+            3.2406, -0.9689, 0.0557, -1.5372, 1.8758, -0.2040, -0.4986, 0.0415, 1.0570,
+        ])
+        .inverse()
+    });
+    (*m * glam::DVec3::from_array(rgb)).to_array()
+}
+
+/// The XYZ weights of each channel of a BRDF under D65 (`XYZ = sum_c value_c W_c` for a
+/// reflectance-like quantity): [`bin_weights`] for wavelength bins, and for linear sRGB
+/// channels (`Meta::rgb`, a measured file in the RGB form) the columns of
+/// [`linear_srgb_to_xyz`].
+pub fn channel_weights(meta: &crate::brdf::Meta) -> Vec<[f64; 3]> {
+    if meta.rgb {
+        [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+            .iter()
+            .map(|&c| linear_srgb_to_xyz(c))
+            .collect()
+    } else {
+        bin_weights(&meta.lambda_nm)
+    }
+}
+
 /// sRGB transfer function (IEC 61966-2-1), input clamped to [0, 1].
 pub fn srgb_encode(v: f64) -> f64 {
     let v = v.clamp(0.0, 1.0);

@@ -312,7 +312,7 @@ pub fn render(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Image {
     let nl = brdf.meta().lambda_nm.len();
-    let weights = colour::bin_weights(&brdf.meta().lambda_nm);
+    let weights = colour::channel_weights(brdf.meta());
     let (_, radius) = shape.bounds();
     let cam = camera_frame(shape, cfg);
     let rows = AtomicU64::new(0);

@@ -2,6 +2,8 @@
 //! independent transfer-matrix method, and a simulation with test defaults.
 #![allow(dead_code)]
 
+pub mod measured;
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
