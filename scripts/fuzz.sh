@@ -13,7 +13,7 @@ secs=${1:-600}
 shift || true
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-  targets=(obj sample media-table media-model gsa gsb study cli-values x3p gsf npy exr png tiff ply stl mesh-cache batch-plan batch-manifest)
+  targets=(obj sample media-table media-model gsa gsb bsdf study cli-values x3p gsf npy exr png tiff ply stl mesh-cache batch-plan batch-manifest)
 fi
 out=${FUZZ_OUT:-out/fuzz}
 ./scripts/install-deps.sh

@@ -17,6 +17,7 @@ pub const TARGETS: &[(&str, Harness)] = &[
     ("media-model", media_model),
     ("gsa", gsa),
     ("gsb", gsb),
+    ("bsdf", bsdf),
     ("study", study),
     ("cli-values", cli_values),
     ("x3p", x3p),
@@ -118,6 +119,25 @@ pub fn gsb(data: &[u8]) {
         for (ti, to, p) in [(0.0, 0.3, 1.0), (0.7, 0.7, 3.1), (1.5, 0.1, 6.0)] {
             r.eval(from_spherical(ti, 0.0), from_spherical(to, p), &mut out);
         }
+    }
+}
+
+/// An RGL `.bsdf` (a measured material of the RGL database, or an export): the tensor
+/// reader, the measured reader's checks and interpolants, an evaluation and the nodes'
+/// directions.
+pub fn bsdf(data: &[u8]) {
+    use goniospec::brdf::Brdf;
+    use goniospec::geom::from_spherical;
+    let Ok(fields) = goniospec::export::tensor::from_bytes(data) else {
+        return;
+    };
+    if let Ok(m) = goniospec::export::measured::MeasuredBrdf::from_fields(&fields) {
+        let mut out = vec![0.0; m.channels()];
+        for (ti, to, p) in [(0.0, 0.3, 1.0), (0.7, 0.7, 3.1), (1.5, 0.1, 6.0)] {
+            m.eval(from_spherical(ti, 0.0), from_spherical(to, p), &mut out);
+            let _ = m.node_direction(ti, 0.0, 0, 1);
+        }
+        let _ = m.describe();
     }
 }
 

@@ -295,6 +295,99 @@ fn method_radius(c: goniospec::accumulate::Coherence, rho_nm: f64) -> String {
     }
 }
 
+/// A BRDF's values (1/sr) at directions given by polar and azimuth angles in degrees, each
+/// a number or a numpy array (broadcast together as NumPy broadcasts): `[..., channels]`.
+fn eval_broadcast<'py>(
+    py: Python<'py>,
+    brdf: &(dyn goniospec::brdf::Brdf + Sync),
+    theta_i_deg: &Bound<'py, PyAny>,
+    phi_i_deg: &Bound<'py, PyAny>,
+    theta_o_deg: &Bound<'py, PyAny>,
+    phi_o_deg: &Bound<'py, PyAny>,
+) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+    // Numbers, lists and arrays alike, as numpy.asarray(x, float64) sees them.
+    let np = py.import("numpy")?;
+    let as_array = |name: &str, x: &Bound<'py, PyAny>| -> PyResult<Bound<'py, PyAny>> {
+        if x.is_none() {
+            // numpy makes None a NaN, which read as "got NaN".
+            return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                "{name} is None: give an angle in degrees, or an array of them"
+            )));
+        }
+        np.call_method1("asarray", (x, "float64"))
+    };
+    let given = (
+        as_array("theta_i_deg", theta_i_deg)?,
+        as_array("phi_i_deg", phi_i_deg)?,
+        as_array("theta_o_deg", theta_o_deg)?,
+        as_array("phi_o_deg", phi_o_deg)?,
+    );
+    // NumPy's own broadcasting rules (views, nothing copied yet): shapes (2, 3) and
+    // (3, 2) are refused as NumPy refuses them, not matched by their sizes (issue 47).
+    let views = np.call_method1("broadcast_arrays", given).map_err(|e| {
+        value_err(format!(
+            "the four angle arrays must broadcast together as NumPy's rules say: {}",
+            e.value(py)
+        ))
+    })?;
+    let arrays: Vec<PyReadonlyArrayDyn<'py, f64>> = views
+        .try_iter()?
+        .map(|v| v?.extract())
+        .collect::<PyResult<_>>()?;
+    let shape: Vec<usize> = arrays[0].shape().to_vec();
+    let n: usize = shape.iter().product();
+    // Four angle columns, two directions and the result per query: refused as a
+    // MemoryError before anything is allocated when it cannot fit (a broadcast view of
+    // 10^11 angles aborted the interpreter).
+    let nl = brdf.meta().lambda_nm.len();
+    let bytes = n
+        .checked_mul(4 + 6 + nl)
+        .and_then(|v| v.checked_mul(8))
+        .filter(|&b| {
+            goniospec::io::available_memory_bytes().is_none_or(|avail| (b as u64) < avail / 2)
+        });
+    let Some(_) = bytes else {
+        return Err(pyo3::exceptions::PyMemoryError::new_err(format!(
+            "evaluating {n} angle sets at {nl} wavelengths needs more memory than this machine has available: evaluate in chunks"
+        )));
+    };
+    let cols: Vec<Vec<f64>> = arrays
+        .iter()
+        .map(|a| a.as_array().iter().copied().collect())
+        .collect();
+    for (name, c) in ["theta_i_deg", "theta_o_deg"]
+        .iter()
+        .zip([&cols[0], &cols[2]])
+    {
+        if let Some(t) = c
+            .iter()
+            .find(|t| !(t.is_finite() && (0.0..=90.0).contains(*t)))
+        {
+            return Err(value_err(format!(
+                "{name}: polar angles must be in [0, 90] degrees, got {t}"
+            )));
+        }
+    }
+    for (name, c) in ["phi_i_deg", "phi_o_deg"].iter().zip([&cols[1], &cols[3]]) {
+        if let Some(p) = c.iter().find(|p| !p.is_finite()) {
+            return Err(value_err(format!(
+                "{name}: azimuths must be finite, got {p}"
+            )));
+        }
+    }
+    let dir = |t: f64, p: f64| goniospec::geom::from_spherical(t.to_radians(), p.to_radians());
+    let pairs: Vec<_> = (0..n)
+        .map(|k| (dir(cols[0][k], cols[1][k]), dir(cols[2][k], cols[3][k])))
+        .collect();
+    let mut out = vec![0.0; n * nl];
+    py.allow_threads(|| brdf.eval_batch(&pairs, &mut out));
+    let mut full = shape.clone();
+    full.push(nl);
+    numpy::ndarray::ArrayD::from_shape_vec(full, out)
+        .map(|a| a.into_pyarray(py))
+        .map_err(value_err)
+}
+
 /// A built BRDF (a `.gsb`).
 #[pyclass(module = "goniospec", frozen)]
 struct Brdf {
@@ -315,87 +408,14 @@ impl Brdf {
         theta_o_deg: &Bound<'py, PyAny>,
         phi_o_deg: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        // Numbers, lists and arrays alike, as numpy.asarray(x, float64) sees them.
-        let np = py.import("numpy")?;
-        let as_array = |name: &str, x: &Bound<'py, PyAny>| -> PyResult<Bound<'py, PyAny>> {
-            if x.is_none() {
-                // numpy makes None a NaN, which read as "got NaN".
-                return Err(pyo3::exceptions::PyTypeError::new_err(format!(
-                    "{name} is None: give an angle in degrees, or an array of them"
-                )));
-            }
-            np.call_method1("asarray", (x, "float64"))
-        };
-        let given = (
-            as_array("theta_i_deg", theta_i_deg)?,
-            as_array("phi_i_deg", phi_i_deg)?,
-            as_array("theta_o_deg", theta_o_deg)?,
-            as_array("phi_o_deg", phi_o_deg)?,
-        );
-        // NumPy's own broadcasting rules (views, nothing copied yet): shapes (2, 3) and
-        // (3, 2) are refused as NumPy refuses them, not matched by their sizes (issue 47).
-        let views = np.call_method1("broadcast_arrays", given).map_err(|e| {
-            value_err(format!(
-                "the four angle arrays must broadcast together as NumPy's rules say: {}",
-                e.value(py)
-            ))
-        })?;
-        let arrays: Vec<PyReadonlyArrayDyn<'py, f64>> = views
-            .try_iter()?
-            .map(|v| v?.extract())
-            .collect::<PyResult<_>>()?;
-        let shape: Vec<usize> = arrays[0].shape().to_vec();
-        let n: usize = shape.iter().product();
-        // Four angle columns, two directions and the result per query: refused as a
-        // MemoryError before anything is allocated when it cannot fit (a broadcast view of
-        // 10^11 angles aborted the interpreter).
-        let nl = self.inner.meta().lambda_nm.len();
-        let bytes = n
-            .checked_mul(4 + 6 + nl)
-            .and_then(|v| v.checked_mul(8))
-            .filter(|&b| {
-                goniospec::io::available_memory_bytes().is_none_or(|avail| (b as u64) < avail / 2)
-            });
-        let Some(_) = bytes else {
-            return Err(pyo3::exceptions::PyMemoryError::new_err(format!(
-                "evaluating {n} angle sets at {nl} wavelengths needs more memory than this machine has available: evaluate in chunks"
-            )));
-        };
-        let cols: Vec<Vec<f64>> = arrays
-            .iter()
-            .map(|a| a.as_array().iter().copied().collect())
-            .collect();
-        for (name, c) in ["theta_i_deg", "theta_o_deg"]
-            .iter()
-            .zip([&cols[0], &cols[2]])
-        {
-            if let Some(t) = c
-                .iter()
-                .find(|t| !(t.is_finite() && (0.0..=90.0).contains(*t)))
-            {
-                return Err(value_err(format!(
-                    "{name}: polar angles must be in [0, 90] degrees, got {t}"
-                )));
-            }
-        }
-        for (name, c) in ["phi_i_deg", "phi_o_deg"].iter().zip([&cols[1], &cols[3]]) {
-            if let Some(p) = c.iter().find(|p| !p.is_finite()) {
-                return Err(value_err(format!(
-                    "{name}: azimuths must be finite, got {p}"
-                )));
-            }
-        }
-        let dir = |t: f64, p: f64| goniospec::geom::from_spherical(t.to_radians(), p.to_radians());
-        let pairs: Vec<_> = (0..n)
-            .map(|k| (dir(cols[0][k], cols[1][k]), dir(cols[2][k], cols[3][k])))
-            .collect();
-        let mut out = vec![0.0; n * nl];
-        py.allow_threads(|| self.inner.eval_batch(&pairs, &mut out));
-        let mut full = shape.clone();
-        full.push(nl);
-        numpy::ndarray::ArrayD::from_shape_vec(full, out)
-            .map(|a| a.into_pyarray(py))
-            .map_err(value_err)
+        eval_broadcast(
+            py,
+            &self.inner,
+            theta_i_deg,
+            phi_i_deg,
+            theta_o_deg,
+            phi_o_deg,
+        )
     }
 
     /// Centre wavelength of each bin (or each exact wavelength), nm: the last axis of
@@ -521,6 +541,103 @@ impl Brdf {
     }
 }
 
+/// A measured material of the RGL database (or an RGL `.bsdf` goniospec exported), read as
+/// the database's loader and Mitsuba 3 read it (`goniospec.load("x.bsdf")`).
+#[pyclass(module = "goniospec", frozen)]
+struct Measured {
+    inner: goniospec::export::measured::MeasuredBrdf,
+}
+
+#[pymethods]
+impl Measured {
+    /// The BRDF (1/sr) at directions given by polar and azimuth angles in degrees, each a
+    /// number or a numpy array (broadcast together); returns `[..., 3]` (linear sRGB) for
+    /// an RGB file, `[..., n_lambda]` for a spectral one.
+    fn eval<'py>(
+        &self,
+        py: Python<'py>,
+        theta_i_deg: &Bound<'py, PyAny>,
+        phi_i_deg: &Bound<'py, PyAny>,
+        theta_o_deg: &Bound<'py, PyAny>,
+        phi_o_deg: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
+        eval_broadcast(
+            py,
+            &self.inner,
+            theta_i_deg,
+            phi_i_deg,
+            theta_o_deg,
+            phi_o_deg,
+        )
+    }
+
+    /// Whether the channels are linear sRGB (r, g, b) rather than wavelengths.
+    #[getter]
+    fn rgb(&self) -> bool {
+        self.inner.meta().rgb
+    }
+
+    /// The wavelengths of a spectral file, nm; `None` for an RGB file.
+    #[getter]
+    fn lambda_nm<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        match &self.inner.form {
+            goniospec::export::measured::Form::Spectral(l) => Some(l.clone().into_pyarray(py)),
+            goniospec::export::measured::Form::Rgb => None,
+        }
+    }
+
+    /// The measured incident elevations, degrees.
+    #[getter]
+    fn theta_i_deg(&self) -> Vec<f64> {
+        self.inner
+            .theta_i_rad
+            .iter()
+            .map(|t| t.to_degrees())
+            .collect()
+    }
+
+    /// The measured incident azimuths, degrees (one for an isotropic material).
+    #[getter]
+    fn phi_i_deg(&self) -> Vec<f64> {
+        self.inner
+            .phi_i_rad
+            .iter()
+            .map(|t| t.to_degrees())
+            .collect()
+    }
+
+    /// The file's description of the material.
+    #[getter]
+    fn description(&self) -> String {
+        self.inner.description.clone()
+    }
+
+    /// `Measured('description': RGB|spectral, theta_i_deg [...], grid w x h)`.
+    fn __repr__(&self) -> String {
+        let m = &self.inner;
+        format!(
+            "Measured('{}': {}, theta_i_deg {:?}, {} x {} nodes{})",
+            m.description,
+            match &m.form {
+                goniospec::export::measured::Form::Rgb => "RGB (linear sRGB)".to_string(),
+                goniospec::export::measured::Form::Spectral(l) => format!(
+                    "spectral, {} wavelengths {:.0}-{:.0} nm",
+                    l.len(),
+                    l[0],
+                    l[l.len() - 1]
+                ),
+            },
+            self.theta_i_deg()
+                .iter()
+                .map(|t| (t * 100.0).round() / 100.0)
+                .collect::<Vec<_>>(),
+            m.grid.0,
+            m.grid.1,
+            if m.isotropic { ", isotropic" } else { "" }
+        )
+    }
+}
+
 /// The output policy (`goniospec::output::guard`): refusals are `FileExistsError`.
 fn guard(path: &Path, inputs: &[PathBuf], kind: OutputKind, force: bool) -> PyResult<()> {
     let inputs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
@@ -528,15 +645,30 @@ fn guard(path: &Path, inputs: &[PathBuf], kind: OutputKind, force: bool) -> PyRe
         .map_err(|e| pyo3::exceptions::PyFileExistsError::new_err(e.to_string()))
 }
 
-/// Loads a `.gsa` accumulator.
+/// Loads a `.gsa` accumulator, or an RGL `.bsdf` (a measured material, or one goniospec
+/// exported) as a `Measured` BRDF; told apart by their magic bytes.
 #[pyfunction]
-fn load(path: PathBuf) -> PyResult<Accumulator> {
+fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyObject> {
+    use std::io::Read;
+    let mut head = [0u8; 12];
+    std::fs::File::open(&path)
+        .and_then(|mut f| f.read(&mut head))
+        .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))?;
+    if goniospec::export::tensor::is_tensor_file(&head) {
+        let inner = goniospec::export::measured::MeasuredBrdf::read(&path).map_err(value_err)?;
+        return Ok(Measured { inner }.into_pyobject(py)?.into_any().unbind());
+    }
     goniospec::accumulate::file::Accumulator::read(&path)
-        .map(|inner| Accumulator {
-            inner,
-            inputs: vec![path.clone()],
-        })
         .map_err(value_err)
+        .and_then(|inner| {
+            Ok(Accumulator {
+                inner,
+                inputs: vec![path.clone()],
+            }
+            .into_pyobject(py)?
+            .into_any()
+            .unbind())
+        })
 }
 
 /// Loads a `.gsb` BRDF.
@@ -886,6 +1018,7 @@ fn _goniospec(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Sample>()?;
     m.add_class::<Accumulator>()?;
     m.add_class::<Brdf>()?;
+    m.add_class::<Measured>()?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(load_brdf, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;

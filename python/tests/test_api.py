@@ -500,3 +500,27 @@ def test_the_rigorous_solver_is_the_clis_and_conserves_energy(tmp_path):
         assert np.all(np.abs(r["R"] + r["T"] - 1) < 1e-9), r
     with pytest.raises(ValueError, match="slices"):
         gs.simulate(s, theta_i_deg=[0], coherence="rigorous", slices=0)
+
+
+def test_a_measured_material_evaluates_as_the_cli_and_broadcasts(tmp_path):
+    path = os.path.join(ROOT, "data", "measured", "cc_ibiza_sunset_rgb.bsdf")
+    m = gs.load(path)
+    assert isinstance(m, gs.Measured)
+    assert m.rgb and m.lambda_nm is None
+    assert len(m.theta_i_deg) == 8 and m.phi_i_deg == [0.0]
+    assert "TeckWrap" in repr(m)
+    pairs = tmp_path / "pairs.csv"
+    angles = [(30.0, 0.0, t, 180.0) for t in (10.0, 20.0, 30.0, 45.0)]
+    pairs.write_text("theta_i_deg,phi_i_deg,theta_o_deg,phi_o_deg\n" + "".join("%g,%g,%g,%g\n" % a for a in angles))
+    out = subprocess.run([CLI, "eval", path, "--pairs", str(pairs)], capture_output=True, text=True, check=True)
+    rows = list(csv.DictReader(io.StringIO(out.stdout)))
+    got = m.eval(30.0, 0.0, np.array([10.0, 20.0, 30.0, 45.0]), 180.0)
+    assert got.shape == (4, 3)
+    for k, row in enumerate(rows):
+        # The CLI prints 9 significant digits.
+        want = [float(row[c]) for c in "rgb"]
+        assert np.allclose(got[k], want, rtol=1e-7), (got[k], want)
+    # NumPy's broadcasting: (2, 1) with (3,) is (2, 3); shapes that do not broadcast are refused.
+    assert m.eval(np.array([[10.0], [40.0]]), 0.0, np.array([5.0, 15.0, 25.0]), 180.0).shape == (2, 3, 3)
+    with pytest.raises(ValueError):
+        m.eval(np.zeros((2, 3)), 0.0, np.zeros((3, 2)), 180.0)

@@ -35,6 +35,15 @@ pub(super) fn compare(a: CompareArgs) -> Result<ExitCode> {
             if goniospec::output::same_file(dir, input) {
                 bail!("--output {} is an input of the comparison", dir.display());
             }
+            for name in compare::output_names() {
+                if goniospec::output::same_file(&dir.join(&name), input) {
+                    bail!(
+                        "--output {}: its {name} would replace {}, an input of the comparison",
+                        dir.display(),
+                        input.display()
+                    );
+                }
+            }
         }
         goniospec::output::guard_folder(dir, &compare::output_names(), a.force)?;
     }
@@ -113,18 +122,21 @@ fn print_report(r: &goniospec::compare::Report) -> Result<()> {
         r.overall.p95
     );
     if let Some(f) = &r.flop {
-        let fi =
-            |v: Option<f64>| v.map_or_else(|| "none (L*15 <= L*110)".into(), |x| format!("{x:.2}"));
+        let fi = |s: &goniospec::compare::shape::FlopSide| match s.flop_index {
+            Some(x) => format!("{x:.2}"),
+            None if s.l15 <= s.l110 => "none: L*15 <= L*110".into(),
+            None => "none: L*45 = 0".into(),
+        };
         outln!(
             "45 deg light, L* at 15/45/110 deg aspecular: A {:.1}/{:.1}/{:.1} (flop index {}), B {:.1}/{:.1}/{:.1} (flop index {})",
             f.a.l15,
             f.a.l45,
             f.a.l110,
-            fi(f.a.flop_index),
+            fi(&f.a),
             f.b.l15,
             f.b.l45,
             f.b.l110,
-            fi(f.b.flop_index)
+            fi(&f.b)
         );
         let travel: Vec<String> = r
             .travel

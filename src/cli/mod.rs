@@ -231,8 +231,8 @@ mod study;
 use analytic::{AnalyticArgs, analytic};
 use batch::{BatchCommand, batch};
 use bench::{
-    BenchCommand, bench_converge, bench_eval, bench_large, bench_paints, bench_peer,
-    bench_rigorous, bench_simulate, bench_trace,
+    BenchCommand, bench_converge, bench_eval, bench_large, bench_measured, bench_paints,
+    bench_peer, bench_rigorous, bench_simulate, bench_trace,
 };
 use build::{BuildArgs, build};
 use check::{CheckArgs, check};
@@ -327,6 +327,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Bench(BenchCommand::Converge(a)) => bench_converge(a),
         Command::Bench(BenchCommand::Peer(a)) => bench_peer(a),
         Command::Bench(BenchCommand::Rigorous(a)) => bench_rigorous(a),
+        Command::Bench(BenchCommand::Measured(a)) => bench_measured(a),
     }
 }
 

@@ -5,7 +5,8 @@
 //! An aspecular angle `a` is measured from the mirror direction towards the light, in the
 //! plane of incidence: at incidence `theta_i` it looks from the signed outgoing angle
 //! `theta_i - a` (positive on the mirror side). Multi-angle instruments light at 45 deg
-//! and look at -15, 15, 25, 45, 75 and 110 deg aspecular (ASTM E2194; X-Rite's MA series).
+//! and look at 15, 45 and 110 deg aspecular (ASTM E2194, metal-flake pigments), and also at
+//! -15, 25 and 75 deg for interference pigments (ASTM E2539).
 
 use glam::DVec3;
 

@@ -78,7 +78,7 @@ impl Marginal2D {
                 .checked_mul(p.len())
                 .ok_or("the table's size overflows")?;
         }
-        let n = w * h;
+        let n = w.checked_mul(h).ok_or("the table's size overflows")?;
         if slices.checked_mul(n) != Some(data.len()) {
             return Err(ExportError::from(format!(
                 "a table of {slices} slices of {h} x {w} holds {} values, not {}",

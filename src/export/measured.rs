@@ -215,19 +215,18 @@ impl MeasuredBrdf {
         }
         let jacobian = jac.data[0] != 0;
         let grid = (sd[4], sd[3]);
+        // One bit per incident angle and node (an overflowing count matches no field).
+        let bits = nt
+            .checked_mul(grid.0)
+            .and_then(|v| v.checked_mul(grid.1))
+            .map_or(u64::MAX, |b| b.div_ceil(8) as u64);
         let valid = match fields.iter().find(|x| x.name == "valid") {
-            Some(v)
-                if v.dtype == Dtype::UInt8
-                    && v.shape == [(nt * grid.0 * grid.1).div_ceil(8) as u64] =>
-            {
-                Some(v.data.clone())
-            }
+            Some(v) if v.dtype == Dtype::UInt8 && v.shape == [bits] => Some(v.data.clone()),
             Some(v) => {
                 return Err(ExportError::from(format!(
-                    "field 'valid' is {} {:?}; the format packs one bit per incident angle and node, {} uint8 for {nt} x {} x {}",
+                    "field 'valid' is {} {:?}; the format packs one bit per incident angle and node, {bits} uint8 for {nt} x {} x {}",
                     v.dtype.name(),
                     v.shape,
-                    (nt * grid.0 * grid.1).div_ceil(8),
                     grid.1,
                     grid.0
                 )));
