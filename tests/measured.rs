@@ -166,8 +166,12 @@ fn a_synthetic_lambertian_material_evaluates_to_its_albedo_over_pi() {
             .zip(&b)
             .all(|(x, y)| (x - y).abs() < 1e-12 * x.abs())
     );
-    // Light from below or to below is no reflection.
+    // Light from below or to below is no reflection; at the horizon itself (cos 90 deg is
+    // 6e-17 in floating point) the file's f cos(theta_o) holds no BRDF: 0, not 1e13 f.
     m.eval(DVec3::new(0.0, 0.0, -1.0), wo, &mut a);
+    assert_eq!(a, [0.0; 3]);
+    let horizon = goniospec::geom::from_spherical(std::f64::consts::FRAC_PI_2, 1.0);
+    m.eval(wi, horizon, &mut a);
     assert_eq!(a, [0.0; 3]);
 }
 

@@ -504,13 +504,21 @@ fn elevation(d: DVec3) -> f64 {
     2.0 * (0.5 * dist).clamp(-1.0, 1.0).asin()
 }
 
+/// `cos(theta_o)` below which a direction counts as the horizon itself, where the file's
+/// `f cos(theta_o)` holds no BRDF (floating point puts `cos(90 deg)` at 6e-17, and the
+/// quotient there would be 1e13 times the value).
+pub const HORIZON_COS: f64 = 1e-9;
+
 impl Brdf for MeasuredBrdf {
-    /// The BRDF (1/sr): the file's `f cos(theta_o)` over `cos(theta_o)`.
+    /// The BRDF (1/sr): the file's `f cos(theta_o)` over `cos(theta_o)`; 0 at and below
+    /// the horizon ([`HORIZON_COS`]), as the readers give no light below it.
     fn eval(&self, wi: DVec3, wo: DVec3, out: &mut [f64]) {
-        self.eval_cos(wi, wo, out);
-        if wo.z > 0.0 {
-            out.iter_mut().for_each(|v| *v /= wo.z);
+        if wo.z < HORIZON_COS {
+            out.fill(0.0);
+            return;
         }
+        self.eval_cos(wi, wo, out);
+        out.iter_mut().for_each(|v| *v /= wo.z);
     }
 
     fn eval_batch(&self, pairs: &[(DVec3, DVec3)], out: &mut [f64]) {
