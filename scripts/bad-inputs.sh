@@ -304,6 +304,33 @@ done
 long=$(printf 'x%.0s' $(seq 1 250))
 printf '[defaults]\ntheta_i = [0]\nrays = 4\n[[material]]\nsample = "%s/v.toml"\nname = "%s"\n' "$PWD" "$long" > bp.toml
 rm -rf bpo; refuse "name" $G batch plan bp.toml -o bpo
+# Measured RGL files and compare (issue 72): damaged files, NaN bounds, outputs at inputs.
+M="$R/data/measured/paper_white_rgb.bsdf"
+head -c 300000 "$M" > trunc.bsdf
+refuse "past the end" $G info trunc.bsdf
+refuse "past the end" $G eval trunc.bsdf --theta-i 30 --theta-o 30
+refuse "past the end" $G compare trunc.bsdf "$M"
+refuse "not a .gsb, .gsa or .bsdf" $G compare v.toml "$M"
+for v in nan inf -1; do refuse "max-delta-e" $G compare "$M" "$M" --max-delta-e $v; done
+cp "$M" in.bsdf; mkdir -p cmpdir; cp "$M" cmpdir/nodes.csv
+refuse "input" $G compare in.bsdf cmpdir/nodes.csv -o cmpdir --force
+refuse "input of the comparison" $G compare in.bsdf "$M" -o in.bsdf
+run $G eval "$M" --theta-i 30 --theta-o 90 --phi-o 180
+run $G eval "$M" --theta-i 90 --theta-o 30 --phi-o 180
+# Issue 74: Stokes vectors judged scale-free, a negative S0 reaching the range check,
+# budgets below their start, batch names read as options, mie's indices.
+for st in 1e200,1e200,1e200,0 1e-170,1e-170,1e-170,1e-170 -1,0,0,0; do
+  refuse "not a polarisation state" $G build good.gsa --incident $st -o st.gsb
+done
+refuse "max-rays: 1 is below --rays 64" $G simulate v.toml --theta-i 0 --rays 64 --max-rays 1 --target-stderr 0.05 -o mr.gsa
+printf '[defaults]\ntheta_i = [0]\nrays = 4\n[[material]]\nsample = "%s/v.toml"\nname = "-rf"\n' "$PWD" > bp.toml
+rm -rf bpo; refuse "must not start with '-'" $G batch plan bp.toml -o bpo
+printf '[defaults]\ntheta_i = [0]\nrays = 4\n[[material]]\nsample = "%s/v.toml"\nname = ".x"\n' "$PWD" > bp.toml
+rm -rf bpo; refuse "must not start with '.'" $G batch plan bp.toml -o bpo
+refuse "between 1e-9 and 100" $G mie --n 1e-100 --x 1
+refuse "between 0 and 1000" $G mie --n 1.5 --k -1 --x 1
+n=$((n+1)); $G mie --n 1.5 --host 1.5 --x 2 > o.txt 2> e.txt
+grep -q "^g: undefined" o.txt || { echo "BAD: an index-matched sphere's g is printed as a number"; cat o.txt; bad=$((bad+1)); }
 # Python: shapes NumPy refuses to broadcast (where the project's venv is built).
 if [ -x "$R/.venv-python/bin/python" ] && "$R/.venv-python/bin/python" -c "import goniospec" 2>/dev/null; then
   n=$((n+1))

@@ -508,7 +508,22 @@ fn a_hostile_folder_name_never_reaches_a_shell_unquoted() {
     ok(&["batch", "merge", hostile.to_str().unwrap()]);
     // The Slurm array script, as a node would run it: task 1 of 1 reruns nothing (every
     // unit is done) and exits 0.
-    ok(&["batch", "slurm", hostile.to_str().unwrap(), "--shards", "1"]);
+    let hint = ok(&["batch", "slurm", hostile.to_str().unwrap(), "--shards", "1"]);
+    // The printed hint pastes into a shell as one word: the script's own path.
+    let line = hint
+        .lines()
+        .find_map(|l| l.strip_prefix("submit with: bash "))
+        .unwrap_or_else(|| panic!("{hint}"));
+    let echoed = std::process::Command::new("bash")
+        .args(["-c", &format!("printf '%s' {line}")])
+        .current_dir(&d)
+        .output()
+        .unwrap();
+    let want = std::fs::canonicalize(&hostile).unwrap().join("submit.sh");
+    assert_eq!(
+        String::from_utf8_lossy(&echoed.stdout),
+        want.to_str().unwrap()
+    );
     let status = std::process::Command::new("bash")
         .arg(hostile.join("units.sbatch"))
         .env("SLURM_ARRAY_TASK_ID", "1")
@@ -678,4 +693,37 @@ fn batch_units_do_not_raise_their_trees() {
         "{w:?}"
     );
     assert!(!w.iter().any(|w| w.contains("raised its trees")), "{w:?}");
+}
+
+/// A material name that would make a hidden file or one read as an option is refused,
+/// saying which (issue 74: '-rf' wrote out/-rf.gsa; the '.' refusal did not say what was
+/// wrong).
+#[test]
+fn names_starting_with_a_dot_or_a_dash_are_refused_by_name() {
+    let d = scratch("batch-names");
+    for (name, word) in [
+        ("-rf", "must not start with '-'"),
+        (".x", "must not start with '.'"),
+    ] {
+        let p = d.join(format!("plan{name}.toml"));
+        std::fs::write(
+            &p,
+            format!(
+                "[defaults]\ntheta_i = [0]\nrays = 4\n[[material]]\nsample = \"{}/meshes/rough-gold.toml\"\nname = \"{name}\"\n",
+                root().display()
+            ),
+        )
+        .unwrap();
+        let out = d.join(format!("lib{name}"));
+        let (code, _, err) = goniospec(&[
+            "batch",
+            "plan",
+            p.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 1, "{name}");
+        assert!(err.contains(word), "{name}: {err}");
+        assert!(!out.exists());
+    }
 }

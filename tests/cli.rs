@@ -1222,3 +1222,69 @@ fn outputs_never_replace_inputs_or_foreign_files() {
     assert_eq!(std::fs::read(d.join("scene.gsa")).unwrap(), notes);
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Issue 74's rules on the newest surfaces: a Stokes vector judged on its direction, not
+/// its scale (the check overflowed at 1e200 and underflowed at 1e-170), a negative S0
+/// reaching that check instead of "unexpected argument"; `mie` refusing the indices
+/// samples refuse, and saying that an index-matched sphere's asymmetry is undefined; an
+/// adaptive budget below its own start refused.
+#[test]
+fn stokes_vectors_mie_indices_and_budgets_are_judged_by_their_meaning() {
+    let d = std::env::temp_dir().join(format!("goniospec-cli-74-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    let gsa = d.join("gold.gsa");
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        "meshes/rough-gold.toml",
+        "--theta-i",
+        "0",
+        "--rays",
+        "16",
+        "--wavelengths",
+        "500:600:100",
+        "-o",
+        gsa.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    for st in [
+        "1e200,1e200,1e200,0",
+        "1e-170,1e-170,1e-170,1e-170",
+        "-1,0,0,0",
+    ] {
+        let (code, _, err) = goniospec(&[
+            "build",
+            gsa.to_str().unwrap(),
+            "--incident",
+            st,
+            "-o",
+            d.join("st.gsb").to_str().unwrap(),
+        ]);
+        assert_eq!(code, 2, "{st}");
+        assert!(err.contains("is not a polarisation state"), "{st}: {err}");
+    }
+    let (code, _, err) = goniospec(&["mie", "--n", "1e-100", "--x", "1"]);
+    assert_eq!(code, 1);
+    assert!(err.contains("--n must be between 1e-9 and 100"), "{err}");
+    let (code, out, err) = goniospec(&["mie", "--n", "1.5", "--host", "1.5", "--x", "2"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("q_sca: 0.0000000000e0"), "{out}");
+    assert!(out.contains("g: undefined"), "{out}");
+    assert!(!out.to_lowercase().contains("nan"), "{out}");
+    let (code, _, err) = goniospec(&[
+        "simulate",
+        "meshes/rough-gold.toml",
+        "--theta-i",
+        "0",
+        "--rays",
+        "64",
+        "--max-rays",
+        "1",
+        "--target-stderr",
+        "0.05",
+        "-o",
+        d.join("mr.gsa").to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("--max-rays: 1 is below --rays 64"), "{err}");
+    assert!(!d.join("mr.gsa").exists());
+}

@@ -170,7 +170,7 @@ pub const MAX_UNITS: usize = 1_000_000;
 pub const MAX_NAME: usize = 200;
 
 /// A material's name names files and folders: letters, digits, '-', '_' or '.', not
-/// starting with '.', at most [`MAX_NAME`] characters.
+/// starting with '.' or '-', at most [`MAX_NAME`] characters.
 fn check_name(name: &str) -> Result<(), BatchError> {
     if name.len() > MAX_NAME {
         return Err(BatchError::from(format!(
@@ -183,10 +183,14 @@ fn check_name(name: &str) -> Result<(), BatchError> {
         || !name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
-        || name.starts_with('.')
     {
         return Err(BatchError::from(format!(
             "name '{name}' must be letters, digits, '-', '_' or '.' (it names files)"
+        )));
+    }
+    if let Some(c) = name.chars().next().filter(|c| ".-".contains(*c)) {
+        return Err(BatchError::from(format!(
+            "name '{name}' must not start with '{c}' (it names files: a leading '.' hides them, a leading '-' makes commands read them as options)"
         )));
     }
     Ok(())

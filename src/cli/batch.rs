@@ -391,7 +391,10 @@ fn slurm(a: BatchSlurmArgs) -> Result<ExitCode> {
             .with_context(|| format!("writing {}", p.display()))?;
         outln!("wrote {}", p.display());
     }
-    outln!("submit with: bash {}", dir.join("submit.sh").display());
+    outln!(
+        "submit with: bash {}",
+        batch::shell_quote(&dir.join("submit.sh").display().to_string())
+    );
     Ok(ExitCode::SUCCESS)
 }
 

@@ -37,7 +37,7 @@ pub(super) struct BuildArgs {
     /// s, p, +45, -45, circular+ (S3 = +1), circular- (S3 = -1), or a Stokes vector
     /// S0,S1,S2,S3 in the incident direction's s/p frame (docs/physics.md,
     /// "Polarisation"). Each bucket's Mueller matrix applied to it; the .gsb records it.
-    #[arg(long, value_parser = goniospec::optics::mueller::stokes_state)]
+    #[arg(long, value_parser = goniospec::optics::mueller::stokes_state, allow_hyphen_values = true)]
     incident: Option<[f64; 4]>,
 }
 

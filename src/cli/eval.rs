@@ -38,7 +38,7 @@ pub(super) struct EvalArgs {
     /// circular-, or S0,S1,S2,S3 in the incident direction's s/p frame); prints instead the
     /// Stokes vector of the light sent out, lambda_nm,S0,S1,S2,S3,dop (1/sr, in the
     /// outgoing direction's frame; S0 the BRDF for that state).
-    #[arg(long, requires = "mueller", value_parser = goniospec::optics::mueller::stokes_state)]
+    #[arg(long, requires = "mueller", value_parser = goniospec::optics::mueller::stokes_state, allow_hyphen_values = true)]
     incident: Option<[f64; 4]>,
 }
 

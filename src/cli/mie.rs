@@ -33,8 +33,20 @@ pub(super) struct MieArgs {
 
 pub(super) fn mie(a: MieArgs) -> Result<ExitCode> {
     use goniospec::optics::{C64, mie::Mie};
-    if a.host <= 0.0 {
-        bail!("--host must be a positive index, got {}", a.host);
+    use goniospec::sample::media::{K_MAX, N_MAX, N_MIN};
+    // The indices a sample accepts (issue 74: --n 1e-100 printed NaN with exit 0).
+    for (flag, v) in [("--n", a.n), ("--host", a.host)] {
+        if !(N_MIN..=N_MAX).contains(&v) {
+            bail!(
+                "{flag} must be between {N_MIN:e} and {N_MAX} (a real material's index, as samples accept), got {v:e}"
+            );
+        }
+    }
+    if !(0.0..=K_MAX).contains(&a.k) {
+        bail!(
+            "--k must be between 0 and {K_MAX} (as samples accept), got {:e}",
+            a.k
+        );
     }
     let x = match (a.x, a.radius_nm, a.wavelength_nm) {
         (Some(x), _, _) => x,
@@ -51,12 +63,31 @@ pub(super) fn mie(a: MieArgs) -> Result<ExitCode> {
     }
     let m = C64::new(a.n, a.k) / a.host;
     let mie = Mie::new(m, x)?;
-    let (q_ext, q_sca, g) = (mie.q_ext(), mie.q_sca(), mie.g());
-    let s: Vec<(C64, C64)> = a.mu.iter().map(|&mu| mie.s1_s2(mu)).collect();
+    // An index-matched sphere (m = 1 exactly) does not scatter: its coefficients are
+    // rounding alone (Q_sca 1e-31), and the asymmetry of no scattering is 0/0 (issue 74:
+    // g printed 0.845 there).
+    let matched = m == C64::new(1.0, 0.0);
+    let (q_ext, q_sca) = if matched {
+        (0.0, 0.0)
+    } else {
+        (mie.q_ext(), mie.q_sca())
+    };
+    let g = (!matched).then(|| mie.g());
+    let s: Vec<(C64, C64)> =
+        a.mu.iter()
+            .map(|&mu| {
+                if matched {
+                    (C64::new(0.0, 0.0), C64::new(0.0, 0.0))
+                } else {
+                    mie.s1_s2(mu)
+                }
+            })
+            .collect();
     if a.json {
         let v = serde_json::json!({
             "x": x, "m_re": m.re, "m_im": m.im, "orders": mie.a.len(),
             "q_ext": q_ext, "q_sca": q_sca, "q_abs": q_ext - q_sca, "g": g,
+            "g_undefined_because": (matched).then_some("the sphere's index matches the host's: it does not scatter"),
             "mu": a.mu,
             "s1_re": s.iter().map(|p| p.0.re).collect::<Vec<_>>(),
             "s1_im": s.iter().map(|p| p.0.im).collect::<Vec<_>>(),
@@ -72,8 +103,16 @@ pub(super) fn mie(a: MieArgs) -> Result<ExitCode> {
     outln!("q_ext: {q_ext:.10e}");
     outln!("q_sca: {q_sca:.10e}");
     outln!("q_abs: {:.10e}", q_ext - q_sca);
-    outln!("single_scattering_albedo: {:.10}", q_sca / q_ext);
-    outln!("g: {g:.10}");
+    match g {
+        Some(g) => {
+            outln!("single_scattering_albedo: {:.10}", q_sca / q_ext);
+            outln!("g: {g:.10}");
+        }
+        None => {
+            outln!("single_scattering_albedo: undefined (nothing is extinguished)");
+            outln!("g: undefined (the sphere's index matches the host's: it does not scatter)");
+        }
+    }
     if !s.is_empty() {
         outln!("mu,S1_re,S1_im,S2_re,S2_im");
         for (mu, (s1, s2)) in a.mu.iter().zip(&s) {

@@ -16,7 +16,7 @@ pub(super) struct ReflectanceArgs {
     /// -45, circular+ (S3 = +1), circular- (S3 = -1), or a Stokes vector S0,S1,S2,S3 in the
     /// incident direction's s/p frame (docs/physics.md, "Polarisation"). Prints
     /// lambda_nm,R,T for that state: each bucket's Mueller matrix applied to it.
-    #[arg(long, value_parser = goniospec::optics::mueller::stokes_state)]
+    #[arg(long, value_parser = goniospec::optics::mueller::stokes_state, allow_hyphen_values = true)]
     incident: Option<[f64; 4]>,
 }
 

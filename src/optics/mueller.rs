@@ -222,14 +222,16 @@ pub fn stokes_state(s: &str) -> Result<[f64; 4], BadState> {
                 .map(|x| x.trim().parse::<f64>())
                 .collect::<Result<_, _>>()
                 .map_err(|_| BadState(s.into()))?;
-            let ok = x.len() == 4
-                && x.iter().all(|v| v.is_finite())
-                && x[0] > 0.0
-                && x[1] * x[1] + x[2] * x[2] + x[3] * x[3] <= x[0] * x[0] * (1.0 + 1e-12);
-            if !ok {
+            // Normalised before the degree of polarisation is checked, so that the check
+            // neither overflows (1e200) nor underflows (1e-170): it is scale-free.
+            if !(x.len() == 4 && x.iter().all(|v| v.is_finite()) && x[0] > 0.0) {
                 return Err(BadState(s.into()));
             }
-            [1.0, x[1] / x[0], x[2] / x[0], x[3] / x[0]]
+            let v = [1.0, x[1] / x[0], x[2] / x[0], x[3] / x[0]];
+            if v[1] * v[1] + v[2] * v[2] + v[3] * v[3] > 1.0 + 1e-12 {
+                return Err(BadState(s.into()));
+            }
+            v
         }
     };
     Ok(v)
@@ -251,6 +253,30 @@ pub fn add_cross(acc: &mut Mueller, z: &[C64; 16], sin: f64, cos: f64, w: f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The degree of polarisation is checked on the normalised vector: a vector of any
+    /// scale is judged as its direction (issue 74: 1e200 and 1e-170 entries, degrees of
+    /// polarisation sqrt 2 and sqrt 3, passed because the squares overflowed or vanished).
+    #[test]
+    fn stokes_vectors_are_checked_whatever_their_scale() {
+        for bad in [
+            "1e200,1e200,1e200,0",
+            "1e-170,1e-170,1e-170,1e-170",
+            "-1,0,0,0",
+            "0,0,0,0",
+            "1,0.8,0.8,0",
+        ] {
+            assert!(stokes_state(bad).is_err(), "{bad}");
+        }
+        assert_eq!(
+            stokes_state("1e200,1e200,0,0").unwrap(),
+            [1.0, 1.0, 0.0, 0.0]
+        );
+        assert_eq!(
+            stokes_state("2e-170,0,-1e-170,0").unwrap(),
+            [1.0, 0.0, -0.5, 0.0]
+        );
+    }
 
     /// The 2 x 2 product, row-major.
     fn mul(a: &[C64; 4], b: &[C64; 4]) -> [C64; 4] {

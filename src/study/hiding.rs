@@ -139,6 +139,16 @@ where
     let (mut lo, mut hi) = ((t0, c0), (t0, c0));
     let mut t = t0;
     for step in 0..=MAX_BRACKET_STEPS {
+        // The last thickness evaluated may be the one that crosses (issue 74: a paint
+        // reaching 0.9984 at the last doubling was refused as not crossing 0.98).
+        let crossed = if c0 < target {
+            hi.1 >= target
+        } else {
+            lo.1 < target
+        };
+        if crossed {
+            break;
+        }
         if step == MAX_BRACKET_STEPS {
             return Err(StudyError::Invalid(format!(
                 "the contrast ratio does not cross {target} between {} and {} um (it reached {:.4}); the film hides outside that range or not at all",
@@ -148,16 +158,10 @@ where
             )));
         }
         if c0 < target {
-            if hi.1 >= target {
-                break;
-            }
             lo = hi;
             t *= 2.0;
             hi = (t, at(t, &mut points)?);
         } else {
-            if lo.1 < target {
-                break;
-            }
             hi = lo;
             t *= 0.5;
             lo = (t, at(t, &mut points)?);
@@ -482,6 +486,26 @@ mod tests {
             assert_eq!(se, 0.0);
             assert!(points.len() <= 1 + MAX_BRACKET_STEPS + REFINE_STEPS);
         }
+    }
+
+    /// A crossing inside the last bracket the doubling reaches is found (issue 74: the
+    /// search stopped one step early, so a paint that reaches 0.98 only at the last
+    /// doubling was refused as never hiding): `C = 1 - 0.6 exp(-t / 50)` crosses 0.98 at
+    /// 170 um, between 128 and 256 um, the last doubling of 1 um.
+    #[test]
+    fn search_finds_a_crossing_in_its_last_bracket() {
+        let eval = |t: f64| {
+            let c: f64 = 1.0 - 0.6 * (-t / 50.0).exp();
+            Ok(ChartPoint {
+                thickness_um: t,
+                y_black: (0.9 * c, 0.0),
+                y_white: (0.9, 0.0),
+            })
+        };
+        assert_eq!(2f64.powi(MAX_BRACKET_STEPS as i32), 256.0);
+        let ((t, _), _) = search(1.0, 0.98, eval).unwrap();
+        let exact = 50.0 * (0.6f64 / 0.02).ln();
+        assert!((t - exact).abs() < 1e-9 * exact, "{t} vs {exact}");
     }
 
     /// A film that never hides in range is an error naming the range, not a number.
