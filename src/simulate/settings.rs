@@ -133,9 +133,9 @@ pub struct SimSettings {
     #[arg(long)]
     pub no_next_event: bool,
     /// Keep the full 4 x 4 Mueller matrix of every bucket as well as its unpolarised
-    /// value (its m00, the same bits outside particle media): the polarimetric BRDF, from the fields the tracer
-    /// carries for incident s and p light, in each direction's own s/p frame
-    /// (docs/physics.md, "Polarisation"). Read it with `goniospec eval --mueller`, the
+    /// value (its m00, the same bits outside particle media): the polarimetric BRDF, from
+    /// the fields the tracer carries for incident s and p light, in each direction's own
+    /// s/p frame (docs/physics.md, "Polarisation"). Read it with `goniospec eval --mueller`, the
     /// npz or pbsdf export or Python. The rays and the diffraction method carry it; the
     /// comparison modes (bucket, global) do not. In particle media it costs: each
     /// scattering event then reaches one direction instead of every bucket, and the white
