@@ -64,15 +64,19 @@ impl Material {
     pub fn read(path: &Path) -> Result<Material, CompareError> {
         let named =
             |e: &dyn std::fmt::Display| CompareError::from(format!("{}: {e}", path.display()));
-        let bytes = crate::io::read_input(path, crate::export::measured::MAX_FILE_BYTES)
-            .map_err(|e| named(&e))?;
-        if crate::export::tensor::is_tensor_file(&bytes) {
-            let fields = crate::export::tensor::from_bytes(&bytes).map_err(|e| named(&e))?;
-            let m = MeasuredBrdf::from_fields(&fields).map_err(|e| named(&e))?;
+        // The magic bytes decide the reader; each reads the file once.
+        let mut head = [0u8; 12];
+        {
+            use std::io::Read;
+            std::fs::File::open(path)
+                .and_then(|mut f| f.read(&mut head))
+                .map_err(|e| named(&e))?;
+        }
+        if crate::export::tensor::is_tensor_file(&head) {
+            let m = MeasuredBrdf::read(path).map_err(|e| CompareError::from(e.to_string()))?;
             return Ok(Material::Tabulated(Box::new(m)));
         }
-        let gsa = bytes.get(..8) == Some(&crate::accumulate::file::MAGIC[..]);
-        drop(bytes);
+        let gsa = head[..8] == crate::accumulate::file::MAGIC[..];
         let brdf = if gsa {
             let acc = crate::accumulate::file::Accumulator::read(path).map_err(|e| named(&e))?;
             let data = crate::brdf::BucketData::from_accumulator(&acc);
