@@ -146,6 +146,29 @@ pub fn hemisphere_colours(
         .collect()
 }
 
+/// The legend of a chart's labelled series, in its upper left corner (the lobe plots' and
+/// `compare`'s picture's).
+pub fn draw_legend<'a, DB: plotters::prelude::DrawingBackend + 'a>(
+    chart: &mut plotters::prelude::ChartContext<
+        'a,
+        DB,
+        plotters::prelude::Cartesian2d<
+            plotters::coord::types::RangedCoordf64,
+            plotters::coord::types::RangedCoordf64,
+        >,
+    >,
+) -> Result<(), PlotError> {
+    use plotters::prelude::*;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 12))
+        .draw()
+        .map_err(|e| PlotError::Draw(e.to_string()))
+}
+
 /// An approximate display colour of a wavelength (Bruton, "Approximate RGB values for
 /// visible wavelengths", 1996), for telling curves apart.
 pub fn wavelength_colour(l: f64) -> (u8, u8, u8) {
@@ -337,14 +360,7 @@ impl LobePlot {
                     )
                 });
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 12))
-            .draw()
-            .map_err(|e| err(&e))?;
+        draw_legend(&mut chart)?;
         // Hemisphere colour map.
         let mut lum: Vec<f64> = self
             .map

@@ -282,15 +282,7 @@ impl Picture {
                     )
                 });
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 12))
-            .draw()
-            .map_err(|e| err(&e))?;
-        Ok(())
+        crate::plot::draw_legend(&mut chart)
     }
 }
 
