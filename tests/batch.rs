@@ -629,6 +629,10 @@ fn one_bad_material_is_marked_and_the_library_is_written() {
     assert!(err.contains("warning: unit 2 (film)"), "{err}");
     assert!(b.join("units/mirror/0000.refused").is_file());
     assert!(b.join("units/film/0000.warnings").is_file());
+    // The text files are copies: the commands read each unit's warnings from its
+    // checksummed accumulator, so a deleted copy hides nothing and a forged one adds nothing.
+    std::fs::remove_file(b.join("units/film/0000.warnings")).unwrap();
+    std::fs::write(b.join("units/gold/0001.warnings"), "FORGED\n").unwrap();
     let (code, out, _) = goniospec(&["batch", "status", bs]);
     assert_eq!(code, 1);
     assert!(
@@ -652,6 +656,10 @@ fn one_bad_material_is_marked_and_the_library_is_written() {
     assert!(b.join("out/mirror.failed").is_file() && !b.join("out/mirror.gsa").exists());
     let warnings = std::fs::read_to_string(b.join("out/film.warnings")).unwrap();
     assert!(warnings.starts_with("theta_i 0 deg: "), "{warnings}");
+    assert!(
+        !err.contains("FORGED") && !b.join("out/gold.warnings").exists(),
+        "{err}"
+    );
     let (code, out, err) = goniospec(&["batch", "report", bs, "--no-fit"]);
     assert_eq!(code, 1, "{out}{err}");
     assert!(out.contains("3 materials, 1 left out"), "{out}");

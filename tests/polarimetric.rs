@@ -728,6 +728,76 @@ fn polarised_light_in_reflects_as_fresnel_says() {
     assert!(err.contains("not a polarisation state"), "{err}");
 }
 
+/// A file is judged by its physics, not only its checksum: flat glass's transmitted
+/// matrix scaled tenfold and resealed (realisable, and its unpolarised sums untouched) gives
+/// p light T = 10 x 0.91: every command that uses the results refuses it, naming the state
+/// and T; a matrix made unrealisable (m01 = -3 m00) is refused as such; the run's own
+/// file passes; and a file whose run stored that it was written with --allow-unphysical
+/// is read with that warning.
+#[test]
+fn files_whose_matrices_were_changed_and_resealed_are_refused() {
+    use goniospec::simulate::{WRITTEN_UNPHYSICAL, check_file, read_judged};
+    let glass = flat_substrate("mueller-forged", 1.5, 0.0);
+    let cfg = mueller_config(&[60.0], Wavelengths::Monochromatic(vec![550.0]), 8);
+    let honest = run(&glass, &cfg);
+    assert!(check_file(&honest, "honest").is_ok());
+    let dir = scratch("mueller-forged");
+    let forge = |name: &str, change: &dyn Fn(&mut [f64; 16]), warnings: Vec<String>| {
+        let mut acc = honest.clone();
+        let c = &mut acc.cells[0];
+        // The transmitted beam's bucket: the odd key holding the most power.
+        let kk = (1..c.sum.len())
+            .step_by(2)
+            .max_by(|&a, &b| c.sum[a].total_cmp(&c.sum[b]))
+            .unwrap();
+        change(&mut c.mueller[kk]);
+        acc.header.warnings = warnings;
+        let path = dir.join(name);
+        acc.write(&path).unwrap();
+        path
+    };
+    let tenfold = forge(
+        "tenfold.gsa",
+        &|m| m.iter_mut().for_each(|x| *x *= 10.0),
+        vec![],
+    );
+    let t = tenfold.to_str().unwrap();
+    let out = dir.join("out");
+    let o = out.to_str().unwrap();
+    for args in [
+        vec!["reflectance", t, "--theta-i", "60", "--incident", "p"],
+        vec!["reflectance", t, "--theta-i", "60"],
+        vec!["eval", t, "--mueller", "--theta-i", "60", "--theta-o", "60"],
+        vec!["build", t, "-o", o],
+        vec!["export", t, "--format", "pbsdf", "-o", o],
+    ] {
+        let (code, _, err) = goniospec(&args);
+        assert_ne!(code, 0, "{args:?} accepted a forged file");
+        assert!(
+            err.contains("light in p (S1 = +1): T = 9.") && err.contains("changed and resealed"),
+            "{args:?}: {err}"
+        );
+    }
+    assert!(!out.exists());
+    // `info` describes the file, impossible or not.
+    let (code, text, err) = goniospec(&["info", t]);
+    assert_eq!(code, 0, "{err}");
+    assert!(text.contains("physics: IMPOSSIBLE"), "{text}");
+    let skewed = forge("skewed.gsa", &|m| m[1] = -3.0 * m[0], vec![]);
+    let err = read_judged(&skewed).unwrap_err().to_string();
+    assert!(err.contains("not physically realisable"), "{err}");
+    let kept = forge(
+        "kept.gsa",
+        &|m| m.iter_mut().for_each(|x| *x *= 10.0),
+        vec![format!("{WRITTEN_UNPHYSICAL}T > 1")],
+    );
+    let (_, warning) = read_judged(&kept).unwrap();
+    assert!(
+        warning.is_some_and(|w| w.contains("read anyway") && w.contains("T = 9.")),
+        "a file its run kept with --allow-unphysical is read with a warning"
+    );
+}
+
 /// `export --format pbsdf`: Mitsuba's measured_polarized layout (the plugin's own checks:
 /// 2-D float32 axes, five uint16 wavelengths, M of [phi_d, theta_d, theta_h, 5, 4, 4]),
 /// NaN below the horizon only; refused without matrices. Mitsuba itself reads it in

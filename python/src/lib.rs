@@ -658,17 +658,24 @@ fn load(py: Python<'_>, path: PathBuf) -> PyResult<PyObject> {
         let inner = goniospec::export::measured::MeasuredBrdf::read(&path).map_err(value_err)?;
         return Ok(Measured { inner }.into_pyobject(py)?.into_any().unbind());
     }
-    goniospec::accumulate::file::Accumulator::read(&path)
-        .map_err(value_err)
-        .and_then(|inner| {
-            Ok(Accumulator {
-                inner,
-                inputs: vec![path.clone()],
-            }
-            .into_pyobject(py)?
-            .into_any()
-            .unbind())
-        })
+    // Held to the physics its run was held to (`simulate::check_file`).
+    let (inner, warning) = goniospec::simulate::read_judged(&path).map_err(value_err)?;
+    if let Some(w) = warning {
+        let text = std::ffi::CString::new(w).unwrap_or_default();
+        PyErr::warn(
+            py,
+            &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+            &text,
+            1,
+        )?;
+    }
+    Ok(Accumulator {
+        inner,
+        inputs: vec![path.clone()],
+    }
+    .into_pyobject(py)?
+    .into_any()
+    .unbind())
 }
 
 /// Loads a `.gsb` BRDF.

@@ -137,8 +137,9 @@ pub struct Unit {
 }
 
 impl Unit {
-    /// Where `batch run` keeps the unit's warnings (one a line; absent where it had
-    /// none), relative to the batch folder.
+    /// Where `batch run` keeps a copy of the unit's warnings for reading (one a line;
+    /// absent where it had none), relative to the batch folder. The commands read them from
+    /// the unit's accumulator ([`Manifest::unit_warnings`]).
     pub fn log_path(&self) -> PathBuf {
         self.output.with_extension("warnings")
     }
@@ -500,12 +501,7 @@ impl Manifest {
                 _ => Ok(()),
             }
         };
-        let mut warnings: Vec<String> =
-            crate::sample::validity::findings(sample, &crate::simulate::validity_context(&cfg))
-                .into_iter()
-                .map(|f| f.message)
-                .collect();
-        let (acc, stats) = match crate::simulate::simulate(sample, &cfg, &|_| {}) {
+        let (acc, _) = match crate::simulate::simulate(sample, &cfg, &|_| {}) {
             Ok(r) => r,
             Err(source) => {
                 write(u.failure_path(), format!("{source}\n"))?;
@@ -517,7 +513,11 @@ impl Manifest {
                 });
             }
         };
-        warnings.extend(crate::simulate::run_warnings(sample, &acc, &stats));
+        // The warnings are the ones the run stored in its checksummed accumulator (the
+        // validity findings and the run's own: `simulate::stored_warnings`), which
+        // `status`, `merge` and `report` read from it ([`Manifest::unit_warnings`]); the
+        // text file beside it is a copy for reading, which no command trusts.
+        let warnings = acc.header.warnings.clone();
         if warnings.is_empty() {
             remove(u.log_path())?;
         } else {
@@ -529,10 +529,12 @@ impl Manifest {
         Ok(warnings)
     }
 
-    /// A unit's kept warnings (none where it had none or did not run).
+    /// A unit's warnings, from its verified accumulator ([`Manifest::read_unit`]: the
+    /// checksummed `.gsa` of this plan's unit), not from the text copy beside it, which a
+    /// hand can change or delete (none where the unit had none or is not done).
     pub fn unit_warnings(&self, dir: &Path, u: &Unit) -> Vec<String> {
-        std::fs::read_to_string(dir.join(u.log_path()))
-            .map(|t| t.lines().map(str::to_string).collect())
+        self.read_unit(dir, u)
+            .map(|acc| acc.header.warnings)
             .unwrap_or_default()
     }
 

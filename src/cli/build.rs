@@ -1,8 +1,6 @@
 //! `goniospec build`: turn an accumulator into a BRDF representation.
 
-use super::{
-    Accumulator, Args, Context, ExitCode, OutputKind, PathBuf, Result, guard_output, positive,
-};
+use super::{Args, Context, ExitCode, OutputKind, PathBuf, Result, guard_output, positive};
 
 pub(super) fn parse_repr(s: &str) -> Result<goniospec::brdf::Kind, goniospec::brdf::BrdfError> {
     goniospec::brdf::Kind::parse(s)
@@ -44,7 +42,7 @@ pub(super) struct BuildArgs {
 pub(super) fn build(a: BuildArgs) -> Result<ExitCode> {
     use goniospec::brdf::{self, BucketData, Representation};
     guard_output(&a.output, &[a.input.as_path()], OutputKind::Gsb, a.force)?;
-    let acc = Accumulator::read(&a.input)?;
+    let acc = super::read_accumulator(&a.input)?;
     let data = match &a.incident {
         Some(st) => BucketData::from_accumulator_polarised(&acc, st)
             .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?,

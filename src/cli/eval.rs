@@ -143,7 +143,7 @@ pub(super) fn eval(a: EvalArgs) -> Result<ExitCode> {
 
 /// `eval --mueller`: a `.gsa`'s Mueller-matrix BRDF at one pair of directions.
 fn eval_mueller(a: &EvalArgs) -> Result<ExitCode> {
-    let acc = goniospec::accumulate::file::Accumulator::read(&a.file)?;
+    let acc = super::read_accumulator(&a.file)?;
     let (ti, to) = (
         a.theta_i.expect("clap requires it"),
         a.theta_o.expect("clap requires it"),

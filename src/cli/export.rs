@@ -111,7 +111,7 @@ fn export_pbsdf(a: ExportArgs) -> Result<ExitCode> {
             "--format pbsdf takes the accumulator (.gsa) of a run simulated with --mueller: a built .gsb holds no Mueller matrices"
         );
     }
-    let acc = goniospec::accumulate::file::Accumulator::read(&a.input)?;
+    let acc = super::read_accumulator(&a.input)?;
     let grid = pbsdf::PbsdfGrid::default();
     let fields = pbsdf::pbsdf_fields(&acc, grid)
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?;
@@ -153,7 +153,7 @@ fn export_npz(a: ExportArgs) -> Result<ExitCode> {
                 "a .gsa exports its buckets as simulated: --theta-o-bins, --phi-o-bins and --theta-i resample a built BRDF (.gsb)"
             );
         }
-        let acc = goniospec::accumulate::file::Accumulator::read(&a.input)?;
+        let acc = super::read_accumulator(&a.input)?;
         let bytes = npz::mueller_npz_bytes(&acc)
             .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?;
         goniospec::io::write_atomic(&a.output, |w| w.write_all(&bytes))

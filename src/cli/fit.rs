@@ -1,8 +1,6 @@
 //! `goniospec fit`: fit a real-time material and write glTF / OpenPBR / Standard Surface.
 
-use super::{
-    Accumulator, Args, Context, ExitCode, OutputKind, PathBuf, Result, bail, guard_output,
-};
+use super::{Args, Context, ExitCode, OutputKind, PathBuf, Result, bail, guard_output};
 
 #[derive(Args)]
 pub(super) struct FitArgs {
@@ -62,7 +60,7 @@ pub(super) fn fit(a: FitArgs) -> Result<ExitCode> {
             a.output.display()
         );
     }
-    let acc = Accumulator::read(&a.file)?;
+    let acc = super::read_accumulator(&a.file)?;
     let with_ext = |ext: &str| {
         let mut p = a.output.clone().into_os_string();
         p.push(ext);

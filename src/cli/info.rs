@@ -75,6 +75,14 @@ pub(super) fn info(a: InfoArgs) -> Result<ExitCode> {
                 r.worst_sigmas
             );
         }
+        // `info` describes what a file holds, impossible or not; the commands that use
+        // its results refuse it.
+        match goniospec::simulate::check_file(&acc, &a.file.display().to_string()) {
+            Ok(()) => {
+                outln!("physics: every cell passes the checks its run applied before writing")
+            }
+            Err(e) => outln!("physics: IMPOSSIBLE: {e}"),
+        }
     } else if head[..8] == brdf::file::MAGIC[..] {
         let r = brdf::file::read(&a.file)?;
         outln!(

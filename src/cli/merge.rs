@@ -1,6 +1,6 @@
 //! `goniospec merge`: add runs of different seeds.
 
-use super::{Accumulator, Args, Context, ExitCode, OutputKind, PathBuf, Result, guard_output};
+use super::{Args, Context, ExitCode, OutputKind, PathBuf, Result, guard_output};
 
 #[derive(Args)]
 pub(super) struct MergeArgs {
@@ -18,9 +18,9 @@ pub(super) struct MergeArgs {
 pub(super) fn merge(a: MergeArgs) -> Result<ExitCode> {
     let inputs: Vec<&std::path::Path> = a.inputs.iter().map(|p| p.as_path()).collect();
     guard_output(&a.output, &inputs, OutputKind::Gsa, a.force)?;
-    let mut acc = Accumulator::read(&a.inputs[0])?;
+    let mut acc = super::read_accumulator(&a.inputs[0])?;
     for p in &a.inputs[1..] {
-        let other = Accumulator::read(p)?;
+        let other = super::read_accumulator(p)?;
         acc.merge(&other)
             .with_context(|| format!("merging {}", p.display()))?;
     }

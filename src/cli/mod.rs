@@ -188,6 +188,17 @@ impl WavelengthArgs {
 // front end refuses the same values with the same words.
 use goniospec::simulate::{backend as parse_backend, finite, radius as parse_radius};
 
+/// Reads a `.gsa` for a command that uses its results: held to the physics its run was
+/// held to before writing (`simulate::check_file`), so a file changed and resealed is
+/// refused with the reason; one written with --allow-unphysical is read with a warning.
+fn read_accumulator(path: &std::path::Path) -> Result<Accumulator> {
+    let (acc, warning) = goniospec::simulate::read_judged(path)?;
+    if let Some(w) = warning {
+        eprintln!("warning: {w}");
+    }
+    Ok(acc)
+}
+
 /// A finite, strictly positive number (for tolerances and scales).
 fn positive(s: &str) -> Result<f64, String> {
     let v = finite(s).map_err(|e| e.to_string())?;
@@ -436,6 +447,12 @@ impl Material {
         Ok(Material(
             if goniospec::export::tensor::is_tensor_file(&head) {
                 Box::new(goniospec::export::measured::MeasuredBrdf::read(path)?)
+            } else if head[..8] == goniospec::accumulate::file::MAGIC[..] {
+                bail!(
+                    "{}: an accumulator (.gsa), whose buckets are not yet a BRDF: make one with `goniospec build {} -o FILE.gsb` (eval --mueller reads a .gsa's Mueller matrices directly)",
+                    path.display(),
+                    path.display()
+                )
             } else {
                 Box::new(goniospec::brdf::file::read(path)?)
             },

@@ -1,6 +1,6 @@
 //! `goniospec reflectance`: the directional reflectance of an accumulator as CSV.
 
-use super::{Accumulator, Args, Coherence, ExitCode, PathBuf, Result, finite};
+use super::{Args, Coherence, ExitCode, PathBuf, Result, finite};
 
 #[derive(Args)]
 pub(super) struct ReflectanceArgs {
@@ -21,7 +21,7 @@ pub(super) struct ReflectanceArgs {
 }
 
 pub(super) fn reflectance(a: ReflectanceArgs) -> Result<ExitCode> {
-    let acc = Accumulator::read(&a.file)?;
+    let acc = super::read_accumulator(&a.file)?;
     if let Some(state) = &a.incident {
         let rows = acc
             .polarised_reflectance(a.theta_i, a.phi_i, state)

@@ -78,7 +78,11 @@ impl Material {
         }
         let gsa = head[..8] == crate::accumulate::file::MAGIC[..];
         let brdf = if gsa {
-            let acc = crate::accumulate::file::Accumulator::read(path).map_err(|e| named(&e))?;
+            // Held to the physics its run was (`simulate::check_file`).
+            let (acc, warning) = crate::simulate::read_judged(path).map_err(|e| named(&e))?;
+            if let Some(w) = warning {
+                eprintln!("warning: {w}");
+            }
             let data = crate::brdf::BucketData::from_accumulator(&acc);
             Representation::build(
                 crate::brdf::Kind::Table,

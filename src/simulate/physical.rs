@@ -61,6 +61,12 @@ pub const LIMITED_FILM_FACTOR: f64 = 3.0;
 /// is refused: a tenth of the light came out of a model that does not hold.
 pub const CREATED_REFUSED: f64 = 0.1;
 
+/// How the warning that a file holds a result its run refused, written with
+/// `--allow-unphysical`, begins (`simulate` stores it; [`check_file`]'s callers read such a
+/// file with a warning instead of refusing it).
+pub const WRITTEN_UNPHYSICAL: &str =
+    "written with --allow-unphysical (for debugging), though impossible: ";
+
 /// Optical depth of a scattering sample above which a series cut by the limits is put down
 /// to diffusion: light that crosses `tau` mean free paths scatters about `tau^2` times,
 /// past the default `--max-depth` from a few tens of mean free paths.
@@ -86,20 +92,153 @@ pub fn check_physical(
     sample_name: &str,
     stats: Option<&SimStats>,
 ) -> Result<(), SimError> {
+    judge_cells(acc, sample_name, stats, Judged::Run)?;
+    check_realisable(acc, sample_name, Judged::Run)
+}
+
+/// The allowance of energy balances for partial coherence: [`BEAMLET_ENERGY_SLACK`] where
+/// the beamlet estimator's finite radius made the totals (the diffraction method's totals
+/// are the beamlet estimator's on the same trees), else none.
+fn energy_slack(acc: &Accumulator) -> f64 {
     let s = &acc.header.settings;
-    let mode = s.coherence_mode();
-    let buckets = s.buckets();
-    let nl = s.wavelength_count();
-    // The diffraction method's totals are the beamlet estimator's on the same trees.
-    let slack = if matches!(
-        mode,
+    if matches!(
+        s.coherence_mode(),
         Coherence::Auto | Coherence::Beamlet | Coherence::Diffraction
     ) && s.coherence_radius_nm.is_finite()
     {
         BEAMLET_ENERGY_SLACK
     } else {
         0.0
-    };
+    }
+}
+
+/// Holds an accumulator read from a file to the checks its run applied before writing
+/// (docs/design.md §4, "never clamp silently"): a file's checksum proves it was not
+/// damaged, not that its numbers are physics. Refuses, naming the cell, what
+/// [`check_physical`] refuses (without the run's statistics, which a file does not keep),
+/// and in a `--mueller` file the totals for light in each fully polarised state (S1, S2,
+/// S3 = +-1): each of R and T outside [0, 1], or `R + T` above 1, beyond the same
+/// allowances ([`judge_polarised`]). `name` names the file in the message.
+pub fn check_file(acc: &Accumulator, name: &str) -> Result<(), SimError> {
+    judge_cells(acc, name, None, Judged::File)?;
+    check_realisable(acc, name, Judged::File)?;
+    judge_polarised(acc, name)
+}
+
+/// The polarised totals of [`check_file`]. For a fully polarised state `s` the reflected
+/// power is the sum over buckets of `m0k s_k` (the first row of each Mueller matrix applied
+/// to `s`: Chipman, Lam & Young 2018, *Polarized Light and Optical Systems*, §6.3), and
+/// energy holds for each state alone. The allowance is rounding, [`NOISE_SIGMAS`] times the
+/// sum over buckets of `sum_k |s_k| se(m0k)` (a bound on the total's standard error, which
+/// needs no covariances), the coherent bound of the dropped power for a polarised state
+/// (up to twice the unpolarised dropped power `D`, as unpolarised light is the mean of two
+/// orthogonal states: `2 sqrt(2D (R + T)) + 2D`), and for `R + T` the partial-coherence
+/// slack ([`energy_slack`]).
+fn judge_polarised(acc: &Accumulator, name: &str) -> Result<(), SimError> {
+    const STATES: [(&str, [f64; 4]); 6] = [
+        ("p (S1 = +1)", [1.0, 1.0, 0.0, 0.0]),
+        ("s (S1 = -1)", [1.0, -1.0, 0.0, 0.0]),
+        ("+45 (S2 = +1)", [1.0, 0.0, 1.0, 0.0]),
+        ("-45 (S2 = -1)", [1.0, 0.0, -1.0, 0.0]),
+        ("circular+ (S3 = +1)", [1.0, 0.0, 0.0, 1.0]),
+        ("circular- (S3 = -1)", [1.0, 0.0, 0.0, -1.0]),
+    ];
+    let s = &acc.header.settings;
+    if !s.mueller {
+        return Ok(());
+    }
+    let nl = s.wavelength_count();
+    let slack = energy_slack(acc);
+    for (i, theta) in s.theta_i_deg.iter().enumerate() {
+        for j in 0..nl {
+            let c = acc.cell(i, j);
+            if c.trees == 0 {
+                continue;
+            }
+            let d2 = 2.0 * c.dropped / c.trees as f64;
+            for (label, state) in &STATES {
+                // [R, T] and their standard-error bounds.
+                let (mut p, mut se) = ([0.0f64; 2], [0.0f64; 2]);
+                for kk in 0..c.mueller.len() {
+                    let Some(m) = c.mueller(kk) else { continue };
+                    p[kk % 2] += (0..4).map(|b| m[b] * state[b]).sum::<f64>();
+                    se[kk % 2] += c
+                        .mueller_stderr(kk)
+                        .map_or(0.0, |e| (0..4).map(|b| e[b] * state[b].abs()).sum());
+                }
+                let [r, t] = p;
+                let tol = ROUNDING
+                    + NOISE_SIGMAS * (se[0] + se[1])
+                    + 2.0 * (d2 * (r + t).abs()).sqrt()
+                    + d2;
+                let what = if !(r.is_finite() && t.is_finite()) {
+                    Some(format!("a non-finite total (R {r}, T {t})"))
+                } else if !(-tol..=1.0 + tol).contains(&r) {
+                    Some(format!("R = {r:.6}, outside [0, 1]"))
+                } else if !(-tol..=1.0 + tol).contains(&t) {
+                    Some(format!("T = {t:.6}, outside [0, 1]"))
+                } else if r + t > 1.0 + tol + slack {
+                    Some(format!("R + T = {:.6} > 1, energy created", r + t))
+                } else {
+                    None
+                };
+                if let Some(what) = what {
+                    return Err(SimError::Unphysical(format!(
+                        "{name}, theta_i {theta} deg, phi_i {} deg, lambda {} nm, light in {label}: \
+                         {what} (its Mueller matrices' first rows summed over the buckets; \
+                         tolerance {tol:.1e}: rounding, {NOISE_SIGMAS} standard errors and the \
+                         dropped power's coherent bound). {}",
+                        s.phi_i_deg,
+                        s.wavelength(j),
+                        Judged::File.verdict()
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Whose result is judged: a run's, before it is written (a refusal says so and offers
+/// `--allow-unphysical`), or a file's, after it is read (a refusal says the file holds it).
+#[derive(Clone, Copy, PartialEq)]
+enum Judged {
+    Run,
+    File,
+}
+
+impl Judged {
+    /// Who the message is about: the sample of a run, the file read.
+    fn whose(self, name: &str) -> String {
+        match self {
+            Judged::Run => format!("sample '{name}'"),
+            Judged::File => name.to_string(),
+        }
+    }
+
+    /// What a refusal says after what failed.
+    fn verdict(self) -> &'static str {
+        match self {
+            Judged::Run => "The result is impossible and was not written.",
+            Judged::File => {
+                "No run writes such a result without --allow-unphysical: the file was made so or changed and resealed, and is refused."
+            }
+        }
+    }
+}
+
+/// The cells' totals judged as [`check_physical`] states.
+fn judge_cells(
+    acc: &Accumulator,
+    sample_name: &str,
+    stats: Option<&SimStats>,
+    judged: Judged,
+) -> Result<(), SimError> {
+    let s = &acc.header.settings;
+    let mode = s.coherence_mode();
+    let buckets = s.buckets();
+    let nl = s.wavelength_count();
+    let slack = energy_slack(acc);
     let partial = |slack: f64| {
         if slack > 0.0 {
             " (with a finite beamlet radius this can also be the estimator's partial coherence on steeply curved films, beyond its allowance: a smaller --coherence-radius-nm pairs fewer partial waves)"
@@ -195,24 +334,31 @@ pub fn check_physical(
                         .to_string()
                 };
                 return Err(SimError::Unphysical(format!(
-                    "sample '{sample_name}', theta_i {theta} deg, phi_i {} deg, lambda {} nm: {what} \
+                    "{}, theta_i {theta} deg, phi_i {} deg, lambda {} nm: {what} \
                      (tolerance {tol:.1e}: rounding, {NOISE_SIGMAS} standard errors and the dropped \
-                     power's coherent bound; energy balances also {slack:.0e} for partial coherence). The result is \
-                     impossible and was not written.{hint}{causes} Pass \
-                     --allow-unphysical to write it anyway for debugging.",
+                     power's coherent bound; energy balances also {slack:.0e} for partial coherence). {}{}",
+                    judged.whose(sample_name),
                     s.phi_i_deg,
                     s.wavelength(j),
+                    judged.verdict(),
+                    if judged == Judged::Run {
+                        format!(
+                            "{hint}{causes} Pass --allow-unphysical to write it anyway for debugging."
+                        )
+                    } else {
+                        String::new()
+                    },
                 )));
             }
         }
     }
-    check_realisable(acc, sample_name)
+    Ok(())
 }
 
 /// A `--mueller` run's matrices must each be physically realisable: a coherency
 /// eigenvalue more than `REALISABLE_SIGMAS` standard errors below zero is a matrix no
 /// sample can have (`Accumulator::realisability`).
-fn check_realisable(acc: &Accumulator, sample_name: &str) -> Result<(), SimError> {
+fn check_realisable(acc: &Accumulator, sample_name: &str, judged: Judged) -> Result<(), SimError> {
     use crate::accumulate::polarimetric::REALISABLE_SIGMAS;
     let Some(r) = acc.realisability().filter(|r| r.failed > 0) else {
         return Ok(());
@@ -221,7 +367,8 @@ fn check_realisable(acc: &Accumulator, sample_name: &str) -> Result<(), SimError
     let (i, j, kk) = r.worst_at;
     let (t, p) = s.buckets().centre(kk / 2);
     Err(SimError::Unphysical(format!(
-        "sample '{sample_name}': {} of {} buckets hold a Mueller matrix that is not physically realisable (a coherency eigenvalue more than {REALISABLE_SIGMAS} standard errors below zero; Cloude 1986); the worst, {:.2e} of its m00 ({:.1} standard errors), at theta_i {} deg, lambda {} nm, the {} bucket at theta_o {:.1} deg, phi_o {:.1} deg. The result is impossible and was not written; this is a bug, please report it with the sample, or pass --allow-unphysical to write it anyway for debugging",
+        "{}: {} of {} buckets hold a Mueller matrix that is not physically realisable (a coherency eigenvalue more than {REALISABLE_SIGMAS} standard errors below zero; Cloude 1986); the worst, {:.2e} of its m00 ({:.1} standard errors), at theta_i {} deg, lambda {} nm, the {} bucket at theta_o {:.1} deg, phi_o {:.1} deg. {}",
+        judged.whose(sample_name),
         r.failed,
         r.checked,
         r.worst_relative,
@@ -235,5 +382,42 @@ fn check_realisable(acc: &Accumulator, sample_name: &str) -> Result<(), SimError
         },
         t.to_degrees(),
         p.to_degrees(),
+        match judged {
+            Judged::Run =>
+                "The result is impossible and was not written; this is a bug, please report it with the sample, or pass --allow-unphysical to write it anyway for debugging",
+            Judged::File => judged.verdict(),
+        }
     )))
+}
+
+/// Why [`read_judged`] refused a file.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// Unreadable, damaged, or not a `.gsa`.
+    #[error(transparent)]
+    File(#[from] crate::accumulate::file::FileError),
+    /// Read whole, but holding a result no run writes ([`check_file`]).
+    #[error(transparent)]
+    Impossible(#[from] SimError),
+}
+
+/// Reads a `.gsa` and holds it to [`check_file`]. A file whose run stored
+/// [`WRITTEN_UNPHYSICAL`] among its warnings is read anyway, and the refusal comes back as
+/// the warning a front end prints; any other failing file is refused.
+pub fn read_judged(path: &std::path::Path) -> Result<(Accumulator, Option<String>), ReadError> {
+    let acc = Accumulator::read(path)?;
+    match check_file(&acc, &path.display().to_string()) {
+        Ok(()) => Ok((acc, None)),
+        Err(e)
+            if acc
+                .header
+                .warnings
+                .iter()
+                .any(|w| w.starts_with(WRITTEN_UNPHYSICAL)) =>
+        {
+            let w = format!("{e} (read anyway: its run wrote it with --allow-unphysical)");
+            Ok((acc, Some(w)))
+        }
+        Err(e) => Err(e.into()),
+    }
 }

@@ -65,6 +65,25 @@ pub(super) fn stored_warnings(
             }
         }
     }
+    // Particle media packed beyond what their scattering model holds (as
+    // `validity::findings` says before a run), so that the file holds every warning printed.
+    for m in &sample.media {
+        if let Some(w) = m
+            .scattering
+            .as_ref()
+            .and_then(|p| p.packing_warning(&m.name))
+            && !out.contains(&w)
+        {
+            out.push(w);
+        }
+    }
+    // A result kept by --allow-unphysical says so in its file, so that readers, which hold
+    // what they read to the same checks (`check_file`), can tell it from a forged one.
+    if cfg.allow_unphysical
+        && let Err(e) = super::check_physical(acc, &sample.name, Some(stats))
+    {
+        out.push(format!("{}{e}", super::WRITTEN_UNPHYSICAL));
+    }
     out
 }
 

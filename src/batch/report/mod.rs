@@ -111,8 +111,9 @@ pub struct Entry {
     pub fit: Option<FitSummary>,
     /// (label, link relative to the page).
     pub files: Vec<(String, String)>,
-    /// The warnings its simulation left (`out/NAME.warnings`, kept by `batch run` and
-    /// `batch merge`) and the report's own notes (a representation missing).
+    /// The warnings its simulation left (those its merged `.gsa` holds; `out/NAME.warnings`
+    /// is a copy with each one's incident angle) and the report's own notes (a
+    /// representation missing).
     pub warnings: Vec<String>,
     /// Why the material is left out of the library (not merged, refused by its simulation,
     /// or not readable as this material), where it is: the page marks its row with it.
@@ -390,7 +391,13 @@ fn material_entry(
         None
     };
 
-    let (files, warnings) = entry_files(folder, &out, mat, opts.fit.then_some(&fit_name));
+    let (files, warnings) = entry_files(
+        folder,
+        &out,
+        mat,
+        opts.fit.then_some(&fit_name),
+        &acc.header.warnings,
+    );
     Ok(Entry {
         name: mat.name.clone(),
         sample: mat.sample.display().to_string(),
@@ -460,22 +467,21 @@ fn write_sphere(
 }
 
 /// The files of a material's row (its `.gsa`, each representation merge wrote, the fit's
-/// JSON when `fit_name` is given) and its warnings: the unit logs merge kept in
-/// `out/NAME.warnings`, and a representation merge did not write (no dead links).
+/// JSON when `fit_name` is given) and its warnings: `stored`, the ones its merged,
+/// checksummed `.gsa` holds (not the text copy `out/NAME.warnings`, which a hand can
+/// change), and a representation merge did not write (no dead links).
 fn entry_files(
     folder: &Path,
     out: &Path,
     mat: &super::Material,
     fit_name: Option<&String>,
+    stored: &[String],
 ) -> (Vec<(String, String)>, Vec<String>) {
     let mut files = vec![(
         format!("{}.gsa", mat.name),
         link(folder, &out.join(format!("{}.gsa", mat.name))),
     )];
-    let mut warnings: Vec<String> =
-        std::fs::read_to_string(out.join(format!("{}.warnings", mat.name)))
-            .map(|t| t.lines().map(str::to_string).collect())
-            .unwrap_or_default();
+    let mut warnings = stored.to_vec();
     for k in &mat.representations {
         let name = format!("{}-{k}.gsb", mat.name);
         // No dead links: a representation merge did not write is said.
