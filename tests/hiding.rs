@@ -198,3 +198,69 @@ fn bad_numbers_are_refused_before_work() {
         assert!(out.stdout.is_empty(), "{args:?} printed {:?}", out.stdout);
     }
 }
+
+/// A paint that never hides says so in its own terms (issue 74): a film scattering 0.001
+/// per um is 2560 x 0.001 = 2.56 transport mean free paths deep at the last doubling of
+/// its 10 um (10 x 2^8 um), far from the tens a paint hides at, so the search ends there;
+/// the error gives the range searched, the contrast reached and that depth, and no advice
+/// about flags `hiding` does not have.
+#[test]
+fn a_paint_that_never_hides_says_so_in_its_own_terms() {
+    let dir = folder("never");
+    let (path, text) = paint(
+        &dir,
+        "never",
+        "g = 0.0, scattering_per_um = 0.001, absorption_per_um = 0.0",
+    );
+    let cfg = HidingConfig {
+        rays: 32,
+        ..config(1)
+    };
+    let e = hiding(&path, &text, &cfg, &|_| {}).unwrap_err().to_string();
+    assert!(
+        e.contains("'paint' does not hide")
+            && e.contains("between 10 and 2560 um")
+            && e.contains("2.560 transport mean free paths deep"),
+        "{e}"
+    );
+    assert!(
+        !e.contains("--max-depth") && !e.contains("--allow-unphysical"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A chart run the simulation refuses is said in `hiding`'s terms: a meshed 5-pair
+/// quarter-wave mirror above the paint (a ray series that diverges) stops the white
+/// backing's run "did not converge", without advice about flags `hiding` does not have and
+/// without blaming the chart's own backing, 300 mean free paths deep by design.
+#[test]
+fn a_refused_chart_run_names_no_flag_hiding_lacks() {
+    let dir = folder("mirrored");
+    let (dh, dl) = (550.0 / (4.0 * 2.4) / 1000.0, 550.0 / (4.0 * 1.46) / 1000.0);
+    let pair =
+        format!("{{ medium = \"h\", thickness = {dh} }}, {{ medium = \"l\", thickness = {dl} }}, ");
+    let text = format!(
+        "[sample]\nname = \"mirrored\"\nunit = \"um\"\ntile = [20.0, 20.0]\n\
+         [media.air]\nn = 1.0\n[media.h]\nn = 2.4\n[media.l]\nn = 1.46\n\
+         [media.paint]\nn = 1.46\nhenyey_greenstein = {{ g = 0.0, scattering_per_um = 1.0, absorption_per_um = 0.0 }}\n\
+         [media.glass]\nn = 1.52\n[stack]\nmode = \"mesh\"\nambient = \"air\"\n\
+         layers = [{}{{ medium = \"paint\", thickness = 10.0 }}]\nsubstrate = \"glass\"\n",
+        pair.repeat(5)
+    );
+    let path = dir.join("mirrored.toml");
+    std::fs::write(&path, &text).unwrap();
+    let cfg = HidingConfig {
+        rays: 32,
+        ..config(1)
+    };
+    let e = hiding(&path, &text, &cfg, &|_| {}).unwrap_err().to_string();
+    assert!(
+        e.contains("white backing") && e.contains("did not converge"),
+        "{e}"
+    );
+    for bad in ["--allow-unphysical", "raise --max-depth", "'hiding-white'"] {
+        assert!(!e.contains(bad), "{bad}: {e}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -150,10 +150,16 @@ where
             break;
         }
         if step == MAX_BRACKET_STEPS {
+            // The range searched: doublings from t0 while below the target, halvings
+            // while above.
+            let span = 2f64.powi(MAX_BRACKET_STEPS as i32);
+            let (from, to) = if c0 < target {
+                (t0, t0 * span)
+            } else {
+                (t0 / span, t0)
+            };
             return Err(StudyError::Invalid(format!(
-                "the contrast ratio does not cross {target} between {} and {} um (it reached {:.4}); the film hides outside that range or not at all",
-                t0 / 2f64.powi(MAX_BRACKET_STEPS as i32),
-                t0 * 2f64.powi(MAX_BRACKET_STEPS as i32),
+                "the contrast ratio does not cross {target} between {from} and {to} um (it reached {:.4}); the film hides outside that range or not at all",
                 if c0 < target { hi.1 } else { lo.1 }
             )));
         }
@@ -222,13 +228,23 @@ pub fn hiding(
     progress: &dyn Fn(&str),
 ) -> Result<Hiding, StudyError> {
     let chart = Chart::new(path, text, cfg)?;
-    let white_backing = chart.white_backing(cfg)?;
+    let white_backing = chart.white_backing(cfg).map_err(|e| {
+        StudyError::Invalid(format!(
+            "the chart's white backing under the layers above the paint could not be simulated: {e}"
+        ))
+    })?;
     progress(&format!(
         "white backing alone: Y = {:.4} +- {:.4}",
         white_backing.0, white_backing.1
     ));
+    // What the search saw, for a failure said in the paint's terms (`Chart::never_hides`).
+    let seen = std::cell::RefCell::new(Vec::<ChartPoint>::new());
+    let refused = std::cell::RefCell::new(None::<(f64, String)>);
     let eval = |t: f64| -> Result<ChartPoint, StudyError> {
-        let p = chart.point(t, cfg)?;
+        let p = chart.point(t, cfg).inspect_err(|e| {
+            *refused.borrow_mut() = Some((t, e.to_string()));
+        })?;
+        seen.borrow_mut().push(p);
         let (c, se) = p.contrast();
         progress(&format!(
             "{t:.2} um: Y over black {:.4}, over white {:.4}, contrast {c:.4} +- {se:.4}",
@@ -236,7 +252,8 @@ pub fn hiding(
         ));
         Ok(p)
     };
-    let (thickness_um, points) = search(chart.t0_um, cfg.contrast, eval)?;
+    let (thickness_um, points) = search(chart.t0_um, cfg.contrast, eval)
+        .map_err(|e| chart.never_hides(&e, &seen.borrow(), refused.borrow().as_ref()))?;
     let thick = chart.point(THICK * thickness_um.0, cfg)?;
     Ok(Hiding {
         medium: chart.medium.clone(),
@@ -258,6 +275,29 @@ pub fn chart_point(
     Chart::new(path, text, cfg)?.point(t_um, cfg)
 }
 
+/// A chart run's refusal in `hiding`'s terms: `simulate`'s sentences that advise flags
+/// `hiding` does not have (--allow-unphysical, raising --max-depth) or that blame the
+/// chart's own backings (opaque by design: [`BACKING_UM`] of [`WHITE`] is 300 mean free
+/// paths, which every chart run traces) are left out (issue 74).
+fn refusal(e: &crate::simulate::SimError) -> StudyError {
+    let text = e.to_string();
+    let kept: String = text
+        .split_inclusive(". ")
+        .filter(|s| {
+            ![
+                "--allow-unphysical",
+                "raise --max-depth",
+                "raise the limits",
+                "'hiding-white'",
+                "'hiding-black'",
+            ]
+            .iter()
+            .any(|w| s.contains(w))
+        })
+        .collect();
+    StudyError::Invalid(kept.trim_end().to_string())
+}
+
 /// The sample's description, parsed once, and what the chart changes in it.
 struct Chart<'a> {
     path: &'a Path,
@@ -270,6 +310,36 @@ struct Chart<'a> {
     um_per_unit: f64,
     /// The layer's own thickness, um: where the search starts.
     t0_um: f64,
+    /// What scatters in the paint, as its description gives it.
+    paint: Paint,
+}
+
+/// The paint's scattering as its description gives it, for errors in its own terms.
+enum Paint {
+    /// `henyey_greenstein`: scattering and absorption per um, and g.
+    HenyeyGreenstein { s: f64, a: f64, g: f64 },
+    /// `particles`, at the volume fraction run.
+    Particles { volume_fraction: Option<f64> },
+}
+
+impl Paint {
+    /// The paint's scattering at `t_um` thick: for a Henyey-Greenstein medium its
+    /// coefficients and the depth in transport mean free paths, `t (s (1 - g) + a)`
+    /// (diffusion theory's reduced extinction: Ishimaru 1978, §9-3).
+    fn describe(&self, t_um: f64) -> String {
+        match *self {
+            Paint::HenyeyGreenstein { s, a, g } => format!(
+                "it scatters {s} per um and absorbs {a} per um with g = {g}, so that film is {:.3} transport mean free paths deep",
+                t_um * (s * (1.0 - g) + a)
+            ),
+            Paint::Particles {
+                volume_fraction: Some(f),
+            } => format!("its pigment fills a volume fraction {f}"),
+            Paint::Particles {
+                volume_fraction: None,
+            } => "its particles give no volume fraction".to_string(),
+        }
+    }
 }
 
 impl<'a> Chart<'a> {
@@ -374,6 +444,19 @@ impl<'a> Chart<'a> {
                 m.insert("particles".into(), p.into());
             }
         }
+        let num = |t: &toml::Table, k: &str| {
+            t.get(k)
+                .and_then(|v| v.as_float().or(v.as_integer().map(|i| i as f64)))
+                .unwrap_or(0.0)
+        };
+        let paint = match host.get("henyey_greenstein").and_then(|h| h.as_table()) {
+            Some(hg) => Paint::HenyeyGreenstein {
+                s: num(hg, "scattering_per_um"),
+                a: num(hg, "absorption_per_um"),
+                g: num(hg, "g"),
+            },
+            None => Paint::Particles { volume_fraction },
+        };
         Ok(Chart {
             path,
             doc,
@@ -382,6 +465,48 @@ impl<'a> Chart<'a> {
             volume_fraction,
             um_per_unit,
             t0_um,
+            paint,
+        })
+    }
+
+    /// Why the search found no hiding thickness, in the paint's terms (issue 74: a paint
+    /// that never hides was told to raise --max-depth or pass --allow-unphysical, which
+    /// `hiding` does not have): how far the contrast ratio got at the thickest film
+    /// simulated, what the paint's scattering is, and, where a film could not be simulated,
+    /// at what thickness and why (the run's own advice about its flags left out).
+    fn never_hides(
+        &self,
+        e: &StudyError,
+        seen: &[ChartPoint],
+        refused: Option<&(f64, String)>,
+    ) -> StudyError {
+        let first = match refused {
+            Some((t, why)) => format!("the paint could not be simulated {t} um thick: {why}"),
+            None => e.to_string(),
+        };
+        let reached = seen
+            .iter()
+            .max_by(|a, b| a.thickness_um.total_cmp(&b.thickness_um))
+            .map_or_else(String::new, |p| {
+                format!(
+                    " At {} um, the thickest film simulated, its contrast ratio was {:.4} (Y {:.4} over black, {:.4} over white): {}.",
+                    p.thickness_um,
+                    p.contrast().0,
+                    p.y_black.0,
+                    p.y_white.0,
+                    self.paint.describe(p.thickness_um)
+                )
+            });
+        let first = first.trim_end_matches('.');
+        StudyError::Invalid(match refused {
+            Some(_) => format!(
+                "no hiding thickness found for '{}': {first}.{reached}",
+                self.medium
+            ),
+            None => format!(
+                "'{}' does not hide: {first}.{reached} It hides, if at all, only thicker; more pigment, or a pigment that scatters more, hides in less.",
+                self.medium
+            ),
         })
     }
 
@@ -427,8 +552,7 @@ impl<'a> Chart<'a> {
         // square of the depth in mean free paths); the default limit cut 12 % of the
         // white paint's power at 385 um.
         sim.limits.max_segments = sim.limits.max_segments.max(MAX_SEGMENTS);
-        let (acc, _) =
-            simulate(s, &sim, &|_| {}).map_err(|e| StudyError::Invalid(e.to_string()))?;
+        let (acc, _) = simulate(s, &sim, &|_| {}).map_err(|e| refusal(&e))?;
         let refl = acc
             .reflectance(cfg.theta_i_deg, None)
             .map_err(|e| StudyError::Invalid(e.to_string()))?;
