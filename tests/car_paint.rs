@@ -13,6 +13,8 @@
 
 mod common;
 
+use common::{goniospec, root, scratch};
+
 use goniospec::simulate::Wavelengths;
 
 /// The rough-coat form: the clear coat's top a Gaussian surface 45 um up, the coat/binder
@@ -109,5 +111,55 @@ fn the_smooth_coated_paint_creates_no_energy() {
     for (seed, theta) in [(1, vec![0.0, 55.0, 75.0]), (3, vec![30.0, 60.0])] {
         let w = assert_conserves(&s, &theta, seed, 256);
         eprintln!("smooth coat, seed {seed}: largest R + T + dropped {w:.4}");
+    }
+}
+
+/// Paint layers that make no sense are refused by name before any work (issue 74): the
+/// shipped car paint's flakes moved into its coat (`layer = [20, 40]` um, the coat being
+/// z = 15 to 45 um over a 15 um binder), and its binder typed 0.015 for 15 (a unit slip).
+/// `check` and `simulate` each name the [[body]], the flakes' extent in z and the binder's,
+/// read here from the stack's own arithmetic (binder from z = 0 to its thickness).
+#[test]
+fn flakes_outside_their_binder_are_refused_by_name() {
+    let shipped = std::fs::read_to_string(root().join("meshes/car-paint.toml")).unwrap();
+    let dir = scratch("flakes-outside");
+    for (tag, from, to, binder) in [
+        (
+            "in-coat",
+            "layer = [0.5, 14.5]",
+            "layer = [20.0, 40.0]",
+            "'binder' fills z = 0 to 15 um",
+        ),
+        (
+            "unit-slip",
+            "{ medium = \"binder\", thickness = 15.0 }",
+            "{ medium = \"binder\", thickness = 0.015 }",
+            "'binder' fills z = 0 to 0.015 um",
+        ),
+    ] {
+        assert!(shipped.contains(from), "{tag}: the shipped paint changed");
+        // Its data table named by its absolute path, from the scratch folder.
+        let table = root().join("data/al-mcpeak.csv");
+        let text = shipped
+            .replace(from, to)
+            .replace("../data/al-mcpeak.csv", table.to_str().unwrap());
+        let path = dir.join(format!("{tag}.toml"));
+        std::fs::write(&path, text).unwrap();
+        let p = path.to_str().unwrap();
+        let out = dir.join(format!("{tag}.gsa"));
+        for args in [
+            vec!["check", p],
+            vec!["simulate", p, "--rays", "8", "-o", out.to_str().unwrap()],
+        ] {
+            let (code, _, err) = goniospec(&args);
+            assert_ne!(code, 0, "{tag} {args:?}");
+            assert!(
+                err.contains("[[body]] 1 (generator flakes, outside = \"binder\")")
+                    && err.contains(binder)
+                    && err.contains("its bodies span z ="),
+                "{tag} {args:?}: {err}"
+            );
+        }
+        assert!(!out.exists());
     }
 }

@@ -264,9 +264,11 @@ pub(super) fn bodies(
     names: &Names,
     raw: &RawSample,
     tile_nm: [f64; 2],
+    stack: Option<&Stack>,
 ) -> Result<Vec<Interface>, SampleError> {
     let mut interfaces = Vec::new();
-    for rb in &raw.body {
+    for (number, rb) in raw.body.iter().enumerate() {
+        let first = interfaces.len();
         let inside = names.medium(&rb.inside)?;
         let outside = names.medium(&rb.outside)?;
         let (coating, thin) = match &rb.coating {
@@ -316,6 +318,96 @@ pub(super) fn bodies(
                 (None, _) => interfaces.push(body(core, outside, inside, thin.clone())),
             }
         }
+        if let Some(st) = stack {
+            within_outside(names, rb, number, &desc, st, outside, &interfaces[first..])?;
+        }
     }
     Ok(interfaces)
+}
+
+/// A `[[body]]` inside a `[stack]` must lie where its `outside` medium is: within a layer
+/// of that medium (or above the stack for the ambient, below it for the substrate).
+/// Anywhere else the tracer would meet a body whose outside disagrees with the medium
+/// around it at every crossing (issue 74: flakes placed in the coat, or a binder typed
+/// 0.015 um for 15, ran and blamed --max-depth or "a bug"). The error names the body, its
+/// extent in z and the extents of its medium's layers, in the sample's unit.
+fn within_outside(
+    names: &Names,
+    rb: &crate::sample::raw::RawBody,
+    number: usize,
+    desc: &str,
+    st: &Stack,
+    outside: usize,
+    made: &[Interface],
+) -> Result<(), SampleError> {
+    let zs = made
+        .iter()
+        .flat_map(|i| i.mesh.positions_nm.iter().map(|p| p.z));
+    let (lo, hi) = zs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), z| {
+        (a.min(z), b.max(z))
+    });
+    if lo > hi {
+        // No vertices.
+        return Ok(());
+    }
+    // Each place the medium fills: (bottom, top), nm, z = 0 at the substrate.
+    let total: f64 = st.layers.iter().map(|l| l.1).sum();
+    let mut places = Vec::new();
+    if st.ambient == outside {
+        places.push((total, f64::INFINITY));
+    }
+    let mut z = total;
+    for &(m, t) in &st.layers {
+        if m == outside {
+            places.push((z - t, z));
+        }
+        z -= t;
+    }
+    if st.substrate == outside {
+        places.push((f64::NEG_INFINITY, 0.0));
+    }
+    // Rounding of f32-placed vertices and of the layers' sums.
+    let slack = 1e-6 * total.max(hi.abs()).max(1.0);
+    if places
+        .iter()
+        .any(|&(b, t)| lo >= b - slack && hi <= t + slack)
+    {
+        return Ok(());
+    }
+    let cx = names.cx;
+    // Four decimals in the sample's unit (a unit slip shows as well as a misplacement).
+    let u = |nm: f64| {
+        let v = nm / cx.scale;
+        if v == 0.0 || v.abs() >= 1e-3 {
+            let t = format!("{v:.4}");
+            t.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            format!("{v:.3e}")
+        }
+    };
+    let name = rb.outside.get_ref();
+    let where_ = if places.is_empty() {
+        format!("no layer of the [stack] is '{name}'")
+    } else {
+        let spans: Vec<String> = places
+            .iter()
+            .map(|&(b, t)| match (b.is_finite(), t.is_finite()) {
+                (true, true) => format!("z = {} to {} {}", u(b), u(t), cx.unit),
+                (true, false) => format!("above z = {} {} (the ambient)", u(b), cx.unit),
+                _ => format!("below z = {} {} (the substrate)", u(t), cx.unit),
+            })
+            .collect();
+        format!("'{name}' fills {}", spans.join(" and "))
+    };
+    Err(cx.at(
+        rb.outside.span(),
+        SampleErrorKind::Invalid(format!(
+            "[[body]] {} ({desc}, outside = \"{name}\"): its bodies span z = {} to {} {}, but {where_}; bodies must lie inside their outside medium, or the tracer meets media that disagree at every crossing. Place them inside it (a generator's layer = [bottom, top]) or check the layers' thicknesses and the unit ({}), z = 0 being the substrate's top",
+            number + 1,
+            u(lo),
+            u(hi),
+            cx.unit,
+            cx.unit
+        )),
+    ))
 }

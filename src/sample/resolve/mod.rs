@@ -73,7 +73,7 @@ pub fn parse(path: &Path, text: &str, opts: MeshOptions) -> Result<Sample, Sampl
     };
     let (stack, mut interfaces) = stack(&names, &raw, tile_nm)?;
     interfaces.extend(sheets(&names, &raw, measured, tile_nm)?);
-    interfaces.extend(bodies(&names, &raw, tile_nm)?);
+    interfaces.extend(bodies(&names, &raw, tile_nm, stack.as_ref())?);
     if interfaces.is_empty() {
         return Err(cx.file(SampleErrorKind::NoInterfaces));
     }
