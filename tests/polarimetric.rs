@@ -864,6 +864,68 @@ fn the_pbsdf_export_has_the_plugins_layout() {
     ]);
     assert_ne!(code, 0);
     assert!(err.contains("--mueller"), "{err}");
+    // What the file stands in for: the two angles and two bins (centres 495 and 605 nm) are
+    // said, with the plugin's 450 and 650 nm held from the nearest bin.
+    let (code, _, err) = goniospec(&[
+        "export",
+        gsa.to_str().unwrap(),
+        "--format",
+        "pbsdf",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("simulated 0, 40 deg")
+            && err.contains("40 deg stands in above them")
+            && err.contains("centred at 495, 605 nm, and 450, 650 nm take the nearest"),
+        "{err}"
+    );
+}
+
+/// One simulated incident angle standing in for every angle of a `.pbsdf` (issue 74) is
+/// refused without --force, saying so; with --force it is written, with the same note.
+#[test]
+fn a_pbsdf_from_one_angle_says_what_it_stands_in_for() {
+    let dir = scratch("mueller-pbsdf-one");
+    let (gsa, out) = (dir.join("g.gsa"), dir.join("g.pbsdf"));
+    let glass = flat_substrate("mueller-pbsdf-one", 1.5, 0.0);
+    run(
+        &glass,
+        &mueller_config(&[30.0], Wavelengths::parse("500:600:50", false).unwrap(), 4),
+    )
+    .write(&gsa)
+    .unwrap();
+    let args = |force: bool| {
+        let mut v = vec![
+            "export",
+            gsa.to_str().unwrap(),
+            "--format",
+            "pbsdf",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        if force {
+            v.push("--force");
+        }
+        v
+    };
+    let (code, _, err) = goniospec(&args(false));
+    assert_ne!(code, 0);
+    assert!(
+        err.contains(
+            "the one simulated incident angle, 30 deg, stands in for every incident angle"
+        ) && err.contains("--force"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    let (code, _, err) = goniospec(&args(true));
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("note: the one simulated incident angle"),
+        "{err}"
+    );
+    assert!(out.is_file());
 }
 
 /// Reciprocity of the Mueller BRDF. For fixed polarisation vectors, reversing a path

@@ -56,7 +56,9 @@ pub(super) struct ExportArgs {
     /// Output file, written atomically.
     #[arg(short, long)]
     output: PathBuf,
-    /// Overwrite an existing output that is not a file of the chosen format.
+    /// Overwrite an existing output that is not a file of the chosen format; pbsdf: also
+    /// write a file in which one simulated incident angle or one wavelength stands in for
+    /// all (refused without it).
     #[arg(long)]
     force: bool,
     /// Worker threads (0: all cores). The file does not depend on it.
@@ -112,6 +114,16 @@ fn export_pbsdf(a: ExportArgs) -> Result<ExitCode> {
         );
     }
     let acc = super::read_accumulator(&a.input)?;
+    // What the file stands in for: said always, refused without --force where one angle
+    // or one wavelength stands in for all.
+    let covers = pbsdf::stands_in(&acc);
+    if covers.alone && !a.force && acc.header.settings.mueller {
+        bail!(
+            "{}: {}. A renderer would show that everywhere: simulate more incident angles and wavelength bins, or pass --force to write it anyway",
+            a.input.display(),
+            covers.sentence
+        );
+    }
     let grid = pbsdf::PbsdfGrid::default();
     let fields = pbsdf::pbsdf_fields(&acc, grid)
         .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?;
@@ -123,6 +135,7 @@ fn export_pbsdf(a: ExportArgs) -> Result<ExitCode> {
         grid.theta_d,
         grid.theta_h
     );
+    eprintln!("note: {}", covers.sentence);
     Ok(ExitCode::SUCCESS)
 }
 

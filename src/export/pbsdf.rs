@@ -180,6 +180,81 @@ pub fn plugin_matrix(
     Some(v)
 }
 
+/// What a `.pbsdf` of `acc` stands in for (issue 74): the file covers every incident angle
+/// from 0 to 90 degrees and the plugin's five wavelengths, 450 to 650 nm, and
+/// [`pbsdf_fields`] interpolates linearly between the simulated incident angles and bin
+/// centres and holds the nearest beyond them. The sentence says which angles and
+/// wavelengths are simulated and which are held; `alone` is true where one simulated angle
+/// or one wavelength stands in for all of them (the CLI refuses that without `--force`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StandsIn {
+    pub sentence: String,
+    pub alone: bool,
+}
+
+/// See [`StandsIn`].
+pub fn stands_in(acc: &Accumulator) -> StandsIn {
+    let s = &acc.header.settings;
+    let angles = &s.theta_i_deg;
+    let centres: Vec<f64> = (0..s.wavelength_count()).map(|j| s.wavelength(j)).collect();
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let (lo, hi) = (
+        angles.iter().copied().fold(f64::INFINITY, f64::min),
+        angles.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    );
+    let (wlo, whi) = (
+        centres.iter().copied().fold(f64::INFINITY, f64::min),
+        centres.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    );
+    let held: Vec<u16> = WAVELENGTHS_NM
+        .iter()
+        .copied()
+        .filter(|&l| f64::from(l) < wlo || f64::from(l) > whi)
+        .collect();
+    let angle_part = if angles.len() == 1 {
+        format!(
+            "the one simulated incident angle, {lo} deg, stands in for every incident angle from 0 to 90 deg"
+        )
+    } else {
+        format!(
+            "incident angles between the simulated {} deg are interpolated linearly{}",
+            list(angles),
+            match (lo > 0.0, hi < 90.0) {
+                (true, true) => format!(", and {lo} deg stands in below them and {hi} deg above"),
+                (true, false) => format!(", and {lo} deg stands in below them"),
+                (false, true) => format!(", and {hi} deg stands in above them, to 90 deg"),
+                (false, false) => String::new(),
+            }
+        )
+    };
+    let wl_part = if centres.len() == 1 {
+        format!("the one simulated wavelength, {wlo} nm, stands in for all five of 450 to 650 nm")
+    } else if held.is_empty() {
+        format!(
+            "the five wavelengths are interpolated between the bins centred at {} nm",
+            list(&centres)
+        )
+    } else {
+        format!(
+            "the five wavelengths are interpolated between the bins centred at {} nm, and {} nm take the nearest bin's matrices",
+            list(&centres),
+            held.iter()
+                .map(|l| l.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    StandsIn {
+        sentence: format!("{angle_part}; {wl_part}"),
+        alone: angles.len() == 1 || centres.len() == 1,
+    }
+}
+
 /// The `.pbsdf` fields of a `--mueller` accumulator on `grid`.
 pub fn pbsdf_fields(acc: &Accumulator, grid: PbsdfGrid) -> Result<Vec<Field>, ExportError> {
     let s = &acc.header.settings;
