@@ -73,7 +73,9 @@ pub struct SimSettings {
     #[serde(deserialize_with = "coherence_name")]
     pub coherence: Coherence,
     /// The illumination's transverse coherence radius in nm (the beamlet radius), or inf
-    /// for the plane-wave limit.
+    /// for the plane-wave limit. It weights the interference of meshed layers' partial
+    /// waves; coatings are exact transfer matrices, fully coherent whatever it is (the run
+    /// says so where a meshed layer would differ by more than 1 %).
     #[arg(long, default_value_t = defaults::COHERENCE_RADIUS_NM, value_parser = radius)]
     pub coherence_radius_nm: f64,
     /// Polar bins of the outgoing hemispheres (equal in theta).

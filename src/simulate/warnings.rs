@@ -65,8 +65,14 @@ pub(super) fn stored_warnings(
             }
         }
     }
-    // Particle media packed beyond what their scattering model holds (as
-    // `validity::findings` says before a run), so that the file holds every warning printed.
+    // Coatings a finite radius does not act on, and particle media packed beyond what their
+    // scattering model holds (as `validity::findings` says before a run), so that the file
+    // holds every warning printed.
+    if let Some(f) = validity::coatings_ignore_radius(sample, &super::validity_context(cfg))
+        && !out.contains(&f.message)
+    {
+        out.push(f.message);
+    }
     for m in &sample.media {
         if let Some(w) = m
             .scattering

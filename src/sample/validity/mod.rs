@@ -28,6 +28,8 @@
 //! - Bodies: below a size parameter of 10, ray optics does not describe a particle
 //!   (van de Hulst 1957, §§ 10-12); a particle medium (Mie) does.
 
+mod coatings;
+pub use coatings::{WEIGHT_LOSS_SAID, coatings_ignore_radius, partial_wave_offset_nm};
 mod measure;
 
 use super::Sample;
@@ -594,6 +596,7 @@ fn smooth_at_grazing(sample: &Sample, sheet: &Sheet, ctx: &Context) -> Option<Fi
 pub fn findings(sample: &Sample, ctx: &Context) -> Vec<Finding> {
     let mut out = assess(sample, ctx);
     out.extend(small_bodies(sample, ctx.lambda_min_nm));
+    out.extend(coatings_ignore_radius(sample, ctx));
     // Particle media packed beyond what their scattering model holds.
     out.extend(sample.media.iter().filter_map(|m| {
         let message = m.scattering.as_ref()?.packing_warning(&m.name)?;
