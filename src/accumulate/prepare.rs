@@ -16,6 +16,15 @@ use crate::optics::fresnel::{field_power, hermitian};
 use crate::optics::mueller;
 use crate::trace::Tree;
 
+/// Exits whose unit directions agree to this (radians) leave in one direction: the
+/// plane-wave limit's groups, and the exits one bucket takes together. Without it, the
+/// exits of a meshed flat film that leave exactly along a bucket edge (70 deg on the
+/// default 2-degree grid) fell on both sides by rounding (1e-16), and their pairs' cross
+/// terms, split between the two buckets, left Mueller matrices that no sample can have
+/// (issue 74: a coherency eigenvalue of -1.75e-2 of m00): a pair's cross term added to one
+/// exit's own matrix alone is indefinite unless their Jones matrices are proportional.
+pub(super) const SAME_DIRECTION: f64 = 1e-9;
+
 impl Estimator {
     /// Prepares the wavelength-independent part of `tree` (call once per traced tree).
     pub fn prepare(&self, tree: &Tree, s: &mut Scratch) {
@@ -98,6 +107,11 @@ impl Estimator {
                     || (!self.reference && dw2 > 0.0 && bound * directional() < NEGLIGIBLE_CROSS))
             {
                 continue;
+            }
+            // Exits in one direction are binned together (see `SAME_DIRECTION`): `j < l`
+            // and the pairs come in order, so a chain of them takes its first exit's key.
+            if dw2 <= SAME_DIRECTION * SAME_DIRECTION {
+                p.keys[l] = p.keys[j];
             }
             let delta_nm = self.path_difference(&ex[j], &ex[l], wbar, n0) + phase_nm;
             p.push_pair_mueller(j, l, flux);
@@ -276,17 +290,20 @@ impl Estimator {
                 let e = &ex[p.members[end] as usize];
                 if e.up != first.up
                     || e.group != first.group
-                    || (e.dir - first.dir).dot(e.dir - first.dir).sqrt() > 1e-9
+                    || (e.dir - first.dir).dot(e.dir - first.dir).sqrt() > SAME_DIRECTION
                 {
                     break;
                 }
                 end += 1;
             }
             let n0 = if first.up { self.n_up } else { self.n_down };
+            // One direction, one bucket (see `SAME_DIRECTION`): the group's first exit's.
+            let first_key = p.keys[p.members[start] as usize];
             for &m in &p.members[start..end] {
                 let delta = self.path_difference(&ex[m as usize], first, first.dir, n0);
                 p.member_delta_nm.push(delta);
                 p.group_of[m as usize] = start as u32;
+                p.keys[m as usize] = first_key;
             }
             if end - start > 1 {
                 p.groups.push((start as u32, end as u32));
