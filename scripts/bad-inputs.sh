@@ -331,6 +331,24 @@ refuse "between 1e-9 and 100" $G mie --n 1e-100 --x 1
 refuse "between 0 and 1000" $G mie --n 1.5 --k -1 --x 1
 n=$((n+1)); $G mie --n 1.5 --host 1.5 --x 2 > o.txt 2> e.txt
 grep -q "^g: undefined" o.txt || { echo "BAD: an index-matched sphere's g is printed as a number"; cat o.txt; bad=$((bad+1)); }
+# Issue 74, the rest: paint layers named, a .pbsdf from one angle, coatings and the
+# coherence radius, Mueller on a meshed film along a bucket edge, hiding in its own terms,
+# eval on a .gsa. (Forged .gsa files, resealed, are refused in tests/polarimetric.rs.)
+sed "s#\.\./data/#$R/data/#; s/layer = \[0.5, 14.5\]/layer = [20.0, 40.0]/" "$R/meshes/car-paint.toml" > coat-flakes.toml
+refuse "'binder' fills z = 0 to 15 um" $G check coat-flakes.toml
+refuse "bodies must lie inside their outside medium" $G simulate coat-flakes.toml --rays 4 -o cf.gsa
+sed "s#\.\./data/#$R/data/#; s/medium = \"binder\", thickness = 15.0/medium = \"binder\", thickness = 0.015/" "$R/meshes/car-paint.toml" > slip.toml
+refuse "'binder' fills z = 0 to 0.015 um" $G check slip.toml
+$G simulate v.toml --theta-i 30 --rays 8 --wavelengths 500:600:50 --mueller -o one.gsa >/dev/null 2>&1
+refuse "stands in for every incident angle" $G export one.gsa --format pbsdf -o one.pbsdf
+says "stands in for every incident angle" $G export one.gsa --format pbsdf -o one.pbsdf --force
+refuse "an accumulator \(.gsa\)" $G eval one.gsa --theta-i 30 --theta-o 30
+says "interferes fully whatever --coherence-radius-nm" $G simulate "$R/meshes/ar-coating.toml" --theta-i 45 --rays 4 --coherence-radius-nm 1 -o ar.gsa
+sed 's/\[stack\]/[stack]\nmode = "mesh"/' "$R/meshes/flat-soap-film.toml" > mfilm.toml
+says "traced trees" $G simulate mfilm.toml --theta-i 30,60,70 --rays 256 --mueller -o mfilm.gsa
+pm "henyey_greenstein = { g = 0.0, scattering_per_um = 0.001, absorption_per_um = 0.0 }" 10.0
+refuse "'paint' does not hide: .* transport mean free paths deep" $G hiding pm.toml --rays 32 --wavelengths 540:560:20
+grep -qE -- "--max-depth|--allow-unphysical" e.txt && { echo "BAD: hiding advises flags it does not have"; bad=$((bad+1)); }
 # Python: shapes NumPy refuses to broadcast (where the project's venv is built).
 if [ -x "$R/.venv-python/bin/python" ] && "$R/.venv-python/bin/python" -c "import goniospec" 2>/dev/null; then
   n=$((n+1))

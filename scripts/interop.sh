@@ -35,29 +35,34 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${1:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 venv=${INTEROP_VENV:-.venv-interop}
+t_venv=$SECONDS
 if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython, iadpython, meent, scipy, grcwa, nannos, colour" 2>/dev/null; then
   echo "== making $venv (numpy, mitsuba, miepython, iadpython, meent, scipy, grcwa, nannos, colour-science)"
   python3 -m venv "$venv"
   "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5" "meent==0.13.2" "scipy>=1.10" "grcwa==0.1.2" "nannos==2.6.5" "colour-science>=0.4"
 fi
+echo "interop_seconds: venv: $((SECONDS - t_venv)) s"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-"$venv/bin/python" tests/interop/rgl_mitsuba.py "$bin" "$work"
-"$venv/bin/python" tests/interop/measured_mitsuba.py "$bin" "$work/measured"
-"$venv/bin/python" tests/interop/mueller_mitsuba.py "$bin" "$work/mueller"
-"$venv/bin/python" tests/interop/mie_miepython.py "$bin"
-"$venv/bin/python" tests/interop/rt_iadpython.py "$bin" "$work/rt"
-"$venv/bin/python" tests/interop/grating_meent.py "$work/rcwa.json"
-"$venv/bin/python" tests/interop/grating_rayleigh.py "$work/metal.json"
-"$venv/bin/python" tests/interop/vgroove_rcwa.py "$work/vgroove.json"
-"$venv/bin/python" tests/interop/roof_rcwa.py
-"$venv/bin/python" tests/interop/rcwa_nannos.py "$work/rcwa-refs.json"
-GONIOSPEC_RCWA_JSON="$work/rcwa.json" cargo test --release --test diffraction against_rcwa -- --ignored --nocapture
-GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test diffraction metal_ -- --ignored --nocapture
-GONIOSPEC_VGROOVE_JSON="$work/vgroove.json" cargo test --release --test tilted_absorbers gold_v_grooves_against_rigorous -- --ignored --nocapture
-GONIOSPEC_RCWA_REFS_JSON="$work/rcwa-refs.json" cargo test --release --test rcwa against_references -- --ignored --nocapture
-GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test rcwa gold_sinusoids_against_rayleigh_fourier -- --ignored --nocapture
-GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test cmethod gold_sinusoids_in_tm_against_rayleigh_fourier -- --ignored --nocapture
+# Each step's wall time, for keeping CI within its budget (issue 75): "interop_seconds:
+# NAME: S s" after each.
+timed() { local t0=$SECONDS name=$1; shift; "$@"; echo "interop_seconds: $name: $((SECONDS - t0)) s"; }
+timed rgl_mitsuba "$venv/bin/python" tests/interop/rgl_mitsuba.py "$bin" "$work"
+timed measured_mitsuba "$venv/bin/python" tests/interop/measured_mitsuba.py "$bin" "$work/measured"
+timed mueller_mitsuba "$venv/bin/python" tests/interop/mueller_mitsuba.py "$bin" "$work/mueller"
+timed mie_miepython "$venv/bin/python" tests/interop/mie_miepython.py "$bin"
+timed rt_iadpython "$venv/bin/python" tests/interop/rt_iadpython.py "$bin" "$work/rt"
+timed grating_meent "$venv/bin/python" tests/interop/grating_meent.py "$work/rcwa.json"
+timed grating_rayleigh "$venv/bin/python" tests/interop/grating_rayleigh.py "$work/metal.json"
+timed vgroove_rcwa "$venv/bin/python" tests/interop/vgroove_rcwa.py "$work/vgroove.json"
+timed roof_rcwa "$venv/bin/python" tests/interop/roof_rcwa.py
+timed rcwa_nannos "$venv/bin/python" tests/interop/rcwa_nannos.py "$work/rcwa-refs.json"
+timed "diffraction against_rcwa" env GONIOSPEC_RCWA_JSON="$work/rcwa.json" cargo test --release --test diffraction against_rcwa -- --ignored --nocapture
+timed "diffraction metal_" env GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test diffraction metal_ -- --ignored --nocapture
+timed "tilted_absorbers gold_v_grooves_against_rigorous" env GONIOSPEC_VGROOVE_JSON="$work/vgroove.json" cargo test --release --test tilted_absorbers gold_v_grooves_against_rigorous -- --ignored --nocapture
+timed "rcwa against_references" env GONIOSPEC_RCWA_REFS_JSON="$work/rcwa-refs.json" cargo test --release --test rcwa against_references -- --ignored --nocapture
+timed "rcwa gold_sinusoids_against_rayleigh_fourier" env GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test rcwa gold_sinusoids_against_rayleigh_fourier -- --ignored --nocapture
+timed "cmethod gold_sinusoids_in_tm_against_rayleigh_fourier" env GONIOSPEC_METAL_GRATING_JSON="$work/metal.json" cargo test --release --test cmethod gold_sinusoids_in_tm_against_rayleigh_fourier -- --ignored --nocapture
 # The peer benchmark (issue 31): Mitsuba 3 and goniospec on the same mesh and rays must hit
 # the same triangle, ray by ray (all but 1e-4: edge ties); its speed figures are printed,
 # speed is not asserted here. Mitsuba's llvm_ad_rgb variant loads the system's LLVM, version 15 or newer (Debian 12: libllvm15;
@@ -74,6 +79,8 @@ if ((!llvm_ok)); then
   $SUDO apt-get update -qq
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq libllvm15 >/dev/null
 fi
+t_peer=$SECONDS
 "$bin" bench peer --rays 200000 --trees 2000 --python "$venv/bin/python" | tee "$work/peer.txt"
+echo "interop_seconds: bench peer: $((SECONDS - t_peer)) s"
 awk '/^same_triangle_fraction:/ { ok = ($2 >= 0.9999) } END { exit !ok }' "$work/peer.txt" \
   || { echo "bench peer: Mitsuba and goniospec hit different triangles on more than 1e-4 of the rays"; exit 1; }

@@ -436,7 +436,11 @@ fn build_eval_and_info() {
         "0",
     ]);
     assert_eq!(code, 1);
-    assert!(err.contains("not a goniospec BRDF"), "{err}");
+    // A .gsa is named as what it is, with the command that makes a BRDF of it.
+    assert!(
+        err.contains("an accumulator (.gsa)") && err.contains("goniospec build"),
+        "{err}"
+    );
     std::fs::write(&pairs, "theta_i,phi_i,theta_o,phi_o\n30,0,30\n").unwrap();
     let (code, _, err) = goniospec(&[
         "eval",
