@@ -266,3 +266,43 @@ fn target_stderr_is_refused_where_it_cannot_hold() {
     }
     assert!(!std::path::Path::new(out).exists());
 }
+
+/// Issue 71: progress that is true. An adaptive run's bar starts at its whole budget
+/// (200,000 trees a direction, in whole batches) and, as each direction meets its target
+/// early, its total comes down to what it traced: every report is at most the total known
+/// when it is made, and the last equals the trees the run traced (its statistics, counted
+/// by the workers, not by the plan).
+#[test]
+fn progress_counts_what_an_adaptive_run_traces() {
+    use std::sync::{Arc, Mutex};
+    let s = rough_glass();
+    let mut cfg = config(
+        &[20.0, 60.0],
+        Wavelengths::Bins(vec![400.0, 500.0, 600.0, 700.0]),
+        256,
+    );
+    cfg.buckets = Buckets {
+        theta_bins: 9,
+        phi_bins: 8,
+    };
+    cfg.target_stderr = Some(0.1);
+    cfg.max_rays = 200_000;
+    let plan = Arc::new(goniospec::simulate::ProgressPlan::default());
+    cfg.progress_plan = Some(plan.clone());
+    let seen = Mutex::new(Vec::new());
+    let (_, stats) = simulate(&s, &cfg, &|n| seen.lock().unwrap().push((n, plan.total()))).unwrap();
+    let seen = seen.into_inner().unwrap();
+    assert!(!seen.is_empty());
+    for &(n, total) in &seen {
+        assert!(n <= total, "{n} trees of {total}");
+    }
+    // 200,000 rounded up to whole batches of 256, per direction.
+    assert_eq!(seen[0].1, 2 * 200_192);
+    let done = seen.iter().map(|s| s.0).max().unwrap();
+    assert_eq!(done, stats.trees);
+    assert_eq!(plan.total(), stats.trees);
+    assert!(
+        stats.trees < 2 * 200_000,
+        "the target stopped the run early"
+    );
+}

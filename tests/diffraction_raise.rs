@@ -211,3 +211,33 @@ fn an_auto_raise_that_does_not_help_runs_at_the_last_trees_that_did() {
         "the run differs from the run asked for 64 trees"
     );
 }
+
+/// Issue 71: a raised run's progress goes on across its tries and never passes its total.
+/// Asked for 256 trees, the run traces the most oblique direction at 256 (its lattice's
+/// count), then both directions at 1,024: the total grows to take the second try, every
+/// report is at most the total known when it is made, and the last report and the final
+/// total are the first try's trees plus the run's own (its statistics, which count the
+/// last try only).
+#[test]
+fn a_raised_runs_progress_counts_every_try() {
+    use std::sync::{Arc, Mutex};
+    let s = shipped("rough-glass.toml");
+    let plan = Arc::new(goniospec::simulate::ProgressPlan::default());
+    let cfg = SimConfig {
+        progress_plan: Some(plan.clone()),
+        ..at_40_deg(256)
+    };
+    let seen = Mutex::new(Vec::new());
+    let (acc, stats) =
+        simulate(&s, &cfg, &|n| seen.lock().unwrap().push((n, plan.total()))).unwrap();
+    assert_eq!(acc.header.rays_asked, Some(1024));
+    let seen = seen.into_inner().unwrap();
+    for &(n, total) in &seen {
+        assert!(n <= total, "{n} trees of {total}");
+    }
+    let [nx, ny] = goniospec::simulate::diffraction_lattice(256, s.tile_nm);
+    let first_try = nx * ny;
+    let done = seen.iter().map(|s| s.0).max().unwrap();
+    assert_eq!(done, first_try + stats.trees, "{seen:?}");
+    assert_eq!(plan.total(), done);
+}

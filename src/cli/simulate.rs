@@ -1,8 +1,8 @@
 //! `goniospec simulate`: trace a sample and write its accumulator.
 
 use super::{
-    Args, Coherence, Context, ExitCode, MeshOptions, OutputKind, PathBuf, Result, bail, flag_error,
-    guard_output, progress_bar, sample, thread_pool,
+    Args, Coherence, Context, ExitCode, MeshOptions, OutputKind, PathBuf, Result, SimConfig, bail,
+    flag_error, guard_output, progress_bar, sample, thread_pool,
 };
 use goniospec::simulate::SimSettings;
 
@@ -37,6 +37,9 @@ pub(super) struct SimulateArgs {
 }
 
 pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
+    // The summary's time is the command's wall time (issue 71: a raised run's summary gave
+    // its last try's 57 s of 5 min 48 s).
+    let wall = std::time::Instant::now();
     let s = sample::load(
         &a.sample,
         MeshOptions {
@@ -64,9 +67,15 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     for f in sample::validity::findings(&s, &goniospec::simulate::validity_context(&cfg)) {
         eprintln!("warning: {}", f.message);
     }
-    let total = a.settings.budget();
+    // The bar's total is what the run will trace, as it knows it (`ProgressPlan`: the
+    // diffraction method's lattice, raised tries, adaptive directions that stop early).
+    let plan = std::sync::Arc::new(goniospec::simulate::ProgressPlan::default());
+    let cfg = SimConfig {
+        progress_plan: Some(plan.clone()),
+        ..cfg
+    };
     let pool = thread_pool(a.threads)?;
-    let bar = progress_bar(total, "trees");
+    let bar = progress_bar(a.settings.budget(), "trees");
     // A particle medium's Mie tables take seconds before the first tree: said, not shown
     // as a run stuck at 0 trees.
     let setting_up = std::sync::atomic::AtomicBool::new(false);
@@ -77,6 +86,10 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     let progress = |n| {
         if setting_up.swap(false, std::sync::atomic::Ordering::Relaxed) {
             bar.set_message("");
+        }
+        let total = plan.total().max(n);
+        if total != bar.length().unwrap_or(0) {
+            bar.set_length(total);
         }
         bar.set_position(n);
     };
@@ -102,11 +115,12 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         goniospec::io::write_atomic(r, |w| std::io::Write::write_all(w, text.as_bytes()))
             .with_context(|| format!("writing {}", r.display()))?;
     }
+    let wall = wall.elapsed().as_secs_f64();
     if stats.traces == 0 && stats.rigorous.iter().any(Option::is_some) {
-        eprintln!("nothing traced: the rigorous solver took every cell");
+        eprintln!("nothing traced: the rigorous solver took every cell, in {wall:.2} s");
     } else {
         eprintln!(
-            "{} trees ({} per direction x {} directions), {} traced trees, {} segments in {:.2} s (set-up {:.2} s): {:.0} trees/s, {:.2} M segments/s; path sharing {}; peak memory {}",
+            "{} trees ({} per direction x {} directions), {} traced trees, {} segments; {wall:.2} s in all (the simulation {:.2} s, its set-up {:.2} s): {:.0} trees/s, {:.2} M segments/s; path sharing {}; peak memory {}",
             stats.trees,
             stats.trees / cfg.theta_i_deg.len().max(1) as u64,
             cfg.theta_i_deg.len(),

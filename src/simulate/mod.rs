@@ -33,6 +33,7 @@ mod launch;
 mod partial;
 mod physical;
 mod prepare;
+mod progress;
 mod raise;
 mod rigorous;
 mod rigorous_fit;
@@ -46,6 +47,7 @@ pub use groups::ERROR_GROUPS;
 pub use hash::sample_hash;
 pub use launch::diffraction_lattice;
 pub use physical::*;
+pub use progress::ProgressPlan;
 use run::{Lost, LostSums, Run};
 pub use settings::*;
 pub use stats::*;
@@ -140,6 +142,7 @@ fn run_once(
     run.lattice = lattice;
     run.pilot = pilot && cfg.coherence == Coherence::Auto;
     run.rays_asked = asked;
+    run.announce_plan();
     run.setup_seconds = start_time.elapsed().as_secs_f64();
     let mut cells: Vec<Cell> = (0..cfg.theta_i_deg.len() * run.nl)
         .map(|_| {
@@ -214,6 +217,7 @@ fn run_once(
         };
         let failed = match traced {
             Ok(mut d) => {
+                run.direction_traced(di, d.rays);
                 d.segments = c.segments.load(Ordering::Relaxed) - before.0;
                 d.leaks = c.leaks.load(Ordering::Relaxed) - before.1;
                 d.envelope_violations = run.scene.scatter_violations() - before.2;

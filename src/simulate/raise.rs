@@ -62,6 +62,13 @@ pub(super) fn simulate_raising(
 ) -> Result<(Accumulator, SimStats), SimError> {
     let auto = cfg.coherence == Coherence::Auto;
     let mut now = cfg.clone();
+    // Each try's trees count on from the tries before it (`ProgressPlan`).
+    let plan = cfg.progress_plan.as_deref();
+    let last = std::sync::atomic::AtomicU64::new(0);
+    let progress = |n: u64| {
+        last.fetch_max(n, std::sync::atomic::Ordering::Relaxed);
+        progress(plan.map_or(0, |p| p.before()) + n);
+    };
     let mut tried: Vec<(u64, Unheld)> = Vec::new();
     // An auto run's raising stopped, and why: its last run takes rays where it cannot hold.
     let mut settled: Option<String> = None;
@@ -69,7 +76,7 @@ pub(super) fn simulate_raising(
         let next = now.rays.saturating_mul(FACTOR);
         let pilot = auto && settled.is_none() && barrier(sample, cfg, &now, next, &[]).is_none();
         let mut unheld = None;
-        let result = run_once(sample, &now, progress, &mut unheld, pilot);
+        let result = run_once(sample, &now, &progress, &mut unheld, pilot);
         let Some(u) = unheld else {
             // Said where the run's own warnings are: printed, and stored in the `.gsa`.
             return result.map(|(mut acc, mut stats)| {
@@ -107,6 +114,9 @@ pub(super) fn simulate_raising(
             // An auto run's warning lists what it tried once (`raised_warning`).
             barrier(sample, cfg, &now, next, if auto { &[] } else { &tried })
         };
+        if let Some(p) = plan {
+            p.next_try(last.swap(0, std::sync::atomic::Ordering::Relaxed));
+        }
         match stop {
             None => now.rays = next,
             Some(why) if auto && !cancelled => {

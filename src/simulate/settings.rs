@@ -342,6 +342,9 @@ pub struct SimConfig {
     /// Set from another thread to stop the run at the next chunk of blocks; the run then
     /// returns [`SimError::Cancelled`] and nothing else (no partial result).
     pub cancel: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    /// Where the run keeps the trees it will trace, for a progress bar's total
+    /// ([`super::ProgressPlan`]); `None` where nobody shows progress.
+    pub progress_plan: Option<std::sync::Arc<super::ProgressPlan>>,
     /// Tests only: tracing this direction (an index into `theta_i_deg`) fails as a refused
     /// direction would, so that what a failed run keeps ([`super::SimError::Partial`]) can
     /// be checked against a run of the finished angles alone. `None` in every real run.
@@ -396,6 +399,7 @@ impl SimConfig {
             allow_unphysical: false,
             first_direction: 0,
             cancel: None,
+            progress_plan: None,
             fail_direction: None,
         }
     }
