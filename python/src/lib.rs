@@ -799,6 +799,9 @@ fn simulate(
     let cancel = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     cfg.cancel = Some(cancel.clone());
     let done = std::sync::atomic::AtomicU64::new(0);
+    // The bar's total is what the run will trace, as it knows it (`ProgressPlan`).
+    let plan = std::sync::Arc::new(goniospec::simulate::ProgressPlan::default());
+    cfg.progress_plan = Some(plan.clone());
     let mut bar = match progress {
         Some(false) => None,
         Some(true) => Some(Bar::new(total)),
@@ -818,7 +821,9 @@ fn simulate(
                 std::thread::sleep(std::time::Duration::from_millis(50));
                 Python::with_gil(|py| {
                     if let Some(bar) = bar.as_mut() {
-                        bar.draw(py, done.load(std::sync::atomic::Ordering::Relaxed), false);
+                        let n = done.load(std::sync::atomic::Ordering::Relaxed);
+                        bar.total = plan.total().max(n).max(1);
+                        bar.draw(py, n, false);
                     }
                     if interrupt.is_none()
                         && let Err(e) = py.check_signals()
@@ -836,6 +841,7 @@ fn simulate(
     });
     if let Some(bar) = bar.as_mut() {
         let n = done.load(std::sync::atomic::Ordering::Relaxed);
+        bar.total = plan.total().max(n).max(1);
         bar.draw(py, n, true);
     }
     if let Some(e) = interrupt {
