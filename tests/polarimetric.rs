@@ -104,6 +104,27 @@ fn assert_matrix(got: &[f64; 16], want: &[f64; 16], tol: f64, what: &str) {
     }
 }
 
+/// The reflected matrix of every cell of `acc` (a run of the soap film at `thetas` x
+/// `lambdas`, exact wavelengths) against the Airy sum ([`soap_film_mueller`]), within
+/// rounding and what the power cutoff dropped, which may change the sum by `2 sqrt(D R) +
+/// D`.
+fn assert_airy(acc: &Accumulator, thetas: &[f64], lambdas: &[f64], what: &str) {
+    for (i, &t) in thetas.iter().enumerate() {
+        for (j, &l) in lambdas.iter().enumerate() {
+            let want = soap_film_mueller(t, l);
+            let cell = acc.cell(i, j);
+            let d = cell.dropped / cell.trees as f64;
+            let tol = 1e-9 + 2.0 * (d * want[0]).sqrt() + d;
+            assert_matrix(
+                &reflected(acc, i, j),
+                &want,
+                tol,
+                &format!("{what} at {t} deg, {l} nm"),
+            );
+        }
+    }
+}
+
 #[test]
 fn single_interfaces_match_the_fresnel_mueller_matrices() {
     let glass = flat_substrate("mueller-glass", 1.5, 0.0);
@@ -142,22 +163,7 @@ fn a_thin_film_matches_the_airy_sum_in_both_polarisations() {
     let lambdas = vec![450.0, 550.0, 650.0];
     let mut cfg = mueller_config(&thetas, Wavelengths::Monochromatic(lambdas.clone()), 8);
     cfg.rho_nm = f64::INFINITY;
-    let acc = run(&soap, &cfg);
-    for (i, &t) in thetas.iter().enumerate() {
-        for (j, &l) in lambdas.iter().enumerate() {
-            let want = soap_film_mueller(t, l);
-            let cell = acc.cell(i, j);
-            // What the power cutoff dropped may change the sum by 2 sqrt(D R) + D.
-            let d = cell.dropped / cell.trees as f64;
-            let tol = 1e-9 + 2.0 * (d * want[0]).sqrt() + d;
-            assert_matrix(
-                &reflected(&acc, i, j),
-                &want,
-                tol,
-                &format!("soap at {t} deg, {l} nm"),
-            );
-        }
-    }
+    assert_airy(&run(&soap, &cfg), &thetas, &lambdas, "soap");
 }
 
 /// Issue 74: a meshed flat film's exits all leave in one direction, and at 70 deg that
@@ -190,21 +196,7 @@ fn a_meshed_flat_film_gives_realisable_matrices_on_bucket_edges() {
     let thetas = [30.0, 60.0, 70.0];
     let mut cfg = mueller_config(&thetas, Wavelengths::Monochromatic(lambdas.clone()), 16);
     cfg.rho_nm = f64::INFINITY;
-    let acc = run(&soap, &cfg);
-    for (i, &t) in thetas.iter().enumerate() {
-        for (j, &l) in lambdas.iter().enumerate() {
-            let want = soap_film_mueller(t, l);
-            let cell = acc.cell(i, j);
-            let d = cell.dropped / cell.trees as f64;
-            let tol = 1e-9 + 2.0 * (d * want[0]).sqrt() + d;
-            assert_matrix(
-                &reflected(&acc, i, j),
-                &want,
-                tol,
-                &format!("meshed soap at {t} deg, {l} nm"),
-            );
-        }
-    }
+    assert_airy(&run(&soap, &cfg), &thetas, &lambdas, "meshed soap");
 }
 
 /// The unpolarised sums of a `--mueller` run are the run without it, bit for bit, and
