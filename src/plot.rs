@@ -68,6 +68,19 @@ pub fn register_font() {
     });
 }
 
+/// The polar radius of a lobe value `v` (1/sr) on a plot whose peak is `rmax`: `v`
+/// itself, or with `log_decades = Some(n)` a log scale on which `rmax` stays `rmax` and
+/// `rmax 10^-n` and below fall to the centre. A negative estimate (cross terms:
+/// docs/design.md §4) has no polar radius and is drawn at 0, which the plot's caption
+/// counts; drawn as it is, it went below the horizon.
+pub fn lobe_radius(v: f64, rmax: f64, log_decades: Option<u32>) -> f64 {
+    match log_decades {
+        _ if v <= 0.0 => 0.0,
+        Some(n) => rmax * (1.0 + (v / rmax).log10() / f64::from(n)).max(0.0),
+        None => v,
+    }
+}
+
 /// The lobe in the plane of incidence.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Lobe {
@@ -202,10 +215,14 @@ pub struct LobePlot {
     pub lobe: Lobe,
     pub map: Vec<Option<[f64; 3]>>,
     pub map_n: usize,
+    /// The lobe's radius on a log scale over this many decades below its peak (`None`:
+    /// linear), so that one bright order does not flatten every other lobe.
+    pub log_decades: Option<u32>,
 }
 
 impl LobePlot {
-    /// Computes the plot of `brdf` at incidence `(theta_i, phi_i)` (degrees).
+    /// Computes the plot of `brdf` at incidence `(theta_i, phi_i)` (degrees), its lobe on
+    /// a linear scale ([`LobePlot::log_decades`] sets a log one).
     pub fn new(
         brdf: &(dyn Brdf + Sync),
         theta_i_deg: f64,
@@ -236,6 +253,7 @@ impl LobePlot {
             lobe,
             map: hemisphere_colours(brdf, theta_i_deg, phi_i_deg, map_n),
             map_n,
+            log_decades: None,
         })
     }
 
@@ -277,21 +295,37 @@ impl LobePlot {
             .flat_map(|c| c.1.iter().copied())
             .fold(0.0f64, f64::max)
             .max(1e-12);
+        let radius = |v: f64| lobe_radius(v, rmax, self.log_decades);
+        let negative = (self.lobe.curves.iter())
+            .flat_map(|c| &c.1)
+            .filter(|v| **v < 0.0)
+            .count();
+        let mut caption = match self.log_decades {
+            Some(n) => format!(
+                "lobe in the plane of incidence: f cos(theta_o), 1/sr, log over {n} decades"
+            ),
+            None => "lobe in the plane of incidence: f cos(theta_o), 1/sr".to_string(),
+        };
+        if negative > 0 {
+            caption += &format!(" ({negative} negative estimates at 0)");
+        }
         // Equal scales on both axes, so circles stay circles.
         let (w, h) = left.dim_in_pixel();
         let top =
             2.2 * rmax * f64::from(h.saturating_sub(60)) / f64::from(w.saturating_sub(24).max(1));
         let mut chart = ChartBuilder::on(&left)
-            .caption(
-                "lobe in the plane of incidence: f cos(theta_o), 1/sr",
-                ("sans-serif", 16),
-            )
+            .caption(caption, ("sans-serif", 16))
             .margin(12)
             .build_cartesian_2d(-1.1 * rmax..1.1 * rmax, -0.05 * rmax..top - 0.05 * rmax)
             .map_err(|e| err(&e))?;
         let grey = RGBColor(200, 200, 200);
         for k in 1..=4 {
             let r = rmax * k as f64 / 4.0;
+            // The value a ring stands for.
+            let value = match self.log_decades {
+                Some(n) => rmax * 10f64.powf(-f64::from(n) * (1.0 - k as f64 / 4.0)),
+                None => r,
+            };
             chart
                 .draw_series(LineSeries::new(
                     (-90..=90).map(|t| {
@@ -303,7 +337,11 @@ impl LobePlot {
                 .map_err(|e| err(&e))?;
             chart
                 .draw_series(std::iter::once(Text::new(
-                    format!("{:.3}", r),
+                    if self.log_decades.is_some() {
+                        format!("{value:.1e}")
+                    } else {
+                        format!("{value:.3}")
+                    },
                     (0.0, r),
                     ("sans-serif", 11)
                         .into_font()
@@ -346,8 +384,8 @@ impl LobePlot {
             chart
                 .draw_series(LineSeries::new(
                     self.lobe.theta_o_deg.iter().zip(values).map(|(t, v)| {
-                        let a = t.to_radians();
-                        (v * a.sin(), v * a.cos())
+                        let (a, r) = (t.to_radians(), radius(*v));
+                        (r * a.sin(), r * a.cos())
                     }),
                     ShapeStyle::from(&c).stroke_width(2),
                 ))
@@ -361,6 +399,18 @@ impl LobePlot {
                 });
         }
         draw_legend(&mut chart)?;
+        self.draw_map(&right)?;
+        root.present().map_err(|e| err(&e))?;
+        Ok(())
+    }
+
+    /// The hemisphere colour map panel.
+    fn draw_map<DB: plotters::prelude::DrawingBackend>(
+        &self,
+        right: &plotters::prelude::DrawingArea<DB, plotters::coord::Shift>,
+    ) -> Result<(), PlotError> {
+        use plotters::prelude::*;
+        let err = |e: &dyn std::fmt::Display| e.to_string();
         // Hemisphere colour map.
         let mut lum: Vec<f64> = self
             .map
@@ -375,7 +425,7 @@ impl LobePlot {
             .filter(|v| *v > 0.0)
             .map_or(1.0, |v| 1.0 / v);
         let n = self.map_n;
-        let mut map = ChartBuilder::on(&right)
+        let mut map = ChartBuilder::on(right)
             .caption(
                 format!("reflected colour under D65, projected hemisphere (x {scale:.3e}; specular side right)"),
                 ("sans-serif", 14),
@@ -394,7 +444,6 @@ impl LobePlot {
             ))
         }))
         .map_err(|e| err(&e))?;
-        root.present().map_err(|e| err(&e))?;
         Ok(())
     }
 }
@@ -402,6 +451,20 @@ impl LobePlot {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lobe_radii_keep_the_peak_and_put_no_value_below_the_horizon() {
+        // Linear: the value; negative estimates at the centre, never mirrored below.
+        assert_eq!(lobe_radius(0.3, 2.0, None), 0.3);
+        assert_eq!(lobe_radius(-0.3, 2.0, None), 0.0);
+        // Log over 4 decades: the peak stays, each decade down is a quarter of the
+        // radius, and 4 decades down is the centre.
+        assert!((lobe_radius(2.0, 2.0, Some(4)) - 2.0).abs() < 1e-12);
+        assert!((lobe_radius(0.2, 2.0, Some(4)) - 1.5).abs() < 1e-12);
+        assert!((lobe_radius(2e-2, 2.0, Some(4)) - 1.0).abs() < 1e-12);
+        assert_eq!(lobe_radius(2e-5, 2.0, Some(4)), 0.0);
+        assert_eq!(lobe_radius(-1.0, 2.0, Some(4)), 0.0);
+    }
 
     #[test]
     fn wavelength_colours_run_from_violet_to_red() {

@@ -297,6 +297,78 @@ fn representations_agree_and_integrate_to_the_simulated_reflectance() {
     );
 }
 
+/// At theta_o = 0 every azimuth is one direction, so each representation gives one value
+/// there whatever phi_o says (issue 71: the foil's table gave 32.9 or 60.7 1/sr by phi_o,
+/// through the sign of a zero in the azimuth). The table's pole is the mean of its first
+/// ring (the values at the ring's bucket centres, read through `eval`), and it is
+/// continuous: a direction 1e-7 rad off the pole differs from it by at most the blend
+/// weight `2 theta_o / dtheta` (6e-6) times the ring's spread.
+#[test]
+fn the_pole_is_one_direction_in_every_representation() {
+    let (data, _) = rough_data(Buckets {
+        theta_bins: 45,
+        phi_bins: 36,
+    });
+    let nl = data.lambda_nm.len();
+    let table = TableBrdf::build(&data);
+    let reps: Vec<(&str, Box<dyn Brdf>)> = vec![
+        ("kdtree", Box::new(KdTreeBrdf::build(&data, 4, true, false))),
+        ("subdivided", Box::new(SubdividedBrdf::build(&data, 0.05))),
+        ("table", Box::new(TableBrdf::build(&data))),
+    ];
+    let mut v = vec![0.0; nl];
+    for th in [15.0f64, 30.0, 45.0] {
+        let wi = from_spherical(th.to_radians(), 0.0);
+        for (name, b) in &reps {
+            let mut pole = vec![0.0; nl];
+            b.eval(wi, from_spherical(0.0, 0.0), &mut pole);
+            // (The k-d tree's nearest samples to the pole hold nothing at 15-45 deg.)
+            assert!(*name == "kdtree" || pole[0] > 0.0, "{name}: {pole:?}");
+            for deg in (0..360).step_by(15) {
+                b.eval(wi, from_spherical(0.0, f64::from(deg).to_radians()), &mut v);
+                assert_eq!(v, pole, "{name}, theta_i {th}: phi_o {deg} deg");
+            }
+        }
+        // The table's pole against its first ring, and off the pole by 1e-7 rad.
+        let mut pole = vec![0.0; nl];
+        table.eval(wi, glam::DVec3::Z, &mut pole);
+        let (dt, dp) = (FRAC_PI_2 / 45.0, TAU / 36.0);
+        let mut ring = vec![0.0; nl];
+        let mut spread = vec![(f64::INFINITY, 0.0f64); nl];
+        for p in 0..36 {
+            table.eval(wi, from_spherical(0.5 * dt, (p as f64 + 0.5) * dp), &mut v);
+            for ((r, s), x) in ring.iter_mut().zip(spread.iter_mut()).zip(&v) {
+                *r += x / 36.0;
+                *s = (s.0.min(*x), s.1.max(*x));
+            }
+        }
+        // Off the pole by 1e-7 rad the value is the pole's blended with the ring's by the
+        // weight 2 theta_o / dt: it differs by at most that times the ring's spread.
+        let blend = 2.0 * 1e-7 / dt;
+        for deg in (0..360).step_by(30) {
+            table.eval(
+                wi,
+                from_spherical(1e-7, f64::from(deg).to_radians()),
+                &mut v,
+            );
+            for j in 0..nl {
+                assert!(
+                    (pole[j] - ring[j]).abs() <= 1e-12 * ring[j],
+                    "theta_i {th}, bin {j}: pole {} against the ring's mean {}",
+                    pole[j],
+                    ring[j]
+                );
+                assert!(
+                    (v[j] - pole[j]).abs() <= blend * (spread[j].1 - spread[j].0) + 1e-12,
+                    "theta_i {th}, bin {j}, phi_o {deg}: {} beside the pole's {}",
+                    v[j],
+                    pole[j]
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn reciprocal_kdtree_is_symmetric() {
     let (data, _) = rough_data(Buckets {

@@ -1292,3 +1292,60 @@ fn stokes_vectors_mie_indices_and_budgets_are_judged_by_their_meaning() {
     assert!(err.contains("--max-rays: 1 is below --rays 64"), "{err}");
     assert!(!d.join("mr.gsa").exists());
 }
+
+/// `analytic --theta-i` takes a list as `simulate` does (issue 71: `--theta-i 45,56.31` was
+/// refused): each row starts with its angle, the rows of an angle are that angle's alone
+/// (the same digits as asked on its own), and at normal incidence s and p are one wave
+/// (Rs = Rp, Ts = Tp). An angle outside [0, 90) is refused before anything is printed.
+#[test]
+fn analytic_takes_a_list_of_angles() {
+    let args = |angles: &str| {
+        goniospec(&[
+            "analytic",
+            "meshes/flat-soap-film.toml",
+            "--theta-i",
+            angles,
+            "--wavelengths",
+            "400:700:100",
+        ])
+    };
+    let (code, both, err) = args("0,56.31");
+    assert_eq!(code, 0, "{err}");
+    let mut lines = both.lines();
+    assert_eq!(
+        lines.next(),
+        Some("theta_i_deg,lambda_nm,Rs,Rp,R,Ts,Tp,T,delta_deg")
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 6, "{both}");
+    for row in rows.iter().filter(|r| r[0] == "0") {
+        assert_eq!(row[2], row[3], "Rs = Rp at normal incidence: {row:?}");
+        assert_eq!(row[5], row[6], "Ts = Tp at normal incidence: {row:?}");
+    }
+    let (code, alone, err) = args("56.31");
+    assert_eq!(code, 0, "{err}");
+    let alone: Vec<&str> = alone.lines().skip(1).collect();
+    let listed: Vec<String> = rows
+        .iter()
+        .filter(|r| r[0] == "56.31")
+        .map(|r| r[1..].join(","))
+        .collect();
+    assert_eq!(listed, alone);
+    let (code, out, err) = args("30,95");
+    assert_eq!(code, 1);
+    assert!(out.is_empty() && err.contains("got 95"), "{out} {err}");
+}
+
+/// `eval --help` states the Stokes sign convention and SCATMECH's (issue 71: its users
+/// had to find that S1 = I_p - I_s flips against theirs).
+#[test]
+fn eval_help_states_the_stokes_convention() {
+    let (code, out, err) = goniospec(&["eval", "--help"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        out.contains("S1 = I_p - I_s")
+            && out.contains("SCATMECH")
+            && out.contains("diag(1, -1, -1, 1)"),
+        "{out}"
+    );
+}

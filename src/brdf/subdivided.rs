@@ -226,16 +226,29 @@ impl super::Brdf for SubdividedBrdf {
             k as u32 / self.buckets.phi_bins,
             k as u32 % self.buckets.phi_bins,
         );
+        // At theta_o = 0 every azimuth is one direction: the pole takes the mean of the
+        // first ring's cells, whatever phi_o says (the table's pole: `table.rs`).
+        let pole = wo[0] == 0.0 && wo[1] == 0.0;
+        let at = |i: usize, w: f64, out: &mut [f64]| {
+            if pole {
+                let n = self.buckets.phi_bins;
+                for q in 0..n {
+                    self.eval_at(i, 0, q, w / f64::from(n), out);
+                }
+            } else {
+                self.eval_at(i, t, p, w, out);
+            }
+        };
         let xs = &self.theta_i_rad;
         if xs.len() == 1 || ti <= xs[0] {
-            self.eval_at(0, t, p, 1.0, out);
+            at(0, 1.0, out);
         } else if ti >= xs[xs.len() - 1] {
-            self.eval_at(xs.len() - 1, t, p, 1.0, out);
+            at(xs.len() - 1, 1.0, out);
         } else {
             let i = xs.partition_point(|&v| v <= ti) - 1;
             let w = (ti - xs[i]) / (xs[i + 1] - xs[i]);
-            self.eval_at(i, t, p, 1.0 - w, out);
-            self.eval_at(i + 1, t, p, w, out);
+            at(i, 1.0 - w, out);
+            at(i + 1, w, out);
         }
     }
 

@@ -75,9 +75,14 @@ impl super::Brdf for TableBrdf {
         let (ti, pi) = angles(wi);
         let (to, po) = angles(wo);
         let (i0, i1, wi_t) = bracket(&self.theta_i_rad, ti);
-        // theta_o between bucket centres.
+        // theta_o between bucket centres. Below the first ring's centres the value runs
+        // from the ring's to the pole's, the ring's mean: at theta_o = 0 every azimuth is
+        // one direction, so the value may not depend on it (issue 71: the foil's BRDF
+        // there was 32.9 or 60.7 1/sr by phi_o, through the sign of a zero).
         let dt = std::f64::consts::FRAC_PI_2 / self.theta_bins as f64;
-        let xt = (to / dt - 0.5).clamp(0.0, (self.theta_bins - 1) as f64);
+        let raw = to / dt - 0.5;
+        let pole = if raw < 0.0 { -2.0 * raw } else { 0.0 };
+        let xt = raw.clamp(0.0, (self.theta_bins - 1) as f64);
         let t0 = xt.floor() as usize;
         let t1 = (t0 + 1).min(self.theta_bins - 1);
         let wt = xt - t0 as f64;
@@ -92,16 +97,23 @@ impl super::Brdf for TableBrdf {
             if wi_w == 0.0 {
                 continue;
             }
+            let mut add = |t: usize, p: usize, w: f64| {
+                let base = ((i * self.theta_bins + t) * self.phi_bins + p) * nl;
+                for (o, v) in out.iter_mut().zip(&self.values[base..base + nl]) {
+                    *o += w * v;
+                }
+            };
             for (t, wt_w) in [(t0, 1.0 - wt), (t1, wt)] {
                 for (p, wp_w) in [(p0, 1.0 - wp), (p1, wp)] {
-                    let w = wi_w * wt_w * wp_w;
-                    if w == 0.0 {
-                        continue;
+                    let w = wi_w * wt_w * wp_w * (1.0 - pole);
+                    if w != 0.0 {
+                        add(t, p, w);
                     }
-                    let base = ((i * self.theta_bins + t) * self.phi_bins + p) * nl;
-                    for (o, v) in out.iter_mut().zip(&self.values[base..base + nl]) {
-                        *o += w * v;
-                    }
+                }
+            }
+            if pole > 0.0 {
+                for p in 0..self.phi_bins {
+                    add(0, p, wi_w * pole / self.phi_bins as f64);
                 }
             }
         }

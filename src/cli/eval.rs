@@ -31,13 +31,19 @@ pub(super) struct EvalArgs {
     /// degree of polarisation for unpolarised light in, per wavelength: the matrix of the
     /// bucket the outgoing direction falls in, at a simulated incident angle, read from a
     /// .gsa simulated with --mueller (docs/physics.md, "Polarisation"). An outgoing polar
-    /// angle above 90 deg reads the transmission side.
+    /// angle above 90 deg reads the transmission side. Stokes parameters with x = p, y = s:
+    /// S1 = I_p - I_s, S2 = I_+45 - I_-45, S3 = 2 Im(conj E_p E_s) (circular+ is S3 = +1);
+    /// a perfect mirror at normal incidence is diag(1, 1, -1, -1). NIST SCATMECH's
+    /// basis is this one under D = diag(1, -1, -1, 1): flip the signs of S1 and S2, and
+    /// take D M D of a matrix (the elements with exactly one index in {1, 2} flip) to
+    /// compare.
     #[arg(long, conflicts_with = "pairs")]
     mueller: bool,
     /// With --mueller: the light in is polarised (unpolarised, s, p, +45, -45, circular+,
-    /// circular-, or S0,S1,S2,S3 in the incident direction's s/p frame); prints instead the
-    /// Stokes vector of the light sent out, lambda_nm,S0,S1,S2,S3,dop (1/sr, in the
-    /// outgoing direction's frame; S0 the BRDF for that state).
+    /// circular-, or S0,S1,S2,S3 in the incident direction's s/p frame, S1 = I_p - I_s as
+    /// above); prints instead the Stokes vector of the light sent out,
+    /// lambda_nm,S0,S1,S2,S3,dop (1/sr, in the outgoing direction's frame; S0 the BRDF for
+    /// that state).
     #[arg(long, requires = "mueller", value_parser = goniospec::optics::mueller::stokes_state, allow_hyphen_values = true)]
     incident: Option<[f64; 4]>,
 }

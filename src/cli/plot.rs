@@ -16,6 +16,10 @@ pub(super) struct PlotArgs {
     /// Output image: .png or .svg, written atomically.
     #[arg(short, long)]
     output: PathBuf,
+    /// Draw the lobe's radius on a log scale over this many decades below its peak (1 to
+    /// 12): one bright order or mirror lobe then leaves the others visible. Default: linear.
+    #[arg(long, value_name = "DECADES", value_parser = clap::value_parser!(u32).range(1..=12))]
+    log_decades: Option<u32>,
     /// Points per side of the hemisphere colour map (8 to 1024).
     #[arg(long, default_value_t = 160, value_parser = clap::value_parser!(u16).range(8..=1024))]
     map_resolution: u16,
@@ -41,11 +45,12 @@ pub(super) fn plot(a: PlotArgs) -> Result<ExitCode> {
     let material = super::Material::open(&a.input)?;
     let r = material.brdf();
     let pool = thread_pool(a.threads)?;
-    let plot = pool
+    let mut plot = pool
         .install(|| {
             goniospec::plot::LobePlot::new(r, a.theta_i, a.phi_i, usize::from(a.map_resolution))
         })
         .map_err(anyhow::Error::msg)?;
+    plot.log_decades = a.log_decades;
     plot.write(&a.output)?;
     if material.is_rgb() {
         outln!(
