@@ -173,14 +173,15 @@ fn bright_median(cells: &[goniospec::accumulate::Cell]) -> f64 {
     rel[rel.len() / 2]
 }
 
-/// `--target-stderr` (issue 49): each direction stops at the first batch whose bright
-/// buckets reach the target. The figure is recomputed here from the cells; the batch
-/// before did not reach it (a run of that direction alone on its own random streams whose
-/// budget ran out one batch earlier: batches are whole blocks, so its cells are the
-/// adaptive run's before its last batch, which a run whose budget ran out at the same
-/// count checks); and the cells do not depend on the thread count.
+/// `--target-stderr` (issue 49) takes the trees it needs (issue 71): each direction stops
+/// at a batch whose bright buckets reach the target, and 1/1.5 of its trees did not (a run
+/// of that direction alone on its own random streams whose budget ran out there: batches
+/// are whole blocks, so its cells are the adaptive run's first trees, which a run whose
+/// budget ran out at the same count checks). So the target is met within 1.5 times the
+/// trees it needs. The figure is recomputed here from the cells, and the cells do not
+/// depend on the thread count.
 #[test]
-fn target_stderr_stops_at_the_first_batch_that_reaches_it() {
+fn target_stderr_takes_the_trees_it_needs() {
     let s = rough_glass();
     let (target, batch) = (0.1, 256);
     let mut cfg = config(
@@ -220,10 +221,16 @@ fn target_stderr_stops_at_the_first_batch_that_reaches_it() {
             cells,
             "direction {i}: the same trees alone"
         );
-        let before = bright_median(&alone(d.rays - batch).cells);
+        let fewer = (d.rays as f64 / 1.5 / 64.0).floor() as u64 * 64;
+        let before = bright_median(&alone(fewer).cells);
+        eprintln!(
+            "direction {i}: {} trees reach {figure:.4}; {fewer} reach {before:.4}",
+            d.rays
+        );
         assert!(
             before > target,
-            "direction {i}: the batch before already had {before}"
+            "direction {i}: {fewer} trees, 1/1.5 of the {} it took, already had {before}",
+            d.rays
         );
     }
     assert!(run_on_one_thread(&s, &cfg).to_bytes() == acc.to_bytes());
@@ -296,8 +303,9 @@ fn progress_counts_what_an_adaptive_run_traces() {
     for &(n, total) in &seen {
         assert!(n <= total, "{n} trees of {total}");
     }
-    // 200,000 rounded up to whole batches of 256, per direction.
-    assert_eq!(seen[0].1, 2 * 200_192);
+    // 200,000 per direction: batches grow by the measured error and the last stops at
+    // the budget.
+    assert_eq!(seen[0].1, 2 * 200_000);
     let done = seen.iter().map(|s| s.0).max().unwrap();
     assert_eq!(done, stats.trees);
     assert_eq!(plan.total(), stats.trees);

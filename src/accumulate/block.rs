@@ -31,6 +31,9 @@ pub(crate) struct BlockCell {
     pub(crate) created: f64,
     /// Sum over trees of `Tree::limited_power`.
     pub(crate) limited: f64,
+    /// Sum over lossless trees of the power their groups' cross terms were corrected by
+    /// (`Scratch::corrected`).
+    pub(crate) rebalanced: f64,
     /// The diffraction method: every exit's contribution, tree by tree
     /// (`diffraction::contribution`).
     pub(crate) diffraction: Vec<super::diffraction::Contribution>,

@@ -41,68 +41,42 @@ impl Estimator {
         let k = 2.0 * PI / lambda_nm;
         let p = &s.prep;
         debug_assert_eq!(p.keys.len(), tree.exits.len(), "prepare() the tree first");
+        s.corrected = 0.0;
         if self.mode == Coherence::Beamlet {
             // |a_j|^2 = P_j exp(-2 k Im OPL_j) (`Prepared::att`); c_jl = 2 Re(h e^{i k
-            // delta}) K e^{-k (Im_j + Im_l)}.
+            // delta}) K e^{-k (Im_j + Im_l)}. Each deposit's exit is kept beside it
+            // (`out_exit`, `mdep_exit`) for the lossless groups' balance.
             s.mdeps.clear();
+            s.out_exit.clear();
+            s.mdep_exit.clear();
+            let o0 = out.len();
             let mueller = self.mueller;
             for j in 0..p.keys.len() {
                 let v = p.pow[j] * p.att(k, j);
                 out.push((p.keys[j], v));
+                s.out_exit.push(j as u32);
                 if mueller {
                     let a = p.att(k, j);
                     let mut m = mueller::mueller(&p.jones[j]).map(|x| x * a);
                     m[0] = v;
                     s.mdeps.push((p.keys[j], m));
+                    s.mdep_exit.push(j as u32);
                 }
             }
             self.deposit_groups(tree, k, s, out);
-            let p = &s.prep;
             let theta_w2 = (lambda_nm / (PI * self.rho_nm)).powi(2);
-            if !self.reference {
+            if self.reference {
+                self.reference_pairs(k, theta_w2, s, out);
+            } else {
                 // The pair loop and its batches compiled for AVX2 where the CPU has it
                 // (the same bits: `machine::with_avx2`).
                 crate::machine::with_avx2(
                     #[inline(always)]
                     || self.deposit_pairs(k, theta_w2, s, out),
                 );
-                return;
             }
-            for (i, pr) in p.pairs.iter().enumerate() {
-                let (j, l) = (pr.j as usize, pr.l as usize);
-                let mut kernel = pr.k_pos;
-                if pr.m2 > 0.0 {
-                    kernel *= directional_exponent(pr.dw2, pr.m2, k, self.rho_nm).exp();
-                } else if pr.dw2 > 0.0 {
-                    kernel *= (-pr.dw2 / (2.0 * theta_w2)).exp();
-                }
-                let (sn, cs) = (k * pr.delta_nm).sin_cos();
-                kernel *= (k * pr.grow_nm).exp();
-                let mut c = 2.0 * (pr.h.re * cs - pr.h.im * sn) * kernel;
-                let (mut pj, mut pl) = (p.pow[j], p.pow[l]);
-                if p.absorbing {
-                    c *= (-k * (p.im[j] + p.im[l])).exp();
-                    pj *= p.att(k, j);
-                    pl *= p.att(k, l);
-                }
-                let tot = pj + pl;
-                if tot > 0.0 {
-                    out.push((p.keys[j], c * pj / tot));
-                    out.push((p.keys[l], c * pl / tot));
-                    if mueller {
-                        let w = if p.absorbing {
-                            kernel * (-k * (p.im[j] + p.im[l])).exp()
-                        } else {
-                            kernel
-                        };
-                        for (key, share) in [(p.keys[j], pj / tot), (p.keys[l], pl / tot)] {
-                            let mut m = [0.0; 16];
-                            mueller::add_cross(&mut m, &p.pair_m[i], sn, cs, w * share);
-                            m[0] = c * share;
-                            s.mdeps.push((key, m));
-                        }
-                    }
-                }
+            if !tree.absorbing {
+                s.corrected = super::conserve::conserve_groups(tree, s, &mut out[o0..]);
             }
             return;
         }
@@ -150,6 +124,53 @@ impl Estimator {
             }
         }
     }
+    /// The pairs' cross terms at wave number `k` (1/nm), pair by pair with the standard
+    /// library's functions: the reference the fast loop ([`Self::deposit_pairs`]) is
+    /// tested against. Each pair's term is split between its two exits in proportion to
+    /// their powers.
+    fn reference_pairs(&self, k: f64, theta_w2: f64, s: &mut Scratch, out: &mut Vec<(u32, f64)>) {
+        let p = &s.prep;
+        let mueller = self.mueller;
+        for (i, pr) in p.pairs.iter().enumerate() {
+            let (j, l) = (pr.j as usize, pr.l as usize);
+            let mut kernel = pr.k_pos;
+            if pr.m2 > 0.0 {
+                kernel *= directional_exponent(pr.dw2, pr.m2, k, self.rho_nm).exp();
+            } else if pr.dw2 > 0.0 {
+                kernel *= (-pr.dw2 / (2.0 * theta_w2)).exp();
+            }
+            let (sn, cs) = (k * pr.delta_nm).sin_cos();
+            kernel *= (k * pr.grow_nm).exp();
+            let mut c = 2.0 * (pr.h.re * cs - pr.h.im * sn) * kernel;
+            let (mut pj, mut pl) = (p.pow[j], p.pow[l]);
+            if p.absorbing {
+                c *= (-k * (p.im[j] + p.im[l])).exp();
+                pj *= p.att(k, j);
+                pl *= p.att(k, l);
+            }
+            let tot = pj + pl;
+            if tot > 0.0 {
+                out.push((p.keys[j], c * pj / tot));
+                out.push((p.keys[l], c * pl / tot));
+                s.out_exit.extend([j as u32, l as u32]);
+                if mueller {
+                    let w = if p.absorbing {
+                        kernel * (-k * (p.im[j] + p.im[l])).exp()
+                    } else {
+                        kernel
+                    };
+                    for (x, share) in [(j, pj / tot), (l, pl / tot)] {
+                        let mut m = [0.0; 16];
+                        mueller::add_cross(&mut m, &p.pair_m[i], sn, cs, w * share);
+                        m[0] = c * share;
+                        s.mdeps.push((p.keys[x], m));
+                        s.mdep_exit.push(x as u32);
+                    }
+                }
+            }
+        }
+    }
+
     /// Plane-wave limit: each group's coherent sum less its exits' own powers (its pairs'
     /// cross terms), split among its exits in proportion to their powers; with `--mueller`
     /// the same for the groups' Jones matrices.
@@ -198,11 +219,13 @@ impl Estimator {
                     let j = j as usize;
                     let v = cross * p.pow[j] * p.att(k, j) / incoherent;
                     out.push((p.keys[j], v));
+                    s.out_exit.push(j as u32);
                     if mueller {
                         let share = p.pow[j] * p.att(k, j) / incoherent;
                         let mut m = mcross.map(|x| x * share);
                         m[0] = v;
                         s.mdeps.push((p.keys[j], m));
+                        s.mdep_exit.push(j as u32);
                     }
                 }
             }
@@ -228,6 +251,8 @@ impl Estimator {
             exit_sum,
             mdeps,
             exit_msum,
+            out_exit,
+            mdep_exit,
             ..
         } = s;
         let mueller = self.mueller;
@@ -289,11 +314,13 @@ impl Estimator {
         for (j, &v) in exit_sum.iter().enumerate() {
             if v != 0.0 {
                 out.push((p.keys[j], v));
+                out_exit.push(j as u32);
             }
             if mueller && (v != 0.0 || exit_msum[j].iter().any(|&x| x != 0.0)) {
                 let mut m = exit_msum[j];
                 m[0] = v;
                 mdeps.push((p.keys[j], m));
+                mdep_exit.push(j as u32);
             }
         }
     }

@@ -149,6 +149,13 @@ pub struct Header {
     /// groups estimate the same thing and merge (the larger is kept).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub error_groups: u64,
+    /// The runs' lossless trees carried out exactly the power that entered each of their
+    /// coherence groups (`accumulate::conserve`, issue 71), so that a rays cell without
+    /// absorption balances `R + T + dropped = 1` to rounding, which the checks hold it to
+    /// (`simulate::check_file`). Absent (false) in files of earlier versions, and in a
+    /// merge with one.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub balanced: bool,
 }
 
 /// A `.gsa` header whose values no reader can rely on (the message names the field).
@@ -619,6 +626,7 @@ impl Accumulator {
         }
         self.header.seeds.extend_from_slice(&other.header.seeds);
         self.header.error_groups = self.header.error_groups.max(other.header.error_groups);
+        self.header.balanced &= other.header.balanced;
         for (x, y) in self
             .header
             .rays_per_direction

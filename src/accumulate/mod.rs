@@ -27,6 +27,7 @@
 pub(crate) mod block;
 pub mod buckets;
 mod cell;
+mod conserve;
 mod deposit;
 pub mod diffraction;
 pub mod file;
@@ -194,6 +195,14 @@ pub struct Scratch {
     /// each exit's summed pair terms.
     mdeps: Vec<(u32, Mueller)>,
     exit_msum: Vec<Mueller>,
+    /// The exit each deposit of the last [`Estimator::deposit`] belongs to (beside its
+    /// scalar and its Mueller deposits), each coherence group's own and total power, and
+    /// the power the last deposit's lossless groups were corrected by
+    /// ([`conserve::conserve_groups`]).
+    out_exit: Vec<u32>,
+    mdep_exit: Vec<u32>,
+    group_power: Vec<(f64, f64)>,
+    corrected: f64,
 }
 
 impl Scratch {
@@ -201,6 +210,14 @@ impl Scratch {
     /// [`Estimator::mueller`]).
     pub fn mueller_deposits(&self) -> &[(u32, Mueller)] {
         &self.mdeps
+    }
+
+    /// The power, as a fraction of the launched power, by which the last
+    /// [`Estimator::deposit`] corrected the cross terms of the tree's lossless coherence
+    /// groups so that they carry out what entered them (`conserve`; 0 for trees that met
+    /// absorption and for modes other than beamlet).
+    pub fn corrected(&self) -> f64 {
+        self.corrected
     }
 }
 

@@ -8,7 +8,8 @@ use glam::DVec3;
 
 use super::groups::{group_of, group_size};
 use super::launch::{entry_point, lattice_point};
-use super::run::{Overflow, Run, Tracing, Worker};
+use super::lost::Overflow;
+use super::run::{Run, Tracing, Worker};
 use crate::accumulate::block::BlockCell;
 use crate::accumulate::{Scratch, diffraction};
 use crate::optics::fresnel::Field;
@@ -386,6 +387,7 @@ impl Run<'_> {
             cell.created += (-absorbed).max(0.0).min(tree.excess);
         }
         cell.limited += tree.limited_power;
+        cell.rebalanced += w.scratch.corrected();
         cell.limit_bound += 2.0 * (dropped_limit * (r + t).max(0.0)).sqrt() + dropped_limit;
         cell.dropped += dropped;
         cell.dropped_limit += dropped_limit;

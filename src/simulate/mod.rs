@@ -28,8 +28,10 @@ pub mod auto;
 mod block;
 mod diffract;
 mod groups;
+mod growth;
 mod hash;
 mod launch;
+mod lost;
 mod partial;
 mod physical;
 mod prepare;
@@ -46,9 +48,10 @@ mod warnings;
 pub use groups::ERROR_GROUPS;
 pub use hash::sample_hash;
 pub use launch::diffraction_lattice;
+use lost::LostSums;
 pub use physical::*;
 pub use progress::ProgressPlan;
-use run::{Lost, LostSums, Run};
+use run::Run;
 pub use settings::*;
 pub use stats::*;
 pub use values::*;
@@ -150,12 +153,7 @@ fn run_once(
             if cfg.mueller { c.with_mueller() } else { c }
         })
         .collect();
-    let mut limit_dropped = vec![0.0; cells.len()];
-    let mut escaped = vec![0.0; cells.len()];
-    let mut limit_bound = vec![0.0; cells.len()];
-    let mut created = vec![0.0; cells.len()];
-    let mut limited = vec![0.0; cells.len()];
-    let mut diffraction = vec![DiffractionCell::default(); cells.len()];
+    let mut sums = LostSums::new(cells.len());
     // Every direction draws its own random streams and fills its own cells, so the order
     // they are traced in changes no byte. The diffraction method traces the most oblique
     // first: it is where the rays sample the field most coarsely, and a direction its
@@ -167,14 +165,6 @@ fn run_once(
     }
     let mut done: Vec<Option<DirectionStats>> = (0..order.len()).map(|_| None).collect();
     for di in order {
-        let lost = Lost {
-            diffraction: &mut diffraction,
-            limit_dropped: &mut limit_dropped,
-            escaped: &mut escaped,
-            limit_bound: &mut limit_bound,
-            created: &mut created,
-            limited: &mut limited,
-        };
         let c = &run.counters;
         let before = (
             c.segments.load(Ordering::Relaxed),
@@ -190,7 +180,7 @@ fn run_once(
             run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &[])
                 .map(|_| DirectionStats::untraced(cfg.theta_i_deg[di]))
         } else {
-            run.direction(di, cfg.theta_i_deg[di], &mut cells, lost, progress)
+            run.direction(di, cfg.theta_i_deg[di], &mut cells, sums.lost(), progress)
                 .and_then(|d| {
                     // What the rays lost or could not trust in a rigorous cell, and what
                     // the diffraction method had to say of it, is not the cell's.
@@ -201,16 +191,11 @@ fn run_once(
                             && !(DIFFRACTION_RATIO_WARN..=1.0 / DIFFRACTION_RATIO_WARN)
                                 .contains(&c.ratio())
                     };
-                    let fell: Vec<bool> = (diffraction[di * run.nl..(di + 1) * run.nl].iter())
+                    let fell: Vec<bool> = (sums.diffraction[di * run.nl..(di + 1) * run.nl].iter())
                         .map(|c| c.fell_back || warned(c))
                         .collect();
                     for k in run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &fell)? {
-                        diffraction[k] = DiffractionCell::default();
-                        limit_dropped[k] = 0.0;
-                        escaped[k] = 0.0;
-                        limit_bound[k] = 0.0;
-                        created[k] = 0.0;
-                        limited[k] = 0.0;
+                        sums.clear(k);
                     }
                     Ok(d)
                 })
@@ -222,7 +207,7 @@ fn run_once(
                 d.leaks = c.leaks.load(Ordering::Relaxed) - before.1;
                 d.envelope_violations = run.scene.scatter_violations() - before.2;
                 done[di] = Some(d);
-                *unheld = run.unheld(&diffraction, di * run.nl..(di + 1) * run.nl);
+                *unheld = run.unheld(&sums.diffraction, di * run.nl..(di + 1) * run.nl);
                 unheld.as_ref().map(|u| {
                     done[di] = None;
                     run.diffraction_refusal(u)
@@ -231,16 +216,8 @@ fn run_once(
             Err(e) => Some(e),
         };
         if let Some(cause) = failed {
-            let lost = LostSums {
-                diffraction,
-                limit_dropped,
-                escaped,
-                limit_bound,
-                created,
-                limited,
-            };
             return Err(partial::keep_finished(
-                run, cfg, cause, cells, lost, done, start_time,
+                run, cfg, cause, cells, sums, done, start_time,
             ));
         }
     }
@@ -255,14 +232,7 @@ fn run_once(
     {
         return Err(SimError::Cancelled);
     }
-    let lost = LostSums {
-        diffraction,
-        limit_dropped,
-        escaped,
-        limit_bound,
-        created,
-        limited,
-    };
+    let lost = sums;
     for (di, n) in run.rigorous_notes.lock().expect("not poisoned").iter() {
         run.auto_direction_notes[*di].push(n.clone());
     }

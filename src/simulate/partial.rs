@@ -9,7 +9,8 @@
 
 use std::time::Instant;
 
-use super::run::{LostSums, Run};
+use super::lost::LostSums;
+use super::run::Run;
 use super::{DirectionStats, SimConfig, SimError, warnings};
 use crate::accumulate::Cell;
 
@@ -69,14 +70,7 @@ pub(super) fn keep_finished(
     let notes = run.auto_direction_notes[dirs.clone()].to_vec();
     let sheets = std::mem::take(&mut run.sheets);
     let cells: Vec<Cell> = cells.drain(span.clone()).collect();
-    let lost = LostSums {
-        diffraction: lost.diffraction[span.clone()].to_vec(),
-        limit_dropped: lost.limit_dropped[span.clone()].to_vec(),
-        escaped: lost.escaped[span.clone()].to_vec(),
-        limit_bound: lost.limit_bound[span.clone()].to_vec(),
-        created: lost.created[span.clone()].to_vec(),
-        limited: lost.limited[span].to_vec(),
-    };
+    let lost = lost.span(span);
     let directions: Vec<DirectionStats> = done[dirs]
         .iter_mut()
         .map(|d| d.take().expect("a finished direction"))

@@ -11,7 +11,6 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use super::BLOCK;
 use super::run::Run;
 
 /// The trees a run will trace, over every direction and every try; and those of the tries
@@ -48,9 +47,10 @@ impl Run<'_> {
             return 0;
         }
         if self.cfg.adaptive() {
-            let batch = self.cfg.rays.div_ceil(BLOCK) * BLOCK;
-            // Batches are whole blocks: the last may pass the budget by less than one.
-            self.cfg.max_rays.max(batch).div_ceil(batch) * batch
+            // Batches grow by the measured error (`growth`); the last stops at the budget.
+            self.cfg
+                .max_rays
+                .max(super::growth::first_batch(self.cfg.rays))
         } else {
             self.rays_of(di)
         }

@@ -7,6 +7,8 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::groups::{GroupSums, error_groups};
+use super::growth;
+use super::lost::{Lost, LostSums};
 use super::prepare::{ambient_lossless, media_in_range, method_refusals};
 use super::{BLOCK, CHUNK_BLOCKS_PER_THREAD, MIN_CHUNK_BLOCKS, SimError};
 use super::{
@@ -22,27 +24,6 @@ use crate::rng::Rng;
 use crate::sample::Sample;
 use crate::trace::{Scene, TraceStack, Tree};
 
-/// Per-cell sums of what the run lost or could not trust (see [`SimStats`]), filled
-/// direction by direction.
-pub(super) struct Lost<'a> {
-    pub(super) diffraction: &'a mut [DiffractionCell],
-    pub(super) limit_dropped: &'a mut [f64],
-    pub(super) escaped: &'a mut [f64],
-    pub(super) limit_bound: &'a mut [f64],
-    pub(super) created: &'a mut [f64],
-    pub(super) limited: &'a mut [f64],
-}
-
-/// The finished sums of [`Lost`].
-pub(super) struct LostSums {
-    pub(super) diffraction: Vec<DiffractionCell>,
-    pub(super) limit_dropped: Vec<f64>,
-    pub(super) escaped: Vec<f64>,
-    pub(super) limit_bound: Vec<f64>,
-    pub(super) created: Vec<f64>,
-    pub(super) limited: Vec<f64>,
-}
-
 /// Counters every worker adds to.
 #[derive(Default)]
 pub(super) struct Counters {
@@ -54,31 +35,7 @@ pub(super) struct Counters {
     /// Trees whose exits and dropped power held more than they were launched with and
     /// their events were allowed to add (`Tree::overflow`), and the worst of them.
     pub(super) overflow_trees: AtomicU64,
-    pub(super) worst_overflow: std::sync::Mutex<Option<Overflow>>,
-}
-
-/// A tree that carried out more power than it was launched with and its events were
-/// allowed to add (`Tree::overflow`, fraction of launched power): where, and by how much.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Overflow {
-    pub(super) power: f64,
-    pub(super) direction: usize,
-    pub(super) bin: usize,
-    pub(super) tree: u64,
-}
-
-impl Overflow {
-    /// Keeps the larger of `self` and `o`; ties go to the first direction, bin and tree, so
-    /// the message does not depend on the thread count.
-    pub(super) fn worse(self, o: Overflow) -> Overflow {
-        let key = |x: &Overflow| (x.direction, x.bin, x.tree);
-        match self.power.total_cmp(&o.power) {
-            std::cmp::Ordering::Less => o,
-            std::cmp::Ordering::Greater => self,
-            std::cmp::Ordering::Equal if key(&o) < key(&self) => o,
-            std::cmp::Ordering::Equal => self,
-        }
-    }
+    pub(super) worst_overflow: std::sync::Mutex<Option<super::lost::Overflow>>,
 }
 
 /// Overflow (`Tree::overflow`) beyond this fraction of the launched power is refused:
@@ -455,19 +412,21 @@ impl<'a> Run<'a> {
             .collect();
         let mut group_sums = (groups > 1).then(|| GroupSums::new(groups, nl, self.nkeys()));
         let adaptive = cfg.adaptive();
-        // Batches are whole blocks, so where a run stops never changes the sums of the
-        // batches before it.
-        let batch = if adaptive {
-            cfg.rays.div_ceil(BLOCK) * BLOCK
+        // An adaptive direction grows from its first batch by the error it measured
+        // (`growth`). Batches are whole blocks, so where a run stops never changes the sums
+        // of the batches before it.
+        let first = if adaptive {
+            growth::first_batch(cfg.rays)
         } else {
             self.rays_of(di)
         };
         let target = if adaptive {
-            cfg.max_rays.max(batch)
+            cfg.max_rays.max(first)
         } else {
             self.rays_of(di)
         };
-        let mut start = 0u64;
+        let (mut start, mut next) = (0u64, first);
+        let mut history: Vec<(u64, f64)> = Vec::new();
         // The diffraction method's contributions per wavelength, in block order.
         let mut contribs = std::mem::take(&mut *self.contribs.lock().expect("not poisoned"));
         contribs.resize_with(nl, Vec::new);
@@ -476,7 +435,7 @@ impl<'a> Run<'a> {
         let mut shared: Vec<diffraction::SharedExit> = Vec::new();
         let mut reserved = false;
         loop {
-            let end = (start + batch).min(target);
+            let end = next.min(target);
             let nblocks = (end - start).div_ceil(BLOCK);
             // Blocks are reduced a chunk at a time, each chunk in block order, so memory
             // does not grow with the ray count and the sums are those of one pass over all
@@ -536,6 +495,7 @@ impl<'a> Run<'a> {
                         lost.limit_bound[k] += bc.limit_bound;
                         lost.created[k] += bc.created;
                         lost.limited[k] += bc.limited;
+                        lost.rebalanced[k] += bc.rebalanced;
                     }
                 }
                 chunk_lo = chunk_hi;
@@ -577,6 +537,8 @@ impl<'a> Run<'a> {
                     envelope_violations: 0,
                 });
             }
+            history.extend(achieved.map(|a| (start, a)));
+            next = growth::next_total(start, &history, cfg.adaptive_goal().unwrap_or(0.0));
         }
     }
 
@@ -631,6 +593,7 @@ impl<'a> Run<'a> {
             limit_bound: lost.limit_bound,
             created: lost.created,
             limited: lost.limited,
+            rebalanced: lost.rebalanced,
             diffraction: lost.diffraction,
             envelope_violations: self.scene.scatter_violations(),
             auto_notes: (self.auto_notes.iter())
@@ -673,6 +636,7 @@ impl<'a> Run<'a> {
             backend: self.scene.backend().name().into(),
             leaks: stats.leaks,
             error_groups: self.error_groups,
+            balanced: true,
             // Filled by `simulate` (`warnings::stored_warnings`).
             warnings: Vec::new(),
             rays_asked: matches!(cfg.coherence, Coherence::Auto | Coherence::Diffraction)

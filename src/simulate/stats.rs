@@ -230,6 +230,10 @@ pub struct SimStats {
     /// film (`trace::film`). There R and T come from a model that conserves energy, not
     /// from exact amplitudes.
     pub limited: Vec<f64>,
+    /// Per cell: the summed power per tree by which lossless trees' coherence groups were
+    /// scaled to carry out what entered them (`accumulate::conserve`): how far the beamlet
+    /// overlaps of their partial waves were from conserving energy.
+    pub rebalanced: Vec<f64>,
     /// The diffraction method, per cell: the ray method's totals beside the diffracted
     /// ones (empty cells for other methods).
     pub diffraction: Vec<DiffractionCell>,
@@ -276,6 +280,7 @@ impl SimStats {
             limit_bound: cells(&self.limit_bound),
             created: cells(&self.created),
             limited: cells(&self.limited),
+            rebalanced: cells(&self.rebalanced),
             diffraction: self
                 .diffraction
                 .get(di * nl..(di + 1) * nl)
@@ -294,6 +299,12 @@ impl SimStats {
     /// The largest mean power per tree that met energy-limited events, with its cell.
     pub fn worst_limited(&self, acc: &Accumulator) -> (f64, usize) {
         worst_per_tree(&self.limited, acc)
+    }
+
+    /// The largest mean power per tree that lossless trees' groups were rebalanced by
+    /// ([`SimStats::rebalanced`]), with that cell's index.
+    pub fn worst_rebalanced(&self, acc: &Accumulator) -> (f64, usize) {
+        worst_per_tree(&self.rebalanced, acc)
     }
 
     /// The largest mean power per tree that any cell's ray series created, with that

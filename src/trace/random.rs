@@ -237,11 +237,22 @@ pub(super) fn roulette(from: usize, lanes: &[Lane], stack: &mut TraceStack, tree
         }
         let q = p / ROULETTE_BELOW;
         if rng.uniform() >= q {
+            // A killed ray's power is gone, not dropped: the tree balances only on average
+            // from here on, a random event as a survivor's is (issue 71: lossless trees
+            // whose only roulette killed were taken for exactly balanced ones).
             r.killed = true;
             if r.lane == ALL {
-                for f in fields[r.at as usize..].iter_mut().take(lanes.len()) {
-                    *f = None;
+                for (j, f) in fields[r.at as usize..]
+                    .iter_mut()
+                    .take(lanes.len())
+                    .enumerate()
+                {
+                    if f.take().is_some() {
+                        trees[j].random_events += 1;
+                    }
                 }
+            } else {
+                trees[r.lane as usize].random_events += 1;
             }
             continue;
         }

@@ -86,8 +86,9 @@ pub struct Tree {
     pub limited_power: f64,
     pub leaks: u32,
     pub segments: u32,
-    /// Random events: volume scattering and Russian roulette survivals (each started a
-    /// coherence group of its own). A tree with any carries importance weights.
+    /// Random events: volume scattering and Russian roulette, its survivals (each started
+    /// a coherence group of its own) and its kills (whose power is gone, not dropped). A
+    /// tree with any carries importance weights and balances only on average.
     pub random_events: u32,
     /// Power (fraction of launched, attenuated along the path) that events allowed to add
     /// it added beyond what entered them: events from inside absorbers (where `|r|^2 + T`
