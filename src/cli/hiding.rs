@@ -18,9 +18,17 @@ pub(super) struct HidingArgs {
     /// Incident polar angle, degrees (8: a d/8 instrument's specular-included reading).
     #[arg(long, value_parser = finite, default_value_t = 8.0)]
     theta_i: f64,
-    /// Trees per run (each thickness takes two runs, one per backing).
-    #[arg(long, default_value_t = 2048, value_parser = clap::value_parser!(u64).range(16..))]
+    /// Trees per backing at each thickness the search tries (split over 16 replicate
+    /// seeds, whose spread gives the errors).
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u64).range(16..))]
     rays: u64,
+    /// The relative standard error of the hiding thickness to reach: the thickness found
+    /// is run again with the trees its error asks for (0: stop at the search's own).
+    #[arg(long, value_parser = finite, default_value_t = 0.05)]
+    target_stderr: f64,
+    /// The most trees per backing the found thickness may take to reach --target-stderr.
+    #[arg(long, default_value_t = 65536, value_parser = clap::value_parser!(u64).range(16..))]
+    max_rays: u64,
     /// Wavelength bins, nm (A:B:STEP or a comma list of edges); Y is weighted over them.
     #[arg(long, default_value = "400:700:20")]
     wavelengths: String,
@@ -42,6 +50,12 @@ pub(super) fn hiding(a: HidingArgs) -> Result<ExitCode> {
     if !(0.0..90.0).contains(&a.theta_i) {
         bail!("--theta-i must lie in [0, 90) degrees, got {}", a.theta_i);
     }
+    if !(0.0..1.0).contains(&a.target_stderr) {
+        bail!(
+            "--target-stderr is a relative error in [0, 1), got {}",
+            a.target_stderr
+        );
+    }
     let Wavelengths::Bins(edges) = Wavelengths::parse(&a.wavelengths, false)? else {
         bail!("--wavelengths must give bins");
     };
@@ -54,21 +68,31 @@ pub(super) fn hiding(a: HidingArgs) -> Result<ExitCode> {
     };
     let pool = thread_pool(a.threads)?;
     outln!(
-        "# hiding of {} over a black and white chart: Y (CIE 1931, D65) over {} to {} nm at {} deg, {} trees per run, hiding at contrast ratio {}",
+        "# hiding of {} over a black and white chart: Y (CIE 1931, D65) over {} to {} nm at {} deg, hiding at contrast ratio {}; {} trees per backing in the search, then {}",
         a.sample.display(),
         edges[0],
         edges[edges.len() - 1],
         a.theta_i,
+        a.contrast,
         a.rays,
-        a.contrast
+        if a.target_stderr > 0.0 {
+            format!(
+                "as many as a {} relative standard error of the thickness asks (at most {})",
+                a.target_stderr, a.max_rays
+            )
+        } else {
+            "no more".to_string()
+        }
     );
     outln!(
-        "volume_fraction,white_backing_Y,hiding_um,hiding_um_stderr,R_inf_Y,R_inf_halfwidth,spreading_m2_per_L,pigment_m2_per_L"
+        "volume_fraction,white_backing_Y,hiding_um,hiding_um_stderr,R_inf_Y,R_inf_halfwidth,spreading_m2_per_L,pigment_m2_per_L,trees_per_backing,seconds"
     );
     for f in fractions {
         let cfg = HidingConfig {
             theta_i_deg: a.theta_i,
             rays: a.rays,
+            goal: (a.target_stderr > 0.0).then_some(a.target_stderr),
+            max_rays: a.max_rays.max(a.rays),
             edges: edges.clone(),
             seed: a.seed,
             contrast: a.contrast,
@@ -79,6 +103,7 @@ pub(super) fn hiding(a: HidingArgs) -> Result<ExitCode> {
             |f| format!("volume fraction {f}"),
         );
         eprintln!("{label}:");
+        let started = std::time::Instant::now();
         let h = pool
             .install(|| find_hiding(&a.sample, &text, &cfg, &|l| eprintln!("  {l}")))
             .map_err(|e| anyhow::anyhow!(e))?;
@@ -88,11 +113,18 @@ pub(super) fn hiding(a: HidingArgs) -> Result<ExitCode> {
         let per_pigment = h
             .volume_fraction
             .map_or_else(|| "".into(), |f| format!("{:.1}", spreading / f));
+        let seconds = started.elapsed().as_secs_f64();
+        eprintln!(
+            "  hiding at {t:.1} +- {se:.1} um ({:.1} %), R-infinity {r_inf:.4} +- {half:.4}; {} trees in all, {seconds:.1} s",
+            100.0 * se / t,
+            h.total_trees
+        );
         outln!(
-            "{},{:.4},{t:.2},{se:.2},{r_inf:.4},{half:.4},{spreading:.2},{per_pigment}",
+            "{},{:.4},{t:.2},{se:.2},{r_inf:.4},{half:.4},{spreading:.2},{per_pigment},{},{seconds:.1}",
             h.volume_fraction
                 .map_or_else(|| "".into(), |f| f.to_string()),
-            h.white_backing.0
+            h.white_backing.0,
+            h.trees
         );
     }
     Ok(ExitCode::SUCCESS)

@@ -46,6 +46,7 @@ use glam::DVec3;
 
 /// Intervals of the phase function's envelope over `theta` in `[0, pi]`, at least.
 pub const THETA_INTERVALS: usize = 256;
+pub use hg::{hg_density, sample_hg};
 use sizes::size_integral;
 pub use sizes::{MAX_RADIUS_NM, Radius, SIZE_TOLERANCE, TAIL_Z};
 pub use towards::{COHERENCY_POINTS, Coherency};
@@ -166,7 +167,7 @@ pub enum ScatterModel {
     Mie {
         /// Wavelength of `table[0]`, nm; one entry per whole nanometre.
         first_nm: i64,
-        table: Vec<LambdaEntry>,
+        table: Vec<std::sync::Arc<LambdaEntry>>,
         /// Draws where the phase function exceeded its envelope (the draw is then
         /// biased): 0 in a correct table; the run reports it.
         violations: std::sync::atomic::AtomicU64,
@@ -254,7 +255,17 @@ impl ScatterModel {
                 if cancelled() {
                     return Err(ParticleError::Cancelled);
                 }
-                lambda_entry(l as f64, radius, density, packing, host, particle)
+                let key = memo::Key::new(
+                    l as f64,
+                    radius,
+                    density,
+                    packing,
+                    host(l as f64),
+                    particle(l as f64),
+                );
+                memo::entry(key, || {
+                    lambda_entry(l as f64, radius, density, packing, host, particle)
+                })
             })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(ScatterModel::Mie {
@@ -280,7 +291,7 @@ impl ScatterModel {
                 first_nm, table, ..
             } => {
                 let i = (lambda_nm.round() as i64 - first_nm).clamp(0, table.len() as i64 - 1);
-                table.get(i as usize)
+                table.get(i as usize).map(|e| &**e)
             }
             ScatterModel::HenyeyGreenstein { .. } => None,
         }
@@ -470,23 +481,6 @@ impl ScatterModel {
 /// `a p + b q` for complex `a`, `b` and real vectors.
 fn combine(a: C64, p: DVec3, b: C64, q: DVec3) -> Field {
     [a * p.x + b * q.x, a * p.y + b * q.y, a * p.z + b * q.z]
-}
-
-/// `cos theta` drawn from the Henyey-Greenstein phase function by its inverse CDF
-/// (e.g. Jacques & Wang, "Monte Carlo modeling of light transport in tissues", 1995, eq.
-/// 5.43): `mu = (1 + g^2 - ((1 - g^2) / (1 - g + 2 g xi))^2) / (2 g)`, uniform for g = 0.
-pub fn sample_hg(g: f64, xi: f64) -> f64 {
-    if g.abs() < 1e-6 {
-        return 2.0 * xi - 1.0;
-    }
-    let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * xi);
-    ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
-}
-
-/// The Henyey-Greenstein phase function per unit `cos theta` (integrates to 1 over
-/// [-1, 1]): `(1 - g^2) / (2 (1 + g^2 - 2 g mu)^(3/2))`.
-pub fn hg_density(g: f64, mu: f64) -> f64 {
-    (1.0 - g * g) / (2.0 * (1.0 + g * g - 2.0 * g * mu).powf(1.5))
 }
 
 /// One wavelength's entry of [`ScatterModel::mie`]: the size-averaged extinction and
@@ -691,6 +685,8 @@ fn envelope(mie: &Mie, factor: Option<&[f64]>) -> (Vec<f64>, f64, f64, f64) {
     (bound, share, mean_cos, kept * h / 3.0)
 }
 
+mod hg;
+mod memo;
 mod sizes;
 pub mod structure;
 mod towards;
