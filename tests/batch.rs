@@ -679,7 +679,15 @@ fn one_bad_material_is_marked_and_the_library_is_written() {
         );
     }
     let film = &html[html.find("data-name=\"film\"").unwrap()..];
-    assert!(film[..film.find("</tr>").unwrap()].contains("&#9888;"));
+    let film = &film[..film.find("</tr>").unwrap()];
+    assert!(film.contains("&#9888;"));
+    // The methods each angle used, and no path of this machine (issue 71): the samples
+    // and the batch folder are named relative to the page.
+    assert!(film.contains("methods: "), "{film}");
+    for abs in [r.as_str(), d.to_str().unwrap()] {
+        assert!(!html.contains(abs), "{abs} in the page");
+    }
+    assert!(film.contains("sample thin-film-600nm.toml"), "{film}");
 }
 
 /// A batch unit runs at its plan's trees: at 8 trees the film's transform cannot hold the

@@ -51,6 +51,8 @@ fn rgl_export_writes_the_fields_the_readers_require() {
             "17",
             "--threads",
             threads,
+            // Simulated at 0, 30 and 60 deg: held from 60 to 90.
+            "--force",
             "-o",
             p.to_str().unwrap(),
         ]);
@@ -181,6 +183,8 @@ fn rgl_export_holds_a_mirror_lobe_and_refuses_what_it_cannot_write() {
     let d = scratch("export-refusals");
     let flat = built(&d, "meshes/flat-soap-film.toml", "flat");
     let p = d.join("x.bsdf");
+    // Simulated at 0, 30 and 60 deg only: refused, naming the angles held, unless forced
+    // (issue 71).
     let (code, _, err) = goniospec(&[
         "export",
         &flat,
@@ -189,7 +193,25 @@ fn rgl_export_holds_a_mirror_lobe_and_refuses_what_it_cannot_write() {
         "-o",
         p.to_str().unwrap(),
     ]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("simulated at incident angles 0, 30, 60 deg only")
+            && err.contains("from 60 to 90 deg")
+            && err.contains("--force"),
+        "{err}"
+    );
+    assert!(!p.exists());
+    let (code, _, err) = goniospec(&[
+        "export",
+        &flat,
+        "--sample",
+        "meshes/flat-soap-film.toml",
+        "--force",
+        "-o",
+        p.to_str().unwrap(),
+    ]);
     assert_eq!(code, 0, "{err}");
+    assert!(err.contains("written so by --force"), "{err}");
     assert!(
         err.contains("mirror reflection is written as the simulation measured it")
             && err.contains("2.0 x 10.0 degrees"),
@@ -439,6 +461,7 @@ fn merl_export_round_trips_through_the_readers_indexing() {
         &gsb,
         "--format",
         "merl",
+        "--force",
         "-o",
         p.to_str().unwrap(),
     ]);

@@ -143,6 +143,7 @@ fn export_merl(a: ExportArgs) -> Result<ExitCode> {
     use goniospec::brdf;
     guard_output(&a.output, &[a.input.as_path()], OutputKind::Merl, a.force)?;
     let r = brdf::file::read(&a.input)?;
+    angles_covered(&r, &a.input, a.force)?;
     let pool = thread_pool(a.threads)?;
     let bytes = pool
         .install(|| goniospec::export::merl::merl_bytes(&r))
@@ -253,6 +254,7 @@ fn export_rgl(a: ExportArgs) -> Result<ExitCode> {
         .install(|| export::rgl_for(&r, &s, n, theta_i))
         .map_err(|m| anyhow::anyhow!("{} ({}): {m}", a.input.display(), sample_path.display()))?;
     bar.finish_and_clear();
+    angles_covered(&r, &a.input, a.force)?;
     tensor::write(&fields, &a.output).with_context(|| format!("writing {}", a.output.display()))?;
     if report.negative > 0 {
         eprintln!(
@@ -352,5 +354,50 @@ fn write_scenes(
             cfg.spp
         );
     }
+    Ok(())
+}
+
+/// A renderer's table reaching beyond the simulated incident angles holds the last one's
+/// BRDF unchanged up to 90 deg (issue 71: with 0/30/60 deg simulated, the car paint's
+/// values at 60, 70 and 80 deg were the same, without the rise of its coat's Fresnel
+/// reflection towards grazing). From this angle up the hold is accepted as it is.
+const HELD_FROM_DEG: f64 = 75.0;
+
+/// Refuses, without `force`, a BRDF whose simulated incident angles end below
+/// [`HELD_FROM_DEG`], saying which angles a renderer would get held; with `force`, says
+/// so and goes on. A BRDF whose settings name no angles (not from a simulation) passes.
+fn angles_covered(
+    r: &goniospec::brdf::Representation,
+    input: &std::path::Path,
+    force: bool,
+) -> Result<()> {
+    use goniospec::brdf::Brdf;
+    let settings: toml::Table = toml::from_str(&r.meta().simulation).unwrap_or_default();
+    let Some(list) = settings.get("theta_i_deg").and_then(|v| v.as_array()) else {
+        return Ok(());
+    };
+    let angles: Vec<f64> = list
+        .iter()
+        .filter_map(|v| v.as_float().or(v.as_integer().map(|i| i as f64)))
+        .collect();
+    let hi = angles.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if angles.is_empty() || hi >= HELD_FROM_DEG {
+        return Ok(());
+    }
+    let said = angles
+        .iter()
+        .map(|t| format!("{t}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let sentence = format!(
+        "simulated at incident angles {said} deg only: a renderer asks up to 90 deg, and from {hi} to 90 deg it would get the {hi} deg BRDF held unchanged, without the rise of the surface's reflection towards grazing"
+    );
+    if !force {
+        bail!(
+            "{}: {sentence}. Simulate up to at least {HELD_FROM_DEG} deg (e.g. --theta-i 0:80:10), or pass --force to write it anyway",
+            input.display()
+        );
+    }
+    eprintln!("note: {sentence} (written so by --force)");
     Ok(())
 }

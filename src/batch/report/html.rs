@@ -148,7 +148,8 @@ pub fn page_html(entries: &[Entry], opts: &ReportOptions) -> String {
     h
 }
 
-/// The most warnings a row shows; the rest are counted, and all are in `out/NAME.warnings`.
+/// The most kinds of warning a row shows; the rest are counted, and all are in
+/// `out/NAME.warnings`.
 const SHOWN_WARNINGS: usize = 5;
 
 fn row_html(h: &mut String, e: &Entry) {
@@ -169,20 +170,34 @@ fn row_html(h: &mut String, e: &Entry) {
     let _ = write!(
         h,
         "<tr data-name=\"{name}\" data-y=\"{y:.6}\">\n<td><strong>{name}</strong>\
-         <div class=\"small\">sample {sample}</div><div class=\"small\">{settings}</div>",
+         <div class=\"small\">sample {sample}</div><div class=\"small\">{settings}</div>\
+         <div class=\"small\">{methods}</div>",
         name = esc(&e.name),
         y = e.mean_y,
         sample = esc(&e.sample),
-        settings = esc(&e.settings)
+        settings = esc(&e.settings),
+        methods = esc(&e.methods)
     );
-    for w in e.warnings.iter().take(SHOWN_WARNINGS) {
-        let _ = write!(h, "<div class=\"warn\">&#9888; {}</div>", esc(w));
-    }
-    if e.warnings.len() > SHOWN_WARNINGS {
+    // One line per kind of warning (the same warning at other angles or cells counted
+    // on it), so the one that matters is not lost among repeats.
+    let groups = super::tidy::group_warnings(&e.warnings);
+    for g in groups.iter().take(SHOWN_WARNINGS) {
+        let more = match g.count {
+            1 => String::new(),
+            n => format!(" <span class=\"small\">(and {} more like it)</span>", n - 1),
+        };
         let _ = write!(
             h,
-            "<div class=\"warn\">and {} more warnings in out/{}.warnings</div>",
-            e.warnings.len() - SHOWN_WARNINGS,
+            "<div class=\"warn\">&#9888; {}{more}</div>",
+            esc(&g.example)
+        );
+    }
+    if groups.len() > SHOWN_WARNINGS {
+        let rest: usize = groups[SHOWN_WARNINGS..].iter().map(|g| g.count).sum();
+        let _ = write!(
+            h,
+            "<div class=\"warn\">and {} more kinds of warning ({rest} warnings) in out/{}.warnings</div>",
+            groups.len() - SHOWN_WARNINGS,
             esc(&e.name)
         );
     }

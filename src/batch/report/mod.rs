@@ -24,6 +24,7 @@ use crate::render::{self, Env, Light, RenderConfig, Shape, colour};
 use super::Manifest;
 
 mod html;
+pub mod tidy;
 pub use html::page_html;
 use html::percent_encode;
 
@@ -102,6 +103,8 @@ pub struct Entry {
     pub name: String,
     pub sample: String,
     pub settings: String,
+    /// The methods each incident angle used (`tidy::methods_line`).
+    pub methods: String,
     pub swatches: Vec<Swatch>,
     /// Mean luminous reflectance Y over every simulated incident angle (the sort key).
     pub mean_y: f64,
@@ -127,6 +130,7 @@ impl Entry {
             name: mat.name.clone(),
             sample: mat.sample.display().to_string(),
             settings: String::new(),
+            methods: String::new(),
             swatches: Vec::new(),
             mean_y: -1.0,
             lobe_theta_deg: 0.0,
@@ -275,6 +279,18 @@ pub fn write_report(
             e
         })
         .collect();
+    // Paths relative to the page: it is shared, the machine's folders are not.
+    let entries: Vec<Entry> = entries
+        .into_iter()
+        .zip(&m.materials)
+        .map(|(mut e, mat)| {
+            let tidy = |t: &str| tidy::relative_paths(t, &folder, &[dir, &out, &mat.sample]);
+            e.sample = tidy(&e.sample);
+            e.warnings = e.warnings.iter().map(|w| tidy(w)).collect();
+            e.failure = e.failure.as_deref().map(tidy);
+            e
+        })
+        .collect();
     let html = page_html(&entries, opts);
     let written: Vec<String> = entries
         .iter()
@@ -418,6 +434,12 @@ fn material_entry(
             mat.settings.rays,
             mat.settings.seed,
             s.coherence_mode()
+        ),
+        methods: tidy::methods_line(
+            &thetas,
+            &(0..thetas.len())
+                .map(|i| s.methods_of(i))
+                .collect::<Vec<_>>(),
         ),
         swatches,
         mean_y,
