@@ -58,7 +58,7 @@ pub(super) struct BatchReportArgs {
     /// first and last included).
     #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=90))]
     colours: u32,
-    /// Do not fit real-time materials (the fit costs about a second per material).
+    /// Do not fit real-time materials (a fit takes 10-60 s a material: 23 s for the car paint at 5 angles and 40 bins).
     #[arg(long)]
     no_fit: bool,
     /// Worker threads (0: all cores). The page and images do not depend on it.

@@ -77,7 +77,9 @@ pub(super) fn fit(a: FitArgs) -> Result<ExitCode> {
         FitBase::Conductor => fit::BaseKind::Conductor,
     };
     let bar = super::progress_spinner("fitting (roughness, base, film, coat)");
+    let started = std::time::Instant::now();
     let f = fit::fit(&data, kind, !a.no_film, a.coat);
+    let seconds = started.elapsed().as_secs_f64();
     bar.finish_and_clear();
     fit::write_json(&json_path, &fit::to_json(&f, &data))
         .with_context(|| format!("writing {}", json_path.display()))?;
@@ -113,6 +115,7 @@ pub(super) fn fit(a: FitArgs) -> Result<ExitCode> {
         None => outln!("coat: none"),
     }
     outln!("rms_reflectance_error: {:.2e}", f.rms_residual);
+    outln!("fit_seconds: {seconds:.1}");
     for (t, de) in data.theta_i_rad.iter().zip(&f.delta_e2000) {
         outln!("delta_e2000_theta_{:.0}: {de:.2}", t.to_degrees());
     }

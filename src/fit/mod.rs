@@ -433,7 +433,8 @@ pub enum BaseKind {
 /// fit is kept where it is closer to the simulation (reflectance and colour, the stages'
 /// own cost), where the user gave the coat's index, or where a coat's Fresnel reflection
 /// explains the mirror lobe and the coated fit represents the material (RMS at most 0.02,
-/// CIEDE2000 at most 2): a conductor without a coat, its n and k free per wavelength, can
+/// CIEDE2000 at most 2) or the coatless one does not either (the base is then beyond the
+/// model, said so, and the coat is what is plainly there): a conductor without a coat, its n and k free per wavelength, can
 /// match a coated gold more closely by bending them (to k at its bound of 20 in the red)
 /// than the coat over a plain base does, and is no material.
 ///
@@ -451,13 +452,64 @@ pub fn fit(data: &Data, base_kind: BaseKind, try_film: bool, coat: CoatChoice) -
         return finish_notes(best, data, base_kind, transmits);
     }
     let coated = fit_coated(data, kind, try_film, coat);
-    if let Some((coated, c, fresnel_like)) = coated
-        && (c < cost || matches!(coat, CoatChoice::Ior(_)) || (fresnel_like && represents(&coated)))
-    {
-        (best, cost) = (coated, c);
+    if let Some((mut coated, c, fresnel_like)) = coated {
+        // A coat's Fresnel mirror at every angle is plainly there: it is kept where the
+        // coated fit represents the material, and also where the coatless one does not
+        // either, which then reaches its cost only by bending its base into no material
+        // (issue 71: the car paint's coatless 'conductor' of n 7-8 and k 0 came 17-38 %
+        // closer than its coat of 1.49-1.51 over a base; OpenPBR got a grey near-mirror).
+        // A coatless fit that represents the material (a soap film) keeps its place.
+        let evident = fresnel_like && (represents(&coated) || !represents(&best));
+        if c < cost || matches!(coat, CoatChoice::Ior(_)) || evident {
+            if c > cost && !matches!(coat, CoatChoice::Ior(_)) {
+                coated.warnings.push(format!(
+                    "a clear coat of index {:.3} explains the mirror reflection at every angle and is kept, though the model fits the whole material {:.0} % worse with it than without: the base under it is beyond the model",
+                    coated.coat.map_or(f64::NAN, |k| k.ior),
+                    100.0 * (c / cost - 1.0)
+                ));
+            }
+            (best, cost) = (coated, c);
+        }
     }
     let _ = cost;
+    best.warnings.extend(bound_warnings(&best));
     finish_notes(best, data, base_kind, transmits)
+}
+
+/// Parameters the search left at its bounds, said (issue 71): such a value is where the
+/// search stopped, not what the material is.
+fn bound_warnings(f: &Fit) -> Vec<String> {
+    let mut out = Vec::new();
+    match &f.base {
+        Base::Conductor { n } => {
+            let at = n
+                .iter()
+                .filter(|c| c.re >= 9.99 || c.re <= 0.0101 || c.im >= 19.99 || c.im < 0.01 * c.re)
+                .count();
+            if at > 0 {
+                out.push(format!(
+                    "the conductor base's n + ik sits at the search's bounds (n 0.01-10, k 0-20) or has no extinction (k under n / 100) at {at} of {} wavelengths: no metal is so; the base is beyond the model (flakes, pigment, several layers)",
+                    n.len()
+                ));
+            }
+        }
+        Base::Dielectric { n } => {
+            if *n <= 1.001 || *n >= 2.999 {
+                out.push(format!(
+                    "the dielectric base's index {n:.3} sits at the search's bound (1-3): it is where the search stopped, not the material's"
+                ));
+            }
+        }
+    }
+    if let Some(c) = f.coat
+        && (c.ior <= 1.301 || c.ior >= 1.799)
+    {
+        out.push(format!(
+            "the coat's index {:.3} sits at the search's bound (1.3-1.8): it is where the search stopped, not the coat's",
+            c.ior
+        ));
+    }
+    out
 }
 
 /// The notes on transmission of [`fit`].
