@@ -46,3 +46,4 @@ pub mod simulate;
 pub mod spectrum;
 pub mod study;
 pub mod trace;
+pub mod warning_codes;

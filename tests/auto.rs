@@ -98,7 +98,7 @@ fn auto_takes_each_method_where_the_scales_call_for_it_and_gives_its_result() {
     }
     let text = auto.header.describe();
     assert!(
-        text.contains(&format!("warnings ({}):", kept.len())),
+        text.contains(&format!("warnings ({}, in ", kept.len())),
         "{text}"
     );
 }

@@ -230,14 +230,7 @@ impl Header {
                 _ => String::new(),
             }
         );
-        if self.warnings.is_empty() {
-            s += "warnings: none\n";
-        } else {
-            s += &format!("warnings ({}):\n", self.warnings.len());
-            for w in &self.warnings {
-                s += &format!("  - {w}\n");
-            }
-        }
+        s += &crate::warning_codes::describe(&self.warnings);
         s
     }
 }

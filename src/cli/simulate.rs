@@ -64,8 +64,14 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
     // Where the method asked for does not hold for this sample: said once, before the run
     // (and after the settings are known to be valid).
     let cfg = a.settings.resolve().map_err(flag_error)?;
-    for f in sample::validity::findings(&s, &goniospec::simulate::validity_context(&cfg)) {
-        eprintln!("warning: {}", f.message);
+    let said_before: Vec<String> =
+        sample::validity::findings(&s, &goniospec::simulate::validity_context(&cfg))
+            .into_iter()
+            .map(|f| f.message)
+            .collect();
+    for m in &said_before {
+        let code = goniospec::warning_codes::code_of(m);
+        eprintln!("warning: {m} [{code}: docs/warnings.md#{code}]");
     }
     // The bar's total is what the run will trace, as it knows it (`ProgressPlan`: the
     // diffraction method's lattice, raised tries, adaptive directions that stop early).
@@ -158,12 +164,19 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         let asked = acc.header.rays_asked.unwrap_or(a.settings.rays);
         diffraction_summary(&stats, &s, &acc, asked);
     }
-    for w in goniospec::simulate::run_warnings(&s, &acc, &stats) {
-        if w.starts_with("open sides") {
-            eprintln!("{w}");
-        } else {
-            eprintln!("warning: {w}");
+    // The warnings the `.gsa` keeps, one line per kind: the set `info` and `batch report`
+    // list (issue 71). An open sample's escaped power is a note, not a warning.
+    // (A warning said before the run, and only once, is not said again.)
+    for g in goniospec::warning_codes::group(&acc.header.warnings) {
+        if g.count == 1 && said_before.contains(&g.example) {
+            continue;
         }
+        let kind = if g.code == "open-sides" {
+            "note"
+        } else {
+            "warning"
+        };
+        eprintln!("{kind}: {}", g.line());
     }
     outln!("wrote {}", a.output.display());
     Ok(ExitCode::SUCCESS)

@@ -118,7 +118,7 @@ pub fn choose(
                 Some((
                     2,
                     format!(
-                        "the tangent plane the method rests on fails there (k r_c cos^3 theta = {margin:.1}, below {} for {}; Ogilvy 1991, §4.2)",
+                        "the tangent plane the method rests on fails there (k r_c cos^3 theta = {margin:.1}, below {} for {})",
                         need.margin_min(),
                         need.what()
                     ),
@@ -224,13 +224,11 @@ impl Missed {
         // it could not take them here. (Not advice to switch: an auto run already takes it
         // wherever it fits.)
         let beyond = self.solver.as_ref().map_or(String::new(), |why| {
-            format!(
-                ". Neither method holds these cells' angular distribution, and the rigorous solver cannot take them: {why}"
-            )
+            format!("; the rigorous solver cannot take them: {why}")
         });
         format!(
-            "{what}. The diffraction method holds that, but {}; so {} cells of {total} (from {:.0} deg) took rays, and their angular distribution misses it (their total R is the rays'){beyond} (docs/validity.md)",
-            self.reason, self.cells, self.theta_min
+            "{} cells of {total} (from {:.0} deg) took rays, whose angular distribution misses what follows (their total R is right): {what}. The diffraction method holds that, but {}{beyond}",
+            self.cells, self.theta_min, self.reason
         )
     }
 }

@@ -112,7 +112,7 @@ pub fn run_warnings(sample: &Sample, acc: &Accumulator, stats: &SimStats) -> Vec
     if cut > 1e-6 {
         let (bound, _) = stats.worst_limit_bound(acc);
         out.push(format!(
-            "up to {cut:.1e} of the launched power per tree was cut by --max-depth or --max-segments before the ray series converged; R and T change by about {cut:.1e} when the cut light adds incoherently to the rest (the usual case) and by at most {bound:.1e} if it all added in phase (raise the limits, or model thin layers as a flat [stack])"
+            "R and T short by about {cut:.1e} (at most {bound:.1e} if it added in phase): up to that much of the launched power per tree was cut by --max-depth or --max-segments before the ray series converged; raise them, or model thin layers as a flat [stack]"
         ));
     }
     // What the power cutoff dropped: the cell's dropped power less what the limits, leaks
@@ -138,14 +138,14 @@ pub fn run_warnings(sample: &Sample, acc: &Accumulator, stats: &SimStats) -> Vec
     if limited > LIMITED_WARN {
         let (theta, bin) = where_(cell);
         out.push(format!(
-            "a fraction {limited:.1e} of the launched power per tree (theta_i {theta} deg, wavelength bin {bin}) met absorbing facets that change the wave by a good part of its index (ridge tips, flake edges, absorbing wedges, thin films whose faces meet at more than 20 degrees, which the local transfer-matrix film does not take alone); there the plane-wave model of those events is stretched or replaced by one that conserves energy. R may be off by up to {LIMITED_EDGE_FACTOR} times that and the power created by ray series together at ridge tips and flake edges (gold V-grooves against geometric optics and a rigorous solver), and by up to {LIMITED_FILM_FACTOR} times that on thin absorbing films whose faces meet at 20 degrees or more (gold roofs against the local transfer-matrix film). Check such a sample against a rigorous solver (RCWA) (docs/physics.md, \"Thin absorbing films\" and \"Where the ray model stops\")"
+            "R may be off by up to {LIMITED_EDGE_FACTOR} x {limited:.1e} (ridge tips, flake edges) or {LIMITED_FILM_FACTOR} x that (thin absorbing films meeting at 20 degrees or more) at theta_i {theta} deg, wavelength bin {bin}: that fraction of the launched power per tree met absorbing facets that change the wave by a good part of its index, where the plane-wave model is stretched; check such a sample against a rigorous solver"
         ));
     }
     let (moved, cell) = stats.worst_rebalanced(acc);
     if moved > REBALANCED_WARN {
         let (theta, bin) = where_(cell);
         out.push(format!(
-            "partial coherence: at theta_i {theta} deg (wavelength bin {bin}) the beamlet overlaps of this lossless sample's partial waves did not conserve energy, by {moved:.1e} of the launched power per tree on average; each tree was scaled to carry out what entered it, so how its light divides between R, T and the buckets is uncertain by up to that (docs/design.md §4, \"Energy of lossless groups\")"
+            "partial coherence: at theta_i {theta} deg (wavelength bin {bin}) how the light divides between R, T and the buckets is uncertain by up to {moved:.1e} of the launched power: the beamlet overlaps of this lossless sample's partial waves did not conserve energy, and each tree was scaled to carry out what entered it; R + T is exact"
         ));
     }
     let (created, cell) = stats.worst_created(acc);

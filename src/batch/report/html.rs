@@ -182,15 +182,7 @@ fn row_html(h: &mut String, e: &Entry) {
     // on it), so the one that matters is not lost among repeats.
     let groups = super::tidy::group_warnings(&e.warnings);
     for g in groups.iter().take(SHOWN_WARNINGS) {
-        let more = match g.count {
-            1 => String::new(),
-            n => format!(" <span class=\"small\">(and {} more like it)</span>", n - 1),
-        };
-        let _ = write!(
-            h,
-            "<div class=\"warn\">&#9888; {}{more}</div>",
-            esc(&g.example)
-        );
+        let _ = write!(h, "<div class=\"warn\">&#9888; {}</div>", esc(&g.line()));
     }
     if groups.len() > SHOWN_WARNINGS {
         let rest: usize = groups[SHOWN_WARNINGS..].iter().map(|g| g.count).sum();

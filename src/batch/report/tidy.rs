@@ -5,56 +5,7 @@
 
 use std::path::{Component, Path};
 
-/// One kind of warning: the first of its kind, and how many there were.
-#[derive(Clone, Debug, PartialEq)]
-pub struct WarningGroup {
-    pub example: String,
-    pub count: usize,
-}
-
-/// The warning's kind: its text without the incident angle it was said at (`theta_i N
-/// deg: `) and with every number replaced by `#`, so one warning at several angles, cells
-/// or wavelengths is one kind.
-fn kind(w: &str) -> String {
-    let body = match w.strip_prefix("theta_i ") {
-        Some(rest) => rest.split_once(" deg: ").map_or(w, |(_, b)| b),
-        None => w,
-    };
-    let mut key = String::with_capacity(body.len());
-    let mut in_number = false;
-    for c in body.chars() {
-        let numeric = c.is_ascii_digit() || (in_number && matches!(c, '.' | 'e' | '-' | '+'));
-        if numeric {
-            if !in_number {
-                key.push('#');
-            }
-            in_number = true;
-        } else {
-            in_number = false;
-            key.push(c);
-        }
-    }
-    key
-}
-
-/// `warnings` grouped by kind, in the order each kind first appears.
-pub fn group_warnings(warnings: &[String]) -> Vec<WarningGroup> {
-    let mut groups: Vec<(String, WarningGroup)> = Vec::new();
-    for w in warnings {
-        let k = kind(w);
-        match groups.iter_mut().find(|(key, _)| *key == k) {
-            Some((_, g)) => g.count += 1,
-            None => groups.push((
-                k,
-                WarningGroup {
-                    example: w.clone(),
-                    count: 1,
-                },
-            )),
-        }
-    }
-    groups.into_iter().map(|(_, g)| g).collect()
-}
+pub use crate::warning_codes::{WarningGroup, group as group_warnings};
 
 /// The methods a run used, per incident angle (`methods[i]` at `thetas[i]`, as
 /// `Settings::methods_of` says them): once, where every angle used the same.
@@ -137,26 +88,6 @@ pub fn holds_absolute_path(text: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// One warning said at several angles, with different numbers, is one kind; a
-    /// different warning is another; the order is that of first appearance.
-    #[test]
-    fn warnings_group_by_kind_whatever_their_angle_and_numbers() {
-        let w: Vec<String> = [
-            "theta_i 0 deg: 12 of 40 cells took rays (the rigorous solver did not converge to 2e-2)",
-            "theta_i 0 deg: the tile is 3.5 um",
-            "theta_i 30 deg: 17 of 40 cells took rays (the rigorous solver did not converge to 2e-2)",
-            "theta_i 60 deg: 40 of 40 cells took rays (the rigorous solver did not converge to 1.5e-2)",
-        ]
-        .map(String::from)
-        .to_vec();
-        let g = group_warnings(&w);
-        assert_eq!(g.len(), 2, "{g:?}");
-        assert_eq!(g[0].count, 3);
-        assert_eq!(g[0].example, w[0]);
-        assert_eq!(g[1].count, 1);
-        assert_eq!(g[1].example, w[1]);
-    }
 
     #[test]
     fn methods_are_said_once_where_every_angle_shares_them() {
