@@ -84,6 +84,10 @@ pub struct Settings {
     /// squares of its 16 elements); absent (false) otherwise.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub mueller: bool,
+    /// The surface facing the light is flat (`sample::flat_fraction`): its mirror is a
+    /// delta the buckets spread, which `render` and `export` put back sharp.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub flat_top: bool,
     /// What the rigorous solver spent where any cell took it; absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rigorous: Option<crate::reference::rigorous::Effort>,

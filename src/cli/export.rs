@@ -50,7 +50,8 @@ pub(super) struct ExportArgs {
     #[arg(long, default_value_t = 65, value_parser = clap::value_parser!(u16).range(3..=goniospec::export::rgl::MAX_RESOLUTION as i64))]
     resolution: u16,
     /// Incident angles of the tabulation, degrees in [0, 90), comma-separated (default:
-    /// the angles the BRDF was simulated at).
+    /// the angles the BRDF was simulated at; for rgl also every 5 deg between them, where
+    /// the renderer's interpolation in theta_i would otherwise part from goniospec's).
     #[arg(long, value_delimiter = ',', value_parser = finite)]
     theta_i: Vec<f64>,
     /// Output file, written atomically.
@@ -262,14 +263,40 @@ fn export_rgl(a: ExportArgs) -> Result<ExitCode> {
             report.negative, report.values, report.most_negative
         );
     }
-    if let Some((dtheta, dphi)) = report.mirror_aperture_deg {
+    if let Some(width) = report.sharp_mirror_deg {
         eprintln!(
-            "note: the sample's surface facing the light is flat (a clear coat, a film): its mirror reflection is written as the simulation measured it, spread over the outgoing bucket around the mirror direction ({dtheta:.1} x {dphi:.1} degrees in theta_o x phi_o), as a goniospectrometer of that aperture measures it; a finer bucket grid (simulate --theta-o-bins, --phi-o-bins) gives a sharper mirror"
+            "note: the sample's surface facing the light is flat (a clear coat, a film): its mirror reflection, measured over the outgoing bucket around the mirror direction, is written as a sharp lobe of the same power about the mirror direction at every incident angle (half vectors spread by {width:.2} deg, the finest this {n} x {n} grid resolves{})",
+            if 2 * n - 1 <= goniospec::export::rgl::MAX_RESOLUTION {
+                format!("; --resolution {} makes it four times finer", 2 * n - 1)
+            } else {
+                String::new()
+            }
+        );
+    }
+    if !report.mirror_power.is_empty() {
+        let list: Vec<String> = report
+            .mirror_power
+            .iter()
+            .map(|(t, e)| format!("{t:.0} deg {e:.4}"))
+            .collect();
+        eprintln!(
+            "note: the mirror's power, a fraction of the incident (mean over wavelength): {}",
+            list.join(", ")
+        );
+    }
+    if let Some((dtheta, dphi)) = report.mirror_aperture_deg {
+        let why = report.no_sharp_mirror.as_deref().unwrap_or("");
+        eprintln!(
+            "note: the sample's surface facing the light is flat (a clear coat, a film): its mirror reflection is written as the simulation measured it, spread over the outgoing bucket around the mirror direction ({dtheta:.1} x {dphi:.1} degrees in theta_o x phi_o), as a goniospectrometer of that aperture measures it, not as a sharp lobe: {why}"
         );
     }
     outln!(
-        "wrote {} (RGL tensor file, {n} x {n} warped grid, {} fields, {:.1} MB, {:.2} s)",
+        "wrote {} (RGL tensor file, {n} x {n} warped grid, {} incident angles, {} fields, {:.1} MB, {:.2} s)",
         a.output.display(),
+        fields
+            .iter()
+            .find(|f| f.name == "theta_i")
+            .map_or(0, |f| f.shape[0]),
         fields.len(),
         tensor::to_bytes(&fields).len() as f64 / 1e6,
         t0.elapsed().as_secs_f64()

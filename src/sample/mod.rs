@@ -309,3 +309,48 @@ pub fn load(path: &Path, opts: MeshOptions) -> Result<Sample, SampleError> {
         .map_err(|e| SampleError::file(path, SampleErrorKind::Io(e.to_string())))?;
     parse(path, &text, opts)
 }
+
+/// A surface facing the light is flat when more than this fraction of the projected area
+/// of its facets facing the ambient medium lies within [`FLAT_WITHIN_RAD`] of the normal.
+pub const FLAT_TOP_FRACTION: f64 = 0.99;
+/// The facet tilt within which a facet counts as flat, radians (0.5 degrees).
+pub const FLAT_WITHIN_RAD: f64 = 0.5 * std::f64::consts::PI / 180.0;
+
+/// The fraction of the projected area (`int cos(theta_m) dA`) of the facets that face the
+/// medium `ambient` (the medium above the sample) lying within [`FLAT_WITHIN_RAD`] of the
+/// normal: near 1 for a clear coat or a flat film, whose mirror reflection is a delta.
+/// 0 where no facet faces it.
+pub fn flat_fraction(sample: &Sample, ambient: usize) -> f64 {
+    let (mut projected, mut flat) = (0.0, 0.0);
+    for itf in &sample.interfaces {
+        let sign = if itf.front == ambient {
+            1.0
+        } else if itf.back == ambient {
+            -1.0
+        } else {
+            continue;
+        };
+        for k in 0..itf.mesh.triangles.len() {
+            let a = itf.mesh.area_vector(k) * sign;
+            let len = a.length();
+            if len.is_nan() || len <= 0.0 || a.z <= 0.0 {
+                continue;
+            }
+            projected += 0.5 * a.z;
+            if a.z / len > FLAT_WITHIN_RAD.cos() {
+                flat += 0.5 * a.z;
+            }
+        }
+    }
+    if projected > 0.0 {
+        flat / projected
+    } else {
+        0.0
+    }
+}
+
+/// Whether the surface facing the medium `ambient` is flat ([`flat_fraction`] above
+/// [`FLAT_TOP_FRACTION`]): its mirror reflection is a delta.
+pub fn flat_top(sample: &Sample, ambient: usize) -> bool {
+    flat_fraction(sample, ambient) > FLAT_TOP_FRACTION
+}

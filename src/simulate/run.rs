@@ -236,6 +236,7 @@ impl<'a> Run<'a> {
             methods: Vec::new(),
             next_event,
             mueller: cfg.mueller,
+            flat_top: crate::sample::flat_top(sample, scene.ambient),
             rigorous: choice.rigorous.contains(&true).then_some(cfg.rigorous),
         };
         Ok(Run {
