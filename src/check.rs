@@ -356,12 +356,16 @@ fn check_interface(
                 sample.media[itf.front].name
             ));
         }
-        if let Some(sc) = scales.filter(|sc| sc.lateral_nm.is_finite()) {
+        if let Some(sc) = scales.filter(crate::sample::validity::Scales::structured) {
             r.facts.push(format!(
-                "{name}: RMS height {:.1} nm, RMS slope {:.3}, lateral scale 2 pi sigma / slope {:.0} nm, strongest axis mode period {:.0} nm ({:.0} % of the height variance), curvature radius {:.0} nm (docs/validity.md)",
+                "{name}: RMS height {:.1} nm, RMS slope {:.3}, lateral scale 2 pi sigma / slope {}, strongest axis mode period {:.0} nm ({:.0} % of the height variance), curvature radius {:.0} nm (docs/validity.md)",
                 sc.rms_height_nm,
                 sc.rms_slope,
-                sc.lateral_nm,
+                if sc.lateral_nm.is_finite() {
+                    format!("{:.0} nm", sc.lateral_nm)
+                } else {
+                    "none (no sloped facets: vertical walls and flat faces)".to_string()
+                },
                 sc.period_nm,
                 100.0 * sc.period_share,
                 sc.curvature_radius_nm

@@ -216,8 +216,17 @@ fn rigorous_summary(
         (k, 0) => format!("{k} slices per structured region"),
         (k, c) => format!("{k} slices per structured region, the C-method (unsliced) in {c} cells"),
     };
+    let rayleigh = cells.iter().filter(|c| c.1.rayleigh).count();
+    let anomaly = if rayleigh > 0 {
+        format!(
+            "; {rayleigh} cells at Rayleigh's anomaly (an order leaving at grazing) were solved at a wavelength {:.0e} longer, where the efficiencies are continuous",
+            goniospec::reference::rigorous::RAYLEIGH_SHIFT
+        )
+    } else {
+        String::new()
+    };
     eprintln!(
-        "rigorous solver: {} cells, harmonics up to {:?} per axis, {how}; converged: largest difference from the coarser check {:.1e} (tolerance {tolerance:.0e}) at theta_i {} deg, {} nm; {:.3} s per cell",
+        "rigorous solver: {} cells, harmonics up to {:?} per axis, {how}; converged: largest difference from the coarser check {:.1e} (tolerance {tolerance:.0e}) at theta_i {} deg, {} nm; {:.3} s per cell{anomaly}",
         cells.len(),
         most,
         w.difference,

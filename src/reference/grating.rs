@@ -33,6 +33,17 @@ pub enum SlabIds {
     Grid { n: [usize; 2], ids: Vec<u16> },
 }
 
+/// Whether two slicings are the same slabs: as many, of the same media, each of the same
+/// thickness to 1e-9 of it (their sums of slice thicknesses round apart).
+pub fn same_slabs(a: &Sliced, b: &Sliced) -> bool {
+    a.period_nm == b.period_nm
+        && a.layers.len() == b.layers.len()
+        && a.layers
+            .iter()
+            .zip(&b.layers)
+            .all(|((ta, ia), (tb, ib))| ia == ib && (ta - tb).abs() <= 1e-9 * ta.max(*tb))
+}
+
 /// The tile as slices of media, wavelength-independent (`structure` gives the permittivities
 /// at one wavelength).
 #[derive(Clone, Debug, PartialEq)]
@@ -273,10 +284,23 @@ pub fn slice(sample: &Sample, spec: SliceSpec) -> Result<Sliced, SliceError> {
         }
         let k = spec.slices;
         let d = (top - bottom) / k as f64;
+        // Neighbouring slices of one band with the same media are one slab, solved once
+        // (exact: a slab that does not change with height has one set of modes, however
+        // thick; lamellae and pillars are one slab per band).
+        let mut same = 0usize;
         for s in 0..k {
             let z = top - (s as f64 + 0.5) * d;
-            let ids = cols.iter().map(|c| medium_at(c, above, z) as u16).collect();
-            layers.push((d, SlabIds::Grid { n, ids }));
+            let ids: Vec<u16> = cols.iter().map(|c| medium_at(c, above, z) as u16).collect();
+            match layers.last_mut() {
+                Some((t, SlabIds::Grid { ids: prev, .. })) if s > 0 && *prev == ids => {
+                    same += 1;
+                    *t = d * (same + 1) as f64;
+                }
+                _ => {
+                    same = 0;
+                    layers.push((d, SlabIds::Grid { n, ids }));
+                }
+            }
         }
     }
     Ok(reduce(Sliced {

@@ -1,7 +1,12 @@
 //! The rigorous solver on a sample (docs/physics.md, "The rigorous solver"): its tile sliced
 //! twice ([`grating::slice`]: the run's slices, and half as many for the check), the
 //! harmonics chosen per wavelength, and every answer checked for convergence against a
-//! coarser one (two thirds of the harmonics per patterned axis, half the slices). The
+//! coarser one (two thirds of the harmonics per patterned axis and strictly fewer, half the
+//! slices and strictly fewer, unless the structure does not change with height, when the
+//! slicing is exact and one slab per band is solved). Truncations that drop an order that
+//! may propagate, and one slice of a structure that changes with height, are refused: no
+//! coarser check could show what they miss (issue 70: `--orders 0` and 1 and `--slices 1`
+//! passed the check, R 3 to 7 times too small and 37 % off). The
 //! difference, the largest over R, T and every order's efficiency in either polarisation,
 //! estimates the answer's error: where the error falls as `1/M^p` with the harmonics `M`,
 //! the answer's is the difference over `1.5^p - 1` (0.8 times it for `p = 2`, dielectric
@@ -79,6 +84,21 @@ pub enum RigorousError {
         max: usize,
     },
     #[error(
+        "--orders {harmonics} keeps fewer harmonics than the {propagating} orders that may propagate at {lambda_nm} nm over a period of {period_nm} nm (in the densest medium, n {n_max:.3}): the answer would miss light that leaves, and no coarser check could show it; give at least --orders {propagating} (by default the solver takes {propagating} plus a margin)"
+    )]
+    TooFewOrders {
+        harmonics: usize,
+        propagating: usize,
+        lambda_nm: f64,
+        period_nm: f64,
+        n_max: f64,
+    },
+    #[error(
+        "--slices {0} cuts the structure into one slab per band, which the convergence check cannot refine (half of one slice is the same slice), and the structure changes with height: give at least --slices 2 (the default is {default}); lamellae and pillars, which do not change with height, are solved as one slab whatever the count",
+        default = Effort::SLICES
+    )]
+    TooFewSlices(usize),
+    #[error(
         "the rigorous solver did not converge at theta_i {theta_deg} deg and {lambda_nm} nm: {harmonics:?} harmonics and {slices} slices differ from {coarse:?} and {coarse_slices} by {difference:.2e} in R, T or an order's efficiency (tolerance {tolerance:.1e}); raise --orders or --slices"
     )]
     NotConverged {
@@ -101,6 +121,10 @@ pub struct Rigorous {
     pub above: String,
     pub fine: Sliced,
     pub coarse: Sliced,
+    /// The slicing is exact in height (every structured band is the same at every height:
+    /// lamellae, pillars): the slices' count does not matter, and the check compares the
+    /// harmonics alone.
+    pub exact_in_height: bool,
     /// The tile's one bare interface as a relief over one period along x
     /// ([`grating::relief`], [`Effort::RELIEF_SAMPLES`] heights), where it is one: solved by
     /// the C-method instead of the staircase in the classical mount.
@@ -117,6 +141,41 @@ pub struct Converged {
     pub difference: f64,
     /// Solved by the C-method on the relief (no slices), not the staircase.
     pub curvilinear: bool,
+    /// Where an order left exactly at grazing (Rayleigh's anomaly): the wavelength the cell
+    /// was solved at instead, nm ([`RAYLEIGH_SHIFT`] longer).
+    pub rayleigh_nm: Option<f64>,
+}
+
+/// The relative lengthening of the wavelength at which a cell is solved where one of its
+/// orders leaves exactly at grazing (Rayleigh's anomaly: its propagation constant is zero
+/// and the half-space's modes are dependent). The efficiencies are continuous there with
+/// a square-root edge (Rayleigh 1907; Hessel & Oliner 1965), so the cell's answer moves by
+/// about the square root of the shift, 1e-4, below the check's tolerance.
+pub const RAYLEIGH_SHIFT: f64 = 1e-8;
+
+/// Whether an order of the harmonics `m` of light along `d` at `lambda_nm` leaves a
+/// lossless half-space of index `n` within rounding of grazing: `|n^2 - kx^2 - ky^2| <
+/// 1e-9` in units of `k0^2`, `kx = n_above d.x + p lambda / period` as the solver builds
+/// them.
+fn grazing(
+    n_above: f64,
+    half_spaces: &[f64],
+    d: DVec3,
+    lambda_nm: f64,
+    m: [usize; 2],
+    period_nm: [f64; 2],
+) -> bool {
+    let k = |a: usize, p: i64| {
+        let along = if a == 0 { d.x } else { d.y };
+        n_above * along + p as f64 * lambda_nm / period_nm[a]
+    };
+    let (mx, my) = (m[0] as i64, m[1] as i64);
+    (-mx..=mx).any(|p| {
+        (-my..=my).any(|q| {
+            let t = k(0, p).powi(2) + k(1, q).powi(2);
+            half_spaces.iter().any(|n| (n * n - t).abs() < 1e-9)
+        })
+    })
 }
 
 impl Rigorous {
@@ -148,11 +207,20 @@ impl Rigorous {
         let relief = (fine.patterned == [true, false])
             .then(|| grating::relief(sample, fine.period_nm[0], Effort::RELIEF_SAMPLES))
             .flatten();
+        // Twice the slices giving the same slabs: the structure does not change with height
+        // and any count is exact. Otherwise the check needs strictly fewer slices.
+        let exact_in_height = grating::same_slabs(&fine, &at(2 * effort.slices)?);
+        let coarse = if exact_in_height {
+            fine.clone()
+        } else {
+            at(effort.slices.div_ceil(2))?
+        };
         Ok(Rigorous {
             effort,
             above: sample.media[probe.above].name.clone(),
             fine,
-            coarse: at(effort.slices.div_ceil(2))?,
+            coarse,
+            exact_in_height,
             relief,
         })
     }
@@ -215,7 +283,34 @@ impl Rigorous {
                 max: Effort::MAX_MODES,
             });
         }
-        let coarse_m = m.map(|k| (2 * k).div_ceil(3));
+        // Every order that may propagate must be kept (the densest medium's, at any angle:
+        // |m| lambda / period <= 2 n_max), and the check keeps strictly fewer harmonics.
+        for ((&k, &patterned), &period_nm) in
+            m.iter().zip(&self.fine.patterned).zip(&self.fine.period_nm)
+        {
+            let propagating = (2.0 * n_max * period_nm / lambda_nm).ceil() as usize;
+            if patterned && k < propagating {
+                return Err(RigorousError::TooFewOrders {
+                    harmonics: k,
+                    propagating,
+                    lambda_nm,
+                    period_nm,
+                    n_max,
+                });
+            }
+        }
+        let coarse_m = m.map(|k| (2 * k).div_ceil(3).min(k.saturating_sub(1)));
+        // Rayleigh's anomaly: solved a hair longer (the fine and the check alike).
+        let lossless: Vec<f64> = [above, idx[self.fine.below]]
+            .iter()
+            .filter(|n| n.im == 0.0)
+            .map(|n| n.re)
+            .collect();
+        let rayleigh_nm = [m, coarse_m]
+            .iter()
+            .any(|&h| grazing(above.re, &lossless, d, lambda_nm, h, self.fine.period_nm))
+            .then_some(lambda_nm * (1.0 + RAYLEIGH_SHIFT));
+        let lambda_nm = rayleigh_nm.unwrap_or(lambda_nm);
         // A bare relief lit across its grooves: the C-method, which needs no staircase
         // (TM on metals converges fast there: docs/physics.md).
         // Where it does not converge (a relief with jumps or sharp corners, whose slope's
@@ -246,6 +341,8 @@ impl Rigorous {
         let profile = curvilinear.is_some();
         let (fine, coarse, slices) = if let Some((fine, coarse)) = curvilinear {
             (fine, coarse, 0)
+        } else if !self.exact_in_height && self.effort.slices < 2 {
+            return Err(RigorousError::TooFewSlices(self.effort.slices));
         } else {
             (
                 rcwa::solve(&self.fine.structure(idx), lambda_nm, d, h)?,
@@ -266,7 +363,11 @@ impl Rigorous {
                 harmonics: m,
                 slices,
                 coarse: coarse_m,
-                coarse_slices: slices.div_ceil(2),
+                coarse_slices: if self.exact_in_height {
+                    slices
+                } else {
+                    slices.div_ceil(2)
+                },
                 difference,
                 tolerance: self.effort.tolerance,
             });
@@ -277,6 +378,7 @@ impl Rigorous {
             slices,
             difference,
             curvilinear: profile,
+            rayleigh_nm,
         })
     }
 }

@@ -294,7 +294,7 @@ pub fn cell_needs(
     let cos = theta_deg.to_radians().cos().max(0.05);
     let spread = lambda_nm / (2.0 * std::f64::consts::PI * rho_nm);
     for (i, (itf, sc)) in sample.interfaces.iter().zip(sheets).enumerate() {
-        let Some(sc) = sc.filter(|s| s.lateral_nm.is_finite()) else {
+        let Some(sc) = sc.filter(validity::Scales::structured) else {
             continue;
         };
         if itf.closed {

@@ -125,6 +125,7 @@ impl Run<'_> {
                     slices: c.slices,
                     difference: c.difference,
                     seconds,
+                    rayleigh: c.rayleigh_nm.is_some(),
                 });
             }
         }

@@ -154,12 +154,15 @@ pub struct SimSettings {
     pub mueller: bool,
     /// The rigorous solver's harmonics per patterned axis (orders -M..M); by default the
     /// orders that propagate in the densest medium plus 12 (1-D) or 3 (crossed gratings).
-    /// The convergence check solves again with two thirds of them.
+    /// The convergence check solves again with two thirds of them (strictly fewer); fewer
+    /// than the orders that may propagate (2 n_max period / lambda) is refused.
     #[arg(long, value_name = "M")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub orders: Option<usize>,
     /// The rigorous solver's slices along z per structured region of the tile (flat layers
-    /// are one exact slice each); the convergence check uses half as many.
+    /// are one exact slice each, and so is a band that does not change with height); the
+    /// convergence check uses half as many, so at least 2 where the structure changes with
+    /// height.
     #[arg(long, default_value_t = Effort::SLICES)]
     pub slices: usize,
     /// The largest difference in R, T or any order's efficiency between the rigorous

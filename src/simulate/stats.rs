@@ -261,6 +261,9 @@ pub struct RigorousCell {
     pub slices: usize,
     pub difference: f64,
     pub seconds: f64,
+    /// An order left exactly at grazing: the cell was solved at a wavelength
+    /// `reference::rigorous::RAYLEIGH_SHIFT` longer.
+    pub rayleigh: bool,
 }
 
 impl SimStats {

@@ -125,6 +125,16 @@ pub struct Scales {
     pub curvature_radius_nm: f64,
 }
 
+impl Scales {
+    /// Whether the sheet has relief at all. A relief of horizontal faces and vertical
+    /// walls (lamellae, pillars) has no finite slope, so an infinite lateral scale, but a
+    /// period: it is structured (issue 70: such sheets were passed over as flat, and a
+    /// binary grating at 400 nm took rays under auto).
+    pub fn structured(&self) -> bool {
+        self.rms_height_nm > 0.0
+    }
+}
+
 /// Measures one sheet's scales over `tile_nm`.
 pub fn scales(mesh: &crate::sample::Mesh, tile_nm: [f64; 2]) -> Scales {
     let p = &mesh.positions_nm;
@@ -320,7 +330,7 @@ pub fn finer_than_wavelength(
         .zip(sheets)
         .enumerate()
         .find_map(|(i, (itf, sc))| {
-            let sc = sc.filter(|s| s.lateral_nm.is_finite())?;
+            let sc = sc.filter(Scales::structured)?;
             let lam = denser_wavelength(sample, itf, lambda_nm);
             finer_than(&sc, lam).then_some((i, lam))
         })
@@ -338,7 +348,7 @@ pub fn assess_scales(sample: &Sample, sheets: &[Option<Scales>], ctx: &Context) 
         let Some(sc) = *sc else {
             continue;
         };
-        if !sc.lateral_nm.is_finite() {
+        if !sc.structured() {
             continue;
         }
         let lam = denser_wavelength(sample, itf, lambda);
