@@ -232,8 +232,6 @@ fn a_bare_metal_relief_takes_the_c_method() {
 /// Lamellae of `depth` nm (ridges of index `n` over the middle half of each `period`, air
 /// between them, the same medium below): one sheet with vertical walls, a binary grating.
 fn lamellae(tag: &str, period: f64, depth: f64, n: f64) -> Sample {
-    let d = scratch(tag);
-    let ly = period / 8.0;
     let xz = [
         (0.0, 0.0),
         (0.25 * period, 0.0),
@@ -242,19 +240,27 @@ fn lamellae(tag: &str, period: f64, depth: f64, n: f64) -> Sample {
         (0.75 * period, 0.0),
         (period, 0.0),
     ];
+    profile(tag, period, &xz, n)
+}
+
+/// One sheet through the points `xz` (nm) across a tile `period` wide, extruded along y,
+/// air above and a medium of index `n` below.
+fn profile(tag: &str, period: f64, xz: &[(f64, f64)], n: f64) -> Sample {
+    let d = scratch(tag);
+    let ly = period / 8.0;
     let mut obj = String::new();
-    for (x, z) in xz {
+    for &(x, z) in xz {
         obj.push_str(&format!("v {x:?} 0 {z:?}\nv {x:?} {ly:?} {z:?}\n"));
     }
     for i in 0..xz.len() - 1 {
         let (a, b, c, e) = (2 * i + 1, 2 * i + 3, 2 * i + 4, 2 * i + 2);
         obj.push_str(&format!("f {a} {b} {c}\nf {a} {c} {e}\n"));
     }
-    std::fs::write(d.join("lamellae.obj"), obj).unwrap();
+    std::fs::write(d.join("sheet.obj"), obj).unwrap();
     sample_in(
         &d,
         &format!(
-            "[sample]\nname = \"lamellae\"\nunit = \"nm\"\ntile = [{period:?}, {ly:?}]\n[media.air]\nn = 1.0\n[media.m]\nn = {n:?}\n[[interface]]\nmesh = \"lamellae.obj\"\nfront = \"air\"\nback = \"m\"\n"
+            "[sample]\nname = \"profile\"\nunit = \"nm\"\ntile = [{period:?}, {ly:?}]\n[media.air]\nn = 1.0\n[media.m]\nn = {n:?}\n[[interface]]\nmesh = \"sheet.obj\"\nfront = \"air\"\nback = \"m\"\n"
         ),
     )
 }
@@ -383,4 +389,32 @@ fn a_rayleigh_anomaly_is_solved_continuously() {
             );
         }
     }
+}
+
+/// Issue 70: a sheet whose sides do not meet across the tile (`goniospec check`: "does not
+/// tile") is not one period of a structure, and the solver, which repeats the tile, would
+/// solve it with a step at every seam: an explicit run is refused naming the interface, and
+/// under auto the cell is not given the solver.
+#[test]
+fn a_mesh_that_does_not_tile_is_refused_by_the_solver() {
+    // A ramp from 0 to 80 nm across the tile: a sawtooth once repeated.
+    let s = profile(
+        "rig-untiled",
+        800.0,
+        &[(0.0, 0.0), (400.0, 40.0), (800.0, 80.0)],
+        1.5,
+    );
+    let e = simulate(&s, &rigorous(&[0.0], "540:560:20"), &|_| {})
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("interface 0") && e.contains("does not tile") && e.contains("opposite side"),
+        "{e}"
+    );
+    let auto = SimConfig {
+        coherence: Coherence::Auto,
+        ..rigorous(&[0.0], "540:560:20")
+    };
+    let acc = run(&s, &auto);
+    assert_ne!(acc.header.settings.cell_mode(0, 0), Coherence::Rigorous);
 }

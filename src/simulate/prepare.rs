@@ -264,12 +264,21 @@ pub(super) fn sharing_refusal(
 }
 
 /// What `--coherence rigorous` cannot take (`rigorous_fit::rigorous_refused`: open sides,
-/// particle media, adaptive budgets), before any work.
+/// particle media, adaptive budgets; `rigorous_fit::untiled`: a mesh that does not tile),
+/// before any work.
 fn rigorous_refusals(sample: &Sample, cfg: &SimConfig) -> Result<(), SimError> {
-    match super::rigorous_fit::rigorous_refused(sample, cfg) {
-        Some(why) if cfg.coherence == Coherence::Rigorous => Err(SimError::Config(format!(
+    if cfg.coherence != Coherence::Rigorous {
+        return Ok(());
+    }
+    if let Some(why) = super::rigorous_fit::rigorous_refused(sample, cfg) {
+        return Err(SimError::Config(format!(
             "--coherence rigorous solves a deterministic periodic tile, but {why}; use --coherence auto (the default)"
+        )));
+    }
+    match super::rigorous_fit::untiled(sample) {
+        Some(why) => Err(SimError::Config(format!(
+            "--coherence rigorous solves one period of a periodic structure, but {why}: make the mesh's opposite sides meet (or give it a guard band and use --coherence auto)"
         ))),
-        _ => Ok(()),
+        None => Ok(()),
     }
 }

@@ -30,6 +30,30 @@ pub fn rigorous_refused(sample: &Sample, cfg: &SimConfig) -> Option<&'static str
     }
 }
 
+/// Why the tile is not one period of the structure (`None` where it is): a sheet whose
+/// boundary edges on the tile's sides have no partner on the opposite side, the defect
+/// `goniospec check` reports as "does not tile" (`check::periodicity`, at its tolerance of
+/// 1e-6 of the tile). The solver repeats the tile, and would solve a structure with a step
+/// at every seam (issue 70: such a mesh was solved as a periodic sawtooth, exit 0).
+pub fn untiled(sample: &Sample) -> Option<String> {
+    let tol = 1e-6 * sample.tile_nm[0].max(sample.tile_nm[1]);
+    sample
+        .interfaces
+        .iter()
+        .enumerate()
+        .filter(|(_, itf)| !itf.closed)
+        .find_map(|(i, itf)| {
+            let p = crate::check::periodicity(&itf.mesh, sample.tile_nm, tol);
+            (p.unmatched > 0).then(|| {
+                format!(
+                    "interface {i} ({}) does not tile: {} boundary edges on the tile's sides have no partner on the opposite side (goniospec check lists it), and the solver repeats the tile",
+                    itf.mesh_path.display(),
+                    p.unmatched
+                )
+            })
+        })
+}
+
 /// The rigorous solver as an auto run may use it: built on first use, its refusal kept.
 pub struct RigorousFit<'a> {
     sample: &'a Sample,
@@ -52,10 +76,10 @@ impl<'a> RigorousFit<'a> {
         if let Some(why) = rigorous_refused(sample, cfg) {
             return Some(why.into());
         }
-        let solver = match self
-            .solver
-            .get_or_insert_with(|| Rigorous::new(sample, cfg.rigorous).map_err(|e| e.to_string()))
-        {
+        let solver = match self.solver.get_or_insert_with(|| match untiled(sample) {
+            Some(why) => Err(why),
+            None => Rigorous::new(sample, cfg.rigorous).map_err(|e| e.to_string()),
+        }) {
             Ok(s) => s,
             Err(e) => return Some(e.clone()),
         };
