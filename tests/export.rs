@@ -310,6 +310,14 @@ fn rgl_export_holds_a_mirror_lobe_and_refuses_what_it_cannot_write() {
         s.flat_top
     };
     assert!(flat_top(&flat));
+    let drawn = |gsb: &str| {
+        let r = goniospec::brdf::file::read(std::path::Path::new(gsb)).unwrap();
+        goniospec::export::mirror::for_render(&r).unwrap().is_some()
+    };
+    assert!(
+        drawn(&flat),
+        "render and the report draw the flat film's mirror sharp"
+    );
     let exr = d.join("flat.exr");
     let (code, _, err) = goniospec(&[
         "render",
@@ -338,6 +346,7 @@ fn rgl_export_holds_a_mirror_lobe_and_refuses_what_it_cannot_write() {
     // compared). Rough gold's description with silver for gold, same name and mesh.
     let gold = built(&d, "meshes/rough-gold.toml", "gold");
     assert!(!flat_top(&gold));
+    assert!(!drawn(&gold));
     let other = d.join("other");
     std::fs::create_dir_all(&other).unwrap();
     std::fs::copy(

@@ -161,22 +161,14 @@ pub(super) fn parse_shape(s: &str) -> Result<ShapeArg, String> {
 
 /// A table simulated from a sample whose surface facing the light is flat (a clear coat,
 /// a flat film) is rendered with its mirror as the sharp lobe `export` writes
-/// (`export::mirror`), so that the image and the renderers reading the export show the
-/// same material (issue 71): the table alone shows the mirror spread over its bucket, and
-/// between two simulated angles as two half-height copies at their mirrors. Says why where
-/// the mirror stays as the buckets hold it.
+/// (`export::mirror::for_render`), so that the image and the renderers reading the export
+/// show the same material (issue 71): the table alone shows the mirror spread over its
+/// bucket, and between two simulated angles as two half-height copies at their mirrors.
+/// Says why where the mirror stays as the buckets hold it.
 fn sharp_mirror(path: &std::path::Path) -> Option<goniospec::export::mirror::SharpMirror> {
-    use goniospec::export::mirror::SharpMirror;
-    let Ok(goniospec::brdf::Representation::Table(t)) = goniospec::brdf::file::read(path) else {
-        return None;
-    };
-    let settings: goniospec::accumulate::file::Settings =
-        toml::from_str(&t.meta.simulation).ok()?;
-    if !settings.flat_top {
-        return None;
-    }
-    match SharpMirror::from_table(&t, SharpMirror::width_for(SharpMirror::DEFAULT_GRID)) {
-        Ok(m) => Some(m),
+    let r = goniospec::brdf::file::read(path).ok()?;
+    match goniospec::export::mirror::for_render(&r) {
+        Ok(m) => m,
         Err(why) => {
             eprintln!(
                 "note: the sample's surface facing the light is flat, but its mirror is drawn as the buckets hold it: {}",
@@ -227,20 +219,7 @@ pub(super) fn render(a: RenderArgs) -> Result<ExitCode> {
     }
     let t0 = std::time::Instant::now();
     let albedo = match (env, &sharp) {
-        // The lobe's albedo is its power, added to the rest's (a 48 x 96 quadrature would
-        // miss a 0.7-degree lobe).
-        (Env::Constant, Some(m)) => {
-            let mut t = pool.install(|| render::albedo_table(m.background(), 90));
-            let mut e = vec![0.0; r.meta().lambda_nm.len()];
-            for (k, row) in t.iter_mut().enumerate() {
-                m.power_at(
-                    (k as f64 + 0.5) / 90.0 * std::f64::consts::FRAC_PI_2,
-                    &mut e,
-                );
-                row.iter_mut().zip(&e).for_each(|(v, x)| *v += x);
-            }
-            Some(t)
-        }
+        (Env::Constant, Some(m)) => Some(pool.install(|| m.albedo_table(90))),
         (Env::Constant, None) => Some(pool.install(|| render::albedo_table(r, 90))),
         _ => None,
     };

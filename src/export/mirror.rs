@@ -25,7 +25,7 @@ use glam::DVec3;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use crate::brdf::table::TableBrdf;
-use crate::brdf::{Brdf, Meta};
+use crate::brdf::{Brdf, Meta, Representation};
 
 /// A table whose mirror buckets have become a sharp lobe (module docs).
 pub struct SharpMirror {
@@ -41,6 +41,23 @@ pub struct SharpMirror {
 /// Why a table's mirror is left at the bucket aperture.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NoMirror(pub String);
+
+/// The sharp mirror `goniospec render` and the batch report draw for `r`: a table
+/// simulated from a sample whose surface facing the light is flat (`flat_top` in its
+/// settings), at the lobe width of the default RGL grid, so that images and the exported
+/// file show the same material. `Ok(None)` for other BRDFs; `Err` where the table's
+/// mirror cannot be told from its surround (the image then shows the buckets).
+pub fn for_render(r: &Representation) -> Result<Option<SharpMirror>, NoMirror> {
+    let Representation::Table(t) = r else {
+        return Ok(None);
+    };
+    let flat = toml::from_str::<crate::accumulate::file::Settings>(&t.meta.simulation)
+        .is_ok_and(|s| s.flat_top);
+    if !flat {
+        return Ok(None);
+    }
+    SharpMirror::from_table(t, SharpMirror::width_for(SharpMirror::DEFAULT_GRID)).map(Some)
+}
 
 /// The buckets around one simulated angle's mirror direction.
 struct Block {
@@ -124,6 +141,18 @@ impl SharpMirror {
             kappa,
             norm: kappa / (TAU * (1.0 - (-2.0 * kappa).exp())),
         })
+    }
+
+    /// [`crate::render::albedo_table`] of the lobe and the rest: the rest's by quadrature,
+    /// the lobe's exactly, its power (a 48 x 96 quadrature would miss a 0.7-degree lobe).
+    pub fn albedo_table(&self, n: usize) -> Vec<Vec<f64>> {
+        let mut t = crate::render::albedo_table(&self.background, n);
+        let mut e = vec![0.0; self.background.meta.lambda_nm.len()];
+        for (k, row) in t.iter_mut().enumerate() {
+            self.power_at((k as f64 + 0.5) / n as f64 * FRAC_PI_2, &mut e);
+            row.iter_mut().zip(&e).for_each(|(v, x)| *v += x);
+        }
+        t
     }
 
     /// The table without its mirror.

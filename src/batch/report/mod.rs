@@ -453,7 +453,7 @@ fn material_entry(
 }
 
 /// Renders the sphere of `brdf` with `goniospec render`'s default light and environment
-/// to the PNG `path`.
+/// to the PNG `path`, a flat top's mirror sharp as `render` draws it.
 fn write_sphere(
     brdf: &Representation,
     path: &Path,
@@ -478,8 +478,14 @@ fn write_sphere(
         fov_deg: 30.0,
         seed: 1,
     };
-    let albedo = render::albedo_table(brdf, 90);
-    let img = render::render(brdf, &shape, &cfg, Some(&albedo), &|_| {});
+    // A flat top's mirror as `goniospec render` and `export` draw it (issue 71).
+    let img = match crate::export::mirror::for_render(brdf) {
+        Ok(Some(m)) => render::render(&m, &shape, &cfg, Some(&m.albedo_table(90)), &|_| {}),
+        _ => {
+            let albedo = render::albedo_table(brdf, 90);
+            render::render(brdf, &shape, &cfg, Some(&albedo), &|_| {})
+        }
+    };
     render::write_png(&img, path).map_err(|source| ReportError::Write {
         path: path.display().to_string(),
         source,
