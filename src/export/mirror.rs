@@ -97,6 +97,12 @@ impl SharpMirror {
         let mut power = Vec::with_capacity(table.theta_i_rad.len());
         for (i, &ti) in table.theta_i_rad.iter().enumerate() {
             let block = mirror_block(ti, table.phi_i_rad, tb, pb);
+            if block.around.is_empty() {
+                return Err(NoMirror(format!(
+                    "at {:.1} deg the outgoing grid ({tb} x {pb} buckets) has no bucket beside the mirror's to tell it from",
+                    ti.to_degrees()
+                )));
+            }
             let at = |t: usize, p: usize| ((i * tb + t) * pb + p) * nl;
             let mut e = Vec::with_capacity(nl);
             for j in 0..nl {

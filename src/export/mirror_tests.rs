@@ -184,3 +184,15 @@ fn a_mirror_on_a_bucket_edge_is_found_on_either_side() {
     let b = mirror_block(31f64.to_radians(), 0.0, TB, PB);
     assert!(b.inside.iter().all(|&(t, _)| t == 15));
 }
+
+#[test]
+fn a_grid_with_no_bucket_beside_the_mirror_is_refused_not_a_panic() {
+    // One bucket over the hemisphere: nothing to tell the mirror from (it panicked on an
+    // empty median).
+    let mut t = table(&[40.0], true, 0.0);
+    t.theta_bins = 1;
+    t.phi_bins = 1;
+    t.values = vec![0.1; 2];
+    let err = SharpMirror::from_table(&t, 0.01).err().unwrap();
+    assert!(err.0.contains("no bucket beside the mirror's"), "{}", err.0);
+}
