@@ -35,18 +35,20 @@
 mod coat;
 mod export;
 mod film;
+mod model;
 
 pub use coat::{Coat, CoatChoice};
 use coat::{fit_coated, mirror_excess, represents};
 pub use export::{to_gltf, to_json, write_json};
 use film::{fit_film, implausible_film};
+use model::{Albedo, BaseTerms, model_on, model_r, multiple_scattering, reflectance};
 
 use crate::accumulate::file::Accumulator;
 use crate::geom::from_spherical;
 use crate::optics::C64;
-use crate::optics::tmm::{self, StackIndices};
 use crate::render::colour;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// The simulated data a fit uses.
 pub struct Data {
@@ -313,96 +315,6 @@ fn nelder_mead(f: &dyn Fn(&[f64]) -> f64, x0: &[f64], step: &[f64], iters: usize
     pts[best].clone()
 }
 
-/// Unpolarised reflectance at `theta` (radians, in air) of the base, or of the film on it,
-/// at wavelength index `j`.
-fn reflectance(base: &Base, film: Option<(f64, f64)>, theta: f64, lambda: f64, j: usize) -> f64 {
-    let nb = match base {
-        Base::Dielectric { n } => C64::new(*n, 0.0),
-        Base::Conductor { n } => n[j],
-    };
-    let (n, d_nm) = match film {
-        Some((d, nf)) => (vec![C64::new(1.0, 0.0), C64::new(nf, 0.0), nb], vec![d]),
-        None => (vec![C64::new(1.0, 0.0), nb], Vec::new()),
-    };
-    tmm::solve(&StackIndices { n, d_nm }, lambda, theta).r()
-}
-
-/// The model's reflectance table `R[i][j]` for given parameters, albedos `e[i]` and the
-/// mean albedo `e_avg` ([`Albedo`]): single scattering `E F` plus the multiple-scattering
-/// term of the bare base ([`multiple_scattering`]).
-fn model_r(data: &Data, e: &Albedo, base: &Base, film: Option<Film>) -> Vec<Vec<f64>> {
-    let ms: Vec<f64> = data
-        .lambda_nm
-        .iter()
-        .enumerate()
-        .map(|(j, &l)| multiple_scattering(base, l, j, e.avg))
-        .collect();
-    data.theta_i_rad
-        .iter()
-        .enumerate()
-        .map(|(i, &th)| {
-            data.lambda_nm
-                .iter()
-                .enumerate()
-                .map(|(j, &l)| {
-                    let fb = reflectance(base, None, th, l, j);
-                    let f = match film {
-                        Some(fm) => {
-                            fm.weight * reflectance(base, Some((fm.thickness_nm, fm.n)), th, l, j)
-                                + (1.0 - fm.weight) * fb
-                        }
-                        None => fb,
-                    };
-                    e.at[i] * f + (1.0 - e.at[i]) * ms[j]
-                })
-                .collect()
-        })
-        .collect()
-}
-
-/// The single-scattering lobe's directional albedo with `F = 1` at each incident angle
-/// (`at`) and its cosine-weighted mean over the hemisphere (`avg`, `2 int E(mu) mu dmu`).
-struct Albedo {
-    at: Vec<f64>,
-    avg: f64,
-}
-
-impl Albedo {
-    fn new(data: &Data, alpha: f64) -> Albedo {
-        let e = |th: f64| lobe_model(data, alpha, th).iter().sum::<f64>().min(1.0);
-        // Midpoint rule in mu on 16 points: E(mu) is smooth and bounded.
-        const M: usize = 16;
-        let avg = (0..M)
-            .map(|k| {
-                let mu = (k as f64 + 0.5) / M as f64;
-                2.0 * mu * e(mu.acos()) / M as f64
-            })
-            .sum();
-        Albedo {
-            at: data.theta_i_rad.iter().map(|&th| e(th)).collect(),
-            avg,
-        }
-    }
-}
-
-/// The directional albedo the single-scattering lobe leaves out, per unit `1 - E(theta_i)`:
-/// light that a microfacet sends into another one before it escapes, Fresnel-weighted at
-/// every bounce, `F_avg^2 E_avg / (1 - F_avg (1 - E_avg))` (Kulla & Conty, "Revisiting
-/// Physically Based Shading at Imageworks", SIGGRAPH 2017 course, the Fresnel term of their
-/// multiple-scattering lobe), with `F_avg = 2 int F(mu) mu dmu` of the bare base. The
-/// simulation keeps that light; without the term the fit pushed a conductor's `k` to its
-/// bound to make up for it.
-fn multiple_scattering(base: &Base, lambda: f64, j: usize, e_avg: f64) -> f64 {
-    const M: usize = 16;
-    let f_avg: f64 = (0..M)
-        .map(|k| {
-            let mu = (k as f64 + 0.5) / M as f64;
-            2.0 * mu * reflectance(base, None, mu.acos(), lambda, j) / M as f64
-        })
-        .sum();
-    f_avg * f_avg * e_avg / (1.0 - f_avg * (1.0 - e_avg))
-}
-
 /// Sum of squared reflectance errors plus the colour term (see the module docs).
 fn cost(data: &Data, m: &[Vec<f64>], weights: &[[f64; 3]], white: [f64; 3]) -> f64 {
     let mut e = 0.0;
@@ -601,7 +513,9 @@ fn fit_layer(data: &Data, base_kind: BaseKind, try_film: bool) -> (Fit, f64) {
     }
     if base_kind != BaseKind::Dielectric {
         // Per wavelength, (n, k) from the reflectance at every incident angle.
+        // Each wavelength's fit is independent: in parallel, collected in order.
         let n: Vec<C64> = (0..data.lambda_nm.len())
+            .into_par_iter()
             .map(|j| {
                 let l = data.lambda_nm[j];
                 // Bounded to metals' range (n 0.01-10, k 0-20): where single scattering cannot
@@ -651,7 +565,11 @@ fn fit_layer(data: &Data, base_kind: BaseKind, try_film: bool) -> (Fit, f64) {
                 starts.push(Base::Dielectric { n: 1.0 });
             }
             for st in &starts {
-                let (c, b, f) = fit_film(st, &total);
+                let terms = BaseTerms::new(data, &e, st);
+                let on_start = |film: Option<Film>| {
+                    cost(data, &model_on(data, &e, st, &terms, film), &weights, white)
+                };
+                let (c, b, f) = fit_film(st, &total, &on_start);
                 if c < 0.5 * bare && c < choice.0 {
                     // A film the fit would keep, but one no material is: refused, and said.
                     if let Some(why) = implausible_film(&b, &f, mean(&data.t)) {

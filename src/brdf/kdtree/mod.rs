@@ -462,8 +462,14 @@ impl KdTree {
                 (arc(wi, pi) + arc(wo, po), id)
             })
             .collect();
-        all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        all.truncate(k);
+        // The k smallest by (distance, index), a total order, then sorted: the same list a
+        // full sort's first k would give, in linear time.
+        let order = |a: &(f64, u32), b: &(f64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        if k < all.len() {
+            all.select_nth_unstable_by(k, order);
+            all.truncate(k);
+        }
+        all.sort_by(order);
         all
     }
 
