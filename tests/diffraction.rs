@@ -599,7 +599,8 @@ fn matches_rigorous_orders(
 /// (meent, converged in slices and orders, energy checked there) for a glass sinusoid of
 /// period 10 um (18 wavelengths), 0 and 30 degrees. The diffraction method's R within 1e-3
 /// and its orders, order by order, within L1 0.05 (stricter than the 2-degree
-/// bins). Run by `make interop`, which writes the JSON and sets GONIOSPEC_RCWA_JSON.
+/// bins). Run by `make interop`, which sets GONIOSPEC_RCWA_JSON to the script's JSON
+/// (kept in tests/reference/interop/, made again when the script changes).
 #[test]
 #[ignore]
 fn against_rcwa() {
@@ -619,8 +620,9 @@ fn against_rcwa() {
 
 /// The metal references of tests/interop/grating_rayleigh.py: sinusoidal gold gratings by
 /// the Rayleigh-Fourier method (converged in orders, checked for energy on a lossless
-/// grating and against grcwa's RCWA for TE there). Run by `make interop`, which writes the
-/// JSON and sets GONIOSPEC_METAL_GRATING_JSON.
+/// grating and against grcwa's RCWA for TE there). Run by `make interop`, which sets
+/// GONIOSPEC_METAL_GRATING_JSON to the script's JSON (kept in tests/reference/interop/,
+/// made again when the script changes).
 fn metal_references() -> serde_json::Value {
     let path = std::env::var("GONIOSPEC_METAL_GRATING_JSON")
         .expect("GONIOSPEC_METAL_GRATING_JSON: run make interop");

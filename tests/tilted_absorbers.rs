@@ -736,8 +736,8 @@ fn v_groove_traced_by_polarisation(
 
 /// The same V-grooves against a rigorous solver: RCWA (PyPI grcwa) for TE, E along the
 /// grooves, converged in orders and slices with a stated uncertainty
-/// (tests/interop/vgroove_rcwa.py, run by `make interop`, which sets
-/// GONIOSPEC_VGROOVE_JSON). TM is not compared: a staircase of a metal profile does not
+/// (tests/interop/vgroove_rcwa.py; its JSON kept in tests/reference/interop/ and made
+/// again when the script changes; `make interop` sets GONIOSPEC_VGROOVE_JSON). TM is not compared: a staircase of a metal profile does not
 /// converge for TM in RCWA. The rays' TE reflectance agrees within the reference's
 /// uncertainty plus 2e-3, or the run warns and is within `LIMITED_EDGE_FACTOR` times
 /// the created and limited power it reports. (At grazing light the rigorous R is above
