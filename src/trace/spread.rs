@@ -30,6 +30,7 @@ use super::escape::{Event, SpreadGrid};
 use super::{C64, Scene, Tree};
 use crate::geom::frame;
 use crate::optics::fresnel::field_dot_real;
+use crate::optics::particles::Coherency;
 use crate::rng::Rng;
 
 /// `sin^2` of the polar edges of `grid`'s bands, `theta_bins + 1` of them.
@@ -40,11 +41,66 @@ pub(super) fn polar_edges(grid: SpreadGrid) -> Vec<f64> {
         .collect()
 }
 
+/// Scratch of [`Scene::spread`], kept in the tree between events: per azimuth sector `j`
+/// its direction's `(sin, cos)` and the projections of that horizontal direction on the
+/// ray's direction and frame (`d.x cos + d.y sin`, and likewise for `e1` and `e2`); per
+/// band, `cos theta` of the scattering angle and the coherency there, one array each so
+/// that the loops over the sectors vectorise.
+#[derive(Clone, Debug, Default)]
+pub struct SpreadScratch {
+    sin: Vec<f64>,
+    cos: Vec<f64>,
+    dxy: Vec<f64>,
+    e1xy: Vec<f64>,
+    e2xy: Vec<f64>,
+    mu: Vec<f64>,
+    coh: [Vec<f64>; 4],
+}
+
+/// One band's quantities shared by its sectors.
+struct Band {
+    sin1: f64,
+    cos1: f64,
+    /// `weight du1 du2 att pi n0^2 / (n1^2 cos theta_1)` ([`Scene::spread`]).
+    common: f64,
+    /// The exit's power transmittances for s and p.
+    t: [f64; 2],
+}
+
+/// The incident fields' coherency in the frame `(e1, e2, d)`.
+struct Incident {
+    d: DVec3,
+    e1: DVec3,
+    e2: DVec3,
+    w11: f64,
+    w22: f64,
+    w12: C64,
+}
+
 impl Scene<'_> {
     /// The spread estimate of a volume event of ray `r` with fields `e` about to scatter,
     /// `h` nm below the top of its scattering layer: one direction in each bucket of
-    /// `grid` (`edges` from [`polar_edges`]), added to `tree.nee`.
+    /// `grid` (`edges` from [`polar_edges`]), added to `tree.nee`. Its loops over the
+    /// azimuth sectors run four lanes wide where the CPU has AVX2, with the same bits
+    /// (`machine::with_avx2`; issue 75: this was 57 % of the white paint's time).
     pub(super) fn spread(
+        &self,
+        ev: &Event,
+        grid: SpreadGrid,
+        edges: &[f64],
+        weight: f64,
+        rng: &mut Rng,
+        tree: &mut Tree,
+    ) {
+        crate::machine::with_avx2(
+            #[inline(always)]
+            || self.spread_body(ev, grid, edges, weight, rng, tree),
+        );
+    }
+
+    /// [`Scene::spread`] as compiled for the caller's target features.
+    #[inline(always)]
+    pub(super) fn spread_body(
         &self,
         ev: &Event,
         grid: SpreadGrid,
@@ -81,7 +137,14 @@ impl Scene<'_> {
             w22 += 0.5 * f2.norm_sqr();
             w12 += 0.5 * f1 * f2.conj();
         }
-        let power = w11 + w22;
+        let inc = Incident {
+            d,
+            e1,
+            e2,
+            w11,
+            w22,
+            w12,
+        };
         let (v1, v2) = (rng.uniform(), rng.uniform());
         let np = grid.phi_bins as usize;
         if tree.nee.len() != grid.len() {
@@ -89,9 +152,30 @@ impl Scene<'_> {
         }
         tree.random_events += 1;
         let du2 = 1.0 / np as f64;
-        let mut azimuths = std::mem::take(&mut tree.spread_azimuths);
-        azimuths.clear();
-        azimuths.extend((0..np).map(|j| (TAU * (j as f64 + v2) * du2).sin_cos()));
+        let mut s = std::mem::take(&mut tree.spread_scratch);
+        s.sin.clear();
+        s.cos.clear();
+        // The sectors' azimuths TAU (j + v2) / np by turning the first by TAU / np at a
+        // time (angle addition): two sines and cosines an event instead of np; the turns'
+        // rounding moves the last sector by some 1e-15 rad, far inside its jitter.
+        let (mut sp, mut cp) = (TAU * v2 * du2).sin_cos();
+        let (sd, cd) = (TAU * du2).sin_cos();
+        for _ in 0..np {
+            s.sin.push(sp);
+            s.cos.push(cp);
+            (sp, cp) = (sp * cd + cp * sd, cp * cd - sp * sd);
+        }
+        let project = |v: DVec3, out: &mut Vec<f64>, s: &[f64], c: &[f64]| {
+            out.clear();
+            out.extend(c.iter().zip(s).map(|(&cp, &sp)| v.x * cp + v.y * sp));
+        };
+        project(d, &mut s.dxy, &s.sin, &s.cos);
+        project(e1, &mut s.e1xy, &s.sin, &s.cos);
+        project(e2, &mut s.e2xy, &s.sin, &s.cos);
+        s.mu.resize(np, 0.0);
+        for c in &mut s.coh {
+            c.resize(np, 0.0);
+        }
         let absorb = 4.0 * PI / lambda;
         for (ti, band) in edges.windows(2).enumerate() {
             let du1 = band[1] - band[0];
@@ -110,41 +194,93 @@ impl Scene<'_> {
             if common == 0.0 {
                 continue;
             }
-            let row = &mut tree.nee[ti * np..(ti + 1) * np];
-            for (slot, &(sp, cp)) in row.iter_mut().zip(&azimuths) {
-                let w1 = DVec3::new(sin1 * cp, sin1 * sp, cos1);
-                let mu = d.dot(w1).clamp(-1.0, 1.0);
-                // The scattering plane's normal `u = w1 x d` in the frame, `(w1 . e2, -w1 .
-                // e1)`, and the in-plane axis before scattering `v = u x d = (u2, -u1)`,
-                // both left unnormalised (`|u|^2 = 1 - mu^2`): every term below is
-                // quadratic in them and divided by `|u|^2` once.
-                let (mut u1, mut u2) = (w1.dot(e2), -w1.dot(e1));
-                let mut l2 = u1 * u1 + u2 * u2;
-                if l2 <= 1e-24 {
-                    (u1, u2, l2) = (1.0, 0.0, 1.0);
-                }
-                let inv = 1.0 / l2;
-                let u = e1 * u1 + e2 * u2;
-                let [a, b, c_re, c_im] = coherency.at(mu);
-                // <|b|^2> = u^T W u, <a conj(b)> = v^T W u (over |u|^2).
-                let bb = (w11 * u1 * u1 + w22 * u2 * u2 + 2.0 * u1 * u2 * w12.re) * inv;
-                let aa = power - bb;
-                let ab_re = (u1 * u2 * (w11 - w22) + (u2 * u2 - u1 * u1) * w12.re) * inv;
-                let cab = c_re * ab_re - c_im * w12.im;
-                // The exit's s axis against the outgoing plane's axes: `beta = e_perp . s`,
-                // `alpha = par_out . s = -(u . p) / |u|` with `p = s x w1` (the exit's p axis);
-                // its p axis is the same basis turned by 90 degrees.
-                let beta = cp * u.y - sp * u.x;
-                let alpha = sin1 * u.z - cos1 * (cp * u.x + sp * u.y);
-                let (a2, b2) = (alpha * alpha * inv, beta * beta * inv);
-                let ab = 2.0 * alpha * beta * inv * cab;
-                let (aa, bb) = (a * aa, b * bb);
-                let es = aa * a2 + bb * b2 + ab;
-                let ep = aa * b2 + bb * a2 - ab;
-                *slot += common * (up.t[0] * es + up.t[1] * ep);
-            }
+            let band = Band {
+                sin1,
+                cos1,
+                common,
+                t: up.t,
+            };
+            band_row(
+                &mut s,
+                &mut tree.nee[ti * np..(ti + 1) * np],
+                &band,
+                &inc,
+                &coherency,
+            );
         }
-        tree.spread_azimuths = azimuths;
+        tree.spread_scratch = s;
+    }
+}
+
+/// One band's sectors: `cos theta` of each scattering angle, the coherency there, then each
+/// bucket's power along the exit's s and p axes (the module's formula), added to `row`.
+#[inline(always)]
+fn band_row(s: &mut SpreadScratch, row: &mut [f64], b: &Band, inc: &Incident, coh: &Coherency) {
+    let n = row.len();
+    let (sin, cos) = (&s.sin[..n], &s.cos[..n]);
+    let (dxy, e1xy, e2xy) = (&s.dxy[..n], &s.e1xy[..n], &s.e2xy[..n]);
+    let Band {
+        sin1,
+        cos1,
+        common,
+        t,
+    } = *b;
+    let Incident {
+        d,
+        e1,
+        e2,
+        w11,
+        w22,
+        w12,
+    } = *inc;
+    // The outgoing direction w1 = (sin1 cos, sin1 sin, cos1): w1 . d.
+    for (m, &p) in s.mu[..n].iter_mut().zip(dxy) {
+        *m = (sin1 * p + cos1 * d.z).clamp(-1.0, 1.0);
+    }
+    let [ca, cb, cre, cim] = &mut s.coh;
+    coh.at_each(
+        &s.mu[..n],
+        &mut ca[..n],
+        &mut cb[..n],
+        &mut cre[..n],
+        &mut cim[..n],
+    );
+    let (ca, cb, cre, cim) = (&ca[..n], &cb[..n], &cre[..n], &cim[..n]);
+    let power = w11 + w22;
+    for j in 0..n {
+        // The scattering plane's normal `u = w1 x d` in the frame, `(w1 . e2, -w1 . e1)`,
+        // and the in-plane axis before scattering `v = u x d = (u2, -u1)`, both left
+        // unnormalised (`|u|^2 = 1 - mu^2`): every term below is quadratic in them and
+        // divided by `|u|^2` once.
+        let mut u1 = sin1 * e2xy[j] + cos1 * e2.z;
+        let mut u2 = -(sin1 * e1xy[j] + cos1 * e1.z);
+        let mut l2 = u1 * u1 + u2 * u2;
+        if l2 <= 1e-24 {
+            (u1, u2, l2) = (1.0, 0.0, 1.0);
+        }
+        let inv = 1.0 / l2;
+        let (ux, uy, uz) = (
+            e1.x * u1 + e2.x * u2,
+            e1.y * u1 + e2.y * u2,
+            e1.z * u1 + e2.z * u2,
+        );
+        // <|b|^2> = u^T W u, <a conj(b)> = v^T W u (over |u|^2).
+        let bb = (w11 * u1 * u1 + w22 * u2 * u2 + 2.0 * u1 * u2 * w12.re) * inv;
+        let aa = power - bb;
+        let ab_re = (u1 * u2 * (w11 - w22) + (u2 * u2 - u1 * u1) * w12.re) * inv;
+        let cab = cre[j] * ab_re - cim[j] * w12.im;
+        // The exit's s axis against the outgoing plane's axes: `beta = e_perp . s`,
+        // `alpha = par_out . s = -(u . p) / |u|` with `p = s x w1` (the exit's p axis);
+        // its p axis is the same basis turned by 90 degrees.
+        let (cp, sp) = (cos[j], sin[j]);
+        let beta = cp * uy - sp * ux;
+        let alpha = sin1 * uz - cos1 * (cp * ux + sp * uy);
+        let (a2, b2) = (alpha * alpha * inv, beta * beta * inv);
+        let ab = 2.0 * alpha * beta * inv * cab;
+        let (aa, bb) = (ca[j] * aa, cb[j] * bb);
+        let es = aa * a2 + bb * b2 + ab;
+        let ep = aa * b2 + bb * a2 - ab;
+        row[j] += common * (t[0] * es + t[1] * ep);
     }
 }
 
@@ -161,7 +297,8 @@ mod tests {
     /// elliptically polarised light under a clear coat. Henyey-Greenstein to rounding;
     /// spheres of one radius (so that both take the same one; absorbing, so that `C` has an
     /// imaginary part) within the coherency table's interpolation, 1e-4 of its largest
-    /// entry (`COHERENCY_POINTS`), here 2e-4 of the largest bucket.
+    /// entry (`COHERENCY_POINTS`), here 2e-4 of the largest bucket. The dispatched path
+    /// (AVX2 where the CPU has it) gives the baseline path's bits.
     #[test]
     fn a_spread_bucket_is_the_one_direction_estimate_at_its_point() {
         one_event(
@@ -257,7 +394,12 @@ mod tests {
             layer,
             h: 300.0,
         };
+        let (mut rng_body, mut baseline) = (rng.clone(), Tree::default());
         scene.spread(&ev, grid, &edges, 1.0, &mut rng, &mut tree);
+        // The AVX2 path (where the CPU has it) gives the baseline path's bits.
+        scene.spread_body(&ev, grid, &edges, 1.0, &mut rng_body, &mut baseline);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&tree.nee), bits(&baseline.nee));
         let np = grid.phi_bins as usize;
         let expected: Vec<f64> = (0..tree.nee.len())
             .map(|k| {

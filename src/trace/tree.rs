@@ -102,8 +102,8 @@ pub struct Tree {
     /// power per bucket (fraction of launched), in `Buckets::index` order; empty where
     /// the run does not spread.
     pub nee: Vec<f64>,
-    /// Scratch for `spread`: `(sin, cos)` of each azimuth sector's direction.
-    pub(super) spread_azimuths: Vec<(f64, f64)>,
+    /// Scratch for `spread`.
+    pub(super) spread_scratch: super::spread::SpreadScratch,
     /// Scratch for coated interfaces (indices and thicknesses of one event's stack).
     pub(super) n_buf: Vec<C64>,
     pub(super) d_buf: Vec<f64>,

@@ -102,27 +102,85 @@ impl Coherency<'_> {
     #[inline]
     pub fn at(&self, mu: f64) -> [f64; 4] {
         match self {
-            Coherency::Table(t) => {
-                let n = COHERENCY_POINTS - 1;
-                let (half, s) = if mu >= 0.0 {
-                    (&t[..COHERENCY_POINTS], (1.0 - mu).max(0.0))
-                } else {
-                    (&t[COHERENCY_POINTS..], (1.0 + mu).max(0.0))
-                };
-                let x = s.sqrt() * n as f64;
-                let j = (x as usize).min(n - 1);
-                let f = x - j as f64;
-                let (a, b) = (half[j], half[j + 1]);
-                [
-                    a[0] + f * (b[0] - a[0]),
-                    a[1] + f * (b[1] - a[1]),
-                    a[2] + f * (b[2] - a[2]),
-                    a[3] + f * (b[3] - a[3]),
-                ]
-            }
+            Coherency::Table(t) => table_at(t, mu),
             Coherency::HenyeyGreenstein { g, albedo } => {
                 let q = albedo * hg_density(*g, mu) / std::f64::consts::TAU;
                 [q, q, q, 0.0]
+            }
+        }
+    }
+}
+
+/// The tabulated coherency at `cos theta = mu`, linear between the nodes
+/// ([`COHERENCY_POINTS`] per half).
+#[inline(always)]
+fn table_at(t: &[[f64; 4]], mu: f64) -> [f64; 4] {
+    table_halves_at(halves(t), mu)
+}
+
+/// The forward and backward halves of a coherency table, as arrays of known length (so
+/// that look-ups need no bounds checks).
+type Halves<'a> = (
+    &'a [[f64; 4]; COHERENCY_POINTS],
+    &'a [[f64; 4]; COHERENCY_POINTS],
+);
+
+#[inline(always)]
+fn halves(t: &[[f64; 4]]) -> Halves<'_> {
+    let (f, b) = t.split_at(COHERENCY_POINTS);
+    (
+        f.try_into().expect("a coherency table's forward half"),
+        b.try_into().expect("a coherency table's backward half"),
+    )
+}
+
+#[inline(always)]
+fn table_halves_at((forward, backward): Halves<'_>, mu: f64) -> [f64; 4] {
+    let n = COHERENCY_POINTS - 1;
+    let (half, s) = if mu >= 0.0 {
+        (forward, (1.0 - mu).max(0.0))
+    } else {
+        (backward, (1.0 + mu).max(0.0))
+    };
+    let x = s.sqrt() * n as f64;
+    let j = (x as usize).min(n - 1);
+    let f = x - j as f64;
+    let (a, b) = (half[j], half[j + 1]);
+    [
+        a[0] + f * (b[0] - a[0]),
+        a[1] + f * (b[1] - a[1]),
+        a[2] + f * (b[2] - a[2]),
+        a[3] + f * (b[3] - a[3]),
+    ]
+}
+
+impl Coherency<'_> {
+    /// [`Coherency::at`] at each `mu`, into `a`, `b`, `c_re` and `c_im` (each as long as
+    /// `mu`): the same values, with the kind of coherency decided once for the batch, so
+    /// that the Henyey-Greenstein loop vectorises.
+    #[inline(always)]
+    pub fn at_each(
+        &self,
+        mu: &[f64],
+        a: &mut [f64],
+        b: &mut [f64],
+        c_re: &mut [f64],
+        c_im: &mut [f64],
+    ) {
+        let n = mu.len();
+        let (a, b, c_re, c_im) = (&mut a[..n], &mut b[..n], &mut c_re[..n], &mut c_im[..n]);
+        match self {
+            Coherency::Table(t) => {
+                let h = halves(t);
+                for j in 0..n {
+                    [a[j], b[j], c_re[j], c_im[j]] = table_halves_at(h, mu[j]);
+                }
+            }
+            Coherency::HenyeyGreenstein { g, albedo } => {
+                for j in 0..n {
+                    let q = albedo * hg_density(*g, mu[j]) / std::f64::consts::TAU;
+                    (a[j], b[j], c_re[j], c_im[j]) = (q, q, q, 0.0);
+                }
             }
         }
     }
