@@ -103,3 +103,53 @@ fn with_quasi_random_entry_points_the_replicate_groups_errors_are_honest() {
     assert!((g - 1.0).abs() < 0.15, "measured / group error {g}");
     assert!(t < 0.8, "measured / per-tree error {t}");
 }
+
+/// `bench converge --material` measures each of 8 incident angles, 0 to 80 degrees in
+/// equal steps, and prints their sum per sample: one line per angle and figure, the sum
+/// equal to the angles' times as printed (to their rounding), every figure a number.
+#[test]
+fn the_material_benchmark_measures_eight_angles_and_sums_them() {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_goniospec"))
+        .args([
+            "bench",
+            "converge",
+            "--material",
+            "--samples",
+            "thin-film-600nm",
+            "--target",
+            "0.5",
+            "--threads",
+            "2",
+        ])
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{out}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let value = |key: &str| -> f64 {
+        let line = out
+            .lines()
+            .find(|l| l.starts_with(&format!("{key}: ")))
+            .unwrap_or_else(|| panic!("no {key} in {out}"));
+        line.split_whitespace().nth(1).unwrap().parse().unwrap()
+    };
+    let mut sum = 0.0;
+    for k in 0..8 {
+        let theta = 80.0 * k as f64 / 7.0;
+        let key = format!("thin_film_600nm_theta_{theta:.0}");
+        assert_eq!(value(&format!("{key}_target_reached")), 1.0, "{out}");
+        let t = value(&format!("{key}_seconds"));
+        assert!(t > 0.0 && t.is_finite(), "{out}");
+        assert!(value(&format!("{key}_median_rel_stderr")) <= 0.5, "{out}");
+        sum += t;
+    }
+    let total = value("thin_film_600nm_material_seconds");
+    assert!(
+        (total - sum).abs() <= 0.005 * 8.0 + 1e-9,
+        "{total} against {sum}: {out}"
+    );
+    assert_eq!(value("thin_film_600nm_material_target_reached"), 1.0);
+}

@@ -163,7 +163,17 @@ pub(super) struct ConvergeBenchArgs {
     /// Worker threads (0: all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// A whole material: each sample at 8 incident angles, 0 to 80 degrees in equal steps
+    /// (0, 11.4, 22.9, ... 80), each measured as one angle is (--theta-i is then unused),
+    /// and their sum per sample (`NAME_material_seconds`). Each angle is a run of its own,
+    /// so the sum pays the fixed costs (scene, Mie tables) eight times, as a user running
+    /// the angles apart would.
+    #[arg(long)]
+    material: bool,
 }
+
+/// The incident angles of `bench converge --material`, degrees.
+const MATERIAL_ANGLES: usize = 8;
 
 /// `bench converge`: each sample's wall time to a BRDF of the target noise.
 pub(super) fn bench_converge(a: ConvergeBenchArgs) -> Result<ExitCode> {
@@ -181,29 +191,57 @@ pub(super) fn bench_converge(a: ConvergeBenchArgs) -> Result<ExitCode> {
     }
     let pool = thread_pool(a.threads)?;
     outln!("threads: {} count", pool.current_num_threads());
-    let cfg = goniospec::bench::ConvergeConfig {
-        theta_i_deg: a.theta_i,
-        edges: visible_bins(),
-        target: a.target,
-        share: 0.95,
-        start_rays: a.start_rays,
-        max_seconds: a.max_seconds,
-        seed: 1,
+    let angles: Vec<f64> = if a.material {
+        (0..MATERIAL_ANGLES)
+            .map(|k| 80.0 * k as f64 / (MATERIAL_ANGLES - 1) as f64)
+            .collect()
+    } else {
+        vec![a.theta_i]
     };
     for name in &a.samples {
         let path = goniospec::bench::shipped(std::path::Path::new(&format!("meshes/{name}.toml")));
         let s = sample::load(&path, MeshOptions::default())?;
-        let f = pool
-            .install(|| goniospec::bench::converge(&s, &cfg, &mut |l| eprintln!("{name}: {l}")))
-            .with_context(|| format!("measuring {name}"))?;
-        let key = name.replace('-', "_");
-        outln!("{key}_target_reached: {} bool", u8::from(f.reached));
-        outln!("{key}_seconds: {:.2} s", f.seconds);
-        outln!("{key}_trees: {} trees", f.trees);
-        outln!("{key}_median_rel_stderr: {:.4} 1", f.median);
-        if let Some((z, rel)) = f.seed_check {
-            outln!("{key}_seed_check: {z:.3} 1");
-            outln!("{key}_two_seed_median_rel_error: {rel:.4} 1");
+        let (mut total, mut all_reached) = (0.0, true);
+        for &theta in &angles {
+            let cfg = goniospec::bench::ConvergeConfig {
+                theta_i_deg: theta,
+                edges: visible_bins(),
+                target: a.target,
+                share: 0.95,
+                start_rays: a.start_rays,
+                max_seconds: a.max_seconds,
+                seed: 1,
+            };
+            let f = pool
+                .install(|| {
+                    goniospec::bench::converge(&s, &cfg, &mut |l| {
+                        eprintln!("{name} at {theta:.1} deg: {l}")
+                    })
+                })
+                .with_context(|| format!("measuring {name} at {theta} deg"))?;
+            let key = if a.material {
+                format!("{}_theta_{theta:.0}", name.replace('-', "_"))
+            } else {
+                name.replace('-', "_")
+            };
+            outln!("{key}_target_reached: {} bool", u8::from(f.reached));
+            outln!("{key}_seconds: {:.2} s", f.seconds);
+            outln!("{key}_trees: {} trees", f.trees);
+            outln!("{key}_median_rel_stderr: {:.4} 1", f.median);
+            if let Some((z, rel)) = f.seed_check {
+                outln!("{key}_seed_check: {z:.3} 1");
+                outln!("{key}_two_seed_median_rel_error: {rel:.4} 1");
+            }
+            total += f.seconds;
+            all_reached &= f.reached;
+        }
+        if a.material {
+            let key = name.replace('-', "_");
+            outln!(
+                "{key}_material_target_reached: {} bool",
+                u8::from(all_reached)
+            );
+            outln!("{key}_material_seconds: {total:.2} s");
         }
     }
     Ok(ExitCode::SUCCESS)
