@@ -115,32 +115,11 @@ impl Coherency<'_> {
 /// ([`COHERENCY_POINTS`] per half).
 #[inline(always)]
 fn table_at(t: &[[f64; 4]], mu: f64) -> [f64; 4] {
-    table_halves_at(halves(t), mu)
-}
-
-/// The forward and backward halves of a coherency table, as arrays of known length (so
-/// that look-ups need no bounds checks).
-type Halves<'a> = (
-    &'a [[f64; 4]; COHERENCY_POINTS],
-    &'a [[f64; 4]; COHERENCY_POINTS],
-);
-
-#[inline(always)]
-fn halves(t: &[[f64; 4]]) -> Halves<'_> {
-    let (f, b) = t.split_at(COHERENCY_POINTS);
-    (
-        f.try_into().expect("a coherency table's forward half"),
-        b.try_into().expect("a coherency table's backward half"),
-    )
-}
-
-#[inline(always)]
-fn table_halves_at((forward, backward): Halves<'_>, mu: f64) -> [f64; 4] {
     let n = COHERENCY_POINTS - 1;
     let (half, s) = if mu >= 0.0 {
-        (forward, (1.0 - mu).max(0.0))
+        (&t[..COHERENCY_POINTS], (1.0 - mu).max(0.0))
     } else {
-        (backward, (1.0 + mu).max(0.0))
+        (&t[COHERENCY_POINTS..], (1.0 + mu).max(0.0))
     };
     let x = s.sqrt() * n as f64;
     let j = (x as usize).min(n - 1);
@@ -171,9 +150,8 @@ impl Coherency<'_> {
         let (a, b, c_re, c_im) = (&mut a[..n], &mut b[..n], &mut c_re[..n], &mut c_im[..n]);
         match self {
             Coherency::Table(t) => {
-                let h = halves(t);
                 for j in 0..n {
-                    [a[j], b[j], c_re[j], c_im[j]] = table_halves_at(h, mu[j]);
+                    [a[j], b[j], c_re[j], c_im[j]] = table_at(t, mu[j]);
                 }
             }
             Coherency::HenyeyGreenstein { g, albedo } => {
