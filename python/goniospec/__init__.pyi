@@ -37,7 +37,9 @@ class Brdf:
         """npz: NumPy arrays; merl: sRGB (loses the spectrum); rgl: Mitsuba 3 / pbrt-v4 .bsdf (needs sample; odd resolution)."""
 
 class Accumulator:
-    def reflectance(self, theta_i_deg: float, incident: str | None = None) -> dict[str, npt.NDArray[np.float64]]:
+    def reflectance(
+        self, theta_i_deg: float, incident: str | None = None, phi_i_deg: float | None = None
+    ) -> dict[str, npt.NDArray[np.float64]]:
         """Keys lambda_nm, R, T, absorbed, dropped, R_stderr (fractions of incident power).
         With incident (a run with mueller=True; "s", "p", "+45", "-45", "circular+",
         "circular-", "unpolarised" or "S0,S1,S2,S3"): lambda_nm, R and T for that state."""
@@ -46,9 +48,15 @@ class Accumulator:
         row-major, each direction's own s/p frame; M[:, 0, 0] is the unpolarised BRDF), dop
         (degree of polarisation for unpolarised light in)."""
     def save(self, path: _Path, force: bool = False) -> None: ...
-    def build(self, repr: Literal["table", "kdtree", "subdivided"] = "table") -> Brdf: ...
+    def build(
+        self,
+        repr: Literal["table", "kdtree", "subdivided"] = "table",
+        isotropic: bool | None = None,
+    ) -> Brdf: ...
     @property
     def theta_i_deg(self) -> list[float]: ...
+    @property
+    def directions_phi_i_deg(self) -> list[float]: ...
     @property
     def phi_i_deg(self) -> float: ...
     @property
@@ -96,7 +104,7 @@ def simulate(
     coherence_radius_nm: float = 5000.0,
     cutoff: float = 1e-10,
     monochromatic: bool = False,
-    phi_i_deg: float = 0.0,
+    phi_i_deg: float | Sequence[float] = 0.0,
     threads: int = 0,
     backend: Literal["embree", "obvhs"] | None = None,
     theta_o_bins: int = 45,

@@ -105,19 +105,21 @@ impl Accumulator {
     /// `dropped`, `R_stderr` (NaN in global mode). With `incident` (a run with
     /// `mueller=True`): polarised light in, a named state ("s", "p", "+45", "-45",
     /// "circular+", "circular-", "unpolarised") or a Stokes vector string "S0,S1,S2,S3",
-    /// as the CLI's `--incident`; then only `lambda_nm`, `R` and `T`.
-    #[pyo3(signature = (theta_i_deg, incident = None))]
+    /// as the CLI's `--incident`; then only `lambda_nm`, `R` and `T`. `phi_i_deg`: the
+    /// direction's azimuth, for a run over several (default: the first).
+    #[pyo3(signature = (theta_i_deg, incident = None, phi_i_deg = None))]
     fn reflectance<'py>(
         &self,
         py: Python<'py>,
         theta_i_deg: f64,
         incident: Option<&str>,
+        phi_i_deg: Option<f64>,
     ) -> PyResult<Bound<'py, PyDict>> {
         if let Some(state) = incident {
             let stokes = goniospec::optics::mueller::stokes_state(state).map_err(value_err)?;
             let rows = self
                 .inner
-                .polarised_reflectance(theta_i_deg, None, &stokes)
+                .polarised_reflectance(theta_i_deg, phi_i_deg, &stokes)
                 .map_err(value_err)?;
             let col = |f: &dyn Fn(&goniospec::accumulate::polarimetric::PolarisedRow) -> f64| {
                 rows.iter().map(f).collect::<Vec<f64>>().into_pyarray(py)
@@ -130,7 +132,7 @@ impl Accumulator {
         }
         let r = self
             .inner
-            .reflectance(theta_i_deg, None)
+            .reflectance(theta_i_deg, phi_i_deg)
             .map_err(value_err)?;
         let col = |f: &dyn Fn(&goniospec::accumulate::file::ReflectanceRow) -> f64| {
             r.rows.iter().map(f).collect::<Vec<f64>>().into_pyarray(py)
@@ -200,13 +202,22 @@ impl Accumulator {
             .map_err(|e| PyOSError::new_err(format!("{}: {e}", path.display())))
     }
 
-    /// Builds a BRDF representation: "table", "kdtree" or "subdivided".
-    #[pyo3(signature = (repr = "table"))]
-    fn build(&self, py: Python<'_>, repr: &str) -> PyResult<Brdf> {
+    /// Builds a BRDF representation: "table", "kdtree" or "subdivided". `isotropic` as
+    /// `goniospec build`: None decides (anisotropic where the run has several incident
+    /// azimuths; a ValueError for a sample that is not rotation-symmetric lit from one),
+    /// True averages over the incident azimuth, False keeps absolute azimuths (kdtree).
+    #[pyo3(signature = (repr = "table", isotropic = None))]
+    fn build(&self, py: Python<'_>, repr: &str, isotropic: Option<bool>) -> PyResult<Brdf> {
         let kind = Kind::parse(repr).map_err(value_err)?;
+        let iso = goniospec::brdf::symmetry::isotropic(&self.inner.header.settings, isotropic)
+            .map_err(value_err)?;
         let inner = py.allow_threads(|| {
             let data = goniospec::brdf::BucketData::from_accumulator(&self.inner);
-            Representation::build(kind, &data, &Default::default())
+            let opts = goniospec::brdf::BuildOptions {
+                isotropic: iso,
+                ..Default::default()
+            };
+            Representation::build(kind, &data, &opts)
         });
         inner
             .map(|inner| Brdf {
@@ -216,13 +227,21 @@ impl Accumulator {
             .map_err(value_err)
     }
 
-    /// The simulated incident angles, degrees.
+    /// The simulated incident angles, degrees, one per direction (a run over several
+    /// azimuths repeats them once per azimuth: `directions_phi_i_deg` gives each one's).
     #[getter]
     fn theta_i_deg(&self) -> Vec<f64> {
         self.inner.header.settings.theta_i_deg.clone()
     }
 
-    /// The simulated incident azimuth, degrees.
+    /// Each direction's incident azimuth, degrees, aligned with `theta_i_deg`.
+    #[getter]
+    fn directions_phi_i_deg(&self) -> Vec<f64> {
+        let s = &self.inner.header.settings;
+        (0..s.theta_i_deg.len()).map(|i| s.phi_of(i)).collect()
+    }
+
+    /// The simulated incident azimuth, degrees (the first, where the run has several).
     #[getter]
     fn phi_i_deg(&self) -> f64 {
         self.inner.header.settings.phi_i_deg

@@ -524,3 +524,27 @@ def test_a_measured_material_evaluates_as_the_cli_and_broadcasts(tmp_path):
     assert m.eval(np.array([[10.0], [40.0]]), 0.0, np.array([5.0, 15.0, 25.0]), 180.0).shape == (2, 3, 3)
     with pytest.raises(ValueError):
         m.eval(np.zeros((2, 3)), 0.0, np.zeros((3, 2)), 180.0)
+
+
+def test_several_azimuths_are_the_clis_and_keep_their_axis(tmp_path):
+    """phi_i_deg as a list: every pair of angle and azimuth, the bytes of the CLI's
+    --phi-i 0,90; each direction's azimuth; reflectance per azimuth; build keeps the
+    grooves anisotropic and refuses to average one azimuth unless asked."""
+    s = gs.Sample.load(mesh("v-grooves-aluminium.toml"))
+    acc = gs.simulate(s, theta_i_deg=[0, 30], phi_i_deg=[0, 90], wavelengths="400:700:100", rays=1024)
+    acc.save(tmp_path / "py.gsa")
+    subprocess.run([CLI, "simulate", mesh("v-grooves-aluminium.toml"), "--theta-i", "0,30", "--phi-i", "0,90",
+                    "--wavelengths", "400:700:100", "--rays", "1024", "-o", str(tmp_path / "cli.gsa")],
+                   check=True, cwd=ROOT, capture_output=True)
+    assert (tmp_path / "py.gsa").read_bytes() == (tmp_path / "cli.gsa").read_bytes()
+    assert acc.theta_i_deg == [0.0, 30.0, 0.0, 30.0]
+    assert acc.directions_phi_i_deg == [0.0, 0.0, 90.0, 90.0]
+    rows = cli("reflectance", str(tmp_path / "cli.gsa"), "--theta-i", "30", "--phi-i", "90")
+    r = acc.reflectance(30, phi_i_deg=90)
+    assert np.all(np.abs(r["R"] - [float(x["R"]) for x in rows]) <= 5e-9)
+    assert np.any(np.abs(r["R"] - acc.reflectance(30)["R"]) > 1e-3), "the azimuths differ"
+    assert ", isotropic" not in repr(acc.build("kdtree"))
+    one = gs.simulate(s, theta_i_deg=[30], wavelengths="400:700:100", rays=1024)
+    with pytest.raises(ValueError, match="not rotation-symmetric"):
+        one.build("kdtree")
+    assert ", isotropic" in repr(one.build("kdtree", isotropic=True))

@@ -32,8 +32,15 @@ pub struct Settings {
     pub sample_name: String,
     /// FNV-1a 64 of the sample's geometry and media, hex.
     pub sample_hash: String,
+    /// Each incident direction's polar angle, degrees.
     pub theta_i_deg: Vec<f64>,
+    /// The azimuth of every direction, degrees, where `phi_i_each_deg` is empty (else the
+    /// first direction's).
     pub phi_i_deg: f64,
+    /// Each direction's azimuth, degrees, for a run over several (`--phi-i A,B,...`:
+    /// `simulate::directions`); absent for one azimuth.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub phi_i_each_deg: Vec<f64>,
     /// Bins (values are the bin edges) or monochromatic (values are the wavelengths).
     pub wavelength_mode: WavelengthMode,
     /// The sampling's values, nm: bin edges, or exact wavelengths (not the bins' centres,
@@ -88,6 +95,11 @@ pub struct Settings {
     /// delta the buckets spread, which `render` and `export` put back sharp.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub flat_top: bool,
+    /// The sample is not rotation-symmetric (`sample::symmetry`): its facets lean towards
+    /// some azimuths, so its BRDF depends on the incident azimuth. `build` keeps it
+    /// anisotropic. Absent where it is symmetric (and in files before it was recorded).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub anisotropy: Option<crate::sample::symmetry::Anisotropy>,
     /// What the rigorous solver spent where any cell took it; absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rigorous: Option<crate::reference::rigorous::Effort>,
@@ -174,10 +186,25 @@ impl Header {
     pub fn describe(&self) -> String {
         let st = &self.settings;
         let mut s = format!("sample: '{}' (hash {})\n", st.sample_name, st.sample_hash);
-        s += &format!(
-            "incident angles (deg): {:?}, phi_i {} deg\n",
-            st.theta_i_deg, st.phi_i_deg
-        );
+        let azimuths = st.azimuths();
+        s += &if azimuths.len() > 1 {
+            let at = |p: f64| -> Vec<f64> {
+                (0..st.theta_i_deg.len())
+                    .filter(|&i| st.phi_of(i) == p)
+                    .map(|i| st.theta_i_deg[i])
+                    .collect()
+            };
+            let rows: Vec<String> = azimuths
+                .iter()
+                .map(|&p| format!("{:?} at phi_i {p}", at(p)))
+                .collect();
+            format!("incident angles (deg): {}\n", rows.join("; "))
+        } else {
+            format!(
+                "incident angles (deg): {:?}, phi_i {} deg\n",
+                st.theta_i_deg, st.phi_i_deg
+            )
+        };
         s += &format!(
             "wavelengths: {} {} ({}..{} nm)\n",
             st.wavelength_count(),
@@ -207,7 +234,12 @@ impl Header {
                 st.rigorous_cells()
             );
             for (i, t) in st.theta_i_deg.iter().enumerate() {
-                s += &format!("  theta_i {t} deg: {}\n", st.methods_of(i));
+                let phi = if azimuths.len() > 1 {
+                    format!(", phi_i {} deg", st.phi_of(i))
+                } else {
+                    String::new()
+                };
+                s += &format!("  theta_i {t} deg{phi}: {}\n", st.methods_of(i));
             }
         }
         s += &format!(
@@ -314,8 +346,11 @@ pub struct ReflectanceRow {
 /// An incident direction the accumulator was not simulated at (degrees).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum NotSimulated {
-    #[error("simulated at phi_i = {simulated_deg} deg, not {asked_deg}")]
-    Azimuth { asked_deg: f64, simulated_deg: f64 },
+    #[error("simulated at phi_i {simulated_deg:?} deg, not {asked_deg}")]
+    Azimuth {
+        asked_deg: f64,
+        simulated_deg: Vec<f64>,
+    },
     #[error("no incident angle {asked_deg} deg (it has {simulated_deg:?})")]
     Polar {
         asked_deg: f64,
@@ -366,31 +401,6 @@ impl Accumulator {
             rows,
             negative_buckets,
         })
-    }
-
-    /// The index of the simulated incident direction `theta_i_deg` (and `phi_i_deg`, when
-    /// given, must be the simulated azimuth).
-    pub fn direction_of(
-        &self,
-        theta_i_deg: f64,
-        phi_i_deg: Option<f64>,
-    ) -> Result<usize, NotSimulated> {
-        let s = &self.header.settings;
-        if let Some(p) = phi_i_deg
-            && (p - s.phi_i_deg).abs() > 1e-9
-        {
-            return Err(NotSimulated::Azimuth {
-                asked_deg: p,
-                simulated_deg: s.phi_i_deg,
-            });
-        }
-        s.theta_i_deg
-            .iter()
-            .position(|t| (t - theta_i_deg).abs() < 1e-9)
-            .ok_or_else(|| NotSimulated::Polar {
-                asked_deg: theta_i_deg,
-                simulated_deg: s.theta_i_deg.clone(),
-            })
     }
 
     /// The f64 values of a cell's fixed part (after its tree count); a `--mueller` cell's
@@ -575,111 +585,6 @@ impl Accumulator {
             ));
         }
         Ok(acc)
-    }
-
-    /// Adds another run of the same sample and settings (different seeds).
-    pub fn merge(&mut self, other: &Accumulator) -> Result<(), FileError> {
-        let (a, b) = (&self.header.settings, &other.header.settings);
-        if a.sample_hash != b.sample_hash {
-            return Err(FileError::Merge(format!(
-                "different samples ('{}' {} and '{}' {})",
-                a.sample_name, a.sample_hash, b.sample_name, b.sample_hash
-            )));
-        }
-        if a != b {
-            // Name the settings that differ, one per line, as the files record them.
-            let (ta, tb) = (
-                toml::Table::try_from(a).unwrap_or_default(),
-                toml::Table::try_from(b).unwrap_or_default(),
-            );
-            let mut keys: Vec<&String> = ta.keys().chain(tb.keys()).collect();
-            keys.sort();
-            keys.dedup();
-            let show = |t: &toml::Table, k: &str| {
-                t.get(k).map_or("(absent)".to_string(), |v| v.to_string())
-            };
-            let diff: Vec<String> = keys
-                .into_iter()
-                .filter(|k| ta.get(*k) != tb.get(*k))
-                .map(|k| format!("  {k}: {} against {}", show(&ta, k), show(&tb, k)))
-                .collect();
-            return Err(FileError::Merge(format!(
-                "the runs differ in settings that change results:\n{}",
-                diff.join("\n")
-            )));
-        }
-        if let Some(s) = other
-            .header
-            .seeds
-            .iter()
-            .find(|s| self.header.seeds.contains(s))
-        {
-            return Err(FileError::Merge(format!(
-                "both runs used seed {s}: merging them would count the same trees twice"
-            )));
-        }
-        for (x, y) in self.cells.iter_mut().zip(&other.cells) {
-            x.merge(y);
-        }
-        self.header.seeds.extend_from_slice(&other.header.seeds);
-        self.header.error_groups = self.header.error_groups.max(other.header.error_groups);
-        self.header.balanced &= other.header.balanced;
-        for (x, y) in self
-            .header
-            .rays_per_direction
-            .iter_mut()
-            .zip(&other.header.rays_per_direction)
-        {
-            *x = x
-                .checked_add(*y)
-                .ok_or_else(|| FileError::Merge("ray counts overflow".into()))?;
-        }
-        self.header.rays = self
-            .header
-            .rays_per_direction
-            .iter()
-            .copied()
-            .max()
-            .unwrap_or(0);
-        self.header.leaks += other.header.leaks;
-        for w in &other.header.warnings {
-            if !self.header.warnings.contains(w) {
-                self.header.warnings.push(w.clone());
-            }
-        }
-        self.header.rays_asked = match (self.header.rays_asked, other.header.rays_asked) {
-            (Some(a), Some(b)) => Some(
-                a.checked_add(b)
-                    .ok_or_else(|| FileError::Merge("ray counts overflow".into()))?,
-            ),
-            _ => None,
-        };
-        if self.header.backend != other.header.backend {
-            self.header.backend = format!("{}+{}", self.header.backend, other.header.backend);
-        }
-        Ok(())
-    }
-
-    /// Direction `i` alone, as a run of that one direction would have it (its angle, trees,
-    /// methods and cells; the rest of the header as it is).
-    pub fn direction(&self, i: usize) -> Accumulator {
-        let nl = self.header.settings.wavelength_count();
-        let mut header = self.header.clone();
-        let s = &mut header.settings;
-        s.theta_i_deg = s.theta_i_deg.get(i).copied().into_iter().collect();
-        s.methods = s.methods.get(i).cloned().into_iter().collect();
-        header.rays_per_direction = self
-            .header
-            .rays_per_direction
-            .get(i)
-            .copied()
-            .into_iter()
-            .collect();
-        header.rays = header.rays_per_direction.first().copied().unwrap_or(0);
-        Accumulator {
-            header,
-            cells: self.cells.get(i * nl..(i + 1) * nl).unwrap_or(&[]).to_vec(),
-        }
     }
 
     /// The cell of incident direction `i` and wavelength `j`.

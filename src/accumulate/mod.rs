@@ -30,6 +30,7 @@ mod cell;
 mod conserve;
 mod deposit;
 pub mod diffraction;
+mod directions;
 pub mod file;
 mod inhomogeneous;
 mod methods;

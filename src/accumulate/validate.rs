@@ -15,10 +15,17 @@ impl Header {
                 s.theta_i_deg
             )));
         }
-        if !s.phi_i_deg.is_finite() {
+        if !s.phi_i_deg.is_finite() || s.phi_i_each_deg.iter().any(|p| !p.is_finite()) {
             return Err(InvalidHeader::from(format!(
-                "phi_i_deg must be finite, got {}",
-                s.phi_i_deg
+                "phi_i_deg must be finite, got {} {:?}",
+                s.phi_i_deg, s.phi_i_each_deg
+            )));
+        }
+        if !s.phi_i_each_deg.is_empty() && s.phi_i_each_deg.len() != s.theta_i_deg.len() {
+            return Err(InvalidHeader::from(format!(
+                "phi_i_each_deg has {} azimuths for {} directions",
+                s.phi_i_each_deg.len(),
+                s.theta_i_deg.len()
             )));
         }
         let w = &s.wavelengths_nm;

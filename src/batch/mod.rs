@@ -18,6 +18,7 @@
 //! DIR/report/index.html          `batch report`: a page to choose materials by ([`report`])
 //! ```
 
+mod assemble;
 pub mod report;
 
 use std::path::{Path, PathBuf};
@@ -132,6 +133,9 @@ pub struct Unit {
     /// The direction's index in the material's list.
     pub direction: usize,
     pub theta_i_deg: f64,
+    /// The direction's azimuth, degrees, where the material has several.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub phi_i_deg: Option<f64>,
     /// Output, relative to the batch folder.
     pub output: PathBuf,
 }
@@ -214,12 +218,15 @@ fn units_of(materials: &[Material]) -> Result<Vec<Unit>, BatchError> {
                 m.name
             )));
         }
-        for (k, &t) in m.settings.theta_i_deg.iter().enumerate() {
+        let (theta, _, each) =
+            crate::simulate::directions::expand(&m.settings.theta_i_deg, &m.settings.phi_i_deg);
+        for (k, &t) in theta.iter().enumerate() {
             units.push(Unit {
                 id: units.len(),
                 material: m.name.clone(),
                 direction: k,
                 theta_i_deg: t,
+                phi_i_deg: each.get(k).copied(),
                 output: PathBuf::from("units")
                     .join(&m.name)
                     .join(format!("{k:04}.gsa")),
@@ -427,6 +434,8 @@ impl Manifest {
         let whole = m.settings.resolve().map_err(|e| e.to_string())?;
         Ok(SimConfig {
             theta_i_deg: vec![u.theta_i_deg],
+            phi_i_deg: u.phi_i_deg.unwrap_or(whole.phi_i_deg),
+            phi_each_deg: Vec::new(),
             first_direction: u.direction as u64,
             // A raise is the whole run's, which its units could not merge into.
             raise_trees: false,
@@ -455,6 +464,7 @@ impl Manifest {
         let s = &acc.header.settings;
         if s.sample_hash != m.sample_hash
             || s.theta_i_deg != [u.theta_i_deg]
+            || u.phi_i_deg.is_some_and(|p| s.phi_of(0) != p)
             || s.first_direction != u.direction as u64
             || acc.header.seeds != [m.settings.seed]
             || !match acc.header.rays_asked {
@@ -536,59 +546,6 @@ impl Manifest {
         self.read_unit(dir, u)
             .map(|acc| acc.header.warnings)
             .unwrap_or_default()
-    }
-
-    /// Assembles one material's units into its whole-run accumulator; refuses, naming
-    /// them, units that are missing, corrupt or from another plan.
-    pub fn merge_material(&self, dir: &Path, name: &str) -> Result<Accumulator, BatchError> {
-        let units: Vec<&Unit> = self.units.iter().filter(|u| u.material == name).collect();
-        // Each unit is read once: checked, then assembled.
-        let mut parts = Vec::with_capacity(units.len());
-        let mut problems = Vec::new();
-        for u in &units {
-            match self.read_unit(dir, u) {
-                Ok(acc) => parts.push(acc),
-                Err(why) => problems.push(format!("unit {} ({}): {why}", u.id, u.output.display())),
-            }
-        }
-        if !problems.is_empty() {
-            return Err(BatchError::NotDone {
-                material: name.to_string(),
-                total: units.len(),
-                problems,
-            });
-        }
-        let m = self.material(name);
-        let first = &parts[0].header;
-        if parts.iter().any(|p| p.header.backend != first.backend) {
-            return Err(BatchError::from(format!(
-                "material '{name}': its units were traced with different backends"
-            )));
-        }
-        let mut header = first.clone();
-        header.settings.theta_i_deg = m.settings.theta_i_deg.clone();
-        header.settings.first_direction = 0;
-        // An auto run's methods, direction by direction (each unit holds one).
-        header.settings.methods = parts
-            .iter()
-            .flat_map(|p| p.header.settings.methods.clone())
-            .collect();
-        header.rays_per_direction = parts
-            .iter()
-            .flat_map(|p| p.header.rays_per_direction.clone())
-            .collect();
-        header.rays = header.rays_per_direction.iter().copied().max().unwrap_or(0);
-        header.leaks = parts.iter().map(|p| p.header.leaks).sum();
-        // Each unit's warnings, in direction order, each sentence once (as one run keeps
-        // them: `simulate::stored_warnings`).
-        header.warnings = Vec::new();
-        for w in parts.iter().flat_map(|p| &p.header.warnings) {
-            if !header.warnings.contains(w) {
-                header.warnings.push(w.clone());
-            }
-        }
-        let cells = parts.into_iter().flat_map(|p| p.cells).collect();
-        Ok(Accumulator { header, cells })
     }
 
     /// `(done, missing, failed)` unit ids, the failed with their reason.

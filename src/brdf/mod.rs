@@ -8,6 +8,7 @@
 pub mod file;
 pub mod kdtree;
 pub mod subdivided;
+pub mod symmetry;
 pub mod table;
 
 use crate::accumulate::file::Accumulator;
@@ -212,7 +213,7 @@ pub struct BucketSample {
 pub struct BucketData {
     /// Simulated incident angles, radians.
     pub theta_i_rad: Vec<f64>,
-    /// Incident azimuth, radians.
+    /// Incident azimuth, radians (the first direction's; each sample holds its own).
     pub phi_i_rad: f64,
     pub buckets: Buckets,
     pub lambda_nm: Vec<f64>,
@@ -255,7 +256,7 @@ impl BucketData {
                 }
                 v.push(BucketSample {
                     theta_i_rad: s.theta_i_deg[i].to_radians(),
-                    phi_i_rad: s.phi_i_deg.to_radians(),
+                    phi_i_rad: s.phi_of(i).to_radians(),
                     theta_o_rad: t,
                     phi_o_rad: p,
                     f: flux.iter().map(|x| x / omega).collect(),
@@ -403,6 +404,7 @@ impl Representation {
     /// Builds a representation of `kind` from buckets. Refuses options out of range and
     /// the analytic kind (it is not built from data).
     pub fn build(kind: Kind, data: &BucketData, o: &BuildOptions) -> Result<Self, BrdfError> {
+        symmetry::check_azimuths(kind, data)?;
         Ok(match kind {
             Kind::Kdtree => {
                 if !(1..=kdtree::MAX_K).contains(&o.k) {

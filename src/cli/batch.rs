@@ -258,6 +258,30 @@ fn run(a: BatchRunArgs) -> Result<ExitCode> {
     }
 }
 
+/// A material's representations, built as `build` builds them by default.
+fn representations(
+    acc: &goniospec::accumulate::file::Accumulator,
+    kinds: &[goniospec::brdf::Kind],
+) -> std::result::Result<
+    Vec<(goniospec::brdf::Kind, goniospec::brdf::Representation)>,
+    goniospec::brdf::BrdfError,
+> {
+    let data = goniospec::brdf::BucketData::from_accumulator(acc);
+    let opts = goniospec::brdf::BuildOptions {
+        isotropic: goniospec::brdf::symmetry::isotropic(&acc.header.settings, None)?,
+        ..Default::default()
+    };
+    kinds
+        .iter()
+        .map(|&kind| {
+            Ok((
+                kind,
+                goniospec::brdf::Representation::build(kind, &data, &opts)?,
+            ))
+        })
+        .collect()
+}
+
 /// `batch merge`: assembles each material's accumulator and its representations, with its
 /// units' warnings (`out/NAME.warnings`, each line prefixed with its incident angle). A
 /// material whose units are not all done is left out with its reasons in
@@ -287,10 +311,21 @@ fn merge(a: BatchDirArgs) -> Result<ExitCode> {
         let p = out.join(format!("{}.gsa", mat.name));
         acc.write(&p)
             .with_context(|| format!("writing {}", p.display()))?;
-        let data = goniospec::brdf::BucketData::from_accumulator(&acc);
-        for &kind in &mat.representations {
-            let r = goniospec::brdf::Representation::build(kind, &data, &Default::default())
-                .map_err(anyhow::Error::msg)?;
+        // As `build` decides: anisotropic for several azimuths, refused for a sample that
+        // is not rotation-symmetric lit from one (the material is then marked failed).
+        let built = representations(&acc, &mat.representations);
+        let built = match built {
+            Ok(b) => b,
+            Err(e) => {
+                let e = format!("material '{}': {e}", mat.name);
+                goniospec::io::write_atomic(&failed, |w| w.write_all(format!("{e}\n").as_bytes()))
+                    .with_context(|| format!("writing {}", failed.display()))?;
+                problems.push(e);
+                bar.inc(1);
+                continue;
+            }
+        };
+        for (kind, r) in built {
             let g = out.join(format!("{}-{kind}.gsb", mat.name));
             goniospec::brdf::file::write(&r, &g)
                 .with_context(|| format!("writing {}", g.display()))?;
@@ -302,7 +337,10 @@ fn merge(a: BatchDirArgs) -> Result<ExitCode> {
             .flat_map(|u| {
                 m.unit_warnings(&a.dir, u)
                     .into_iter()
-                    .map(move |w| format!("theta_i {} deg: {w}", u.theta_i_deg))
+                    .map(move |w| match u.phi_i_deg {
+                        Some(p) => format!("theta_i {} deg, phi_i {p} deg: {w}", u.theta_i_deg),
+                        None => format!("theta_i {} deg: {w}", u.theta_i_deg),
+                    })
             })
             .collect();
         let log = out.join(format!("{}.warnings", mat.name));

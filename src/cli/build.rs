@@ -25,9 +25,17 @@ pub(super) struct BuildArgs {
     /// Subdivided: relative RMS deviation above which a cell splits (positive).
     #[arg(long, value_parser = positive, default_value_t = 0.05)]
     tolerance: f64,
-    /// kd-tree: keep absolute azimuths instead of reducing to phi_o - phi_i.
-    #[arg(long)]
+    /// kd-tree: keep absolute azimuths instead of reducing to phi_o - phi_i. The default
+    /// where the run has several incident azimuths (`simulate --phi-i 0,30,60,90`).
+    #[arg(long, conflicts_with = "isotropic")]
     anisotropic: bool,
+    /// Reduce to phi_o - phi_i (average over the incident azimuth): the default for a
+    /// rotation-symmetric sample lit from one azimuth. A sample that is not
+    /// rotation-symmetric (a grating, grooves: `info` says so) lit from one azimuth is
+    /// refused without this flag or --anisotropic, since no representation can make the
+    /// other azimuths from it.
+    #[arg(long)]
+    isotropic: bool,
     /// kd-tree: also enter each bucket as its reciprocal pair (wo, wi).
     #[arg(long)]
     reciprocal: bool,
@@ -52,7 +60,11 @@ pub(super) fn build(a: BuildArgs) -> Result<ExitCode> {
     let opts = brdf::BuildOptions {
         k: usize::from(a.k),
         tolerance: a.tolerance,
-        isotropic: !a.anisotropic,
+        isotropic: brdf::symmetry::isotropic(
+            &acc.header.settings,
+            (a.isotropic || a.anisotropic).then_some(a.isotropic),
+        )
+        .map_err(|m| anyhow::anyhow!("{}: {m}", a.input.display()))?,
         reciprocal: a.reciprocal,
     };
     let r = Representation::build(a.repr, &data, &opts).map_err(|m| anyhow::anyhow!(m))?;

@@ -403,10 +403,16 @@ fn angles_covered(
     let Some(list) = settings.get("theta_i_deg").and_then(|v| v.as_array()) else {
         return Ok(());
     };
-    let angles: Vec<f64> = list
+    // Each polar angle once (a run over several azimuths repeats them).
+    let mut angles: Vec<f64> = Vec::new();
+    for t in list
         .iter()
         .filter_map(|v| v.as_float().or(v.as_integer().map(|i| i as f64)))
-        .collect();
+    {
+        if !angles.contains(&t) {
+            angles.push(t);
+        }
+    }
     let hi = angles.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     if angles.is_empty() || hi >= HELD_FROM_DEG {
         return Ok(());

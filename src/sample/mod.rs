@@ -35,6 +35,7 @@ pub mod validity;
 mod limits;
 mod raw;
 mod resolve;
+pub mod symmetry;
 
 use std::fmt;
 use std::path::{Path, PathBuf};

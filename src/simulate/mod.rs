@@ -27,6 +27,7 @@ pub use crate::spectrum::Wavelengths;
 pub mod auto;
 mod block;
 mod diffract;
+pub mod directions;
 mod groups;
 mod growth;
 mod hash;

@@ -56,6 +56,11 @@ pub(super) fn keep_finished(
     let span = dirs.start * nl..dirs.end * nl;
     let part = SimConfig {
         theta_i_deg: cfg.theta_i_deg[dirs.clone()].to_vec(),
+        phi_each_deg: cfg
+            .phi_each_deg
+            .get(dirs.clone())
+            .map(<[f64]>::to_vec)
+            .unwrap_or_default(),
         first_direction: cfg.first_direction + dirs.start as u64,
         fail_direction: None,
         ..cfg.clone()
@@ -65,6 +70,7 @@ pub(super) fn keep_finished(
     run.cfg = &part;
     let sample = run.sample;
     run.settings.theta_i_deg = part.theta_i_deg.clone();
+    run.settings.phi_i_each_deg = part.phi_each_deg.clone();
     run.settings.first_direction = part.first_direction;
     run.cell_diffraction = run.cell_diffraction[span.clone()].to_vec();
     let notes = run.auto_direction_notes[dirs.clone()].to_vec();

@@ -196,7 +196,7 @@ fn judge_polarised(acc: &Accumulator, name: &str) -> Result<(), SimError> {
                          {what} (its Mueller matrices' first rows summed over the buckets; \
                          tolerance {tol:.1e}: rounding, {NOISE_SIGMAS} standard errors and the \
                          dropped power's coherent bound). {}",
-                        s.phi_i_deg,
+                        s.phi_of(i),
                         s.wavelength(j),
                         Judged::File.verdict()
                     )));
@@ -356,7 +356,7 @@ fn judge_cells(
                      (tolerance {tol:.1e}: rounding, {NOISE_SIGMAS} standard errors and the dropped \
                      power's coherent bound; energy balances also {slack:.0e} for partial coherence). {}{}",
                     judged.whose(sample_name),
-                    s.phi_i_deg,
+                    s.phi_of(i),
                     s.wavelength(j),
                     judged.verdict(),
                     if judged == Judged::Run {
@@ -372,7 +372,7 @@ fn judge_cells(
                 let at = format!(
                     "{}, theta_i {theta} deg, phi_i {} deg, lambda {} nm",
                     judged.whose(sample_name),
-                    s.phi_i_deg,
+                    s.phi_of(i),
                     s.wavelength(j)
                 );
                 balance(r + t + d, judged, &at)?;

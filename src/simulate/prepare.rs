@@ -282,3 +282,30 @@ fn rigorous_refusals(sample: &Sample, cfg: &SimConfig) -> Result<(), SimError> {
         None => Ok(()),
     }
 }
+
+/// Tabulates the particle media's scattering over the run's wavelengths `lambdas`, nm
+/// (each whole nm between the extremes; a Mie table refuses an absorbing host at any of
+/// them too), stopping when the run is cancelled.
+pub(super) fn tabulate_scattering(
+    scene: &mut Scene,
+    cfg: &SimConfig,
+    lambdas: &[f64],
+) -> Result<(), SimError> {
+    let lo = lambdas.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = lambdas.iter().copied().fold(0.0, f64::max);
+    let cancelled = || {
+        cfg.cancel
+            .as_ref()
+            .is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
+    };
+    // Ctrl-C in Python stops the tabulation too (it can take seconds for large
+    // spheres).
+    if let Err(e) = scene.prepare_scattering(lo, hi, &cancelled) {
+        return Err(if cancelled() {
+            SimError::Cancelled
+        } else {
+            e.into()
+        });
+    }
+    Ok(())
+}

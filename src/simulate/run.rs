@@ -148,25 +148,8 @@ impl<'a> Run<'a> {
         super::prepare::sharing_refusal(sharing, dispersive, coated, absorbing)?;
         // Every wavelength the run evaluates must be inside every medium's range.
         media_in_range(sample, &lambdas)?;
-        // Particle media tabulated over the run's wavelengths (each whole nm between the
-        // extremes; a Mie table refuses an absorbing host at any of them too).
         if scattering {
-            let lo = lambdas.iter().copied().fold(f64::INFINITY, f64::min);
-            let hi = lambdas.iter().copied().fold(0.0, f64::max);
-            let cancelled = || {
-                cfg.cancel
-                    .as_ref()
-                    .is_some_and(|c| c.load(std::sync::atomic::Ordering::Relaxed))
-            };
-            // Ctrl-C in Python stops the tabulation too (it can take seconds for large
-            // spheres).
-            if let Err(e) = scene.prepare_scattering(lo, hi, &cancelled) {
-                return Err(if cancelled() {
-                    SimError::Cancelled
-                } else {
-                    e.into()
-                });
-            }
+            super::prepare::tabulate_scattering(&mut scene, cfg, &lambdas)?;
         }
         // Spread over every bucket where the estimator sums each exit's power alone
         // (Mueller runs keep one direction per event: its exits carry Jones matrices).
@@ -212,6 +195,7 @@ impl<'a> Run<'a> {
             sample_hash: sample_hash(sample),
             theta_i_deg: cfg.theta_i_deg.clone(),
             phi_i_deg: cfg.phi_i_deg,
+            phi_i_each_deg: cfg.phi_each_deg.clone(),
             wavelength_mode: cfg.wavelengths.mode(),
             wavelengths_nm: lambdas,
             coherence: cfg.coherence,
@@ -237,6 +221,8 @@ impl<'a> Run<'a> {
             next_event,
             mueller: cfg.mueller,
             flat_top: crate::sample::flat_top(sample, scene.ambient),
+            anisotropy: Some(crate::sample::symmetry::anisotropy(sample))
+                .filter(|a| a.anisotropic()),
             rigorous: choice.rigorous.contains(&true).then_some(cfg.rigorous),
         };
         Ok(Run {
@@ -404,7 +390,7 @@ impl<'a> Run<'a> {
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<DirectionStats, SimError> {
         let (cfg, nl) = (self.cfg, self.nl);
-        let wi = from_spherical(theta_deg.to_radians(), cfg.phi_i_deg.to_radians());
+        let wi = from_spherical(theta_deg.to_radians(), cfg.phi_of(di).to_radians());
         // One random shift per replicate group (the first is a run without groups' one).
         let mut shift_rng = Rng::new(cfg.seed, 0x5817_0000 + cfg.first_direction + di as u64);
         let groups = self.groups_of(di);

@@ -28,10 +28,12 @@ pub struct SimSettings {
     #[arg(long = "theta-i", value_name = "DEG,...", value_parser = finite, value_delimiter = ',', default_values_t = defaults::THETA_I_DEG)]
     #[serde(rename = "theta_i")]
     pub theta_i_deg: Vec<f64>,
-    /// Incident azimuth, degrees.
-    #[arg(long = "phi-i", value_name = "DEG", value_parser = finite, default_value_t = 0.0)]
-    #[serde(rename = "phi_i")]
-    pub phi_i_deg: f64,
+    /// Incident azimuths, degrees, comma-separated: the run is lit from every pair of
+    /// polar angle and azimuth (all the polar angles at the first azimuth, then the next).
+    /// Several azimuths give an anisotropic sample's (a grating's) whole BRDF.
+    #[arg(long = "phi-i", value_name = "DEG,...", value_parser = finite, value_delimiter = ',', default_values_t = [0.0])]
+    #[serde(rename = "phi_i", with = "super::directions::one_or_many")]
+    pub phi_i_deg: Vec<f64>,
     /// Launched rays (trees) per incident direction; each covers every wavelength.
     #[arg(long, default_value_t = defaults::RAYS)]
     pub rays: u64,
@@ -181,7 +183,7 @@ impl Default for SimSettings {
     fn default() -> Self {
         SimSettings {
             theta_i_deg: defaults::THETA_I_DEG.to_vec(),
-            phi_i_deg: 0.0,
+            phi_i_deg: vec![0.0],
             rays: defaults::RAYS,
             wavelengths: crate::spectrum::DEFAULT_WAVELENGTHS.into(),
             monochromatic: false,
@@ -238,7 +240,6 @@ impl SimSettings {
     /// read).
     pub fn config(&self, wavelengths: Wavelengths) -> SimConfig {
         SimConfig {
-            phi_i_deg: self.phi_i_deg,
             backend: self.backend.unwrap_or_else(Backend::default_available),
             seed: self.seed,
             coherence: self.coherence,
@@ -266,8 +267,9 @@ impl SimSettings {
             tolerance: self.tolerance,
             target_stderr: self.target_stderr,
             max_rays: self.max_rays,
-            ..SimConfig::new(self.theta_i_deg.clone(), wavelengths, self.rays)
+            ..SimConfig::new(Vec::new(), wavelengths, self.rays)
         }
+        .with_directions(&self.theta_i_deg, &self.phi_i_deg)
     }
 
     /// Trees the run launches in all (for progress bars): `rays`, or `max_rays` when
@@ -278,7 +280,8 @@ impl SimSettings {
         } else {
             self.rays
         };
-        per.saturating_mul(self.theta_i_deg.len() as u64)
+        let directions = self.theta_i_deg.len() * self.phi_i_deg.len().max(1);
+        per.saturating_mul(directions as u64)
     }
 }
 
@@ -289,8 +292,12 @@ pub const MIN_TOLERANCE: f64 = 1e-6;
 /// Settings of one simulation.
 #[derive(Clone, Debug)]
 pub struct SimConfig {
+    /// Each direction's polar angle, degrees.
     pub theta_i_deg: Vec<f64>,
+    /// The azimuth, degrees, of every direction where `phi_each_deg` is empty.
     pub phi_i_deg: f64,
+    /// Each direction's azimuth, degrees, where a run has several (`directions`).
+    pub phi_each_deg: Vec<f64>,
     /// Trees per incident direction (each covers every wavelength).
     pub rays: u64,
     pub wavelengths: Wavelengths,
@@ -383,6 +390,7 @@ impl SimConfig {
         SimConfig {
             theta_i_deg,
             phi_i_deg: 0.0,
+            phi_each_deg: Vec::new(),
             rays,
             wavelengths,
             backend: Backend::default_available(),
@@ -478,9 +486,7 @@ pub fn validate(cfg: &SimConfig) -> Result<(), SimError> {
             format!("incident angle {t} deg is outside [0, 90)"),
         );
     }
-    if !cfg.phi_i_deg.is_finite() {
-        return bad("phi_i", format!("must be finite, got {}", cfg.phi_i_deg));
-    }
+    super::directions::validate_azimuths(cfg)?;
     if !cfg.origin_nm.is_finite() {
         return bad(
             "origin_nm",

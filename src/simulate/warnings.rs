@@ -36,6 +36,7 @@ pub(super) fn stored_warnings(
     for (di, &theta) in cfg.theta_i_deg.iter().enumerate() {
         let one = super::SimConfig {
             theta_i_deg: vec![theta],
+            phi_each_deg: Vec::new(),
             ..cfg.clone()
         };
         let mut ctx = super::validity_context(&one);
@@ -62,7 +63,17 @@ pub(super) fn stored_warnings(
             auto_notes: notes.get(di).cloned().unwrap_or_default(),
             ..stats.direction(di, nl)
         };
-        found.extend(run_warnings(sample, &acc.direction(di), &st));
+        // Each sentence names its polar angle; a direction lit from another azimuth than 0
+        // also names that (the same in a batch unit of that direction).
+        let phi = cfg.phi_of(di);
+        found.extend(
+            run_warnings(sample, &acc.direction(di), &st)
+                .into_iter()
+                .map(|w| match phi == 0.0 {
+                    true => w,
+                    false => format!("at phi_i {phi} deg: {w}"),
+                }),
+        );
         for w in found {
             if !out.contains(&w) {
                 out.push(w);
