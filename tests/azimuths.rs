@@ -243,6 +243,57 @@ fn azimuths_are_joined_kept_apart_by_build_and_batched_to_the_same_bytes() {
     assert!(info.contains("isotropic false"), "{info}");
     let err = refused(&["build", &p("ab.gsa"), "--repr", "table", "-o", &p("t.gsb")]);
     assert!(err.contains("holds one incident azimuth"), "{err}");
+    // compare: each incidence read from its own azimuth's table. At phi_i 0 the two runs
+    // hold the same trees (same seed, same direction index), so nothing differs; at 90 the
+    // single-azimuth run's table, which turns with phi_i, is wrong for the grooves.
+    let out = ok(&["compare", &p("ab.gsa"), &p("a.gsa")]);
+    let rows: Vec<Vec<f64>> = out
+        .lines()
+        .filter_map(|l| {
+            let v: Vec<f64> = l
+                .split_whitespace()
+                .filter_map(|x| x.parse().ok())
+                .collect();
+            (v.len() == 12).then_some(v)
+        })
+        .collect();
+    assert!(out.contains("theta_i_deg  phi_i_deg  nodes"), "{out}");
+    assert_eq!(rows.len(), 4, "{out}");
+    for r in &rows {
+        // theta, phi, nodes, dE mean: zero at phi 0, not at phi 90 and normal incidence.
+        match (r[0], r[1]) {
+            (_, 0.0) => assert_eq!(r[3], 0.0, "{out}"),
+            (0.0, 90.0) => assert!(r[3] > 1.0, "{out}"),
+            _ => {}
+        }
+    }
+    // render: the anisotropic BRDF renders; --simulate, which lights one azimuth, refuses
+    // the grooves before any work.
+    ok(&[
+        "render",
+        &p("ab.gsb"),
+        "-o",
+        &p("ab.exr"),
+        "--width",
+        "16",
+        "--height",
+        "16",
+    ]);
+    let err = refused(&[
+        "render",
+        "--simulate",
+        grooves,
+        "-o",
+        &p("sim.exr"),
+        "--width",
+        "16",
+        "--height",
+        "16",
+    ]);
+    assert!(
+        err.contains("not rotation-symmetric") && !d.join("sim.gsa").exists(),
+        "{err}"
+    );
 
     // batch: the units of both azimuths merge to the one run's bytes.
     let plan = d.join("plan.toml");

@@ -102,6 +102,37 @@ impl Accumulator {
         }
     }
 
+    /// The directions lit from azimuth `phi_deg` (one of the run's), as a run of that
+    /// azimuth alone would hold them (their angles, trees, methods and cells).
+    pub fn at_azimuth(&self, phi_deg: f64) -> Accumulator {
+        let s = &self.header.settings;
+        let nl = s.wavelength_count();
+        let keep: Vec<usize> = (0..s.theta_i_deg.len())
+            .filter(|&i| (s.phi_of(i) - phi_deg).abs() < SAME_DEG)
+            .collect();
+        let mut header = self.header.clone();
+        let h = &mut header.settings;
+        h.theta_i_deg = keep.iter().map(|&i| s.theta_i_deg[i]).collect();
+        h.methods = keep
+            .iter()
+            .filter_map(|&i| s.methods.get(i).cloned())
+            .collect();
+        h.phi_i_deg = phi_deg;
+        h.phi_i_each_deg = Vec::new();
+        header.rays_per_direction = keep
+            .iter()
+            .filter_map(|&i| self.header.rays_per_direction.get(i).copied())
+            .collect();
+        header.rays = header.rays_per_direction.iter().copied().max().unwrap_or(0);
+        Accumulator {
+            header,
+            cells: keep
+                .iter()
+                .flat_map(|&i| self.cells[i * nl..(i + 1) * nl].iter().cloned())
+                .collect(),
+        }
+    }
+
     /// Puts another run of the same sample together with this one: at the same directions
     /// and settings with other seeds, its trees are added; at other directions (polar
     /// angles or azimuths) with the same settings and seeds, its directions are appended

@@ -92,13 +92,24 @@ fn print_report(r: &goniospec::compare::Report) -> Result<()> {
         "grid: {}'s incident angles and outgoing directions; CIEDE2000 of the radiance factor pi f, weighted by projected solid angle",
         r.grid_from
     );
+    // The azimuth's column where the grid has several (an anisotropic material).
+    let several = r
+        .angles
+        .iter()
+        .any(|a| a.phi_i_deg != r.angles[0].phi_i_deg);
     outln!(
-        "theta_i_deg  nodes  dE_mean  dE_median  dE_p95  dL_mean  dL_p95  peak_A_1/sr  peak_B_1/sr  fwhm_A_deg  fwhm_B_deg"
+        "theta_i_deg{}  nodes  dE_mean  dE_median  dE_p95  dL_mean  dL_p95  peak_A_1/sr  peak_B_1/sr  fwhm_A_deg  fwhm_B_deg",
+        if several { "  phi_i_deg" } else { "" }
     );
     let w = |v: Option<f64>| v.map_or_else(|| "wide".to_string(), |x| format!("{x:.1}"));
     for a in &r.angles {
+        let phi = if several {
+            format!("  {:>9.2}", a.phi_i_deg)
+        } else {
+            String::new()
+        };
         outln!(
-            "{:>11.2}  {:>5}  {:>7.2}  {:>9.2}  {:>6.2}  {:>7.2}  {:>6.2}  {:>11.4}  {:>11.4}  {:>10}  {:>10}",
+            "{:>11.2}{phi}  {:>5}  {:>7.2}  {:>9.2}  {:>6.2}  {:>7.2}  {:>6.2}  {:>11.4}  {:>11.4}  {:>10}  {:>10}",
             a.theta_i_deg,
             a.nodes,
             a.delta_e.mean,

@@ -48,11 +48,16 @@ message_error!(CompareError, CompareError::Invalid);
 
 /// A material as `compare` reads it.
 pub enum Material {
-    /// A simulation (a `.gsb`, or a `.gsa` built into a table): its simulated incident
-    /// angles (degrees) and its bucket grid.
+    /// A simulation (a `.gsb`, or a `.gsa` built into a table, or a kd-tree where it has
+    /// several azimuths): its simulated incident angles and azimuths (degrees; each angle
+    /// at each azimuth) and its bucket grid.
     Simulated {
         brdf: Box<Representation>,
         theta_i_deg: Vec<f64>,
+        phi_i_deg: Vec<f64>,
+        /// A `.gsa` of several azimuths: one table per azimuth (`phi_i_deg`'s order);
+        /// empty otherwise.
+        per_azimuth: Vec<Representation>,
         buckets: Buckets,
     },
     /// An RGL `.bsdf`: measured, or exported by goniospec.
@@ -77,19 +82,33 @@ impl Material {
             return Ok(Material::Tabulated(Box::new(m)));
         }
         let gsa = head[..8] == crate::accumulate::file::MAGIC[..];
+        let mut per_azimuth = Vec::new();
+        let mut run_azimuths = None;
         let brdf = if gsa {
             // Held to the physics its run was (`simulate::check_file`).
             let (acc, warning) = crate::simulate::read_judged(path).map_err(|e| named(&e))?;
             if let Some(w) = warning {
                 eprintln!("warning: {w}");
             }
-            let data = crate::brdf::BucketData::from_accumulator(&acc);
-            Representation::build(
-                crate::brdf::Kind::Table,
-                &data,
-                &crate::brdf::BuildOptions::default(),
-            )
-            .map_err(|e| named(&e))?
+            // A table holds one azimuth: a run over several is one table per azimuth,
+            // each incidence read from its own.
+            let azimuths = acc.header.settings.azimuths();
+            let table = |a: &crate::accumulate::file::Accumulator| {
+                Representation::build(
+                    crate::brdf::Kind::Table,
+                    &crate::brdf::BucketData::from_accumulator(a),
+                    &crate::brdf::BuildOptions::default(),
+                )
+                .map_err(|e| named(&e))
+            };
+            run_azimuths = Some(azimuths.clone());
+            if azimuths.len() > 1 {
+                per_azimuth = azimuths
+                    .iter()
+                    .map(|&p| table(&acc.at_azimuth(p)))
+                    .collect::<Result<Vec<_>, _>>()?;
+            }
+            table(&acc.at_azimuth(azimuths[0]))?
         } else {
             crate::brdf::file::read(path).map_err(|e| {
                 named(&format!(
@@ -108,6 +127,8 @@ impl Material {
         Ok(Material::Simulated {
             brdf: Box::new(brdf),
             theta_i_deg,
+            phi_i_deg: run_azimuths.unwrap_or_else(|| settings.azimuths()),
+            per_azimuth,
             buckets: Buckets {
                 theta_bins: settings.theta_o_bins,
                 phi_bins: settings.phi_o_bins,
@@ -120,6 +141,22 @@ impl Material {
         match self {
             Material::Simulated { brdf, .. } => brdf.as_ref(),
             Material::Tabulated(m) => m.as_ref(),
+        }
+    }
+
+    /// The material as a BRDF for light from azimuth `phi_deg`: a simulation of several
+    /// azimuths read as that azimuth's table, anything else as itself.
+    pub fn brdf_at(&self, phi_deg: f64) -> &(dyn Brdf + Sync) {
+        match self {
+            Material::Simulated {
+                phi_i_deg,
+                per_azimuth,
+                ..
+            } if !per_azimuth.is_empty() => phi_i_deg
+                .iter()
+                .position(|p| (p - phi_deg).abs() < 1e-9)
+                .map_or(self.brdf(), |k| &per_azimuth[k]),
+            _ => self.brdf(),
         }
     }
 
@@ -180,13 +217,15 @@ pub fn grid(a: &Material, b: &Material) -> (Vec<Incidence>, &'static str) {
         Material::Tabulated(m) => tabulated_grid(m),
         Material::Simulated {
             theta_i_deg,
+            phi_i_deg,
             buckets,
             ..
-        } => theta_i_deg
+        } => phi_i_deg
             .iter()
-            .map(|&t| Incidence {
+            .flat_map(|&p| theta_i_deg.iter().map(move |&t| (t, p)))
+            .map(|(t, p)| Incidence {
                 theta_i_deg: t,
-                phi_i_deg: 0.0,
+                phi_i_deg: p,
                 nodes: (0..buckets.len())
                     .map(|k| {
                         let (theta, phi) = buckets.centre(k);
@@ -396,8 +435,8 @@ pub fn compare(a: &Material, b: &Material, labels: [&str; 2]) -> Result<Report, 
             .map_init(
                 || (vec![0.0; wa.len()], vec![0.0; wb.len()]),
                 |(fa, fb), &(wo, weight)| {
-                    let lab_a = lab_at(a.brdf(), &wa, &space, wi, wo, fa);
-                    let lab_b = lab_at(b.brdf(), &wb, &space, wi, wo, fb);
+                    let lab_a = lab_at(a.brdf_at(inc.phi_i_deg), &wa, &space, wi, wo, fa);
+                    let lab_b = lab_at(b.brdf_at(inc.phi_i_deg), &wb, &space, wi, wo, fb);
                     Node {
                         theta_i_deg: inc.theta_i_deg,
                         wo,
@@ -430,8 +469,18 @@ pub fn compare(a: &Material, b: &Material, labels: [&str; 2]) -> Result<Report, 
             delta_e_lightness: Stats::weighted(
                 nodes.iter().map(|n| (n.de_lightness, n.weight)).collect(),
             ),
-            lobe_a: shape::lobe_figures(a.brdf(), &wa, inc.theta_i_deg, inc.phi_i_deg),
-            lobe_b: shape::lobe_figures(b.brdf(), &wb, inc.theta_i_deg, inc.phi_i_deg),
+            lobe_a: shape::lobe_figures(
+                a.brdf_at(inc.phi_i_deg),
+                &wa,
+                inc.theta_i_deg,
+                inc.phi_i_deg,
+            ),
+            lobe_b: shape::lobe_figures(
+                b.brdf_at(inc.phi_i_deg),
+                &wb,
+                inc.theta_i_deg,
+                inc.phi_i_deg,
+            ),
         });
         all_nodes.extend(nodes);
     }

@@ -54,8 +54,8 @@ impl Picture {
             .iter()
             .map(|ang| {
                 let (t, p) = (ang.theta_i_deg, ang.phi_i_deg);
-                let ma = hemisphere_colours(a.brdf(), t, p, MAP_N);
-                let mb = hemisphere_colours(b.brdf(), t, p, MAP_N);
+                let ma = hemisphere_colours(a.brdf_at(p), t, p, MAP_N);
+                let mb = hemisphere_colours(b.brdf_at(p), t, p, MAP_N);
                 // The maps hold pi f cos(theta_i) in linear sRGB; the difference is of the
                 // radiance factors pi f, as everywhere in compare.
                 let cos = t.to_radians().cos();
@@ -79,8 +79,8 @@ impl Picture {
                     a: ma,
                     b: mb,
                     de,
-                    lobe_a: with_cos(plane_lobe(a.brdf(), &wa, t, p)),
-                    lobe_b: with_cos(plane_lobe(b.brdf(), &wb, t, p)),
+                    lobe_a: with_cos(plane_lobe(a.brdf_at(p), &wa, t, p)),
+                    lobe_b: with_cos(plane_lobe(b.brdf_at(p), &wb, t, p)),
                 }
             })
             .collect();

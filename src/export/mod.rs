@@ -42,14 +42,19 @@ pub fn simulated_incidence(r: &Representation) -> Result<Vec<f64>, ExportError> 
                 .get("theta_i_deg")
                 .and_then(|v| v.as_array())
                 .ok_or("the BRDF's simulation settings hold no theta_i_deg")?;
-            list.iter()
+            // Each angle once, ascending (a run over several azimuths repeats them).
+            let mut out = list
+                .iter()
                 .map(|v| {
                     v.as_float()
                         .or_else(|| v.as_integer().map(|i| i as f64))
                         .map(f64::to_radians)
                         .ok_or_else(|| ExportError::from("theta_i_deg holds a non-number"))
                 })
-                .collect()
+                .collect::<Result<Vec<f64>, ExportError>>()?;
+            out.sort_by(f64::total_cmp);
+            out.dedup();
+            Ok(out)
         }
     }
 }

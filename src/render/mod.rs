@@ -302,6 +302,19 @@ pub fn albedo_table(brdf: &(dyn Brdf + Sync), n: usize) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// The shading tangent of a surface of normal `n` (unit) for an anisotropic BRDF: the
+/// direction of increasing azimuth about the world's z axis, `z x n` normalised, which is
+/// a sphere's `dp/du` in Mitsuba 3 and pbrt-v4 (both parametrise by the azimuth about z),
+/// and x where `n` is along z (the plane, whose `dp/du` is x in both, and the poles).
+pub fn shading_tangent(n: DVec3) -> DVec3 {
+    let t = DVec3::new(-n.y, n.x, 0.0);
+    if t.length_squared() > 1e-12 {
+        t.normalize()
+    } else {
+        DVec3::X
+    }
+}
+
 /// Renders `shape` made of `brdf`. `albedo` is [`albedo_table`] (needed for a constant
 /// environment); `progress` receives finished rows.
 pub fn render(
@@ -312,6 +325,7 @@ pub fn render(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Image {
     let nl = brdf.meta().lambda_nm.len();
+    let isotropic = brdf.meta().isotropic;
     let weights = colour::channel_weights(brdf.meta());
     let (_, radius) = shape.bounds();
     let cam = camera_frame(shape, cfg);
@@ -332,9 +346,15 @@ pub fn render(
                             continue;
                         };
                         let p = cfg.camera + (d * t);
-                        // Local frame around the shading normal (isotropic BRDF: any tangent).
-                        let a = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
-                        let tx = a.cross(n).normalize();
+                        // Local frame around the shading normal: any tangent for an
+                        // isotropic BRDF; for an anisotropic one the sample's x axis (its
+                        // phi = 0) along `shading_tangent`, as Mitsuba 3 and pbrt-v4 take it.
+                        let tx = if isotropic {
+                            let a = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+                            a.cross(n).normalize()
+                        } else {
+                            shading_tangent(n)
+                        };
                         let ty = n.cross(tx);
                         let local = |w: DVec3| DVec3::new(w.dot(tx), w.dot(ty), w.dot(n));
                         let wo = local(-d);
@@ -467,4 +487,26 @@ pub fn write_exr(img: &Image, path: &Path) -> std::io::Result<()> {
 /// Writes an 8-bit sRGB-encoded PNG preview, atomically.
 pub fn write_png(img: &Image, path: &Path) -> std::io::Result<()> {
     stage_png(img, path)?.commit()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The tangent is the unit sphere's `dp/du` for `p(u, v) = (sin v cos 2 pi u, sin v
+    /// sin 2 pi u, cos v)`, Mitsuba 3's and pbrt-v4's parametrisation: `dp/du = 2 pi (-sin
+    /// v sin 2 pi u, sin v cos 2 pi u, 0)`, normalised, written here from the derivative.
+    #[test]
+    fn the_tangent_is_the_spheres_dp_du_and_x_on_the_axis() {
+        for (u, v) in [(0.1f64, 0.3f64), (0.37, 1.2), (0.8, 2.9), (0.55, 1.4)] {
+            let phi = std::f64::consts::TAU * u;
+            let n = DVec3::new(v.sin() * phi.cos(), v.sin() * phi.sin(), v.cos());
+            let dpdu = DVec3::new(-v.sin() * phi.sin(), v.sin() * phi.cos(), 0.0).normalize();
+            let t = shading_tangent(n);
+            assert!((t - dpdu).length() < 1e-12, "{t} against {dpdu}");
+            assert!(t.dot(n).abs() < 1e-12);
+        }
+        assert_eq!(shading_tangent(DVec3::Z), DVec3::X);
+        assert_eq!(shading_tangent(DVec3::NEG_Z), DVec3::X);
+    }
 }

@@ -138,6 +138,10 @@ pub enum SceneError {
         "the image needs no incident direction: the object is not visible or not lit (check --camera, --light and --env)"
     )]
     NothingNeeded,
+    #[error(
+        "sample '{0}' is not rotation-symmetric (a grating, grooves: its facets lean along some azimuths, so its BRDF depends on the incident azimuth), and --simulate lights it from one azimuth, which its table would average over: simulate it from several (`simulate --phi-i 0,45,90,135,180,225,270,315`), build the .gsa (an anisotropic kd-tree) and render that .gsb"
+    )]
+    Anisotropic(String),
     #[error(transparent)]
     Simulate(#[from] crate::simulate::SimError),
 }
@@ -206,6 +210,9 @@ pub fn simulate_scene(
 ) -> Result<SceneRun, SceneError> {
     use crate::brdf::{BucketData, Representation, table::TableBrdf};
     budget.validate()?;
+    if crate::sample::symmetry::anisotropy(sample).anisotropic() {
+        return Err(SceneError::Anisotropic(sample.name.clone()));
+    }
     let needed_deg = plan.needed();
     if needed_deg.is_empty() {
         return Err(SceneError::NothingNeeded);

@@ -440,10 +440,17 @@ def scene_renders(name, toml, rays, theta_i=THETA_I):
     which the table holds in single buckets and the .bsdf spreads (README, "Agreement at
     the angles users simulate")."""
     tag = f"{name}-scene-{len(theta_i)}"
-    gsa, gsb, out = (os.path.join(WORK, f"{tag}.{e}") for e in ("gsa", "gsb", "bsdf"))
+    gsa, gsb = (os.path.join(WORK, f"{tag}.{e}") for e in ("gsa", "gsb"))
     run("simulate", toml, "--theta-i", ",".join(map(str, theta_i)), "--rays", str(rays),
         "--wavelengths", "400:700:20", "-o", gsa)
     run("build", gsa, "--repr", "table", "-o", gsb)
+    scene_compare(name, tag, gsb, toml, f"theta_i {','.join(map(str, theta_i))}")
+
+
+def scene_compare(name, tag, gsb, toml, what):
+    """Step 8's comparison for a built `gsb`: the exported Mitsuba 3 scene rendered as it
+    is against `goniospec render` with the same view flags."""
+    out = os.path.join(WORK, f"{tag}.bsdf")
     view = ["--width", "96", "--height", "96"]
     print(run("export", gsb, "--sample", toml, "-o", out, "--scene", "mitsuba,pbrt", *view,
               "--spp", "256").strip())
@@ -470,7 +477,7 @@ def scene_renders(name, toml, rays, theta_i=THETA_I):
         fail(f"{name}: Mitsuba's background is not black (the environment must be hidden from the camera)")
     px = [de2000(lab(a), lab(b)) for a, b in zip(ours[inner], theirs[inner])]
     mean_de = de2000(lab(ours[inner].mean(axis=0)), lab(theirs[inner].mean(axis=0)))
-    print(f"scene: {name} at theta_i {','.join(map(str, theta_i))}, {int(inner.sum())} interior pixels: CIEDE2000 per pixel mean {np.mean(px):.2f}, "
+    print(f"scene: {name} at {what}, {int(inner.sum())} interior pixels: CIEDE2000 per pixel mean {np.mean(px):.2f}, "
           f"median {np.median(px):.2f}, largest {np.max(px):.1f}; of the mean colours {mean_de:.2f} "
           f"(goniospec {np.round(ours[inner].mean(axis=0), 4)}, Mitsuba {np.round(theirs[inner].mean(axis=0), 4)}; tolerance {RENDER_DE})")
     if mean_de > RENDER_DE:
@@ -489,12 +496,12 @@ def anisotropic(name, toml, resolution):
     larger at phi_i = 90, each by at least ANISOTROPY_RATIO."""
     print(f"== {name} ({toml}), anisotropic")
     gsa, gsb, out = (os.path.join(WORK, f"{name}.{e}") for e in ("gsa", "gsb", "bsdf"))
-    run("simulate", toml, "--theta-i", "0,20,40,60", "--phi-i", ",".join(str(p) for p in range(0, 360, 30)),
+    run("simulate", toml, "--theta-i", "0,20,40,60,80", "--phi-i", ",".join(str(p) for p in range(0, 360, 30)),
         "--coherence", "beamlet", "--rays", "2048", "--wavelengths", "400:700:50", "-o", gsa)
     run("build", gsa, "-o", gsb)
     if "isotropic false" not in run("info", gsb):
         fail(f"{name}: build made it isotropic")
-    print(run("export", gsb, "--sample", toml, "--resolution", str(resolution), "--force", "-o", out).strip())
+    print(run("export", gsb, "--sample", toml, "--resolution", str(resolution), "-o", out).strip())
     f = read_tensor(out)
     check_layout(f)
     get = lambda k: f[k][1]
