@@ -418,3 +418,28 @@ fn a_mesh_that_does_not_tile_is_refused_by_the_solver() {
     let acc = run(&s, &auto);
     assert_ne!(acc.header.settings.cell_mode(0, 0), Coherence::Rigorous);
 }
+
+/// Issue 70: a run the rigorous solver takes whole traces no tree, so a bar of trees stood
+/// at 0 for minutes. Progress counts its cells: the plan knows them before the first is
+/// solved, and each one solved reports, up to all of them.
+#[test]
+fn progress_counts_the_rigorous_cells() {
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let s = sinusoid("rig-progress", 1000.0, 100.0, (1.5, 0.0), 256, 1);
+    let plan = Arc::new(goniospec::simulate::ProgressPlan::default());
+    let mut cfg = rigorous(&[0.0, 30.0], "500:600:50");
+    cfg.progress_plan = Some(plan.clone());
+    let (calls, most) = (AtomicU64::new(0), AtomicU64::new(0));
+    let seen = |_n: u64| {
+        let (solved, cells) = plan.cells();
+        assert_eq!(cells, 4, "the plan names every cell from the start");
+        assert!(solved <= cells);
+        calls.fetch_add(1, Ordering::Relaxed);
+        most.fetch_max(solved, Ordering::Relaxed);
+    };
+    simulate(&s, &cfg, &seen).unwrap();
+    assert_eq!(plan.cells(), (4, 4));
+    assert_eq!(calls.load(Ordering::Relaxed), 4, "one report per cell");
+    assert_eq!(most.load(Ordering::Relaxed), 4);
+}

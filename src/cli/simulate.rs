@@ -97,6 +97,10 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
         if total != bar.length().unwrap_or(0) {
             bar.set_length(total);
         }
+        let (solved, cells) = plan.cells();
+        if cells > 0 {
+            bar.set_message(format!("; rigorous solver: {solved} of {cells} cells"));
+        }
         bar.set_position(n);
     };
     let result = pool.install(|| goniospec::simulate::simulate(&s, &cfg, &progress));

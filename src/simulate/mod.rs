@@ -178,7 +178,7 @@ fn run_once(
             )))
         } else if run.rigorous_only(di) {
             // Nothing to trace: the cells' one solution each (`rigorous`).
-            run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &[])
+            run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &[], progress)
                 .map(|_| DirectionStats::untraced(cfg.theta_i_deg[di]))
         } else {
             run.direction(di, cfg.theta_i_deg[di], &mut cells, sums.lost(), progress)
@@ -195,7 +195,9 @@ fn run_once(
                     let fell: Vec<bool> = (sums.diffraction[di * run.nl..(di + 1) * run.nl].iter())
                         .map(|c| c.fell_back || warned(c))
                         .collect();
-                    for k in run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &fell)? {
+                    for k in
+                        run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &fell, progress)?
+                    {
                         sums.clear(k);
                     }
                     Ok(d)

@@ -46,6 +46,7 @@ impl Run<'_> {
         theta_deg: f64,
         cells: &mut [Cell],
         fell_back: &[bool],
+        progress: &(dyn Fn(u64) + Sync),
     ) -> Result<Vec<usize>, SimError> {
         let Some(solver) = &self.rigorous else {
             return Ok(Vec::new());
@@ -60,6 +61,26 @@ impl Run<'_> {
         let wi = from_spherical(theta_deg.to_radians(), self.cfg.phi_of(di).to_radians());
         let d = -wi;
         let nl = self.nl;
+        // Progress counts cells (no tree is traced): the cells that fell back to the
+        // solver join the plan's count, and each cell done reports.
+        let plan = self.cfg.progress_plan.as_deref();
+        if let Some(p) = plan {
+            p.more_cells(
+                (0..nl)
+                    .filter(|&j| takes(j) && !self.cell_takes_rigorous(di, j))
+                    .count() as u64,
+            );
+        }
+        let done = || {
+            if let Some(p) = plan {
+                p.cell_done();
+                progress(
+                    self.counters
+                        .done
+                        .load(std::sync::atomic::Ordering::Relaxed),
+                );
+            }
+        };
         type Solved = Option<(Converged, Pattern, Pattern, f64)>;
         let solved: Vec<Result<Solved, RigorousError>> = (0..nl)
             .into_par_iter()
@@ -71,7 +92,9 @@ impl Run<'_> {
                 let lambda = self.settings.wavelength(j);
                 let mut idx = Vec::new();
                 self.sample.indices_into(lambda, &mut idx);
-                let c = solver.solve(&idx, lambda, d, theta_deg)?;
+                let c = solver.solve(&idx, lambda, d, theta_deg);
+                done();
+                let c = c?;
                 let n_up = idx[solver.fine.above].re;
                 let n_down = idx[solver.fine.below];
                 let spread = |up: bool, n: f64| {
