@@ -38,6 +38,7 @@ pub mod machine;
 pub mod optics;
 pub mod output;
 pub mod plot;
+pub mod recipe;
 pub mod reference;
 pub mod render;
 pub mod rng;

@@ -137,6 +137,20 @@ enum Command {
     /// and Standard Surface. Example: goniospec fit film.gsa -o film  (writes film.json and
     /// film.gltf; prints the parameters, their residual and Delta E2000 per angle).
     Fit(FitArgs),
+    /// Find the recipe that reproduces a measured material: the values of the template
+    /// sample's own parameters (a coat's thickness, a roughness, a pigment's amount), named
+    /// by their TOML paths, whose simulation is closest to the measurement by compare's
+    /// mean CIEDE2000 at the fitted incident angles. Nelder-Mead (argmin) over the ranges,
+    /// every candidate simulated with the same seed and trees (common random numbers); the
+    /// best is simulated at every measured angle and compared, fitted and held-out angles
+    /// apart. A rerun after an interruption resumes from the candidates' records.
+    ///
+    /// Example: goniospec match meshes/paint-pigments.toml
+    ///            --measured data/measured/paper_white_rgb.bsdf
+    ///            --vary media.paint.particles.volume_fraction=0.02:0.4:log
+    ///            --vary stack.layers.0.thickness=5:60 -o out/paper
+    #[command(name = "match", verbatim_doc_comment)]
+    Match(MatchArgs),
     /// Mie scattering of one sphere in a host medium: extinction, scattering and
     /// absorption efficiencies (Q = C / (pi r^2)), single-scattering albedo, asymmetry g,
     /// and the amplitude functions S1, S2 at --mu (Bohren & Huffman's conventions).
@@ -231,6 +245,7 @@ mod fit;
 mod generate;
 mod hiding;
 mod info;
+mod matching;
 mod merge;
 mod mie;
 mod plot;
@@ -254,6 +269,7 @@ use fit::{FitArgs, fit};
 use generate::{GenerateArgs, generate};
 use hiding::{HidingArgs, hiding};
 use info::{InfoArgs, backends, info};
+use matching::{MatchArgs, run_match};
 use merge::{MergeArgs, merge};
 use mie::{MieArgs, mie};
 use plot::{PlotArgs, plot};
@@ -328,6 +344,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Study(a) => study(a),
         Command::Generate(a) => generate(a),
         Command::Fit(a) => fit(a),
+        Command::Match(a) => run_match(a),
         Command::Mie(a) => mie(a),
         Command::Hiding(a) => hiding(a),
         Command::Bench(BenchCommand::Trace(a)) => bench_trace(a),

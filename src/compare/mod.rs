@@ -82,45 +82,60 @@ impl Material {
             return Ok(Material::Tabulated(Box::new(m)));
         }
         let gsa = head[..8] == crate::accumulate::file::MAGIC[..];
-        let mut per_azimuth = Vec::new();
-        let mut run_azimuths = None;
-        let brdf = if gsa {
+        if gsa {
             // Held to the physics its run was (`simulate::check_file`).
             let (acc, warning) = crate::simulate::read_judged(path).map_err(|e| named(&e))?;
             if let Some(w) = warning {
                 eprintln!("warning: {w}");
             }
-            // A table holds one azimuth: a run over several is one table per azimuth,
-            // each incidence read from its own.
-            let azimuths = acc.header.settings.azimuths();
-            let table = |a: &crate::accumulate::file::Accumulator| {
-                Representation::build(
-                    crate::brdf::Kind::Table,
-                    &crate::brdf::BucketData::from_accumulator(a),
-                    &crate::brdf::BuildOptions::default(),
-                )
-                .map_err(|e| named(&e))
-            };
-            run_azimuths = Some(azimuths.clone());
-            if azimuths.len() > 1 {
-                per_azimuth = azimuths
-                    .iter()
-                    .map(|&p| table(&acc.at_azimuth(p)))
-                    .collect::<Result<Vec<_>, _>>()?;
-            }
-            table(&acc.at_azimuth(azimuths[0]))?
-        } else {
-            crate::brdf::file::read(path).map_err(|e| {
-                named(&format!(
-                    "not a .gsb, .gsa or .bsdf that goniospec reads ({e})"
-                ))
-            })?
+            return Material::from_accumulator(&acc).map_err(|e| named(&e));
+        }
+        let brdf = crate::brdf::file::read(path).map_err(|e| {
+            named(&format!(
+                "not a .gsb, .gsa or .bsdf that goniospec reads ({e})"
+            ))
+        })?;
+        Material::simulated(brdf, Vec::new(), None).map_err(|e| named(&e))
+    }
+
+    /// A simulation's accumulator, built into a table (one table per azimuth where it has
+    /// several: a table holds one azimuth, and each incidence is read from its own).
+    pub fn from_accumulator(
+        acc: &crate::accumulate::file::Accumulator,
+    ) -> Result<Material, CompareError> {
+        let azimuths = acc.header.settings.azimuths();
+        let table = |a: &crate::accumulate::file::Accumulator| {
+            Representation::build(
+                crate::brdf::Kind::Table,
+                &crate::brdf::BucketData::from_accumulator(a),
+                &crate::brdf::BuildOptions::default(),
+            )
+            .map_err(|e| CompareError::from(e.to_string()))
         };
-        let settings: crate::accumulate::file::Settings =
-            toml::from_str(&brdf.meta().simulation)
-                .map_err(|e| named(&format!("its simulation settings do not parse: {e}")))?;
+        let per_azimuth = if azimuths.len() > 1 {
+            azimuths
+                .iter()
+                .map(|&p| table(&acc.at_azimuth(p)))
+                .collect::<Result<Vec<_>, _>>()?
+        } else {
+            Vec::new()
+        };
+        let brdf = table(&acc.at_azimuth(azimuths[0]))?;
+        Material::simulated(brdf, per_azimuth, Some(azimuths))
+    }
+
+    /// A simulated BRDF with its incident angles and grid, read from its settings.
+    fn simulated(
+        brdf: Representation,
+        per_azimuth: Vec<Representation>,
+        run_azimuths: Option<Vec<f64>>,
+    ) -> Result<Material, CompareError> {
+        let settings: crate::accumulate::file::Settings = toml::from_str(&brdf.meta().simulation)
+            .map_err(|e| {
+            CompareError::from(format!("its simulation settings do not parse: {e}"))
+        })?;
         let theta_i_deg = crate::export::simulated_incidence(&brdf)
-            .map_err(|e| named(&e))?
+            .map_err(|e| CompareError::from(e.to_string()))?
             .iter()
             .map(|t| t.to_degrees())
             .collect();
@@ -413,6 +428,18 @@ pub struct Report {
 
 /// Compares `a` with `b` (labels name them in the report).
 pub fn compare(a: &Material, b: &Material, labels: [&str; 2]) -> Result<Report, CompareError> {
+    compare_only(a, b, labels, &|_| true)
+}
+
+/// Compares `a` with `b` at the grid's incident angles (degrees) that `keep` takes; the
+/// others are left out of the report altogether (`goniospec match` fits some angles of a
+/// measurement and holds the others out).
+pub fn compare_only(
+    a: &Material,
+    b: &Material,
+    labels: [&str; 2],
+    keep: &(dyn Fn(f64) -> bool + Sync),
+) -> Result<Report, CompareError> {
     let space = ColourSpace::of(a, b);
     let (wa, wb) = (
         colour::channel_weights(a.brdf().meta()),
@@ -422,7 +449,7 @@ pub fn compare(a: &Material, b: &Material, labels: [&str; 2]) -> Result<Report, 
     let mut angles = Vec::new();
     let mut skipped = Vec::new();
     let mut all_nodes = Vec::new();
-    for inc in &incidences {
+    for inc in incidences.iter().filter(|i| keep(i.theta_i_deg)) {
         if let Some(why) = &inc.skipped {
             skipped.push((inc.theta_i_deg, why.clone()));
             continue;
