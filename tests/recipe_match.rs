@@ -48,6 +48,15 @@ fn metal(dir: &Path, name: &str, [alpha, k]: [f64; 2]) -> PathBuf {
     p
 }
 
+/// The candidates a match's summary counts as repeated or read from records.
+fn repeated(out: &str) -> usize {
+    let at = out
+        .find(" repeated or read from records")
+        .expect("the search's summary");
+    let head = &out[..at];
+    head[head.rfind(' ').unwrap() + 1..].parse().unwrap()
+}
+
 fn refs(v: &[String]) -> Vec<&str> {
     v.iter().map(String::as_str).collect()
 }
@@ -133,6 +142,7 @@ fn search_over<'a>(
         config,
         metric: Metric::Colour,
         max_evaluations,
+        starts: 0,
         tolerance: 0.02,
         records: None,
     }
@@ -232,7 +242,8 @@ fn an_interrupted_match_resumes_to_the_same_bytes() {
         .map(|s| s.to_string())
         .collect()
     };
-    run(&refs(&args(&whole)));
+    // Candidates the simplex visits twice are repeats in the whole run too.
+    let repeats = repeated(&run(&refs(&args(&whole))));
     let part_args = args(&part);
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_goniospec"))
         .args(&part_args)
@@ -242,7 +253,19 @@ fn an_interrupted_match_resumes_to_the_same_bytes() {
         .unwrap();
     let records = part.join("candidates");
     let t0 = std::time::Instant::now();
-    while std::fs::read_dir(&records).map_or(0, |r| r.count()) < 3 {
+    // Finished records only: a record being written is a temporary beside them.
+    let count = |d: &Path| {
+        std::fs::read_dir(d).map_or(0, |r| {
+            r.filter(|e| {
+                e.as_ref().is_ok_and(|e| {
+                    let n = e.file_name().to_string_lossy().into_owned();
+                    n.ends_with(".json") && !n.starts_with('.')
+                })
+            })
+            .count()
+        })
+    };
+    while count(&records) < 3 {
         assert!(t0.elapsed().as_secs() < 120, "no records appeared");
         std::thread::sleep(std::time::Duration::from_millis(10));
     }
@@ -252,10 +275,11 @@ fn an_interrupted_match_resumes_to_the_same_bytes() {
         !part.join("fitted.toml").exists(),
         "the run finished before it was interrupted"
     );
-    let kept = std::fs::read_dir(&records).unwrap().count();
+    let kept = count(&records);
     let out = run(&refs(&part_args));
-    assert!(
-        out.contains(&format!("{kept} from records")),
+    assert_eq!(
+        repeated(&out),
+        kept + repeats,
         "the resumed run did not read the {kept} records:\n{out}"
     );
     for f in [
@@ -394,6 +418,20 @@ fn bad_input_is_refused_before_any_simulation() {
                 &bsdf,
                 "--vary",
                 "media.metal.k=1:6",
+                "--starts",
+                "8",
+                "--max-evaluations",
+                "10",
+            ],
+            "8 starting points",
+        ),
+        (
+            vec![
+                &start,
+                "--measured",
+                &bsdf,
+                "--vary",
+                "media.metal.k=1:6",
                 "--metric",
                 "gloss",
             ],
@@ -420,5 +458,71 @@ fn bad_input_is_refused_before_any_simulation() {
         assert_eq!(code, 1, "{all:?} was taken:\n{stdout}\n{err}");
         assert!(err.contains(why), "{all:?}: expected '{why}' in:\n{err}");
         assert!(!out.exists(), "{all:?} made the output folder");
+    }
+}
+
+/// The starting points evaluated by two shards (separate processes, as GNU parallel or a
+/// Slurm array runs them), then the search without a shard: the bytes of one process,
+/// and the search reads every starting point from the shards' records.
+#[test]
+fn sharded_starting_points_give_one_process_bytes() {
+    let (bsdf, start) = target();
+    let d = scratch("match-shards");
+    let args = |out: &Path, shard: Option<&str>| -> Vec<String> {
+        let mut v: Vec<String> = [
+            "match",
+            &start.to_string_lossy(),
+            "--measured",
+            &bsdf.to_string_lossy(),
+            "--vary",
+            "interface.0.generator.alpha=0.1:0.6",
+            "--vary",
+            "media.metal.k=1:6",
+            "--rays",
+            "1024",
+            "--wavelengths",
+            "400:700:60",
+            "--starts",
+            "4",
+            "--max-evaluations",
+            "14",
+            "-o",
+            &out.to_string_lossy(),
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        if let Some(s) = shard {
+            v.extend(["--shard".to_string(), s.to_string()]);
+        }
+        v
+    };
+    let (one, sharded) = (d.join("one"), d.join("sharded"));
+    let repeats = repeated(&run(&refs(&args(&one, None))));
+    // The start and 4 Halton points: shard 1 takes places 0, 2, 4; shard 2 places 1, 3.
+    for (s, count) in [("1/2", 3), ("2/2", 2)] {
+        let out = run(&refs(&args(&sharded, Some(s))));
+        assert!(
+            out.contains(&format!("shard {s}: {count} starting points recorded")),
+            "{out}"
+        );
+        assert!(
+            !sharded.join("fitted.toml").exists(),
+            "a shard went on to search"
+        );
+    }
+    let out = run(&refs(&args(&sharded, None)));
+    assert_eq!(repeated(&out), 5 + repeats, "{out}");
+    for f in [
+        "fitted.toml",
+        "fitted.gsa",
+        "match.json",
+        "compare/compare.json",
+    ] {
+        let (a, b) = (
+            std::fs::read(one.join(f)).unwrap(),
+            std::fs::read(sharded.join(f)).unwrap(),
+        );
+        assert!(a == b, "{f} differs between one process and the shards");
     }
 }

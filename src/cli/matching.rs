@@ -36,6 +36,13 @@ pub(super) struct MatchArgs {
     /// recipes, not noise.
     #[arg(long, default_value_t = 2048)]
     rays: u64,
+    /// Size each candidate's budget by the BRDF's quality instead of a fixed count: its
+    /// trees grow from --rays' first batch until the median relative standard error of
+    /// the buckets holding 95 % of the reflected power is at most this (simulate's
+    /// --target-stderr). Candidates then differ in trees, and share only their first
+    /// trees' random numbers.
+    #[arg(long, value_parser = finite)]
+    target_stderr: Option<f64>,
     /// Polar bins of each candidate's outgoing hemisphere. Coarser than simulate's default
     /// (45): a candidate's error is read bucket by bucket, and a bucket's noise, not the
     /// recipe, dominates CIEDE2000 where buckets hold few trees (two seeds of a rough metal
@@ -45,6 +52,24 @@ pub(super) struct MatchArgs {
     /// Azimuth bins of each candidate's outgoing hemisphere.
     #[arg(long, default_value_t = 24)]
     phi_o_bins: u32,
+    /// Trees per incident angle of the fitted recipe's simulation at every measured angle,
+    /// which the report and fitted.gsa give (default: 4 times --rays, so that its error
+    /// is less the buckets' noise than the search's).
+    #[arg(long)]
+    final_rays: Option<u64>,
+    /// Points of a Halton sequence over the ranges tried before Nelder-Mead, which starts
+    /// from the best of them and the template's values: for errors with several minima
+    /// (a film's interference orders). Each counts against --max-evaluations.
+    #[arg(long, default_value_t = 0)]
+    starts: usize,
+    /// Evaluate only shard I of N of the starting points (--starts) into the records and
+    /// stop, so that separate processes share them: GNU parallel
+    /// (`parallel goniospec match ... --starts 32 --shard {}/4 ::: 1 2 3 4`) or a Slurm
+    /// array (`--shard $SLURM_ARRAY_TASK_ID/4`); then the same command without --shard
+    /// searches from them, reading what the shards recorded (the bytes are a single
+    /// process's).
+    #[arg(long, value_name = "I/N", value_parser = shard)]
+    shard: Option<(usize, usize)>,
     /// Seed of every candidate's simulation.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -79,7 +104,15 @@ pub(super) fn run_match(a: MatchArgs) -> Result<ExitCode> {
         .iter()
         .map(|s| Vary::parse(s))
         .collect::<Result<Vec<_>, _>>()?;
-    recipe::check_budget(vary.len(), a.max_evaluations)?;
+    recipe::check_budget(vary.len(), a.starts, a.max_evaluations)?;
+    if vary.len() > recipe::MAX_PARAMETERS {
+        bail!(
+            "{} parameters: a match varies at most {}",
+            vary.len(),
+            recipe::MAX_PARAMETERS
+        );
+    }
+    let final_rays = a.final_rays.unwrap_or(4 * a.rays);
     for input in [&a.template, &a.measured] {
         if goniospec::output::same_file(&a.output, input) {
             bail!("--output {} is an input of the match", a.output.display());
@@ -91,48 +124,20 @@ pub(super) fn run_match(a: MatchArgs) -> Result<ExitCode> {
     goniospec::output::guard_folder(&a.output, &names, a.force)?;
     let template = Template::read(&a.template, &vary)?;
     let measured = Material::read(&a.measured)?;
-    let Material::Tabulated(m) = &measured else {
-        bail!(
-            "--measured {}: a simulation, not a measured material; match fits a measured RGL .bsdf (compare puts two simulations side by side)",
-            a.measured.display()
-        );
-    };
-    if m.phi_i_rad.len() > 1 {
-        bail!(
-            "--measured {}: an anisotropic measurement ({} incident azimuths); match fits isotropic measurements",
-            a.measured.display(),
-            m.phi_i_rad.len()
-        );
-    }
-    let angles: Vec<f64> = m.theta_i_rad.iter().map(|t| t.to_degrees()).collect();
-    let (fit, held) = recipe::fit_angles(&a.fit_angles, &angles)?;
-    // The template's values where they lie in the ranges, else the ranges' middles.
-    let start: Vec<f64> = vary
-        .iter()
-        .zip(&template.values)
-        .map(|(v, &x)| {
-            if (v.lo..=v.hi).contains(&x) {
-                x
-            } else {
-                eprintln!(
-                    "note: {} = {x} in the template lies outside {}:{}; the search starts from the range's middle",
-                    v.path, v.lo, v.hi
-                );
-                v.value_at(0.5)
-            }
-        })
-        .collect();
+    let (fit, held) = fitted_angles(&a, &measured)?;
+    let start = start_of(&vary, &template.values);
     template.check_ranges(&vary, &start)?;
-    let settings = |theta: Vec<f64>| goniospec::simulate::SimSettings {
+    let settings = |theta: Vec<f64>, rays: u64| goniospec::simulate::SimSettings {
         theta_i_deg: theta,
-        rays: a.rays,
+        rays,
         seed: a.seed,
         wavelengths: a.wavelengths.clone(),
         theta_o_bins: a.theta_o_bins,
         phi_o_bins: a.phi_o_bins,
+        target_stderr: a.target_stderr,
         ..Default::default()
     };
-    let config = settings(fit.clone()).resolve()?;
+    let config = settings(fit.clone(), a.rays).resolve()?;
     let measured_key = goniospec::io::fnv1a(&std::fs::read(&a.measured)?);
     std::fs::create_dir_all(&a.output)
         .with_context(|| format!("creating {}", a.output.display()))?;
@@ -148,10 +153,26 @@ pub(super) fn run_match(a: MatchArgs) -> Result<ExitCode> {
         config,
         metric,
         max_evaluations: a.max_evaluations,
+        starts: a.starts,
         tolerance: a.tolerance,
         records: Some(recipe::records_in(&a.output)),
     };
     let shown = |v: &[f64]| -> String { search.shown(v) };
+    if let Some((i, n)) = a.shard {
+        let done = search.run_shard(&start, (i, n), &mut |k, e, best| {
+            eprintln!(
+                "shard {i}/{n}, point {k}: {} -> {:.3} (best {best:.3})",
+                shown(&e.values),
+                e.objective
+            );
+        })?;
+        outln!(
+            "shard {i}/{n}: {} starting points recorded in {}; the same command without --shard searches from them",
+            done.len(),
+            recipe::records_in(&a.output).display()
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     outln!(
         "# match {} to {} ({}): {} over the fitted angles {} deg ({} held out: {} deg); {} trees a candidate, seed {}, at most {} candidates",
         a.template.display(),
@@ -187,7 +208,7 @@ pub(super) fn run_match(a: MatchArgs) -> Result<ExitCode> {
             shown(&e.values),
             e.objective,
             if e.cached {
-                " [from an earlier run's record]".to_string()
+                " [repeated, or from an earlier run's record]".to_string()
             } else {
                 format!(" in {:.1} s", e.seconds)
             },
@@ -195,7 +216,7 @@ pub(super) fn run_match(a: MatchArgs) -> Result<ExitCode> {
     })?;
     let best = &outcome.trace[outcome.best];
     outln!(
-        "# search: {} candidates ({} simulated, {} from records), {}; best {} at candidate {}: {}",
+        "# search: {} candidates ({} simulated, {} repeated or read from records), {}; best {} at candidate {}: {}",
         outcome.trace.len(),
         simulated,
         outcome.trace.len() - simulated,
@@ -208,10 +229,69 @@ pub(super) fn run_match(a: MatchArgs) -> Result<ExitCode> {
         shown(&best.values)
     );
     finish(
-        &a, &template, &vary, &measured, &fit, &held, &outcome, settings,
+        &a,
+        &template,
+        &vary,
+        &measured,
+        &fit,
+        &held,
+        &outcome,
+        settings(Vec::new(), final_rays),
     )?;
     outln!("matched in {:.1} s", t0.elapsed().as_secs_f64());
     Ok(ExitCode::SUCCESS)
+}
+
+/// The measurement's fitted and held-out angles, degrees; refused where it is not a
+/// measured isotropic tensor file.
+fn fitted_angles(a: &MatchArgs, measured: &Material) -> Result<(Vec<f64>, Vec<f64>)> {
+    let Material::Tabulated(m) = measured else {
+        bail!(
+            "--measured {}: a simulation, not a measured material; match fits a measured RGL .bsdf (compare puts two simulations side by side)",
+            a.measured.display()
+        );
+    };
+    if m.phi_i_rad.len() > 1 {
+        bail!(
+            "--measured {}: an anisotropic measurement ({} incident azimuths); match fits isotropic measurements",
+            a.measured.display(),
+            m.phi_i_rad.len()
+        );
+    }
+    let angles: Vec<f64> = m.theta_i_rad.iter().map(|t| t.to_degrees()).collect();
+    Ok(recipe::fit_angles(&a.fit_angles, &angles)?)
+}
+
+/// The template's values where they lie in the ranges, else the ranges' middles (said).
+fn start_of(vary: &[Vary], values: &[f64]) -> Vec<f64> {
+    vary.iter()
+        .zip(values)
+        .map(|(v, &x)| {
+            if (v.lo..=v.hi).contains(&x) {
+                x
+            } else {
+                eprintln!(
+                    "note: {} = {x} in the template lies outside {}:{}; the search starts from the range's middle",
+                    v.path, v.lo, v.hi
+                );
+                v.value_at(0.5)
+            }
+        })
+        .collect()
+}
+
+/// `I/N`: shard I (from 1) of N.
+fn shard(s: &str) -> Result<(usize, usize), String> {
+    let bad = || format!("'{s}': expected I/N with 1 <= I <= N, e.g. 2/4");
+    let (i, n) = s.split_once('/').ok_or_else(bad)?;
+    let (i, n) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if i == 0 || i > n {
+        return Err(bad());
+    }
+    Ok((i, n))
 }
 
 fn metric_of(a: &MatchArgs) -> Metric {
@@ -239,14 +319,18 @@ fn finish(
     fit: &[f64],
     held: &[f64],
     outcome: &recipe::Outcome,
-    settings: impl Fn(Vec<f64>) -> goniospec::simulate::SimSettings,
+    mut settings: goniospec::simulate::SimSettings,
 ) -> Result<()> {
     let best = &outcome.trace[outcome.best];
     let mut all: Vec<f64> = fit.iter().chain(held).copied().collect();
     all.sort_by(f64::total_cmp);
     let text = template.with_values(vary, &best.values);
     let sample = template.load(&text)?;
-    let (acc, _) = goniospec::simulate::simulate(&sample, &settings(all).resolve()?, &|_| {})?;
+    let final_rays = settings.rays;
+    settings.theta_i_deg = all;
+    // The report's budget is fixed, whatever sized the candidates'.
+    settings.target_stderr = None;
+    let (acc, _) = goniospec::simulate::simulate(&sample, &settings.resolve()?, &|_| {})?;
     let fitted = Material::from_accumulator(&acc)?;
     let report = compare::compare(&fitted, measured, ["fitted", "measured"])?;
     let is_fit = |t: f64| fit.iter().any(|f| (f - t).abs() < 1e-6);
@@ -279,15 +363,25 @@ fn finish(
     }
 
     let out = &a.output;
+    let stats = |s: &Option<compare::Stats>| {
+        s.map_or("-".into(), |s| format!("{:.3} (p95 {:.3})", s.mean, s.p95))
+    };
     let header = format!(
-        "Fitted by goniospec match to {} ({}) at theta_i {} deg:\n{} {:.3} there in the search; at the held-out angles {} deg, mean {}.\nVaried: {}.\n{} trees an angle, seed {}, wavelengths {}, {} x {} outgoing buckets.",
+        "Fitted by goniospec match to {} ({}), fitting theta_i {} deg.\n\
+         The search's {}: {:.3} ({} trees an angle).\n\
+         This recipe simulated with {} trees an angle: mean CIEDE2000 {} at the fitted angles, {} at the held-out angles {} deg.\n\
+         Varied: {}.\n\
+         Seed {}, wavelengths {}, {} x {} outgoing buckets{}.",
         a.measured.display(),
         measured.name(),
         list(fit),
         metric_of(a).describe(),
         best.objective,
+        a.rays,
+        final_rays,
+        stats(&on_fit),
+        stats(&on_held),
         list(held),
-        on_held.map_or("-".into(), |s| format!("{:.3} (p95 {:.3})", s.mean, s.p95)),
         vary.iter()
             .map(|v| format!(
                 "{} in {}:{}{}",
@@ -298,11 +392,13 @@ fn finish(
             ))
             .collect::<Vec<_>>()
             .join(", "),
-        a.rays,
         a.seed,
         a.wavelengths,
         a.theta_o_bins,
-        a.phi_o_bins
+        a.phi_o_bins,
+        a.target_stderr.map_or(String::new(), |t| format!(
+            ", trees grown to a {t} relative standard error (--rays the first batch)"
+        ))
     );
     let fitted_text = template.fitted(vary, &best.values, out, &header);
     write_text(&out.join("fitted.toml"), &fitted_text)?;
@@ -326,6 +422,9 @@ fn finish(
         "held_out": on_held,
         "angles": report.angles,
         "rays": a.rays,
+        "final_rays": final_rays,
+        "starts": a.starts,
+        "target_stderr": a.target_stderr,
         "seed": a.seed,
         "wavelengths": a.wavelengths,
     });

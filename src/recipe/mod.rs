@@ -14,7 +14,9 @@ mod write;
 
 use crate::compare::{Report, Stats};
 
-pub use search::{Evaluation, Outcome, Search, Stop, check_budget, fit_angles, records_in};
+pub use search::{
+    Evaluation, MAX_PARAMETERS, Outcome, Search, Stop, check_budget, fit_angles, records_in,
+};
 pub use template::{Template, Vary};
 pub use write::{output_names, write_chart, write_trace};
 

@@ -9,11 +9,11 @@
 //!   is folded back in (reflected at the faces, `fold`), so every candidate lies in the
 //!   ranges the user gave, and a step across a face looks at the mirror point instead.
 //! - **Resumable.** Each candidate's figures are kept in `candidates/KEY.json` (written
-//!   atomically; KEY hashes the candidate's sample text and everything else that decides
-//!   its simulation and comparison). The search is deterministic, so a rerun after an
-//!   interruption replays it, reads what was done and simulates only the rest, reaching
-//!   the bytes an uninterrupted run writes. The same records serve a candidate the
-//!   simplex visits twice.
+//!   atomically; KEY hashes the candidate's sample (its content, not its comments) and
+//!   everything else that decides its simulation and comparison). The search is
+//!   deterministic, so a rerun after an interruption replays it, reads what was done and
+//!   simulates only the rest, reaching the bytes an uninterrupted run writes. A candidate
+//!   the simplex visits twice is not simulated again.
 
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
@@ -74,6 +74,11 @@ pub struct Search<'a> {
     pub config: SimConfig,
     pub metric: Metric,
     pub max_evaluations: usize,
+    /// Points of a Halton sequence over the ranges evaluated before the simplex, which
+    /// starts from the best of them and the start (0: from the start alone). Thin films
+    /// have an error with a minimum per interference order; a few spread points find the
+    /// right basin before the simplex refines it.
+    pub starts: usize,
     /// The search stops when the simplex's objectives have a standard deviation below
     /// this (CIEDE2000 units).
     pub tolerance: f64,
@@ -82,6 +87,50 @@ pub struct Search<'a> {
 }
 
 impl Search<'_> {
+    /// Evaluates and records the starting points of shard `i` of `n` (1-based): of the
+    /// start and the `starts` Halton points, those whose place in that list is `i - 1`
+    /// modulo `n`. Shards run as separate processes (GNU parallel, a Slurm array) fill the
+    /// records a search without a shard then reads; nothing else is searched.
+    pub fn run_shard(
+        &self,
+        start: &[f64],
+        (i, n): (usize, usize),
+        report: &mut dyn FnMut(usize, &Evaluation, f64),
+    ) -> Result<Vec<Evaluation>, RecipeError> {
+        if self.records.is_none() || self.starts == 0 || i == 0 || i > n {
+            return Err(format!(
+                "--shard {i}/{n}: shards evaluate the starting points (--starts K, K > 0) into the records, 1 <= I <= N"
+            )
+            .into());
+        }
+        let state = RefCell::new(Progress {
+            trace: Vec::new(),
+            memo: std::collections::HashMap::new(),
+            failure: None,
+            report,
+        });
+        for (k, u) in self.starting_points(start).iter().enumerate() {
+            if k % n == i - 1 {
+                self.counted(&state, u)?;
+            }
+        }
+        Ok(state.into_inner().trace)
+    }
+
+    /// The start (as a point of the unit cube) and the first `starts` Halton points.
+    fn starting_points(&self, start: &[f64]) -> Vec<Vec<f64>> {
+        let n = self.vary.len();
+        let x0: Vec<f64> = self
+            .vary
+            .iter()
+            .zip(start)
+            .map(|(v, &s)| v.unit_of(s))
+            .collect();
+        std::iter::once(x0)
+            .chain((1..=self.starts).map(|i| (0..n).map(|d| halton(i, PRIMES[d])).collect()))
+            .collect()
+    }
+
     /// Runs the search from `start` (values within the ranges). `report` sees every
     /// evaluation as it finishes, with the best objective so far.
     pub fn run(
@@ -92,13 +141,27 @@ impl Search<'_> {
         use argmin::core::{Executor, State};
         use argmin::solver::neldermead::NelderMead;
         let n = self.vary.len();
-        check_budget(n, self.max_evaluations)?;
-        let x0: Vec<f64> = self
-            .vary
-            .iter()
-            .zip(start)
-            .map(|(v, &s)| v.unit_of(s))
-            .collect();
+        check_budget(n, self.starts, self.max_evaluations)?;
+        if n > MAX_PARAMETERS {
+            return Err(format!("{n} parameters: a match varies at most {MAX_PARAMETERS}").into());
+        }
+        let state = RefCell::new(Progress {
+            trace: Vec::new(),
+            memo: std::collections::HashMap::new(),
+            failure: None,
+            report,
+        });
+        let points = self.starting_points(start);
+        let mut x0 = points[0].clone();
+        if self.starts > 0 {
+            let mut best = f64::INFINITY;
+            for u in points {
+                let e = self.counted(&state, &u)?;
+                if e < best {
+                    (best, x0) = (e, u);
+                }
+            }
+        }
         // The first simplex: the start and a step of a quarter of each range, inwards.
         let mut simplex = vec![x0.clone()];
         for k in 0..n {
@@ -106,11 +169,6 @@ impl Search<'_> {
             p[k] += if p[k] + 0.25 <= 1.0 { 0.25 } else { -0.25 };
             simplex.push(p);
         }
-        let state = RefCell::new(Progress {
-            trace: Vec::new(),
-            failure: None,
-            report,
-        });
         let problem = Problem {
             search: self,
             state: &state,
@@ -145,6 +203,42 @@ impl Search<'_> {
                 Stop::Budget
             },
         })
+    }
+
+    /// The objective at the point `u` of the unit cube, counted against the budget and
+    /// reported; a candidate met before in this run is not simulated again.
+    fn counted(&self, state: &RefCell<Progress>, u: &[f64]) -> Result<f64, RecipeError> {
+        let mut p = state.borrow_mut();
+        if let Some(e) = p.failure.take() {
+            return Err(e);
+        }
+        if p.trace.len() >= self.max_evaluations {
+            return Err(RecipeError::from(SPENT));
+        }
+        let values = self.values_at(u);
+        let bits: Vec<u64> = values.iter().map(|v| v.to_bits()).collect();
+        let e = match p.memo.get(&bits) {
+            Some(&k) => {
+                let mut e = p.trace[k].clone();
+                e.cached = true;
+                e.seconds = 0.0;
+                e
+            }
+            None => self.evaluate(&values)?,
+        };
+        let cost = e.objective;
+        let at = p.trace.len();
+        p.memo.entry(bits).or_insert(at);
+        p.trace.push(e);
+        let best = p
+            .trace
+            .iter()
+            .map(|e| e.objective)
+            .fold(f64::INFINITY, f64::min);
+        let k = p.trace.len();
+        let last = p.trace[k - 1].clone();
+        (p.report)(k, &last, best);
+        Ok(cost)
     }
 
     /// The values of a point of the unit cube (folded into it).
@@ -232,11 +326,17 @@ impl Search<'_> {
             .join(", ")
     }
 
-    /// The record key: the candidate's text and everything else that decides its figures.
+    /// The record key: the candidate's content and everything else that decides its
+    /// figures.
     fn key(&self, text: &str) -> u64 {
         let c = &self.config;
+        // The sample's content, not its comments or layout: a template whose comments
+        // are edited keeps its records.
+        let content = text
+            .parse::<toml::Table>()
+            .map_or_else(|_| text.to_string(), |t| t.to_string());
         let parts = [
-            text.to_string(),
+            content,
             self.measured_key.to_string(),
             format!("{:?}", self.fit_deg),
             format!("{:?}", self.metric),
@@ -254,19 +354,43 @@ impl Search<'_> {
     }
 }
 
-/// Refuses a budget below twice Nelder–Mead's first simplex (`n + 1` candidates for `n`
-/// parameters): it would stop before the simplex moved.
-pub fn check_budget(n: usize, max_evaluations: usize) -> Result<(), RecipeError> {
-    if max_evaluations < 2 * (n + 1) {
+/// Refuses a budget below the starting points (`starts` and the start itself) and twice
+/// Nelder–Mead's first simplex (`n + 1` candidates for `n` parameters): it would stop
+/// before the simplex moved.
+pub fn check_budget(n: usize, starts: usize, max_evaluations: usize) -> Result<(), RecipeError> {
+    let first = if starts > 0 { starts + 1 } else { 0 };
+    let least = first + 2 * (n + 1);
+    if max_evaluations < least {
         return Err(format!(
-            "--max-evaluations {max_evaluations} is too few for {n} parameter{}: Nelder-Mead's first simplex alone takes {}; allow at least {}",
+            "--max-evaluations {max_evaluations} is too few for {n} parameter{}{}: Nelder-Mead's first simplex alone takes {}; allow at least {least}",
             if n == 1 { "" } else { "s" },
+            if starts > 0 { format!(" and {starts} starting points") } else { String::new() },
             n + 1,
-            2 * (n + 1)
         )
         .into());
     }
     Ok(())
+}
+
+/// What a search answers once its evaluations are spent.
+const SPENT: &str = "the evaluations are spent";
+
+/// The first primes: the Halton sequence's bases, one per parameter.
+const PRIMES: [u64; 12] = [2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37];
+
+/// The most parameters one match varies (a Halton base each).
+pub const MAX_PARAMETERS: usize = PRIMES.len();
+
+/// The radical inverse of `i` in `base`: the `i`-th point of the Halton sequence's
+/// coordinate of that base (Halton 1960, Numerische Mathematik 2, 84-90), in (0, 1).
+pub fn halton(mut i: usize, base: u64) -> f64 {
+    let (mut f, mut r) = (1.0, 0.0);
+    while i > 0 {
+        f /= base as f64;
+        r += f * (i as u64 % base) as f64;
+        i /= base as usize;
+    }
+    r
 }
 
 /// Folds a coordinate into [0, 1] by reflection at the faces (a triangle wave of period 2).
@@ -277,6 +401,8 @@ pub fn fold(x: f64) -> f64 {
 
 struct Progress<'r> {
     trace: Vec<Evaluation>,
+    /// Each candidate's values (their bits) and its first place in `trace`.
+    memo: std::collections::HashMap<Vec<u64>, usize>,
     failure: Option<RecipeError>,
     report: &'r mut dyn FnMut(usize, &Evaluation, f64),
 }
@@ -295,30 +421,14 @@ impl argmin::core::CostFunction for Problem<'_, '_> {
     /// a failure there answers infinity and stops the search at its next call; the
     /// budget (at least the first simplex) and later failures stop it with an error.
     fn cost(&self, u: &Self::Param) -> Result<f64, argmin::core::Error> {
-        let mut p = self.state.borrow_mut();
-        if p.failure.is_some() {
+        if self.state.borrow().failure.is_some() {
             return Err(argmin::core::Error::msg("a candidate failed"));
         }
-        if p.trace.len() >= self.search.max_evaluations {
-            return Err(argmin::core::Error::msg("the evaluations are spent"));
-        }
-        let values = self.search.values_at(u);
-        match self.search.evaluate(&values) {
-            Ok(e) => {
-                let cost = e.objective;
-                p.trace.push(e);
-                let best = p
-                    .trace
-                    .iter()
-                    .map(|e| e.objective)
-                    .fold(f64::INFINITY, f64::min);
-                let k = p.trace.len();
-                let last = p.trace[k - 1].clone();
-                (p.report)(k, &last, best);
-                Ok(cost)
-            }
+        match self.search.counted(self.state, u) {
+            Ok(cost) => Ok(cost),
+            Err(RecipeError::Invalid(m)) if m == SPENT => Err(argmin::core::Error::msg(SPENT)),
             Err(e) => {
-                p.failure = Some(e);
+                self.state.borrow_mut().failure = Some(e);
                 Ok(f64::INFINITY)
             }
         }
@@ -382,6 +492,19 @@ mod tests {
         ] {
             assert!((fold(x) - y).abs() < 1e-12, "fold({x}) = {}", fold(x));
         }
+    }
+
+    #[test]
+    fn halton_points_are_radical_inverses() {
+        // Base 2: 1/2, 1/4, 3/4, 1/8; base 3: 1/3, 2/3, 1/9, 4/9.
+        let b2: Vec<f64> = (1..=4).map(|i| halton(i, 2)).collect();
+        assert_eq!(b2, [0.5, 0.25, 0.75, 0.125]);
+        let b3: Vec<f64> = (1..=4).map(|i| halton(i, 3)).collect();
+        for (got, want) in b3.iter().zip([1.0 / 3.0, 2.0 / 3.0, 1.0 / 9.0, 4.0 / 9.0]) {
+            assert!((got - want).abs() < 1e-15, "{got} against {want}");
+        }
+        assert!(check_budget(2, 0, 5).is_err() && check_budget(2, 0, 6).is_ok());
+        assert!(check_budget(2, 8, 14).is_err() && check_budget(2, 8, 15).is_ok());
     }
 
     #[test]
