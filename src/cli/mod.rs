@@ -145,10 +145,11 @@ enum Command {
     /// best is simulated at every measured angle and compared, fitted and held-out angles
     /// apart. A rerun after an interruption resumes from the candidates' records.
     ///
-    /// Example: goniospec match meshes/paint-pigments.toml
-    ///            --measured data/measured/paper_white_rgb.bsdf
-    ///            --vary media.paint.particles.volume_fraction=0.02:0.4:log
-    ///            --vary stack.layers.0.thickness=5:60 -o out/paper
+    /// Example (the shipped wrap film's recipe, materials/; scripts/match-materials.sh):
+    ///   goniospec match materials/templates/wrap-film.toml
+    ///     --measured data/measured/cc_ibiza_sunset_rgb.bsdf
+    ///     --vary interface.0.generator.alpha=0.03:0.4:log
+    ///     --vary interface.0.coating.0.thickness=0.1:1.2 -o out/wrap
     #[command(name = "match", verbatim_doc_comment)]
     Match(MatchArgs),
     /// Mie scattering of one sphere in a host medium: extinction, scattering and

@@ -419,4 +419,29 @@ mod tests {
             "{out}"
         );
     }
+
+    #[test]
+    fn a_fitted_recipe_names_the_template_s_files_from_its_own_folder() {
+        let root = std::env::temp_dir().join(format!("goniospec-rebase-{}", std::process::id()));
+        let (a, b) = (root.join("samples"), root.join("out").join("fit"));
+        std::fs::create_dir_all(a.join("data")).unwrap();
+        std::fs::create_dir_all(&b).unwrap();
+        std::fs::write(a.join("data").join("n.csv"), "x").unwrap();
+        let text = "[media.m]\ntable = \"data/n.csv\" # kept\nother = \"not a file\"\nk = 1.0\n";
+        let t = Template {
+            path: a.join("t.toml"),
+            doc: text.parse().unwrap(),
+            values: vec![],
+        };
+        let vary = [Vary::parse("media.m.k=0.5:2").unwrap()];
+        let out = t.fitted(&vary, &[1.5], &b, "fitted\nby a test");
+        assert!(out.starts_with("# fitted\n# by a test\n"), "{out}");
+        assert!(
+            out.contains("table = \"../../samples/data/n.csv\" # kept"),
+            "{out}"
+        );
+        assert!(out.contains("other = \"not a file\""), "{out}");
+        assert!(out.contains("k = 1.5"), "{out}");
+        let _ = std::fs::remove_dir_all(&root);
+    }
 }
