@@ -332,127 +332,66 @@ fn bad_input_is_refused_before_any_simulation() {
         broken.to_string_lossy().into_owned(),
         out.to_string_lossy().into_owned(),
     );
-    let cases: Vec<(Vec<&str>, &str)> = vec![
+    // The template and the measurement, then what each case adds.
+    let ok = |rest: &[&'static str]| -> Vec<String> {
+        let mut v = vec![start.clone(), "--measured".into(), bsdf.clone()];
+        v.extend(rest.iter().map(|s| s.to_string()));
+        v
+    };
+    let k = ["--vary", "media.metal.k=1:6"];
+    let with_k = |rest: &[&'static str]| -> Vec<String> { ok(&[&k[..], rest].concat()) };
+    let cases: Vec<(Vec<String>, &str)> = vec![
         (
-            vec![&start, "--measured", &bsdf, "--vary", "media.metal.q=1:2"],
+            ok(&["--vary", "media.metal.q=1:2"]),
             "has no 'q' in media.metal",
         ),
         (
-            vec![
-                &start,
-                "--measured",
-                &bsdf,
-                "--vary",
-                "interface.0.generator.resolution=32:64",
-            ],
+            ok(&["--vary", "interface.0.generator.resolution=32:64"]),
             "integer 64",
         ),
+        (ok(&["--vary", "sample.name=1:2"]), "not a number"),
+        (ok(&["--vary", "media.metal.k=3:1"]), "is empty"),
+        (ok(&["--vary", "media.metal.k=0:2:log"]), "LO > 0"),
         (
-            vec![&start, "--measured", &bsdf, "--vary", "sample.name=1:2"],
-            "not a number",
-        ),
-        (
-            vec![&start, "--measured", &bsdf, "--vary", "media.metal.k=3:1"],
-            "is empty",
-        ),
-        (
-            vec![
-                &start,
-                "--measured",
-                &bsdf,
-                "--vary",
-                "media.metal.k=0:2:log",
-            ],
-            "LO > 0",
-        ),
-        (
-            vec![
-                &start,
-                "--measured",
-                &bsdf,
-                "--vary",
-                "interface.0.generator.alpha=-0.1:0.5",
-            ],
+            ok(&["--vary", "interface.0.generator.alpha=-0.1:0.5"]),
             "alpha must be positive",
         ),
+        (ok(&["--vary", "media.metal.n=0:2"]), "n must be positive"),
         (
-            vec![&start, "--measured", &bsdf, "--vary", "media.metal.n=0:2"],
-            "n must be positive",
-        ),
-        (
-            vec![&start, "--measured", &gsa, "--vary", "media.metal.k=1:6"],
+            vec![
+                start.clone(),
+                "--measured".into(),
+                gsa.clone(),
+                k[0].into(),
+                k[1].into(),
+            ],
             "not a measured material",
         ),
         (
-            vec![&broken, "--measured", &bsdf, "--vary", "media.metal.k=1:6"],
+            vec![
+                broken.clone(),
+                "--measured".into(),
+                bsdf.clone(),
+                k[0].into(),
+                k[1].into(),
+            ],
             "not TOML",
         ),
+        (with_k(&["--fit-angles", "0,2"]), "two asked angles"),
+        (with_k(&["--max-evaluations", "3"]), "too few"),
         (
-            vec![
-                &start,
-                "--measured",
-                &bsdf,
-                "--vary",
-                "media.metal.k=1:6",
-                "--fit-angles",
-                "0,2",
-            ],
-            "two asked angles",
-        ),
-        (
-            vec![
-                &start,
-                "--measured",
-                &bsdf,
-                "--vary",
-                "media.metal.k=1:6",
-                "--max-evaluations",
-                "3",
-            ],
-            "too few",
-        ),
-        (
-            vec![
-                &start,
-                "--measured",
-                &bsdf,
-                "--vary",
-                "media.metal.k=1:6",
-                "--starts",
-                "8",
-                "--max-evaluations",
-                "10",
-            ],
+            with_k(&["--starts", "8", "--max-evaluations", "10"]),
             "8 starting points",
         ),
         (
-            vec![
-                &start,
-                "--measured",
-                &bsdf,
-                "--vary",
-                "media.metal.k=1:6",
-                "--metric",
-                "gloss",
-            ],
+            with_k(&["--metric", "gloss"]),
             "expected colour or lightness",
         ),
-        (
-            vec![
-                &start,
-                "--measured",
-                &bsdf,
-                "--vary",
-                "media.metal.k=1:6",
-                "--vary",
-                "media.metal.k=2:3",
-            ],
-            "twice",
-        ),
+        (with_k(&["--vary", "media.metal.k=2:3"]), "twice"),
     ];
     for (args, why) in cases {
         let mut all = vec!["match"];
-        all.extend(args.iter().copied());
+        all.extend(args.iter().map(String::as_str));
         all.extend(["-o", &out_s]);
         let (code, stdout, err) = goniospec(&all);
         assert_eq!(code, 1, "{all:?} was taken:\n{stdout}\n{err}");
