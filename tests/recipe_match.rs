@@ -48,6 +48,33 @@ fn metal(dir: &Path, name: &str, [alpha, k]: [f64; 2]) -> PathBuf {
     p
 }
 
+/// A cheap match of the target from the start (two parameters, 1,024 trees, 5 bins)
+/// writing into `out`, with `rest` added.
+fn small_match(out: &Path, rest: &[&str]) -> Vec<String> {
+    let (bsdf, start) = target();
+    let mut v: Vec<String> = [
+        "match",
+        &start.to_string_lossy(),
+        "--measured",
+        &bsdf.to_string_lossy(),
+        "--vary",
+        "interface.0.generator.alpha=0.1:0.6",
+        "--vary",
+        "media.metal.k=1:6",
+        "--rays",
+        "1024",
+        "--wavelengths",
+        "400:700:60",
+        "-o",
+        &out.to_string_lossy(),
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    v.extend(rest.iter().map(|s| s.to_string()));
+    v
+}
+
 /// The candidates a match's summary counts as repeated or read from records.
 fn repeated(out: &str) -> usize {
     let at = out
@@ -216,32 +243,9 @@ fn a_small_match_recovers_a_known_recipe() {
 /// errors (only its record and time columns say what was resumed).
 #[test]
 fn an_interrupted_match_resumes_to_the_same_bytes() {
-    let (bsdf, start) = target();
     let d = scratch("match-resume");
     let (whole, part) = (d.join("whole"), d.join("part"));
-    let args = |out: &Path| -> Vec<String> {
-        [
-            "match",
-            &start.to_string_lossy(),
-            "--measured",
-            &bsdf.to_string_lossy(),
-            "--vary",
-            "interface.0.generator.alpha=0.1:0.6",
-            "--vary",
-            "media.metal.k=1:6",
-            "--rays",
-            "1024",
-            "--wavelengths",
-            "400:700:60",
-            "--max-evaluations",
-            "16",
-            "-o",
-            &out.to_string_lossy(),
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect()
-    };
+    let args = |out: &Path| small_match(out, &["--max-evaluations", "16"]);
     // Candidates the simplex visits twice are repeats in the whole run too.
     let repeats = repeated(&run(&refs(&args(&whole))));
     let part_args = args(&part);
@@ -405,36 +409,13 @@ fn bad_input_is_refused_before_any_simulation() {
 /// and the search reads every starting point from the shards' records.
 #[test]
 fn sharded_starting_points_give_one_process_bytes() {
-    let (bsdf, start) = target();
     let d = scratch("match-shards");
-    let args = |out: &Path, shard: Option<&str>| -> Vec<String> {
-        let mut v: Vec<String> = [
-            "match",
-            &start.to_string_lossy(),
-            "--measured",
-            &bsdf.to_string_lossy(),
-            "--vary",
-            "interface.0.generator.alpha=0.1:0.6",
-            "--vary",
-            "media.metal.k=1:6",
-            "--rays",
-            "1024",
-            "--wavelengths",
-            "400:700:60",
-            "--starts",
-            "4",
-            "--max-evaluations",
-            "14",
-            "-o",
-            &out.to_string_lossy(),
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
+    let args = |out: &Path, shard: Option<&str>| {
+        let mut rest = vec!["--starts", "4", "--max-evaluations", "14"];
         if let Some(s) = shard {
-            v.extend(["--shard".to_string(), s.to_string()]);
+            rest.extend(["--shard", s]);
         }
-        v
+        small_match(out, &rest)
     };
     let (one, sharded) = (d.join("one"), d.join("sharded"));
     let repeats = repeated(&run(&refs(&args(&one, None))));

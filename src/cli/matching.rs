@@ -113,15 +113,7 @@ pub(super) fn run_match(a: MatchArgs) -> Result<ExitCode> {
         );
     }
     let final_rays = a.final_rays.unwrap_or(4 * a.rays);
-    for input in [&a.template, &a.measured] {
-        if goniospec::output::same_file(&a.output, input) {
-            bail!("--output {} is an input of the match", a.output.display());
-        }
-    }
-    let mut names = recipe::output_names();
-    names.push("compare".into());
-    names.push("candidates".into());
-    goniospec::output::guard_folder(&a.output, &names, a.force)?;
+    guard(&a)?;
     let template = Template::read(&a.template, &vary)?;
     let measured = Material::read(&a.measured)?;
     let (fit, held) = fitted_angles(&a, &measured)?;
@@ -138,6 +130,10 @@ pub(super) fn run_match(a: MatchArgs) -> Result<ExitCode> {
         ..Default::default()
     };
     let config = settings(fit.clone(), a.rays).resolve()?;
+    // The report's simulation is checked now, not after the search.
+    settings(fit.clone(), final_rays)
+        .resolve()
+        .context("--final-rays")?;
     let measured_key = goniospec::io::fnv1a(&std::fs::read(&a.measured)?);
     std::fs::create_dir_all(&a.output)
         .with_context(|| format!("creating {}", a.output.display()))?;
@@ -240,6 +236,21 @@ pub(super) fn run_match(a: MatchArgs) -> Result<ExitCode> {
     )?;
     outln!("matched in {:.1} s", t0.elapsed().as_secs_f64());
     Ok(ExitCode::SUCCESS)
+}
+
+/// Refuses an output folder that is an input, or holds files of the names match writes
+/// that goniospec did not write (unless --force).
+fn guard(a: &MatchArgs) -> Result<()> {
+    for input in [&a.template, &a.measured] {
+        if goniospec::output::same_file(&a.output, input) {
+            bail!("--output {} is an input of the match", a.output.display());
+        }
+    }
+    let mut names = recipe::output_names();
+    names.push("compare".into());
+    names.push("candidates".into());
+    goniospec::output::guard_folder(&a.output, &names, a.force)?;
+    Ok(())
 }
 
 /// The measurement's fitted and held-out angles, degrees; refused where it is not a
