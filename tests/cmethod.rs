@@ -31,6 +31,7 @@ fn relief(period: f64, amp: f64, shape: fn(f64) -> f64, n: C64, samples: usize) 
             .collect(),
         eps_above: 1.0,
         eps_below: n * n,
+        planes: Vec::new(),
     }
 }
 

@@ -74,6 +74,7 @@ pub fn time_profile(period: f64, amp: f64, m: usize, runs: usize) -> Result<(f64
             .collect(),
         eps_above: 1.0,
         eps_below: C64::new(-40.0, 15.0),
+        planes: Vec::new(),
     };
     let d = DVec3::new(30f64.to_radians().sin(), 0.0, -(30f64.to_radians().cos()));
     let mut times = Vec::with_capacity(runs);

@@ -216,7 +216,7 @@ fn rigorous_summary(
     let sliced = cells.iter().map(|c| c.1.slices).max().unwrap_or(0);
     let curvilinear = cells.iter().filter(|c| c.1.slices == 0).count();
     let how = match (sliced, curvilinear) {
-        (0, _) => "the C-method on the bare relief (unsliced)".to_string(),
+        (0, _) => "the C-method on the relief (unsliced)".to_string(),
         (k, 0) => format!("{k} slices per structured region"),
         (k, c) => format!("{k} slices per structured region, the C-method (unsliced) in {c} cells"),
     };

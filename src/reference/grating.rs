@@ -204,35 +204,70 @@ fn medium_at(col: &Column, above: usize, z: f64) -> usize {
     m
 }
 
-/// The tile's one interface as a relief `z = a(x)` for the C-method: `samples` heights (nm)
-/// over one period `period_nm` along x, at `x_i = (i + ½) Λ / samples`, where every column
-/// crosses exactly one uncoated interface and the structure does not change along y
-/// (`None` elsewhere: several interfaces, coatings, overhangs, a crossed pattern).
-pub fn relief(sample: &Sample, period_nm: f64, samples: usize) -> Option<Vec<f64>> {
+/// The tile's relief for the C-method: one interface `z = a(x)` whose heights (nm) are
+/// `heights`, at `x_i = (i + ½) Λ / samples` over one period `period_nm` along x, under
+/// `planes`: flat interfaces every column crosses at one height with the same media, all
+/// above the relief's highest point, top first as `(z nm, medium below)` (a lacquer's
+/// top). The last plane's medium below (or the medium above the tile) covers the relief.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Relief {
+    pub heights: Vec<f64>,
+    pub planes: Vec<(f64, usize)>,
+}
+
+/// The tile as a [`Relief`], where every column crosses the flat planes and exactly one
+/// uncoated interface below them, and the structure does not change along y (`None`
+/// elsewhere: several reliefs, coatings, overhangs, a flat plane below the relief, a crossed
+/// pattern).
+pub fn relief(sample: &Sample, period_nm: f64, samples: usize) -> Option<Relief> {
     let periods = (sample.tile_nm[0] / period_nm).round();
     if periods < 1.0 || (periods * period_nm - sample.tile_nm[0]).abs() > 1e-6 * period_nm {
         return None;
     }
-    let (cols, _) = columns(sample, [samples * periods as usize, 1]).ok()?;
-    let heights: Vec<f64> = cols
-        .iter()
-        .take(samples)
-        .map(|c| {
-            let mut c = c.clone();
-            // A column through a shared edge meets both triangles, at one height.
-            c.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-9 && a.1 == b.1);
-            (c.len() == 1).then(|| c[0].0)
-        })
-        .collect::<Option<_>>()?;
-    // The same relief along y: a second row, across the tile, sees the same heights.
-    let (cross, _) = columns(sample, [samples * periods as usize, 2]).ok()?;
     let row = samples * periods as usize;
+    let dedup = |c: &Column| {
+        let mut c = c.clone();
+        // A column through a shared edge meets both triangles, at one height.
+        c.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-9 && a.1 == b.1);
+        c
+    };
+    let (cols, _) = columns(sample, [row, 1]).ok()?;
+    let cols: Vec<Column> = cols.iter().map(dedup).collect();
+    // The flat planes: crossings of the first column that every column has, at one height
+    // to 1e-6 nm, into the same medium.
+    let flat = |c: &(f64, usize)| {
+        cols.iter()
+            .all(|o| o.iter().any(|x| (x.0 - c.0).abs() < 1e-6 && x.1 == c.1))
+    };
+    let planes: Vec<(f64, usize)> = cols.first()?.iter().copied().filter(flat).collect();
+    let lowest = planes.last().map_or(f64::INFINITY, |p| p.0);
+    // Each column: the planes, then one crossing below them all, the same medium below.
+    let rest = |c: &Column| -> Option<(f64, usize)> {
+        let left: Vec<&(f64, usize)> = c
+            .iter()
+            .filter(|x| {
+                !planes
+                    .iter()
+                    .any(|p| (x.0 - p.0).abs() < 1e-6 && x.1 == p.1)
+            })
+            .collect();
+        (left.len() == 1 && c.len() == planes.len() + 1 && left[0].0 < lowest - 1e-6)
+            .then(|| *left[0])
+    };
+    let crossings: Vec<(f64, usize)> =
+        cols.iter().take(samples).map(rest).collect::<Option<_>>()?;
+    if crossings.iter().any(|c| c.1 != crossings[0].1) {
+        return None;
+    }
+    let heights: Vec<f64> = crossings.iter().map(|c| c.0).collect();
+    // The same relief along y: a second row, across the tile, sees the same heights.
+    let (cross, _) = columns(sample, [row, 2]).ok()?;
     let same = (0..samples).all(|i| {
         [&cross[i], &cross[row + i]]
             .iter()
-            .all(|c| c.first().is_some_and(|c| (c.0 - heights[i]).abs() < 1e-6))
+            .all(|c| rest(&dedup(c)).is_some_and(|c| (c.0 - heights[i]).abs() < 1e-6))
     });
-    same.then_some(heights)
+    same.then_some(Relief { heights, planes })
 }
 
 /// Slices `sample`'s tile (see the module's documentation).

@@ -125,10 +125,11 @@ pub struct Rigorous {
     /// lamellae, pillars): the slices' count does not matter, and the check compares the
     /// harmonics alone.
     pub exact_in_height: bool,
-    /// The tile's one bare interface as a relief over one period along x
-    /// ([`grating::relief`], [`Effort::RELIEF_SAMPLES`] heights), where it is one: solved by
-    /// the C-method instead of the staircase in the classical mount.
-    pub relief: Option<Vec<f64>>,
+    /// The tile's one uncoated interface as a relief over one period along x, under its
+    /// flat planes ([`grating::relief`], [`Effort::RELIEF_SAMPLES`] heights), where it is
+    /// one: solved by the C-method joined to the planes instead of the staircase in the
+    /// classical mount.
+    pub relief: Option<grating::Relief>,
 }
 
 /// One cell's answer: the solution, the harmonics and slices it took, and its difference
@@ -300,19 +301,17 @@ impl Rigorous {
             }
         }
         let coarse_m = m.map(|k| (2 * k).div_ceil(3).min(k.saturating_sub(1)));
-        // Rayleigh's anomaly: solved a hair longer (the fine and the check alike).
-        let lossless: Vec<f64> = [above, idx[self.fine.below]]
-            .iter()
-            .filter(|n| n.im == 0.0)
-            .map(|n| n.re)
-            .collect();
+        // Rayleigh's anomaly: solved a hair longer (the fine and the check alike). An order
+        // grazing in any lossless medium (a half-space, a flat layer, a relief's cover)
+        // makes its up- and down-going waves one.
+        let lossless: Vec<f64> = idx.iter().filter(|n| n.im == 0.0).map(|n| n.re).collect();
         let rayleigh_nm = [m, coarse_m]
             .iter()
             .any(|&h| grazing(above.re, &lossless, d, lambda_nm, h, self.fine.period_nm))
             .then_some(lambda_nm * (1.0 + RAYLEIGH_SHIFT));
         let lambda_nm = rayleigh_nm.unwrap_or(lambda_nm);
-        // A bare relief lit across its grooves: the C-method, which needs no staircase
-        // (TM on metals converges fast there: docs/physics.md).
+        // A relief, bare or under flat planes, lit across its grooves: the C-method, which
+        // needs no staircase (TM on metals converges fast there: docs/physics.md).
         // Where it does not converge (a relief with jumps or sharp corners, whose slope's
         // Fourier series converges slowly), the staircase serves; over a lossless medium
         // also where the truncated C-method leaves R + T off 1 by more than the run accepts
@@ -321,13 +320,21 @@ impl Rigorous {
         let curvilinear = self
             .relief
             .as_ref()
-            .filter(|h| d.y == 0.0 && h.len() > 4 * m[0] + 2)
+            .filter(|h| d.y == 0.0 && h.heights.len() > 4 * m[0] + 2)
             .and_then(|h| {
                 let p = rcwa::Profile {
                     period_nm: self.fine.period_nm[0],
-                    heights_nm: h.clone(),
+                    heights_nm: h.heights.clone(),
                     eps_above: (above * above).re,
                     eps_below: idx[self.fine.below] * idx[self.fine.below],
+                    planes: h
+                        .planes
+                        .iter()
+                        .map(|&(z_nm, m)| rcwa::Plane {
+                            z_nm,
+                            eps_below: idx[m] * idx[m],
+                        })
+                        .collect(),
                 };
                 let fine = rcwa::solve_profile(&p, lambda_nm, d, m[0]).ok()?;
                 // Unsliced, the check has only the harmonics to differ in: fewer, always.

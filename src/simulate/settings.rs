@@ -65,8 +65,8 @@ pub struct SimSettings {
     /// slightly rough surfaces); trees launch on a lattice, R and T stay the rays', and
     /// the power its transform kept is reported (docs/physics.md, "Diffraction"; where
     /// each holds: docs/validity.md). rigorous: no rays; the Fourier modal method (RCWA)
-    /// solves Maxwell's equations on the periodic tile, sliced along z (a bare smooth 1-D
-    /// relief: the C-method, unsliced), for each cell,
+    /// solves Maxwell's equations on the periodic tile, sliced along z (a smooth 1-D
+    /// relief, bare or under flat layers: the C-method, unsliced), for each cell,
     /// checked for convergence against a coarser solution (--orders, --slices,
     /// --rigorous-tolerance; docs/physics.md, "The rigorous solver"); for structure near
     /// or below the wavelength, where rays and the diffraction method do not hold. bucket

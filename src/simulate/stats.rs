@@ -257,7 +257,7 @@ pub struct SimStats {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RigorousCell {
     pub harmonics: [usize; 2],
-    /// Slices per structured region (0: the C-method on a bare relief, unsliced).
+    /// Slices per structured region (0: the C-method on a relief, unsliced).
     pub slices: usize,
     pub difference: f64,
     pub seconds: f64,

@@ -29,6 +29,11 @@
 //! evanescent ones from `M`: in the medium above those with `Re(iρ) < 0` (decaying upward),
 //! below those with `Re(iρ) > 0`. Matching `F` and `G / η` harmonic by harmonic gives the
 //! reflected and transmitted amplitudes.
+//!
+//! Flat planes above the relief (a lacquer's top) are joined order by order ([`super::flat`]):
+//! the orders that reach the lowest plane are taken in closed form in the cover, evanescent
+//! ones too, and the boundary is solved for a down-going wave of each (docs/physics.md,
+//! "Reliefs under flat layers").
 
 use faer::Mat;
 use faer::linalg::solvers::Solve;
@@ -125,18 +130,19 @@ fn toeplitz(c: &[C64], n: usize) -> Mat<C64> {
 type Columns = Vec<(Vec<C64>, Vec<C64>)>;
 
 /// The closed-form mode of the plane wave of harmonic `n` (index `idx` among the `N`)
-/// travelling up (`up`) or down with `kz = beta` (real): `f_m = c_{m-n}[e^{±iβa}]`,
-/// `g_m = c_{m-n}[i(±β − α_n ȧ) e^{±iβa}]`.
+/// travelling up (`up`) or down with `kz = beta` (propagating: real; or evanescent,
+/// decaying away from the relief: `Im β > 0`): `f_m = c_{m-n}[e^{±iβa}]`, `g_m =
+/// c_{m-n}[i(±β − α_n ȧ) e^{±iβa}]`.
 fn plane_wave(
     sm: &Sampled,
     alpha: f64,
-    beta: f64,
+    beta: C64,
     up: bool,
     idx: usize,
     n: usize,
 ) -> (Vec<C64>, Vec<C64>) {
     let sb = if up { beta } else { -beta };
-    let e: Vec<C64> = sm.a.iter().map(|&a| C64::from_polar(1.0, sb * a)).collect();
+    let e: Vec<C64> = sm.a.iter().map(|&a| (I * sb * a).exp()).collect();
     let ge: Vec<C64> = e
         .iter()
         .zip(&sm.slope)
@@ -225,8 +231,132 @@ fn propagating(eps: C64, alpha: f64) -> Option<f64> {
     (eps.im == 0.0 && eps.re > alpha * alpha).then(|| (eps.re - alpha * alpha).sqrt())
 }
 
-/// Solves the relief `p` for light of `lambda_nm` along `d` (unit, `d.y = 0`, `d.z < 0`)
-/// with harmonics `-m..=m` (the incidence checked by [`super::solve_profile`]).
+/// The smallest amplitude, relative to its value at the relief's top, at which an
+/// evanescent order of the cover reaching the lowest flat plane is still coupled to it:
+/// orders decaying more over the gap are left to the numerical modes (their coupling
+/// through the plane is below it).
+const REACH: f64 = 1e-13;
+
+/// The largest `κ (a_max − a_min)` (`κ = Im β`, in units of `k0`) of an evanescent order
+/// taken in closed form: across the relief its Rayleigh mode's coefficients `c[e^{κa}]`
+/// grow as `I_n(κ A)` and its expansion is valid there (the Rayleigh hypothesis for a
+/// shallow relief: Petit & Cadilhac 1966); farther evanescent orders are the numerical
+/// modes' (Li et al. 1999).
+const CLOSED_FORM_KAPPA_DEPTH: f64 = 3.0;
+
+/// The relief's response in its cover, one matrix per polarisation (TE, TM): for unit
+/// down-going amplitude (referred to `z = 0`) of each order in `cover`, the up-going
+/// amplitudes of the same orders (`r`, rows and columns as `cover`) and the transmitted
+/// amplitudes of `below`'s orders (`t`).
+struct Response {
+    /// The orders taken in closed form in the cover: harmonic index and `β`.
+    cover: Vec<(usize, C64)>,
+    /// The orders propagating in the half-space below: harmonic index and `β`.
+    below: Vec<(usize, f64)>,
+    r: [Mat<C64>; 2],
+    t: [Mat<C64>; 2],
+}
+
+/// Solves the relief's boundary for every closed-form incident order at once. In the
+/// cover, the propagating orders, and where a flat plane lies `gap` above the relief's top
+/// (units of `1 / k0`) the evanescent orders that reach it above [`REACH`], are plane waves
+/// in closed form; the rest of both media's modes come from `M`.
+fn respond(
+    sm: &Sampled,
+    alpha: &[f64],
+    e1: f64,
+    e2: C64,
+    gap: Option<f64>,
+) -> Result<Response, RcwaError> {
+    let n = alpha.len();
+    let kmax = n - 1;
+    let (lo, hi) =
+        sm.a.iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &a| {
+                (l.min(a), h.max(a))
+            });
+    let mut cover = Vec::new();
+    for (i, &a) in alpha.iter().enumerate() {
+        if let Some(b) = propagating(C64::new(e1, 0.0), a) {
+            cover.push((i, C64::new(b, 0.0)));
+            continue;
+        }
+        let b = super::flat::beta(C64::new(e1, 0.0), a);
+        let Some(g) = gap else { continue };
+        if (-b.im * g).exp() <= REACH {
+            continue;
+        }
+        if b.im * (hi - lo) > CLOSED_FORM_KAPPA_DEPTH {
+            return Err(RcwaError::Unsupported(
+                "a flat interface lies so close above the relief that evanescent orders deeper than the relief's Rayleigh expansion holds reach it: the C-method here cannot take it",
+            ));
+        }
+        cover.push((i, b));
+    }
+    let below: Vec<(usize, f64)> = (0..n)
+        .filter_map(|i| propagating(e2, alpha[i]).map(|b| (i, b)))
+        .collect();
+    // Up-going modes above: the closed-form waves, then the evanescent modes.
+    let mut above: Columns = cover
+        .iter()
+        .map(|&(i, b)| plane_wave(sm, alpha[i], b, true, i, n))
+        .collect();
+    above.extend(evanescent(
+        sm,
+        alpha,
+        C64::new(e1, 0.0),
+        true,
+        n - cover.len(),
+        kmax,
+    )?);
+    let mut down: Columns = below
+        .iter()
+        .map(|&(i, b)| plane_wave(sm, alpha[i], C64::new(b, 0.0), false, i, n))
+        .collect();
+    down.extend(evanescent(sm, alpha, e2, false, n - below.len(), kmax)?);
+    let incident: Columns = cover
+        .iter()
+        .map(|&(i, b)| plane_wave(sm, alpha[i], b, false, i, n))
+        .collect();
+    let e1 = C64::new(e1, 0.0);
+    let k = cover.len();
+    let mut r = [Mat::zeros(k, k), Mat::zeros(k, k)];
+    let mut t = [Mat::zeros(below.len(), k), Mat::zeros(below.len(), k)];
+    for pol in 0..2 {
+        // TE: F = E_y, η = 1; TM: F = H_y, η = ε.
+        let eta = |e: C64| if pol == 1 { e } else { C64::new(1.0, 0.0) };
+        let a = Mat::from_fn(2 * n, 2 * n, |row, c| {
+            let (col, sign, e) = if c < n {
+                (&above[c], 1.0, e1)
+            } else {
+                (&down[c - n], -1.0, e2)
+            };
+            if row < n {
+                col.0[row] * sign
+            } else {
+                col.1[row - n] * sign / eta(e)
+            }
+        });
+        let rhs = Mat::from_fn(2 * n, k, |row, j| {
+            if row < n {
+                -incident[j].0[row]
+            } else {
+                -incident[j].1[row - n] / eta(e1)
+            }
+        });
+        let x = a.partial_piv_lu().solve(&rhs);
+        if !x.norm_l2().is_finite() {
+            return Err(RcwaError::Singular("the C-method's boundary system"));
+        }
+        r[pol] = Mat::from_fn(k, k, |row, j| x[(row, j)]);
+        t[pol] = Mat::from_fn(below.len(), k, |row, j| x[(n + row, j)]);
+    }
+    Ok(Response { cover, below, r, t })
+}
+
+/// Solves the relief `p` (with its flat planes above) for light of `lambda_nm` along `d`
+/// (unit, `d.y = 0`, `d.z < 0`) with harmonics `-m..=m` (the incidence checked by
+/// [`super::solve_profile`]).
 pub(super) fn solve(
     p: &Profile,
     lambda_nm: f64,
@@ -239,8 +369,7 @@ pub(super) fn solve(
         ));
     }
     let n = 2 * m + 1;
-    let kmax = 2 * m;
-    if p.heights_nm.len() <= 2 * kmax + 1 {
+    if p.heights_nm.len() <= 4 * m + 1 {
         return Err(RcwaError::Unsupported(
             "the relief has fewer samples than the harmonics need (4 m + 2)",
         ));
@@ -248,75 +377,100 @@ pub(super) fn solve(
     let k0 = 2.0 * std::f64::consts::PI / lambda_nm;
     let sm = sampled(p, k0);
     let n1 = p.eps_above.sqrt();
-    let (e1, e2) = (C64::new(p.eps_above, 0.0), p.eps_below);
+    let e_top = C64::new(p.eps_above, 0.0);
+    let planes: Vec<(f64, C64)> = p
+        .planes
+        .iter()
+        .map(|q| (k0 * q.z_nm, q.eps_below))
+        .collect();
+    let e_cover = planes.last().map_or(e_top, |q| q.1);
+    if e_cover.im != 0.0 || e_cover.re <= 0.0 {
+        return Err(RcwaError::Unsupported(
+            "the medium over the relief absorbs: the C-method here takes a lossless cover",
+        ));
+    }
+    let top = sm.a.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let gap = planes.last().map(|q| q.0 - top);
+    if gap.is_some_and(|g| g.is_nan() || g <= 0.0) {
+        return Err(RcwaError::Unsupported(
+            "a flat interface above the relief must lie above its highest point",
+        ));
+    }
     let alpha: Vec<f64> = (0..n)
         .map(|i| n1 * d.x + (i as f64 - m as f64) * lambda_nm / p.period_nm)
         .collect();
-    let beta0 = -n1 * d.z;
-    // Up-going modes above: the propagating plane waves, then the evanescent modes.
-    let prop1: Vec<(usize, f64)> = (0..n)
-        .filter_map(|i| propagating(e1, alpha[i]).map(|b| (i, b)))
+    let resp = respond(&sm, &alpha, e_cover.re, p.eps_below, gap)?;
+    // The orders leaving into the half-space above.
+    let up: Vec<(usize, f64)> = (0..n)
+        .filter_map(|i| propagating(e_top, alpha[i]).map(|b| (i, b)))
         .collect();
-    let prop2: Vec<(usize, f64)> = (0..n)
-        .filter_map(|i| propagating(e2, alpha[i]).map(|b| (i, b)))
-        .collect();
-    let mut above: Columns = prop1
-        .iter()
-        .map(|&(i, b)| plane_wave(&sm, alpha[i], b, true, i, n))
-        .collect();
-    above.extend(evanescent(&sm, &alpha, e1, true, n - prop1.len(), kmax)?);
-    let mut below: Columns = prop2
-        .iter()
-        .map(|&(i, b)| plane_wave(&sm, alpha[i], b, false, i, n))
-        .collect();
-    below.extend(evanescent(&sm, &alpha, e2, false, n - prop2.len(), kmax)?);
-    let incident = plane_wave(&sm, alpha[m], beta0, false, m, n);
-    // Each propagating order's amplitude per unit incident F, TE (F = E_y, η = 1) and TM
-    // (F = H_y, η = ε): reflected orders first, then transmitted.
-    let nprop = prop1.len() + prop2.len();
+    let k = resp.cover.len();
+    let at = |i: usize| resp.cover.iter().position(|c| c.0 == i);
     let mut amps = [
-        vec![C64::new(0.0, 0.0); nprop],
-        vec![C64::new(0.0, 0.0); nprop],
+        vec![C64::new(0.0, 0.0); up.len() + resp.below.len()],
+        vec![C64::new(0.0, 0.0); up.len() + resp.below.len()],
     ];
     for (pol, out) in amps.iter_mut().enumerate() {
-        let eta = |e: C64| if pol == 1 { e } else { C64::new(1.0, 0.0) };
-        let a = Mat::from_fn(2 * n, 2 * n, |r, c| {
-            let (col, sign, e) = if c < n {
-                (&above[c], 1.0, e1)
-            } else {
-                (&below[c - n], -1.0, e2)
-            };
-            if r < n {
-                col.0[r] * sign
-            } else {
-                col.1[r - n] * sign / eta(e)
+        let sc: Vec<_> = resp
+            .cover
+            .iter()
+            .map(|&(i, _)| super::flat::stack(e_top, &planes, alpha[i], pol == 1))
+            .collect();
+        let inc = super::flat::stack(e_top, &planes, alpha[m], pol == 1);
+        // In the cover, D = t e_m + r_back U and U = R D: (I − r_back R) D = t e_m.
+        let rr = &resp.r[pol];
+        let down = match at(m) {
+            Some(mi) => {
+                let a = Mat::from_fn(k, k, |i, j| {
+                    let id = if i == j { 1.0 } else { 0.0 };
+                    C64::new(id, 0.0) - sc[i].r_back * rr[(i, j)]
+                });
+                let b = Mat::from_fn(
+                    k,
+                    1,
+                    |i, _| if i == mi { inc.t } else { C64::new(0.0, 0.0) },
+                );
+                a.partial_piv_lu().solve(&b)
             }
-        });
-        let rhs = Mat::from_fn(2 * n, 1, |r, _| {
-            if r < n {
-                -incident.0[r]
-            } else {
-                -incident.1[r - n] / eta(e1)
-            }
-        });
-        let x = a.partial_piv_lu().solve(&rhs);
-        if !x.norm_l2().is_finite() {
-            return Err(RcwaError::Singular("the C-method's boundary system"));
+            None => Mat::zeros(k, 1),
+        };
+        let upc = rr * &down;
+        let tr = &resp.t[pol] * &down;
+        if !(upc.norm_l2().is_finite() && tr.norm_l2().is_finite()) {
+            return Err(RcwaError::Singular("the C-method's flat layers"));
         }
-        for k in 0..prop1.len() {
-            out[k] = x[(k, 0)];
+        for (slot, &(i, _)) in up.iter().enumerate() {
+            let direct = if i == m { inc.r } else { C64::new(0.0, 0.0) };
+            out[slot] = direct + at(i).map_or(C64::new(0.0, 0.0), |j| sc[j].t_back * upc[(j, 0)]);
         }
-        for k in 0..prop2.len() {
-            out[prop1.len() + k] = x[(n + k, 0)];
+        for slot in 0..resp.below.len() {
+            out[up.len() + slot] = tr[(slot, 0)];
         }
     }
+    let beta0 = -n1 * d.z;
+    let orders: Vec<(usize, f64, bool, C64)> = up
+        .iter()
+        .map(|&(i, b)| (i, b, true, e_top))
+        .chain(resp.below.iter().map(|&(i, b)| (i, b, false, p.eps_below)))
+        .collect();
+    Ok(assemble(&alpha, &orders, &amps, n1, beta0, d, m))
+}
+
+/// The solution from each leaving order's amplitudes per unit incident `F` (TE and TM):
+/// its Jones matrix in the frames of `mueller::frame`, scaled so that `|J|²` is the
+/// efficiency.
+fn assemble(
+    alpha: &[f64],
+    orders: &[(usize, f64, bool, C64)],
+    amps: &[Vec<C64>; 2],
+    n1: f64,
+    beta0: f64,
+    d: DVec3,
+    m: usize,
+) -> Solution {
     let (p_in, s_in) = frame(d);
     let mut sol = Solution::default();
-    let orders = prop1
-        .iter()
-        .map(|&(i, b)| (i, b, true, e1))
-        .chain(prop2.iter().map(|&(i, b)| (i, b, false, e2)));
-    for (slot, (i, b, up, e)) in orders.enumerate() {
+    for (slot, &(i, b, up, e)) in orders.iter().enumerate() {
         let nm = e.re.sqrt();
         let dir = DVec3::new(alpha[i], 0.0, if up { b } else { -b }) / nm;
         let (p_out, s_out) = frame(dir);
@@ -344,5 +498,5 @@ pub(super) fn solve(
         tot[1] += o.efficiency(1);
         sol.orders.push(o);
     }
-    Ok(sol)
+    sol
 }

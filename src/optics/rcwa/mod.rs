@@ -29,6 +29,8 @@
 #[cfg(feature = "rigorous")]
 mod cmethod;
 #[cfg(feature = "rigorous")]
+mod flat;
+#[cfg(feature = "rigorous")]
 pub mod fourier;
 #[cfg(feature = "rigorous")]
 mod modal;
@@ -171,8 +173,9 @@ pub fn solve(s: &Structure, lambda_nm: f64, d: DVec3, h: Harmonics) -> Result<So
     }
 }
 
-/// A 1-D relief `z = a(x)` (nm) between two half-spaces, sampled at `x_i = i Λ / S`
-/// (`heights_nm[i]`), for the C-method ([`solve_profile`]).
+/// A 1-D relief `z = a(x)` (nm), sampled at `x_i = i Λ / S` (`heights_nm[i]`), over the
+/// half-space below and under the half-space above or flat layers, for the C-method
+/// ([`solve_profile`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Profile {
     pub period_nm: f64,
@@ -180,11 +183,24 @@ pub struct Profile {
     /// The half-space above (lossless) and below.
     pub eps_above: f64,
     pub eps_below: C64,
+    /// Flat interfaces above the relief, top first (a lacquer over an embossed metal): the
+    /// last one's medium below is the relief's cover, which must be lossless. Empty: the
+    /// relief lies under the half-space above.
+    pub planes: Vec<Plane>,
+}
+
+/// A flat interface over a relief: its height (nm, in the relief's heights' frame, above
+/// the relief's highest point) and the permittivity of the medium below it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plane {
+    pub z_nm: f64,
+    pub eps_below: C64,
 }
 
 /// Solves the smooth relief `p` by the C-method (curvilinear coordinates: no staircase, so
-/// TM on metals converges fast) for light of `lambda_nm` along `d` (unit, in the plane
-/// across the grooves: `d.y = 0`, `d.z < 0`) with harmonics `-m..=m`.
+/// TM on metals converges fast), joined to its flat layers above order by order, for light
+/// of `lambda_nm` along `d` (unit, in the plane across the grooves: `d.y = 0`, `d.z < 0`)
+/// with harmonics `-m..=m`.
 pub fn solve_profile(
     p: &Profile,
     lambda_nm: f64,
