@@ -47,54 +47,6 @@ fn foil(n_above: f64, n_layer: f64, n_below: C64) -> Profile {
     }
 }
 
-/// Solves `a x = b` by Gaussian elimination with partial pivoting (`a` row-major, n x n).
-fn gauss(mut a: Vec<C64>, mut b: Vec<C64>) -> Vec<C64> {
-    let n = b.len();
-    for c in 0..n {
-        let p = (c..n)
-            .max_by(|&i, &j| a[i * n + c].norm().total_cmp(&a[j * n + c].norm()))
-            .unwrap();
-        if p != c {
-            for k in 0..n {
-                a.swap(p * n + k, c * n + k);
-            }
-            b.swap(p, c);
-        }
-        let piv = a[c * n + c];
-        for r in c + 1..n {
-            let f = a[r * n + c] / piv;
-            if f == C64::new(0.0, 0.0) {
-                continue;
-            }
-            for k in c..n {
-                let v = a[c * n + k];
-                a[r * n + k] -= f * v;
-            }
-            let v = b[c];
-            b[r] -= f * v;
-        }
-    }
-    let mut x = vec![C64::new(0.0, 0.0); n];
-    for r in (0..n).rev() {
-        let mut s = b[r];
-        for k in r + 1..n {
-            s -= a[r * n + k] * x[k];
-        }
-        x[r] = s / a[r * n + r];
-    }
-    x
-}
-
-/// `kz / k0` on the branch with `Im ≥ 0`.
-fn kz(eps: C64, alpha: f64) -> C64 {
-    let b = (eps - alpha * alpha).sqrt();
-    if b.im < 0.0 || (b.im == 0.0 && b.re < 0.0) {
-        -b
-    } else {
-        b
-    }
-}
-
 /// The Rayleigh-Fourier reference: reflected efficiencies by order `(m, eta)` and total
 /// R and T (T meaningful over a lossless substrate) for TE (`tm = false`) or TM, orders
 /// `-n..=n`. Unknowns: reflected `r_m` (referred to the top plane), the lacquer's
@@ -125,9 +77,9 @@ fn rayleigh(
         .map(|&m| a0 + m as f64 * lambda / PERIOD)
         .collect();
     let (ba, bl, bb): (Vec<C64>, Vec<C64>, Vec<C64>) = (
-        alpha.iter().map(|&a| kz(ea, a)).collect(),
-        alpha.iter().map(|&a| kz(el, a)).collect(),
-        alpha.iter().map(|&a| kz(eb, a)).collect(),
+        alpha.iter().map(|&a| common::kz(ea, a)).collect(),
+        alpha.iter().map(|&a| common::kz(el, a)).collect(),
+        alpha.iter().map(|&a| common::kz(eb, a)).collect(),
     );
     let s = 2048;
     let xs: Vec<f64> = (0..s).map(|j| PERIOD * j as f64 / s as f64).collect();
@@ -195,7 +147,7 @@ fn rayleigh(
             }
         }
     }
-    let x = gauss(a, b);
+    let x = common::gauss(a, b);
     let b0 = ba[centre].re;
     let mut eff = Vec::new();
     let (mut r, mut t) = (0.0, 0.0);

@@ -127,8 +127,7 @@ pub struct Rigorous {
     pub exact_in_height: bool,
     /// The tile's one uncoated interface as a relief over one period along x, under its
     /// flat planes ([`grating::relief`], [`Effort::RELIEF_SAMPLES`] heights), where it is
-    /// one: solved by the C-method joined to the planes instead of the staircase in the
-    /// classical mount.
+    /// one: solved by the C-method joined to the planes instead of the staircase.
     pub relief: Option<grating::Relief>,
 }
 
@@ -310,8 +309,8 @@ impl Rigorous {
             .any(|&h| grazing(above.re, &lossless, d, lambda_nm, h, self.fine.period_nm))
             .then_some(lambda_nm * (1.0 + RAYLEIGH_SHIFT));
         let lambda_nm = rayleigh_nm.unwrap_or(lambda_nm);
-        // A relief, bare or under flat planes, lit across its grooves: the C-method, which
-        // needs no staircase (TM on metals converges fast there: docs/physics.md).
+        // A relief, bare or under flat planes, from any azimuth: the C-method, which needs
+        // no staircase (TM on metals converges fast there: docs/physics.md).
         // Where it does not converge (a relief with jumps or sharp corners, whose slope's
         // Fourier series converges slowly), the staircase serves; over a lossless medium
         // also where the truncated C-method leaves R + T off 1 by more than the run accepts
@@ -320,7 +319,7 @@ impl Rigorous {
         let curvilinear = self
             .relief
             .as_ref()
-            .filter(|h| d.y == 0.0 && h.heights.len() > 4 * m[0] + 2)
+            .filter(|h| h.heights.len() > 4 * m[0] + 2)
             .and_then(|h| {
                 let p = rcwa::Profile {
                     period_nm: self.fine.period_nm[0],

@@ -284,3 +284,52 @@ pub fn sinusoid(
         ),
     )
 }
+
+/// Solves `a x = b` by Gaussian elimination with partial pivoting (`a` row-major, n x n).
+pub fn gauss(mut a: Vec<C>, mut b: Vec<C>) -> Vec<C> {
+    let n = b.len();
+    for c in 0..n {
+        let p = (c..n)
+            .max_by(|&i, &j| a[i * n + c].norm().total_cmp(&a[j * n + c].norm()))
+            .unwrap();
+        if p != c {
+            for k in 0..n {
+                a.swap(p * n + k, c * n + k);
+            }
+            b.swap(p, c);
+        }
+        let piv = a[c * n + c];
+        for r in c + 1..n {
+            let f = a[r * n + c] / piv;
+            if f == C::new(0.0, 0.0) {
+                continue;
+            }
+            for k in c..n {
+                let v = a[c * n + k];
+                a[r * n + k] -= f * v;
+            }
+            let v = b[c];
+            b[r] -= f * v;
+        }
+    }
+    let mut x = vec![C::new(0.0, 0.0); n];
+    for r in (0..n).rev() {
+        let mut s = b[r];
+        for k in r + 1..n {
+            s -= a[r * n + k] * x[k];
+        }
+        x[r] = s / a[r * n + r];
+    }
+    x
+}
+
+/// `kz / k0 = sqrt(eps − kt²)` on the branch with `Im ≥ 0` (a down-going or downward-decaying
+/// wave's, as `e^{−i kz z}`; the up-going one's as `e^{i kz z}`).
+pub fn kz(eps: C, alpha: f64) -> C {
+    let b = (eps - alpha * alpha).sqrt();
+    if b.im < 0.0 || (b.im == 0.0 && b.re < 0.0) {
+        -b
+    } else {
+        b
+    }
+}

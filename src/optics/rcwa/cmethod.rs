@@ -1,6 +1,7 @@
 //! The C-method (Chandezon's curvilinear coordinates) for a smooth 1-D relief `z = a(x)`
 //! between two half-spaces in the classical mount (docs/physics.md, "The rigorous solver",
-//! "Smooth bare reliefs: the C-method").
+//! "Smooth bare reliefs: the C-method"); light off the plane across the grooves takes
+//! `conical.rs`.
 //!
 //! A staircase of a smooth metal profile puts a right-angled metal corner at every step,
 //! whose field singularities the Fourier modal method resolves only as `1 / M` in TM. In
@@ -46,9 +47,9 @@ const I: C64 = C64::new(0.0, 1.0);
 
 /// The profile's samples and their functions, and the Fourier coefficients the method
 /// takes, `c[n + kmax]` for `n` in `-kmax..=kmax`.
-struct Sampled {
+pub(super) struct Sampled {
     /// `k0 a(x_i)` at `x_i = i Λ / S`.
-    a: Vec<f64>,
+    pub(super) a: Vec<f64>,
     /// `da/dx` at the same points (spectral derivative of the samples).
     slope: Vec<f64>,
 }
@@ -93,7 +94,7 @@ fn coefficients_at(g: &[C64]) -> Vec<C64> {
         .collect()
 }
 
-fn sampled(p: &Profile, k0: f64) -> Sampled {
+pub(super) fn sampled(p: &Profile, k0: f64) -> Sampled {
     let s = p.heights_nm.len();
     let h: Vec<C64> = p.heights_nm.iter().map(|&z| C64::new(z, 0.0)).collect();
     // The derivative of the samples' trigonometric interpolant (no Nyquist term).
@@ -127,13 +128,13 @@ fn toeplitz(c: &[C64], n: usize) -> Mat<C64> {
 }
 
 /// A set of modes at `u = 0`: columns `[f; g]`.
-type Columns = Vec<(Vec<C64>, Vec<C64>)>;
+pub(super) type Columns = Vec<(Vec<C64>, Vec<C64>)>;
 
 /// The closed-form mode of the plane wave of harmonic `n` (index `idx` among the `N`)
 /// travelling up (`up`) or down with `kz = beta` (propagating: real; or evanescent,
 /// decaying away from the relief: `Im β > 0`): `f_m = c_{m-n}[e^{±iβa}]`, `g_m =
 /// c_{m-n}[i(±β − α_n ȧ) e^{±iβa}]`.
-fn plane_wave(
+pub(super) fn plane_wave(
     sm: &Sampled,
     alpha: f64,
     beta: C64,
@@ -158,7 +159,7 @@ fn plane_wave(
 
 /// The medium's evanescent modes that decay away from the interface (`up`: into `u > 0`),
 /// from the eigenvectors of `M`, `count` of them.
-fn evanescent(
+pub(super) fn evanescent(
     sm: &Sampled,
     alpha: &[f64],
     eps: C64,
@@ -227,7 +228,7 @@ fn evanescent(
 }
 
 /// `kz / k0` of harmonic `alpha` in `eps` where it propagates.
-fn propagating(eps: C64, alpha: f64) -> Option<f64> {
+pub(super) fn propagating(eps: C64, alpha: f64) -> Option<f64> {
     (eps.im == 0.0 && eps.re > alpha * alpha).then(|| (eps.re - alpha * alpha).sqrt())
 }
 
@@ -243,6 +244,42 @@ const REACH: f64 = 1e-13;
 /// shallow relief: Petit & Cadilhac 1966); farther evanescent orders are the numerical
 /// modes' (Li et al. 1999).
 const CLOSED_FORM_KAPPA_DEPTH: f64 = 3.0;
+
+/// The orders of a cover of (real) `k² = e1` taken in closed form: those propagating, and
+/// where a flat plane lies `gap` above the relief's top (units of `1 / k0`) the evanescent
+/// ones reaching it above [`REACH`] (refused past [`CLOSED_FORM_KAPPA_DEPTH`]), as
+/// harmonic index and `β`.
+pub(super) fn closed_form(
+    sm: &Sampled,
+    alpha: &[f64],
+    e1: f64,
+    gap: Option<f64>,
+) -> Result<Vec<(usize, C64)>, RcwaError> {
+    let (lo, hi) =
+        sm.a.iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &a| {
+                (l.min(a), h.max(a))
+            });
+    let mut cover = Vec::new();
+    for (i, &a) in alpha.iter().enumerate() {
+        if let Some(b) = propagating(C64::new(e1, 0.0), a) {
+            cover.push((i, C64::new(b, 0.0)));
+            continue;
+        }
+        let b = super::flat::beta(C64::new(e1, 0.0), a);
+        let Some(g) = gap else { continue };
+        if (-b.im * g).exp() <= REACH {
+            continue;
+        }
+        if b.im * (hi - lo) > CLOSED_FORM_KAPPA_DEPTH {
+            return Err(RcwaError::Unsupported(
+                "a flat interface lies so close above the relief that evanescent orders deeper than the relief's Rayleigh expansion holds reach it: the C-method here cannot take it",
+            ));
+        }
+        cover.push((i, b));
+    }
+    Ok(cover)
+}
 
 /// The relief's response in its cover, one matrix per polarisation (TE, TM): for unit
 /// down-going amplitude (referred to `z = 0`) of each order in `cover`, the up-going
@@ -270,29 +307,7 @@ fn respond(
 ) -> Result<Response, RcwaError> {
     let n = alpha.len();
     let kmax = n - 1;
-    let (lo, hi) =
-        sm.a.iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &a| {
-                (l.min(a), h.max(a))
-            });
-    let mut cover = Vec::new();
-    for (i, &a) in alpha.iter().enumerate() {
-        if let Some(b) = propagating(C64::new(e1, 0.0), a) {
-            cover.push((i, C64::new(b, 0.0)));
-            continue;
-        }
-        let b = super::flat::beta(C64::new(e1, 0.0), a);
-        let Some(g) = gap else { continue };
-        if (-b.im * g).exp() <= REACH {
-            continue;
-        }
-        if b.im * (hi - lo) > CLOSED_FORM_KAPPA_DEPTH {
-            return Err(RcwaError::Unsupported(
-                "a flat interface lies so close above the relief that evanescent orders deeper than the relief's Rayleigh expansion holds reach it: the C-method here cannot take it",
-            ));
-        }
-        cover.push((i, b));
-    }
+    let cover = closed_form(sm, alpha, e1, gap)?;
     let below: Vec<(usize, f64)> = (0..n)
         .filter_map(|i| propagating(e2, alpha[i]).map(|b| (i, b)))
         .collect();
@@ -354,36 +369,19 @@ fn respond(
     Ok(Response { cover, below, r, t })
 }
 
-/// Solves the relief `p` (with its flat planes above) for light of `lambda_nm` along `d`
-/// (unit, `d.y = 0`, `d.z < 0`) with harmonics `-m..=m` (the incidence checked by
-/// [`super::solve_profile`]).
-pub(super) fn solve(
-    p: &Profile,
-    lambda_nm: f64,
-    d: DVec3,
-    m: usize,
-) -> Result<Solution, RcwaError> {
-    if d.y != 0.0 {
-        return Err(RcwaError::Unsupported(
-            "the C-method here takes the classical mount only (light in the plane across the grooves)",
-        ));
-    }
-    let n = 2 * m + 1;
-    if p.heights_nm.len() <= 4 * m + 1 {
-        return Err(RcwaError::Unsupported(
-            "the relief has fewer samples than the harmonics need (4 m + 2)",
-        ));
-    }
-    let k0 = 2.0 * std::f64::consts::PI / lambda_nm;
-    let sm = sampled(p, k0);
-    let n1 = p.eps_above.sqrt();
-    let e_top = C64::new(p.eps_above, 0.0);
+/// The flat planes, the cover's permittivity and the gap: [`cover`].
+pub(super) type Cover = (Vec<(f64, C64)>, C64, Option<f64>);
+
+/// The relief's flat planes in units of `1 / k0` (`(z, ε below)`, top first), the cover's
+/// permittivity (which must be lossless) and the gap from the relief's top to the lowest
+/// plane (units of `1 / k0`; `None` without planes).
+pub(super) fn cover(p: &Profile, k0: f64, sm: &Sampled) -> Result<Cover, RcwaError> {
     let planes: Vec<(f64, C64)> = p
         .planes
         .iter()
         .map(|q| (k0 * q.z_nm, q.eps_below))
         .collect();
-    let e_cover = planes.last().map_or(e_top, |q| q.1);
+    let e_cover = planes.last().map_or(C64::new(p.eps_above, 0.0), |q| q.1);
     if e_cover.im != 0.0 || e_cover.re <= 0.0 {
         return Err(RcwaError::Unsupported(
             "the medium over the relief absorbs: the C-method here takes a lossless cover",
@@ -396,9 +394,71 @@ pub(super) fn solve(
             "a flat interface above the relief must lie above its highest point",
         ));
     }
-    let alpha: Vec<f64> = (0..n)
-        .map(|i| n1 * d.x + (i as f64 - m as f64) * lambda_nm / p.period_nm)
-        .collect();
+    Ok((planes, e_cover, gap))
+}
+
+/// What both mounts start from: the sampled relief, the index above, the flat planes, the
+/// cover and its gap ([`cover`]), and the harmonics' `k_x` (`α_n = n_1 d_x + n λ / Λ`).
+pub(super) struct Setup {
+    pub(super) sm: Sampled,
+    pub(super) n1: f64,
+    pub(super) e_top: C64,
+    pub(super) planes: Vec<(f64, C64)>,
+    pub(super) e_cover: C64,
+    pub(super) gap: Option<f64>,
+    pub(super) alpha: Vec<f64>,
+}
+
+impl Setup {
+    pub(super) fn new(p: &Profile, lambda_nm: f64, d: DVec3, m: usize) -> Result<Setup, RcwaError> {
+        if p.heights_nm.len() <= 4 * m + 1 {
+            return Err(RcwaError::Unsupported(
+                "the relief has fewer samples than the harmonics need (4 m + 2)",
+            ));
+        }
+        let k0 = 2.0 * std::f64::consts::PI / lambda_nm;
+        let sm = sampled(p, k0);
+        let n1 = p.eps_above.sqrt();
+        let (planes, e_cover, gap) = cover(p, k0, &sm)?;
+        let alpha = (0..2 * m + 1)
+            .map(|i| n1 * d.x + (i as f64 - m as f64) * lambda_nm / p.period_nm)
+            .collect();
+        Ok(Setup {
+            sm,
+            n1,
+            e_top: C64::new(p.eps_above, 0.0),
+            planes,
+            e_cover,
+            gap,
+            alpha,
+        })
+    }
+}
+
+/// Solves the relief `p` (with its flat planes above) for light of `lambda_nm` along `d`
+/// (unit, `d.y = 0`, `d.z < 0`) with harmonics `-m..=m` (the incidence checked by
+/// [`super::solve_profile`]).
+pub(super) fn solve(
+    p: &Profile,
+    lambda_nm: f64,
+    d: DVec3,
+    m: usize,
+) -> Result<Solution, RcwaError> {
+    if d.y != 0.0 {
+        return Err(RcwaError::Unsupported(
+            "the classical C-method takes light in the plane across the grooves (conical.rs takes the rest)",
+        ));
+    }
+    let Setup {
+        sm,
+        n1,
+        e_top,
+        planes,
+        e_cover,
+        gap,
+        alpha,
+    } = Setup::new(p, lambda_nm, d, m)?;
+    let n = alpha.len();
     let resp = respond(&sm, &alpha, e_cover.re, p.eps_below, gap)?;
     // The orders leaving into the half-space above.
     let up: Vec<(usize, f64)> = (0..n)
@@ -414,9 +474,9 @@ pub(super) fn solve(
         let sc: Vec<_> = resp
             .cover
             .iter()
-            .map(|&(i, _)| super::flat::stack(e_top, &planes, alpha[i], pol == 1))
+            .map(|&(i, _)| super::flat::stack(e_top, &planes, alpha[i], 0.0, pol == 1))
             .collect();
-        let inc = super::flat::stack(e_top, &planes, alpha[m], pol == 1);
+        let inc = super::flat::stack(e_top, &planes, alpha[m], 0.0, pol == 1);
         // In the cover, D = t e_m + r_back U and U = R D: (I − r_back R) D = t e_m.
         let rr = &resp.r[pol];
         let down = match at(m) {

@@ -87,12 +87,22 @@ pub(super) fn beta(eps: C64, alpha: f64) -> C64 {
     }
 }
 
-/// The stack's scattering for harmonic `alpha` in polarisation `tm`: the half-space above
+/// The stack's scattering for harmonic `(alpha, gamma)` (`k_x`, `k_y` in units of `k0`) in
+/// polarisation `tm` (s: E along `ŝ = ẑ × k_t`, amplitude E; p: H along it, amplitude H,
+/// so that at `gamma = 0` they are TE's `E_y` and TM's `H_y`): the half-space above
 /// (`eps_above`), then `planes` top first (`(z, ε below)`, heights in units of `1 / k0`),
-/// the last plane's medium below it being the cover, down to `z = 0` in the cover.
-pub(super) fn stack(eps_above: C64, planes: &[(f64, C64)], alpha: f64, tm: bool) -> Scalar {
+/// the last plane's medium below it being the cover, down to `z = 0` in the cover. A flat
+/// plane keeps s and p apart in any mount; `β = sqrt(ε − α² − γ²)`.
+pub(super) fn stack(
+    eps_above: C64,
+    planes: &[(f64, C64)],
+    alpha: f64,
+    gamma: f64,
+    tm: bool,
+) -> Scalar {
+    let g2 = gamma * gamma;
     let q = |eps: C64| {
-        let b = beta(eps, alpha);
+        let b = beta(eps - g2, alpha);
         if tm { b / eps } else { b }
     };
     let mut s = Scalar::IDENTITY;
@@ -101,7 +111,7 @@ pub(super) fn stack(eps_above: C64, planes: &[(f64, C64)], alpha: f64, tm: bool)
         s = s.star(Scalar::plane(q(above), q(eps)));
         // Down to the next plane, or to z = 0 in the cover.
         let next = planes.get(k + 1).map_or(0.0, |p| p.0);
-        s = s.star(Scalar::layer(beta(eps, alpha), z - next));
+        s = s.star(Scalar::layer(beta(eps - g2, alpha), z - next));
         above = eps;
     }
     s
@@ -121,14 +131,14 @@ mod tests {
         let rs = (n1 * c1 - n2 * c2) / (n1 * c1 + n2 * c2);
         let rp_h = (n2 * c1 - n1 * c2) / (n2 * c1 + n1 * c2); // H_y's reflection
         let eps2 = C64::new(n2 * n2, 0.0);
-        let te = stack(C64::new(1.0, 0.0), &[(0.0, eps2)], s1, false);
-        let tm = stack(C64::new(1.0, 0.0), &[(0.0, eps2)], s1, true);
+        let te = stack(C64::new(1.0, 0.0), &[(0.0, eps2)], s1, 0.0, false);
+        let tm = stack(C64::new(1.0, 0.0), &[(0.0, eps2)], s1, 0.0, true);
         assert!((te.r - rs).norm() < 1e-14, "{} {rs}", te.r);
         assert!((tm.r - rp_h).norm() < 1e-14, "{} {rp_h}", tm.r);
         // A 2-unit glass slab on glass of index 2: R + T = 1 with T's flux factor.
         let eps3 = C64::new(4.0, 0.0);
         for tm in [false, true] {
-            let one = stack(C64::new(1.0, 0.0), &[(3.0, eps2), (1.0, eps3)], s1, tm);
+            let one = stack(C64::new(1.0, 0.0), &[(3.0, eps2), (1.0, eps3)], s1, 0.0, tm);
             let (b1, b3) = (beta(C64::new(1.0, 0.0), s1), beta(eps3, s1));
             let flux = if tm {
                 (b3 / eps3).re / b1.re

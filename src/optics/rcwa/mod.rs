@@ -29,6 +29,8 @@
 #[cfg(feature = "rigorous")]
 mod cmethod;
 #[cfg(feature = "rigorous")]
+mod conical;
+#[cfg(feature = "rigorous")]
 mod flat;
 #[cfg(feature = "rigorous")]
 pub mod fourier;
@@ -199,8 +201,8 @@ pub struct Plane {
 
 /// Solves the smooth relief `p` by the C-method (curvilinear coordinates: no staircase, so
 /// TM on metals converges fast), joined to its flat layers above order by order, for light
-/// of `lambda_nm` along `d` (unit, in the plane across the grooves: `d.y = 0`, `d.z < 0`)
-/// with harmonics `-m..=m`.
+/// of `lambda_nm` along `d` (unit, `d.z < 0`; in the plane across the grooves, `d.y = 0`, or
+/// from any other azimuth: conical incidence) with harmonics `-m..=m`.
 pub fn solve_profile(
     p: &Profile,
     lambda_nm: f64,
@@ -209,7 +211,11 @@ pub fn solve_profile(
 ) -> Result<Solution, RcwaError> {
     check_incidence(p.eps_above, d)?;
     #[cfg(feature = "rigorous")]
-    return cmethod::solve(p, lambda_nm, d, m);
+    return if d.y == 0.0 {
+        cmethod::solve(p, lambda_nm, d, m)
+    } else {
+        conical::solve(p, lambda_nm, d, m)
+    };
     #[cfg(not(feature = "rigorous"))]
     {
         let _ = (p, lambda_nm, d, m);
