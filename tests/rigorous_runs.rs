@@ -144,6 +144,51 @@ fn rigorous_refusals_say_what_to_change() {
     cfg.rigorous.slices = 0;
     let e = simulate(&s, &cfg, &|_| {}).unwrap_err();
     assert!(matches!(e, SimError::Setting { key: "slices", .. }), "{e}");
+    let mut cfg = rigorous(&[0.0], "500:600:100");
+    cfg.rigorous_budget_s = -1.0;
+    let e = simulate(&s, &cfg, &|_| {}).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            SimError::Setting {
+                key: "rigorous_budget",
+                ..
+            }
+        ),
+        "{e}"
+    );
+}
+
+/// Issue 70, "cost known before work": a run whose rigorous cells are estimated past
+/// `--rigorous-budget` is refused before any cell is solved, with the estimate and what to
+/// change (a progress callback that would count a solved cell is never called); within the
+/// budget every solved cell records its estimate, positive and finite, beside its time.
+#[test]
+fn a_run_estimated_past_its_budget_is_refused_before_work() {
+    let s = sinusoid("rig-budget", 1000.0, 100.0, (1.5, 0.0), 256, 1);
+    let mut cfg = rigorous(&[0.0, 30.0], "500:600:50");
+    cfg.rigorous_budget_s = 1e-6;
+    let called = std::sync::atomic::AtomicBool::new(false);
+    let e = simulate(&s, &cfg, &|_| {
+        called.store(true, std::sync::atomic::Ordering::Relaxed);
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("4 cells are estimated to take")
+            && e.contains("--rigorous-budget")
+            && e.contains("a cell"),
+        "{e}"
+    );
+    assert!(!called.load(std::sync::atomic::Ordering::Relaxed));
+    cfg.rigorous_budget_s = 1800.0;
+    let (_, stats) = simulate(&s, &cfg, &|_| {}).unwrap();
+    assert!(
+        stats
+            .rigorous
+            .iter()
+            .all(|c| c.is_some_and(|c| c.estimate_s > 0.0 && c.estimate_s.is_finite()))
+    );
 }
 
 /// The shipped samples of structure near the wavelength under the default `--coherence

@@ -213,6 +213,7 @@ fn rigorous_summary(
         .map(|c| c.1.harmonics)
         .fold([0, 0], |a, h| [a[0].max(h[0]), a[1].max(h[1])]);
     let secs: f64 = cells.iter().map(|c| c.1.seconds).sum();
+    let estimate: f64 = cells.iter().map(|c| c.1.estimate_s).sum();
     let sliced = cells.iter().map(|c| c.1.slices).max().unwrap_or(0);
     let curvilinear = cells.iter().filter(|c| c.1.slices == 0).count();
     let how = match (sliced, curvilinear) {
@@ -230,13 +231,14 @@ fn rigorous_summary(
         String::new()
     };
     eprintln!(
-        "rigorous solver: {} cells, harmonics up to {:?} per axis, {how}; converged: largest difference from the coarser check {:.1e} (tolerance {tolerance:.0e}) at theta_i {} deg, {} nm; {:.3} s per cell{anomaly}",
+        "rigorous solver: {} cells, harmonics up to {:?} per axis, {how}; converged: largest difference from the coarser check {:.1e} (tolerance {tolerance:.0e}) at theta_i {} deg, {} nm; {:.3} s per cell (estimated {:.3} s before the run){anomaly}",
         cells.len(),
         most,
         w.difference,
         s.theta_i_deg[worst / nl],
         s.wavelength(worst % nl),
-        secs / cells.len() as f64
+        secs / cells.len() as f64,
+        estimate / cells.len() as f64
     );
 }
 

@@ -38,6 +38,9 @@ impl Effort {
     /// where it falls as 1/M, TM on metals), and 5e-3 is ten times below the diffraction
     /// method's R error near 3 wavelengths (docs/validity.md).
     pub const TOLERANCE: f64 = 5e-3;
+    /// The default budget, s of wall time, for a run's rigorous cells as estimated before
+    /// any is solved ([`Rigorous::cell_cost_s`]): half an hour.
+    pub const BUDGET_S: f64 = 1800.0;
     /// Pixels along a patterned axis of a 1-D and of a 2-D structure (divisible by 1 to
     /// 6, 8, 9, 10, 12, 15 and 16, so that a tile of that many periods reduces to one).
     pub const PIXELS_1D: usize = 720;
@@ -146,6 +149,24 @@ pub struct Converged {
     pub rayleigh_nm: Option<f64>,
 }
 
+/// Seconds per unit of an eigenproblem's size cubed, one thread, for
+/// [`Rigorous::cell_cost_s`]: from `goniospec bench rigorous` (AMD EPYC, 2026-12-07): the
+/// C-method's cell at 41 harmonics 0.0335 s (41³ and its check's 29³), the 1-D staircase's
+/// at 41 harmonics and 24 + 12 slices 0.132 s (41³ per slab, and 29³ for the check's), the
+/// crossed one at 11 x 11 harmonics and 24 + 12 slices 2.80 s (242³ modes per slab, 162³
+/// for the check's).
+pub struct CellCost {
+    pub c_method: f64,
+    pub staircase_1d: f64,
+    pub staircase_2n: f64,
+}
+
+pub const CELL_COST: CellCost = CellCost {
+    c_method: 3.6e-7,
+    staircase_1d: 6.8e-8,
+    staircase_2n: 7.2e-9,
+};
+
 /// The relative lengthening of the wavelength at which a cell is solved where one of its
 /// orders leaves exactly at grazing (Rayleigh's anomaly: its propagation constant is zero
 /// and the half-space's modes are dependent). The efficiencies are continuous there with
@@ -246,6 +267,37 @@ impl Rigorous {
                 (2.0 * n_max * s.period_nm[a] / lambda_nm).ceil() as usize + margin
             }
         })
+    }
+
+    /// The estimated wall time of one cell on one thread, s: light of `lambda_nm` along `d`,
+    /// the media indices `idx` there. The eigenproblems dominate and grow as the cube of
+    /// their size, once per structured slab (flat ones are exact and nearly free), for the
+    /// run's harmonics and slices and again for the check's; the constants are one thread
+    /// of `goniospec bench rigorous` on the development machine ([`CELL_COST`]). A relief
+    /// the C-method takes is counted as the C-method (it falls back to the staircase where
+    /// it does not converge, which costs more).
+    pub fn cell_cost_s(&self, idx: &[C64], lambda_nm: f64, d: DVec3) -> f64 {
+        let n_max = idx.iter().map(|n| n.re.abs()).fold(1.0, f64::max);
+        let m = self.harmonics(lambda_nm, n_max);
+        let coarse = m.map(|k| (2 * k).div_ceil(3).min(k.saturating_sub(1)));
+        let count = |m: [usize; 2]| ((2 * m[0] + 1) * (2 * m[1] + 1)) as f64;
+        let (n, nc) = (count(m), count(coarse));
+        if self.relief.is_some() && self.fine.patterned == [true, false] {
+            return CELL_COST.c_method * (n.powi(3) + nc.powi(3));
+        }
+        let structured = |s: &Sliced| {
+            s.layers
+                .iter()
+                .filter(|l| matches!(l.1, grating::SlabIds::Grid { .. }))
+                .count() as f64
+        };
+        let (sf, sc) = (structured(&self.fine), structured(&self.coarse));
+        if self.fine.patterned == [true, false] && d.y == 0.0 {
+            // The classical mount: two N x N problems a slab (TE and TM apart).
+            CELL_COST.staircase_1d * (sf * n.powi(3) + sc * nc.powi(3))
+        } else {
+            CELL_COST.staircase_2n * (sf * (2.0 * n).powi(3) + sc * (2.0 * nc).powi(3))
+        }
     }
 
     /// The modes per slice (twice the harmonics) a cell at `lambda_nm` takes: its cost.

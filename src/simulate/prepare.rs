@@ -231,6 +231,9 @@ pub(super) fn method_choice(
             notes: Vec::new(),
         },
     };
+    if let Some(solver) = &choice.solver {
+        super::rigorous_fit::check_budget(sample, cfg, solver, &choice.rigorous)?;
+    }
     Ok((choice, direction_notes))
 }
 

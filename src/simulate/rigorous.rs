@@ -81,7 +81,7 @@ impl Run<'_> {
                 );
             }
         };
-        type Solved = Option<(Converged, Pattern, Pattern, f64)>;
+        type Solved = Option<(Converged, Pattern, Pattern, f64, f64)>;
         let solved: Vec<Result<Solved, RigorousError>> = (0..nl)
             .into_par_iter()
             .map(|j| -> Result<Solved, RigorousError> {
@@ -92,6 +92,7 @@ impl Run<'_> {
                 let lambda = self.settings.wavelength(j);
                 let mut idx = Vec::new();
                 self.sample.indices_into(lambda, &mut idx);
+                let estimate = solver.cell_cost_s(&idx, lambda, d);
                 let c = solver.solve(&idx, lambda, d, theta_deg);
                 done();
                 let c = c?;
@@ -114,7 +115,7 @@ impl Run<'_> {
                 } else {
                     Pattern::default()
                 };
-                Ok(Some((c, up, down, start.elapsed().as_secs_f64())))
+                Ok(Some((c, up, down, start.elapsed().as_secs_f64(), estimate)))
             })
             .collect();
         let mut figures = self.rigorous_cells.lock().expect("not poisoned");
@@ -140,7 +141,7 @@ impl Run<'_> {
                     continue;
                 }
             };
-            if let Some((c, up, down, seconds)) = s {
+            if let Some((c, up, down, seconds, estimate_s)) = s {
                 written.push(di * nl + j);
                 write_cell(&mut cells[di * nl + j], &c, &up, &down)?;
                 figures[di * nl + j] = Some(super::RigorousCell {
@@ -148,6 +149,7 @@ impl Run<'_> {
                     slices: c.slices,
                     difference: c.difference,
                     seconds,
+                    estimate_s,
                     rayleigh: c.rayleigh_nm.is_some(),
                 });
             }

@@ -3,7 +3,8 @@
 //! an auto run spends on one cell ([`AUTO_MAX_MODES`]); the sliced sample is built once, on
 //! the first cell that asks.
 
-use super::SimConfig;
+use super::{SimConfig, SimError};
+use crate::reference::rigorous::Effort;
 use crate::reference::rigorous::Rigorous;
 use crate::sample::Sample;
 
@@ -13,6 +14,10 @@ use crate::sample::Sample;
 /// cube). An explicit
 /// `--coherence rigorous` may go to `reference::rigorous::Effort::MAX_MODES`.
 pub const AUTO_MAX_MODES: usize = 300;
+
+/// The most harmonics per axis `--orders` may ask for, and the most slices.
+pub const MAX_ORDERS: usize = 300;
+pub const MAX_SLICES: usize = 2000;
 
 /// Why the rigorous solver cannot take `sample` under `cfg` at all (`None` where it can):
 /// what `--coherence rigorous` refuses (`prepare`) and what keeps auto's cells from it.
@@ -105,4 +110,78 @@ impl<'a> RigorousFit<'a> {
     pub fn into_solver(self) -> Option<Rigorous> {
         self.solver.and_then(Result::ok)
     }
+}
+
+/// Refuses effort no run can spend, and what the rigorous solver cannot take.
+pub(super) fn validate_effort(cfg: &SimConfig) -> Result<(), SimError> {
+    let e: Effort = cfg.rigorous;
+    let bad = |key, message: String| Err(SimError::Setting { key, message });
+    if e.orders.is_some_and(|m| m > MAX_ORDERS) {
+        return bad(
+            "orders",
+            format!(
+                "at most {MAX_ORDERS} harmonics per axis (got {:?})",
+                e.orders
+            ),
+        );
+    }
+    if e.slices == 0 || e.slices > MAX_SLICES {
+        return bad(
+            "slices",
+            format!("from 1 to {MAX_SLICES} slices (got {})", e.slices),
+        );
+    }
+    if !(e.tolerance > 0.0 && e.tolerance < 1.0) {
+        return bad(
+            "rigorous_tolerance",
+            format!("a difference in (0, 1) (got {})", e.tolerance),
+        );
+    }
+    if !(cfg.rigorous_budget_s > 0.0 && cfg.rigorous_budget_s.is_finite()) {
+        return bad(
+            "rigorous_budget",
+            format!(
+                "a positive number of seconds (got {})",
+                cfg.rigorous_budget_s
+            ),
+        );
+    }
+    Ok(())
+}
+
+/// The wall time, s, the rigorous cells `cells` (direction-major, as `Choice::rigorous`)
+/// are estimated to take on the run's threads ([`Rigorous::cell_cost_s`]), and the most
+/// one cell takes; refused past `--rigorous-budget` with the estimate, before any work.
+pub fn check_budget(
+    sample: &Sample,
+    cfg: &SimConfig,
+    solver: &Rigorous,
+    cells: &[bool],
+) -> Result<(f64, f64), SimError> {
+    let nl = cfg.wavelengths.count();
+    let centres = cfg.wavelengths.centres();
+    let mut idx = Vec::new();
+    let (mut total, mut most, mut count) = (0.0f64, 0.0f64, 0usize);
+    for (j, &lambda) in centres.iter().enumerate() {
+        sample.indices_into(lambda, &mut idx);
+        for (di, &theta) in cfg.theta_i_deg.iter().enumerate() {
+            if !cells[di * nl + j] {
+                continue;
+            }
+            let wi = crate::geom::from_spherical(theta.to_radians(), cfg.phi_of(di).to_radians());
+            let c = solver.cell_cost_s(&idx, lambda, -wi);
+            total += c;
+            most = most.max(c);
+            count += 1;
+        }
+    }
+    let threads = rayon::current_num_threads().max(1) as f64;
+    let wall = total / threads.min(count.max(1) as f64);
+    if wall > cfg.rigorous_budget_s {
+        return Err(SimError::Config(format!(
+            "the rigorous solver's {count} cells are estimated to take {wall:.0} s on {threads} threads (up to {most:.2} s a cell, from their harmonics and slices), past --rigorous-budget {} s: give fewer angles or wavelengths (or shard the run with batch), lower --orders or --slices where the check allows, or raise --rigorous-budget",
+            cfg.rigorous_budget_s
+        )));
+    }
+    Ok((wall, most))
 }

@@ -172,6 +172,12 @@ pub struct SimSettings {
     /// naming what to raise.
     #[arg(long, value_parser = finite, default_value_t = Effort::TOLERANCE)]
     pub rigorous_tolerance: f64,
+    /// The most wall time, s, the rigorous solver's cells may be estimated to take (from
+    /// their harmonics and slices, before any is solved); a run estimated past it is
+    /// refused with the estimate. Not a result: never in the output's header.
+    #[arg(long, value_name = "SECONDS", value_parser = finite, default_value_t = Effort::BUDGET_S)]
+    #[serde(skip, default = "rigorous_budget")]
+    pub rigorous_budget: f64,
     /// Debugging only: write results that are physically impossible (R > 1, negative
     /// power, energy created) instead of refusing them with exit status 1. The run still
     /// prints what failed.
@@ -206,6 +212,7 @@ impl Default for SimSettings {
             orders: None,
             slices: Effort::SLICES,
             rigorous_tolerance: Effort::TOLERANCE,
+            rigorous_budget: Effort::BUDGET_S,
             allow_unphysical: false,
         }
     }
@@ -263,6 +270,7 @@ impl SimSettings {
                 slices: self.slices,
                 tolerance: self.rigorous_tolerance,
             },
+            rigorous_budget_s: self.rigorous_budget,
             allow_unphysical: self.allow_unphysical,
             tolerance: self.tolerance,
             target_stderr: self.target_stderr,
@@ -320,6 +328,8 @@ pub struct SimConfig {
     pub mueller: bool,
     /// What the rigorous solver spends, and the convergence it must reach.
     pub rigorous: Effort,
+    /// The most wall time, s, the rigorous cells may be estimated to take.
+    pub rigorous_budget_s: f64,
     /// Use the reference estimator (`accumulate::Estimator::reference`): the same physics,
     /// slower; for tests.
     pub reference_estimator: bool,
@@ -407,6 +417,7 @@ impl SimConfig {
             next_event: true,
             mueller: false,
             rigorous: Effort::default(),
+            rigorous_budget_s: Effort::BUDGET_S,
             reference_estimator: false,
             origin_nm: DVec3::ZERO,
             tolerance: None,
@@ -569,7 +580,7 @@ pub fn validate(cfg: &SimConfig) -> Result<(), SimError> {
     }
     validate_mueller(cfg)?;
     validate_budget(cfg)?;
-    validate_effort(cfg)?;
+    super::rigorous_fit::validate_effort(cfg)?;
     if !(cfg.limits.cutoff >= 0.0 && cfg.limits.cutoff < 1.0) {
         return bad(
             "cutoff",
@@ -660,34 +671,6 @@ const MAX_ACCUMULATOR_BYTES: u64 = 8 << 30;
 /// The most trees per incident direction any run may ask for.
 pub const MAX_RAYS: u64 = 1_000_000_000_000;
 
-/// The most harmonics per axis `--orders` may ask for, and the most slices.
-pub const MAX_ORDERS: usize = 300;
-pub const MAX_SLICES: usize = 2000;
-
-/// Refuses effort no run can spend, and what the rigorous solver cannot take.
-fn validate_effort(cfg: &SimConfig) -> Result<(), SimError> {
-    let e: Effort = cfg.rigorous;
-    let bad = |key, message: String| Err(SimError::Setting { key, message });
-    if e.orders.is_some_and(|m| m > MAX_ORDERS) {
-        return bad(
-            "orders",
-            format!(
-                "at most {MAX_ORDERS} harmonics per axis (got {:?})",
-                e.orders
-            ),
-        );
-    }
-    if e.slices == 0 || e.slices > MAX_SLICES {
-        return bad(
-            "slices",
-            format!("from 1 to {MAX_SLICES} slices (got {})", e.slices),
-        );
-    }
-    if !(e.tolerance > 0.0 && e.tolerance < 1.0) {
-        return bad(
-            "rigorous_tolerance",
-            format!("a difference in (0, 1) (got {})", e.tolerance),
-        );
-    }
-    Ok(())
+fn rigorous_budget() -> f64 {
+    Effort::BUDGET_S
 }

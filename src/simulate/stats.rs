@@ -253,7 +253,8 @@ pub struct SimStats {
 }
 
 /// What the rigorous solver did in one cell: the harmonics per axis, the slices, its
-/// difference from the coarser check (`reference::rigorous`) and its wall time, s.
+/// difference from the coarser check (`reference::rigorous`), its wall time and its
+/// estimate, s.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RigorousCell {
     pub harmonics: [usize; 2],
@@ -261,6 +262,9 @@ pub struct RigorousCell {
     pub slices: usize,
     pub difference: f64,
     pub seconds: f64,
+    /// The time the cell was estimated to take before it was solved
+    /// (`reference::rigorous::Rigorous::cell_cost_s`), s.
+    pub estimate_s: f64,
     /// An order left exactly at grazing: the cell was solved at a wavelength
     /// `reference::rigorous::RAYLEIGH_SHIFT` longer.
     pub rayleigh: bool,
