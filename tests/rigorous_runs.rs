@@ -495,3 +495,36 @@ fn progress_counts_the_rigorous_cells() {
     assert_eq!(calls.load(Ordering::Relaxed), 4, "one report per cell");
     assert_eq!(most.load(Ordering::Relaxed), 4);
 }
+
+/// Under auto, a direction whose every cell the choice gives the rigorous solver is solved
+/// before any tree and, every cell converging, traces none (the rays an auto run traces are
+/// the fallback of a cell that does not converge): a glass sinusoid of period 400 nm (below
+/// a wavelength) at 0 and 30 deg records one tree and no segment per direction, and its
+/// cells hold the bytes of the explicit `--coherence rigorous` run's cells.
+#[test]
+fn an_auto_direction_the_solver_takes_whole_traces_nothing() {
+    let s = sinusoid("rig-whole", 400.0, 40.0, (1.5, 0.0), 256, 1);
+    let auto = SimConfig {
+        coherence: Coherence::Auto,
+        ..config(
+            &[0.0, 30.0],
+            Wavelengths::parse("500:600:50", false).unwrap(),
+            256,
+        )
+    };
+    let (a, stats) = simulate(&s, &auto, &|_| {}).unwrap();
+    for (di, d) in stats.directions.iter().enumerate() {
+        assert_eq!((d.rays, d.segments), (1, 0), "direction {di}");
+        for j in 0..2 {
+            assert_eq!(a.header.settings.cell_mode(di, j), Coherence::Rigorous);
+        }
+    }
+    let (r, _) = simulate(&s, &rigorous(&[0.0, 30.0], "500:600:50"), &|_| {}).unwrap();
+    for k in 0..4 {
+        let (x, y) = (a.cell(k / 2, k % 2), r.cell(k / 2, k % 2));
+        assert!(
+            x.sum == y.sum && x.r_sum == y.r_sum && x.t_sum == y.t_sum,
+            "cell {k}: auto and rigorous differ"
+        );
+    }
+}

@@ -172,6 +172,7 @@ fn run_once(
             c.leaks.load(Ordering::Relaxed),
             run.scene.scatter_violations(),
         );
+        let mut whole = false;
         let traced = if cfg.fail_direction == Some(di) {
             Err(SimError::Unphysical(format!(
                 "direction {di} failed as the test asked (SimConfig::fail_direction)"
@@ -180,6 +181,16 @@ fn run_once(
             // Nothing to trace: the cells' one solution each (`rigorous`).
             run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &[], progress)
                 .map(|_| DirectionStats::untraced(cfg.theta_i_deg[di]))
+        } else if let Some(w) =
+            match run.solved_whole(di, cfg.theta_i_deg[di], &mut cells, progress) {
+                Ok(true) => Some(Ok(())),
+                Ok(false) => None,
+                Err(e) => Some(Err(e)),
+            }
+        {
+            // Auto: every cell the solver's and converged, nothing traced.
+            whole = w.is_ok();
+            w.map(|()| DirectionStats::untraced(cfg.theta_i_deg[di]))
         } else {
             run.direction(di, cfg.theta_i_deg[di], &mut cells, sums.lost(), progress)
                 .and_then(|d| {
@@ -205,7 +216,7 @@ fn run_once(
         };
         let failed = match traced {
             Ok(mut d) => {
-                run.direction_traced(di, d.rays);
+                run.direction_traced(di, if whole { 0 } else { d.rays });
                 d.segments = c.segments.load(Ordering::Relaxed) - before.0;
                 d.leaks = c.leaks.load(Ordering::Relaxed) - before.1;
                 d.envelope_violations = run.scene.scatter_violations() - before.2;

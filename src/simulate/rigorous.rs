@@ -26,7 +26,8 @@ impl Run<'_> {
     }
 
     /// Whether direction `di` traces no tree: `--coherence rigorous`. (An auto run traces
-    /// its rigorous cells' rays too, which a cell the solver cannot converge keeps.)
+    /// its rigorous cells' rays too, which a cell the solver cannot converge keeps, unless
+    /// every cell of the direction is the solver's and converges: [`Self::solved_whole`].)
     pub(super) fn rigorous_only(&self, di: usize) -> bool {
         self.cfg.coherence == crate::accumulate::Coherence::Rigorous
             && (0..self.nl).all(|j| self.cell_takes_rigorous(di, j))
@@ -58,19 +59,66 @@ impl Run<'_> {
                     && solver.modes_at(self.sample, self.settings.wavelength(j))
                         <= super::rigorous_fit::AUTO_MAX_MODES)
         };
-        let wi = from_spherical(theta_deg.to_radians(), self.cfg.phi_of(di).to_radians());
-        let d = -wi;
         let nl = self.nl;
         // Progress counts cells (no tree is traced): the cells that fell back to the
         // solver join the plan's count, and each cell done reports.
-        let plan = self.cfg.progress_plan.as_deref();
-        if let Some(p) = plan {
+        if let Some(p) = self.cfg.progress_plan.as_deref() {
             p.more_cells(
                 (0..nl)
                     .filter(|&j| takes(j) && !self.cell_takes_rigorous(di, j))
                     .count() as u64,
             );
         }
+        let solved = self.solve_cells(solver, di, theta_deg, &takes, progress);
+        self.write_solved(di, cells, solved, explicit)
+    }
+
+    /// Under auto, a direction whose every cell the choice gave the solver is solved before
+    /// any tree is traced (the rays an auto run traces are the fallback of a cell that does
+    /// not converge): where every cell converges it is written and nothing is traced
+    /// (`Ok(true)`); where one does not, nothing is written, and the direction is traced
+    /// and solved as before (its cells solved again, which the progress plan counts).
+    pub(super) fn solved_whole(
+        &self,
+        di: usize,
+        theta_deg: f64,
+        cells: &mut [Cell],
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<bool, SimError> {
+        let Some(solver) = &self.rigorous else {
+            return Ok(false);
+        };
+        if self.cfg.coherence != crate::accumulate::Coherence::Auto
+            || !(0..self.nl).all(|j| self.cell_takes_rigorous(di, j))
+        {
+            return Ok(false);
+        }
+        let solved = self.solve_cells(solver, di, theta_deg, &|_| true, progress);
+        if solved.iter().any(Result::is_err) {
+            if let Some(p) = self.cfg.progress_plan.as_deref() {
+                p.more_cells(self.nl as u64);
+            }
+            return Ok(false);
+        }
+        self.write_solved(di, cells, solved, false)?;
+        Ok(true)
+    }
+
+    /// Solves the cells of direction `di` that `takes` names (in parallel over wavelengths;
+    /// each cell on its own, so the bytes do not depend on the thread count), reporting
+    /// each to the progress plan; writes nothing.
+    fn solve_cells(
+        &self,
+        solver: &crate::reference::rigorous::Rigorous,
+        di: usize,
+        theta_deg: f64,
+        takes: &(dyn Fn(usize) -> bool + Sync),
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Vec<Result<Solved, RigorousError>> {
+        let wi = from_spherical(theta_deg.to_radians(), self.cfg.phi_of(di).to_radians());
+        let d = -wi;
+        let nl = self.nl;
+        let plan = self.cfg.progress_plan.as_deref();
         let done = || {
             if let Some(p) = plan {
                 p.cell_done();
@@ -81,8 +129,7 @@ impl Run<'_> {
                 );
             }
         };
-        type Solved = Option<(Converged, Pattern, Pattern, f64, f64)>;
-        let solved: Vec<Result<Solved, RigorousError>> = (0..nl)
+        (0..nl)
             .into_par_iter()
             .map(|j| -> Result<Solved, RigorousError> {
                 if !takes(j) {
@@ -117,7 +164,20 @@ impl Run<'_> {
                 };
                 Ok(Some((c, up, down, start.elapsed().as_secs_f64(), estimate)))
             })
-            .collect();
+            .collect()
+    }
+
+    /// Writes the solved cells of direction `di` into `cells` and keeps their figures; a
+    /// cell the solver could not answer refuses an explicit run, and an auto run keeps
+    /// that cell's method and says why. Returns the cells written.
+    fn write_solved(
+        &self,
+        di: usize,
+        cells: &mut [Cell],
+        solved: Vec<Result<Solved, RigorousError>>,
+        explicit: bool,
+    ) -> Result<Vec<usize>, SimError> {
+        let nl = self.nl;
         let mut figures = self.rigorous_cells.lock().expect("not poisoned");
         let mut written = Vec::new();
         for (j, s) in solved.into_iter().enumerate() {
@@ -157,6 +217,9 @@ impl Run<'_> {
         Ok(written)
     }
 }
+
+/// One cell's solution, its spread orders up and down, its time and its estimate, s.
+type Solved = Option<(Converged, Pattern, Pattern, f64, f64)>;
 
 /// How far above 1 a rigorous solution's `R + T` may be from rounding alone. The solver's
 /// eigen-solution and S-matrix products lose digits in the evanescent orders: lossless
