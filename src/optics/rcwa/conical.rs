@@ -21,8 +21,10 @@
 //!
 //! and `E_y`, `h_y`, `E_t / i` and `h_t / i` are matched harmonic by harmonic: `4N`
 //! equations for the `N` modes of each field in each medium. The two fields couple through
-//! `γα / κ²`, which differs between the media (Plumey, Chandezon & Granet 1995, Opt.
-//! Commun. 114, 45; Li, Chandezon, Granet & Plumey 1999, Appl. Opt. 38, 304); at `γ = 0`
+//! `γα / κ²`, which differs between the media (the coordinate transformation method in
+//! conical incidence: Granet, "Coordinate Transformation Methods", ch. 8 of Popov (ed.),
+//! "Gratings: Theory and Numeric Applications", Presses universitaires de Provence 2012; the
+//! first-order form of Li, Chandezon, Granet & Plumey 1999, Appl. Opt. 38, 304); at `γ = 0`
 //! the system splits into the classical TE (`E_y`, `G_e`) and TM (`h_y`, `G_h / ε`).
 //!
 //! Flat planes above the relief do not couple orders, but do couple `E_y` and `h_y`; they
