@@ -197,9 +197,11 @@ fn a_run_estimated_past_its_budget_is_refused_before_work() {
 /// slices and 40 harmonics within the default tolerance, and R + T + A = 1. The aluminised
 /// foil (a sinusoid under a flat lacquer) takes the C-method joined to its lacquer, unsliced
 /// (its R against an independent reference: `tests/lacquered_relief.rs`). The optical
-/// disc's aluminium trapezoid, whose slopes jump, takes the staircase, whose TM converges
-/// too slowly for the default effort there (a difference of 3.1e-2 from the check): the
-/// cell keeps the rays' result and the run stores a warning that says so.
+/// disc's aluminium trapezoid, whose slopes jump, takes the C-method in the stretched
+/// coordinate of adaptive spatial resolution, unsliced, at 120 harmonics or more
+/// (`tests/cmethod_corners.rs`). Held to 20 harmonics (`--orders 20`) it does not converge
+/// (neither does the staircase's TM there: 3.1e-2 from its check): the cell keeps the
+/// rays' result and the run stores a warning that says so.
 #[test]
 fn shipped_rigorous_samples_take_the_solver_or_say_why_not() {
     let auto = SimConfig {
@@ -228,7 +230,13 @@ fn shipped_rigorous_samples_take_the_solver_or_say_why_not() {
     let (foil, stats) = simulate(&shipped("holographic-foil.toml"), &auto, &|_| {}).unwrap();
     assert_eq!(foil.header.settings.cell_mode(0, 0), Coherence::Rigorous);
     assert!(stats.rigorous[0].is_some_and(|c| c.slices == 0));
-    let disc = run(&shipped("optical-disc-track.toml"), &auto);
+    let (disc, stats) = simulate(&shipped("optical-disc-track.toml"), &auto, &|_| {}).unwrap();
+    assert_eq!(disc.header.settings.cell_mode(0, 0), Coherence::Rigorous);
+    let cell = stats.rigorous[0].expect("the disc's cell is solved");
+    assert!(cell.slices == 0 && cell.harmonics[0] >= 120, "{cell:?}");
+    let mut held = auto.clone();
+    held.rigorous.orders = Some(20);
+    let disc = run(&shipped("optical-disc-track.toml"), &held);
     assert_eq!(disc.header.settings.cell_mode(0, 0), Coherence::Beamlet);
     assert!(
         disc.header
@@ -500,7 +508,9 @@ fn progress_counts_the_rigorous_cells() {
 /// before any tree and, every cell converging, traces none (the rays an auto run traces are
 /// the fallback of a cell that does not converge): a glass sinusoid of period 400 nm (below
 /// a wavelength) at 0 and 30 deg records one tree and no segment per direction, and its
-/// cells hold the bytes of the explicit `--coherence rigorous` run's cells.
+/// cells hold the bytes of the explicit `--coherence rigorous` run's cells. At 4,096 trees,
+/// where a traced run keeps 16 replicate groups, the run that traced nothing keeps none
+/// and its file reads back (a header with more groups than trees is refused on reading).
 #[test]
 fn an_auto_direction_the_solver_takes_whole_traces_nothing() {
     let s = sinusoid("rig-whole", 400.0, 40.0, (1.5, 0.0), 256, 1);
@@ -527,4 +537,14 @@ fn an_auto_direction_the_solver_takes_whole_traces_nothing() {
             "cell {k}: auto and rigorous differ"
         );
     }
+    let many = SimConfig {
+        rays: 4096,
+        ..auto.clone()
+    };
+    let (a, _) = simulate(&s, &many, &|_| {}).unwrap();
+    assert_eq!((a.header.rays, a.header.error_groups), (1, 0));
+    let f = common::scratch("rig-whole-file").join("a.gsa");
+    a.write(&f).unwrap();
+    let back = goniospec::accumulate::file::Accumulator::read(&f).unwrap();
+    assert_eq!(back.cells, a.cells);
 }

@@ -53,6 +53,14 @@ impl Effort {
     /// Heights per period of a relief the C-method takes (more than `4 m + 2` for `m`
     /// harmonics; else the staircase serves).
     pub const RELIEF_SAMPLES: usize = 1024;
+    /// The harmonics the C-method starts from on a relief with sharp corners (adaptive
+    /// spatial resolution: `optics::rcwa::has_corners`), where the run does not fix them:
+    /// an aluminised trapezoid of 1.6 um pitch (the optical disc) reaches the check's 5e-3
+    /// between 80 and 120 harmonics over 400-700 nm and 0-60 deg.
+    pub const CORNER_HARMONICS: usize = 120;
+    /// The most harmonics the C-method rises to on such a relief (by half again each time
+    /// a cell's check fails, the last answer becoming the check).
+    pub const CORNER_MAX_HARMONICS: usize = 180;
 }
 
 impl Default for Effort {
@@ -102,9 +110,12 @@ pub enum RigorousError {
     )]
     TooFewSlices(usize),
     #[error(
-        "the rigorous solver did not converge at theta_i {theta_deg} deg and {lambda_nm} nm: {harmonics:?} harmonics and {slices} slices differ from {coarse:?} and {coarse_slices} by {difference:.2e} in R, T or an order's efficiency (tolerance {tolerance:.1e}); raise --orders or --slices"
+        "the rigorous solver did not converge at theta_i {theta_deg} deg and {lambda_nm} nm: {harmonics:?} harmonics and {slices} slices differ from {coarse:?} and {coarse_slices} by {difference:.2e} in R, T or an order's efficiency (tolerance {tolerance:.1e}){curvilinear}; raise --orders or --slices"
     )]
     NotConverged {
+        /// Where the C-method took the relief first and did not converge: what it gave
+        /// (a clause of the message; empty otherwise).
+        curvilinear: String,
         theta_deg: f64,
         lambda_nm: f64,
         harmonics: [usize; 2],
@@ -132,6 +143,9 @@ pub struct Rigorous {
     /// flat planes ([`grating::relief`], [`Effort::RELIEF_SAMPLES`] heights), where it is
     /// one: solved by the C-method joined to the planes instead of the staircase.
     pub relief: Option<grating::Relief>,
+    /// The relief has sharp corners: the C-method takes [`Effort::CORNER_HARMONICS`] and
+    /// more ([`Rigorous::curvilinear_harmonics`]).
+    pub corners: bool,
 }
 
 /// One cell's answer: the solution, the harmonics and slices it took, and its difference
@@ -149,20 +163,29 @@ pub struct Converged {
     pub rayleigh_nm: Option<f64>,
 }
 
+/// The C-method's last check on a relief where it did not converge: its harmonics, the
+/// check's, and their difference.
+type Tried = (usize, usize, f64);
+
 /// Seconds per unit of an eigenproblem's size cubed, one thread, for
-/// [`Rigorous::cell_cost_s`]: from `goniospec bench rigorous` (AMD EPYC, 2026-12-07): the
-/// C-method's cell at 41 harmonics 0.0335 s (41³ and its check's 29³), the 1-D staircase's
+/// [`Rigorous::cell_cost_s`]: from `goniospec bench rigorous` (AMD EPYC, 2026-12-07). The
+/// C-method's solve of `N` harmonics takes `a N³ + b N` (`b N`: the transforms of the
+/// relief's samples, one per closed-form order, which dominate at few harmonics): the foil's
+/// cell at 41 harmonics 0.0335 s (41 and its check's 29), the disc's solves at 41 to 401
+/// harmonics 0.015 to 1.98 s (2026-12-08: 401³ a = 1.98 s fits `a`). The 1-D staircase's
 /// at 41 harmonics and 24 + 12 slices 0.132 s (41³ per slab, and 29³ for the check's), the
 /// crossed one at 11 x 11 harmonics and 24 + 12 slices 2.80 s (242³ modes per slab, 162³
 /// for the check's).
 pub struct CellCost {
-    pub c_method: f64,
+    pub c_method_cubic: f64,
+    pub c_method_linear: f64,
     pub staircase_1d: f64,
     pub staircase_2n: f64,
 }
 
 pub const CELL_COST: CellCost = CellCost {
-    c_method: 3.6e-7,
+    c_method_cubic: 3.1e-8,
+    c_method_linear: 4.4e-4,
     staircase_1d: 6.8e-8,
     staircase_2n: 7.2e-9,
 };
@@ -228,6 +251,9 @@ impl Rigorous {
         let relief = (fine.patterned == [true, false])
             .then(|| grating::relief(sample, fine.period_nm[0], Effort::RELIEF_SAMPLES))
             .flatten();
+        let corners = relief
+            .as_ref()
+            .is_some_and(|r| rcwa::has_corners(&r.heights, fine.period_nm[0]));
         // Twice the slices giving the same slabs: the structure does not change with height
         // and any count is exact. Otherwise the check needs strictly fewer slices.
         let exact_in_height = grating::same_slabs(&fine, &at(2 * effort.slices)?);
@@ -243,6 +269,7 @@ impl Rigorous {
             coarse,
             exact_in_height,
             relief,
+            corners,
         })
     }
 
@@ -269,6 +296,17 @@ impl Rigorous {
         })
     }
 
+    /// The harmonics the C-method starts from where the staircase would take `m`: on a
+    /// relief with sharp corners at least [`Effort::CORNER_HARMONICS`] unless the run fixes
+    /// them (`--orders`).
+    pub fn curvilinear_harmonics(&self, m: usize) -> usize {
+        if self.corners && self.effort.orders.is_none() {
+            m.max(Effort::CORNER_HARMONICS)
+        } else {
+            m
+        }
+    }
+
     /// The estimated wall time of one cell on one thread, s: light of `lambda_nm` along `d`,
     /// the media indices `idx` there. The eigenproblems dominate and grow as the cube of
     /// their size, once per structured slab (flat ones are exact and nearly free), for the
@@ -283,7 +321,13 @@ impl Rigorous {
         let count = |m: [usize; 2]| ((2 * m[0] + 1) * (2 * m[1] + 1)) as f64;
         let (n, nc) = (count(m), count(coarse));
         if self.relief.is_some() && self.fine.patterned == [true, false] {
-            return CELL_COST.c_method * (n.powi(3) + nc.powi(3));
+            let k = self.curvilinear_harmonics(m[0]);
+            let kc = (2 * k).div_ceil(3).min(k.saturating_sub(1));
+            let one = |k: usize| {
+                let n = (2 * k + 1) as f64;
+                CELL_COST.c_method_cubic * n.powi(3) + CELL_COST.c_method_linear * n
+            };
+            return one(k) + one(kc);
         }
         let structured = |s: &Sliced| {
             s.layers
@@ -307,6 +351,72 @@ impl Rigorous {
         let n_max = idx.iter().map(|n| n.re.abs()).fold(1.0, f64::max);
         let m = self.harmonics(lambda_nm, n_max);
         2 * (2 * m[0] + 1) * (2 * m[1] + 1)
+    }
+
+    /// The C-method on the tile's relief, where it has one and it converges: the solution,
+    /// its check and the harmonics taken (from `m`, or [`Self::curvilinear_harmonics`]);
+    /// and where it does not converge, its last check (harmonics, the check's, difference).
+    /// A relief, bare or under flat planes, from any azimuth: no staircase (TM on metals
+    /// converges fast there: docs/physics.md).
+    fn curvilinear(
+        &self,
+        idx: &[C64],
+        above: C64,
+        lambda_nm: f64,
+        d: DVec3,
+        m: usize,
+    ) -> (Option<(Solution, Solution, usize)>, Option<Tried>) {
+        let mut tried: Option<Tried> = None;
+        let solved = self
+            .relief
+            .as_ref()
+            .filter(|h| h.heights.len() > 4 * self.curvilinear_harmonics(m) + 2)
+            .and_then(|h| {
+                let p = rcwa::Profile {
+                    period_nm: self.fine.period_nm[0],
+                    heights_nm: h.heights.clone(),
+                    eps_above: (above * above).re,
+                    eps_below: idx[self.fine.below] * idx[self.fine.below],
+                    planes: h
+                        .planes
+                        .iter()
+                        .map(|&(z_nm, m)| rcwa::Plane {
+                            z_nm,
+                            eps_below: idx[m] * idx[m],
+                        })
+                        .collect(),
+                };
+                // Unsliced, the check has only the harmonics to differ in: fewer, always. On
+                // a relief with corners, where the check fails the harmonics rise by half
+                // again, the last answer becoming the check (an answer that fails to solve
+                // counts as a failed check).
+                let converged = |f: &Solution, c: &Solution| {
+                    let balanced = (0..2).all(|k| (f.r[k] + f.t[k] - 1.0).abs() <= 1e-9);
+                    difference(f, c) <= self.effort.tolerance && (p.eps_below.im != 0.0 || balanced)
+                };
+                let mut k = self.curvilinear_harmonics(m);
+                let mut fewer = (2 * k).div_ceil(3).min(k.saturating_sub(1));
+                let mut coarse = rcwa::solve_profile(&p, lambda_nm, d, fewer).ok();
+                loop {
+                    let fine = rcwa::solve_profile(&p, lambda_nm, d, k).ok();
+                    if let (Some(f), Some(c)) = (&fine, &coarse) {
+                        if converged(f, c) {
+                            return Some((fine?, coarse?, k));
+                        }
+                        tried = Some((k, fewer, difference(f, c)));
+                    }
+                    let next = (3 * k).div_ceil(2);
+                    if !self.corners
+                        || self.effort.orders.is_some()
+                        || next > Effort::CORNER_MAX_HARMONICS
+                        || h.heights.len() <= 4 * next + 1
+                    {
+                        return None;
+                    }
+                    (coarse, fewer, k) = (fine, k, next);
+                }
+            });
+        (solved, tried)
     }
 
     /// Solves one cell: light of `lambda_nm` along `d` (`theta_deg` for messages), the media
@@ -368,37 +478,10 @@ impl Rigorous {
         // also where the truncated C-method leaves R + T off 1 by more than the run accepts
         // (1e-9; a meshed glass sinusoid of 128 facets: 4.6e-8), where the staircase, exact
         // in energy there, converges in both polarisations.
-        let curvilinear = self
-            .relief
-            .as_ref()
-            .filter(|h| h.heights.len() > 4 * m[0] + 2)
-            .and_then(|h| {
-                let p = rcwa::Profile {
-                    period_nm: self.fine.period_nm[0],
-                    heights_nm: h.heights.clone(),
-                    eps_above: (above * above).re,
-                    eps_below: idx[self.fine.below] * idx[self.fine.below],
-                    planes: h
-                        .planes
-                        .iter()
-                        .map(|&(z_nm, m)| rcwa::Plane {
-                            z_nm,
-                            eps_below: idx[m] * idx[m],
-                        })
-                        .collect(),
-                };
-                let fine = rcwa::solve_profile(&p, lambda_nm, d, m[0]).ok()?;
-                // Unsliced, the check has only the harmonics to differ in: fewer, always.
-                let fewer = coarse_m[0].min(m[0].saturating_sub(1));
-                let coarse = rcwa::solve_profile(&p, lambda_nm, d, fewer).ok()?;
-                let lossless = p.eps_below.im == 0.0;
-                let balanced = (0..2).all(|k| (fine.r[k] + fine.t[k] - 1.0).abs() <= 1e-9);
-                (difference(&fine, &coarse) <= self.effort.tolerance && (!lossless || balanced))
-                    .then_some((fine, coarse))
-            });
+        let (curvilinear, tried) = self.curvilinear(idx, above, lambda_nm, d, m[0]);
         let profile = curvilinear.is_some();
-        let (fine, coarse, slices) = if let Some((fine, coarse)) = curvilinear {
-            (fine, coarse, 0)
+        let (fine, coarse, slices, m) = if let Some((fine, coarse, k)) = curvilinear {
+            (fine, coarse, 0, [k, 0])
         } else if !self.exact_in_height && self.effort.slices < 2 {
             return Err(RigorousError::TooFewSlices(self.effort.slices));
         } else {
@@ -411,11 +494,17 @@ impl Rigorous {
                     Harmonics { m: coarse_m },
                 )?,
                 self.effort.slices,
+                m,
             )
         };
         let difference = difference(&fine, &coarse);
         if difference > self.effort.tolerance {
             return Err(RigorousError::NotConverged {
+                curvilinear: tried.map_or(String::new(), |(k, kc, diff)| {
+                    format!(
+                        "; the C-method on the relief, tried first, did not either: {k} harmonics differ from {kc} by {diff:.2e}"
+                    )
+                }),
                 theta_deg,
                 lambda_nm,
                 harmonics: m,

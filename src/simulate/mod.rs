@@ -173,18 +173,23 @@ fn run_once(
             run.scene.scatter_violations(),
         );
         let mut whole = false;
+        let mut presolved = None;
         let traced = if cfg.fail_direction == Some(di) {
             Err(SimError::Unphysical(format!(
                 "direction {di} failed as the test asked (SimConfig::fail_direction)"
             )))
         } else if run.rigorous_only(di) {
             // Nothing to trace: the cells' one solution each (`rigorous`).
-            run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &[], progress)
+            run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &[], None, progress)
                 .map(|_| DirectionStats::untraced(cfg.theta_i_deg[di]))
         } else if let Some(w) =
             match run.solved_whole(di, cfg.theta_i_deg[di], &mut cells, progress) {
-                Ok(true) => Some(Ok(())),
-                Ok(false) => None,
+                Ok(rigorous::Whole::Written) => Some(Ok(())),
+                Ok(rigorous::Whole::NotTaken) => None,
+                Ok(rigorous::Whole::Unconverged(solved)) => {
+                    presolved = Some(solved);
+                    None
+                }
                 Err(e) => Some(Err(e)),
             }
         {
@@ -206,9 +211,14 @@ fn run_once(
                     let fell: Vec<bool> = (sums.diffraction[di * run.nl..(di + 1) * run.nl].iter())
                         .map(|c| c.fell_back || warned(c))
                         .collect();
-                    for k in
-                        run.solve_rigorous(di, cfg.theta_i_deg[di], &mut cells, &fell, progress)?
-                    {
+                    for k in run.solve_rigorous(
+                        di,
+                        cfg.theta_i_deg[di],
+                        &mut cells,
+                        &fell,
+                        presolved,
+                        progress,
+                    )? {
                         sums.clear(k);
                     }
                     Ok(d)

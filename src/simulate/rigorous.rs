@@ -41,12 +41,16 @@ impl Run<'_> {
     /// cell fits `AUTO_MAX_MODES`, the cells whose diffraction transform could not hold the
     /// ray field or held a share it warns about (`fell_back`, per cell of the direction),
     /// rather than leaving them rays or an uncertain transform.
+    ///
+    /// `solved`: the direction's cells already solved before its trace
+    /// ([`Self::solved_whole`]), written as they are.
     pub(super) fn solve_rigorous(
         &self,
         di: usize,
         theta_deg: f64,
         cells: &mut [Cell],
         fell_back: &[bool],
+        solved: Option<Vec<Result<Solved, RigorousError>>>,
         progress: &(dyn Fn(u64) + Sync),
     ) -> Result<Vec<usize>, SimError> {
         let Some(solver) = &self.rigorous else {
@@ -60,6 +64,11 @@ impl Run<'_> {
                         <= super::rigorous_fit::AUTO_MAX_MODES)
         };
         let nl = self.nl;
+        if let Some(solved) = solved {
+            // Every cell the solver's (`solved_whole`): none fell back from the diffraction
+            // method, and each was solved once.
+            return self.write_solved(di, cells, solved, explicit);
+        }
         // Progress counts cells (no tree is traced): the cells that fell back to the
         // solver join the plan's count, and each cell done reports.
         if let Some(p) = self.cfg.progress_plan.as_deref() {
@@ -76,32 +85,31 @@ impl Run<'_> {
     /// Under auto, a direction whose every cell the choice gave the solver is solved before
     /// any tree is traced (the rays an auto run traces are the fallback of a cell that does
     /// not converge): where every cell converges it is written and nothing is traced
-    /// (`Ok(true)`); where one does not, nothing is written, and the direction is traced
-    /// and solved as before (its cells solved again, which the progress plan counts).
+    /// ([`Whole::Written`]); where one does not, nothing is written, and the direction is
+    /// traced and its solved cells are written after ([`Whole::Unconverged`], for
+    /// [`Self::solve_rigorous`]: a cell's answer depends on its light alone, so it is the
+    /// same bytes as one solved after the trace).
     pub(super) fn solved_whole(
         &self,
         di: usize,
         theta_deg: f64,
         cells: &mut [Cell],
         progress: &(dyn Fn(u64) + Sync),
-    ) -> Result<bool, SimError> {
+    ) -> Result<Whole, SimError> {
         let Some(solver) = &self.rigorous else {
-            return Ok(false);
+            return Ok(Whole::NotTaken);
         };
         if self.cfg.coherence != crate::accumulate::Coherence::Auto
             || !(0..self.nl).all(|j| self.cell_takes_rigorous(di, j))
         {
-            return Ok(false);
+            return Ok(Whole::NotTaken);
         }
         let solved = self.solve_cells(solver, di, theta_deg, &|_| true, progress);
         if solved.iter().any(Result::is_err) {
-            if let Some(p) = self.cfg.progress_plan.as_deref() {
-                p.more_cells(self.nl as u64);
-            }
-            return Ok(false);
+            return Ok(Whole::Unconverged(solved));
         }
         self.write_solved(di, cells, solved, false)?;
-        Ok(true)
+        Ok(Whole::Written)
     }
 
     /// Solves the cells of direction `di` that `takes` names (in parallel over wavelengths;
@@ -219,7 +227,17 @@ impl Run<'_> {
 }
 
 /// One cell's solution, its spread orders up and down, its time and its estimate, s.
-type Solved = Option<(Converged, Pattern, Pattern, f64, f64)>;
+pub(super) type Solved = Option<(Converged, Pattern, Pattern, f64, f64)>;
+
+/// What [`Run::solved_whole`] did with a direction.
+pub(super) enum Whole {
+    /// Not every cell is the solver's under auto: nothing done.
+    NotTaken,
+    /// Every cell converged and is written: nothing to trace.
+    Written,
+    /// A cell did not converge: the cells as solved, to write after the trace.
+    Unconverged(Vec<Result<Solved, RigorousError>>),
+}
 
 /// How far above 1 a rigorous solution's `R + T` may be from rounding alone. The solver's
 /// eigen-solution and S-matrix products lose digits in the evanescent orders: lossless

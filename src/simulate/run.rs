@@ -608,21 +608,27 @@ impl<'a> Run<'a> {
                 self.nl,
             );
         }
+        // Adaptive runs: the most trees any direction used; each direction's own count too.
+        let rays = stats
+            .directions
+            .iter()
+            .map(|d| d.rays)
+            .max()
+            .unwrap_or(cfg.rays);
         let header = Header {
             settings,
             seeds: vec![cfg.seed],
-            // Adaptive runs: the most trees any direction used; each direction's own
-            // count too.
-            rays: stats
-                .directions
-                .iter()
-                .map(|d| d.rays)
-                .max()
-                .unwrap_or(cfg.rays),
+            rays,
             rays_per_direction: stats.directions.iter().map(|d| d.rays).collect(),
             backend: self.scene.backend().name().into(),
             leaks: stats.leaks,
-            error_groups: self.error_groups,
+            // An auto run whose every direction the rigorous solver took whole traced no
+            // tree (one solution a cell): no replicate groups either.
+            error_groups: if rays >= self.error_groups {
+                self.error_groups
+            } else {
+                0
+            },
             balanced: true,
             // Filled by `simulate` (`warnings::stored_warnings`).
             warnings: Vec::new(),

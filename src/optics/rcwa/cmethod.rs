@@ -1,7 +1,8 @@
-//! The C-method (Chandezon's curvilinear coordinates) for a smooth 1-D relief `z = a(x)`
-//! between two half-spaces in the classical mount (docs/physics.md, "The rigorous solver",
-//! "Smooth bare reliefs: the C-method"); light off the plane across the grooves takes
-//! `conical.rs`.
+//! The C-method (Chandezon's curvilinear coordinates) for a 1-D relief `z = a(x)` between
+//! two half-spaces in the classical mount (docs/physics.md, "The rigorous solver", "Smooth
+//! bare reliefs: the C-method"); light off the plane across the grooves takes `conical.rs`,
+//! and a relief with sharp corners is sampled in the stretched coordinate of `asr.rs`, which
+//! changes `W`, `P`, `ε` and the plane waves' closed form below as that module says.
 //!
 //! A staircase of a smooth metal profile puts a right-angled metal corner at every step,
 //! whose field singularities the Fourier modal method resolves only as `1 / M` in TM. In
@@ -46,12 +47,19 @@ use crate::optics::mueller::frame;
 const I: C64 = C64::new(0.0, 1.0);
 
 /// The profile's samples and their functions, and the Fourier coefficients the method
-/// takes, `c[n + kmax]` for `n` in `-kmax..=kmax`.
+/// takes, `c[n + kmax]` for `n` in `-kmax..=kmax`. Where the relief has sharp corners the
+/// samples are taken in the stretched coordinate `x₁` of [`super::asr`] (adaptive spatial
+/// resolution); elsewhere `x₁ = x`, `φ = 1` and `shift = 0`.
 pub(super) struct Sampled {
-    /// `k0 a(x_i)` at `x_i = i Λ / S`.
+    /// `k0 a(f(x₁_i))` at `x₁_i = i Λ / S`.
     pub(super) a: Vec<f64>,
-    /// `da/dx` at the same points (spectral derivative of the samples).
+    /// `da/dx` at the same points: the spectral derivative of the samples, or the
+    /// polyline's slope under the stretch.
     slope: Vec<f64>,
+    /// The stretch's derivative `φ = dx / dx₁` (1 without one).
+    phi: Vec<f64>,
+    /// `k0 (f(x₁_i) − x₁_i)` (0 without a stretch).
+    shift: Vec<f64>,
 }
 
 /// `Σ_i f_i e^{-2πi n i / S}` for each `n` of `orders` (`S` the length of `f`), from a
@@ -94,8 +102,45 @@ fn coefficients_at(g: &[C64]) -> Vec<C64> {
         .collect()
 }
 
+#[cfg(test)]
+thread_local! {
+    /// A stretch the tests impose on a smooth relief, with its fixed points (nm): the same
+    /// relief in other coordinates, which must give the same answer.
+    pub(super) static STRETCH: std::cell::RefCell<Option<Vec<f64>>> =
+        const { std::cell::RefCell::new(None) };
+}
+
 pub(super) fn sampled(p: &Profile, k0: f64) -> Sampled {
     let s = p.heights_nm.len();
+    #[cfg(test)]
+    if let Some(corners) = STRETCH.with(|c| c.borrow().clone()) {
+        return tests::stretched_smooth(p, k0, &corners);
+    }
+    // A relief with sharp corners (a trapezoid's, a V-groove's): the stretched coordinate.
+    let line = super::asr::polyline(&p.heights_nm, p.period_nm);
+    let corners = line.corners();
+    if !corners.is_empty() {
+        let st = super::asr::stretch(&corners, p.period_nm, s);
+        let (mut a, mut slope, mut phi, mut shift) = (
+            Vec::with_capacity(s),
+            Vec::with_capacity(s),
+            Vec::with_capacity(s),
+            Vec::with_capacity(s),
+        );
+        for (i, &(f, ph)) in st.iter().enumerate() {
+            let (z, sl) = line.at(f);
+            a.push(k0 * z);
+            slope.push(sl);
+            phi.push(ph);
+            shift.push(k0 * (f - i as f64 * p.period_nm / s as f64));
+        }
+        return Sampled {
+            a,
+            slope,
+            phi,
+            shift,
+        };
+    }
     let h: Vec<C64> = p.heights_nm.iter().map(|&z| C64::new(z, 0.0)).collect();
     // The derivative of the samples' trigonometric interpolant (no Nyquist term).
     let kmax = (s - 1) / 2;
@@ -118,6 +163,8 @@ pub(super) fn sampled(p: &Profile, k0: f64) -> Sampled {
     Sampled {
         a: p.heights_nm.iter().map(|z| k0 * z).collect(),
         slope,
+        phi: vec![1.0; s],
+        shift: vec![0.0; s],
     }
 }
 
@@ -143,11 +190,16 @@ pub(super) fn plane_wave(
     n: usize,
 ) -> (Vec<C64>, Vec<C64>) {
     let sb = if up { beta } else { -beta };
-    let e: Vec<C64> = sm.a.iter().map(|&a| (I * sb * a).exp()).collect();
+    // Under a stretch, F = e^{iα(f − x₁)} e^{±iβa} and G = iφ(±β − α ȧ) F ([`super::asr`]).
+    let e: Vec<C64> =
+        sm.a.iter()
+            .zip(&sm.shift)
+            .map(|(&a, &sh)| (I * (sb * a + alpha * sh)).exp())
+            .collect();
     let ge: Vec<C64> = e
         .iter()
-        .zip(&sm.slope)
-        .map(|(&e, &d)| I * (sb - alpha * d) * e)
+        .zip(sm.slope.iter().zip(&sm.phi))
+        .map(|(&e, (&d, &ph))| I * ph * (sb - alpha * d) * e)
         .collect();
     let kmax = n - 1;
     let (ce, cg) = (coefficients(&e, kmax), coefficients(&ge, kmax));
@@ -171,16 +223,24 @@ pub(super) fn evanescent(
     if count == 0 {
         return Ok(Vec::new());
     }
+    // Under a stretch w̃ = 1 / (φ (1 + ȧ²)) and ε φ ([`super::asr`]).
     let w: Vec<C64> = sm
         .slope
         .iter()
-        .map(|d| C64::new(1.0 / (1.0 + d * d), 0.0))
+        .zip(&sm.phi)
+        .map(|(d, ph)| C64::new(1.0 / (ph * (1.0 + d * d)), 0.0))
         .collect();
     let pw: Vec<C64> = sm
         .slope
         .iter()
-        .map(|d| C64::new(d / (1.0 + d * d), 0.0))
+        .zip(&sm.phi)
+        .map(|(d, ph)| C64::new(d / (ph * (1.0 + d * d)), 0.0))
         .collect();
+    let stretched = sm.phi.iter().any(|&ph| ph != 1.0);
+    let tphi = stretched.then(|| {
+        let phi: Vec<C64> = sm.phi.iter().map(|&ph| C64::new(ph, 0.0)).collect();
+        toeplitz(&coefficients(&phi, kmax), n)
+    });
     let (tw, tp) = (
         toeplitz(&coefficients(&w, kmax), n),
         toeplitz(&coefficients(&pw, kmax), n),
@@ -191,8 +251,12 @@ pub(super) fn evanescent(
             (0, 0) => I * tp[(ii, jj)] * alpha[jj],
             (0, _) => tw[(ii, jj)],
             (1, 0) => {
-                alpha[ii] * tw[(ii, jj)] * alpha[jj]
-                    - if ii == jj { eps } else { C64::new(0.0, 0.0) }
+                let e = match &tphi {
+                    Some(t) => eps * t[(ii, jj)],
+                    None if ii == jj => eps,
+                    None => C64::new(0.0, 0.0),
+                };
+                alpha[ii] * tw[(ii, jj)] * alpha[jj] - e
             }
             _ => I * alpha[ii] * tp[(ii, jj)],
         }
@@ -560,3 +624,6 @@ fn assemble(
     }
     sol
 }
+
+#[cfg(test)]
+mod tests;

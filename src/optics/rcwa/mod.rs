@@ -27,6 +27,8 @@
 // The solver proper needs faer; the `rigorous` feature (on by default) brings it. The fuzz
 // harnesses, which exercise the parsers only, build without it.
 #[cfg(feature = "rigorous")]
+mod asr;
+#[cfg(feature = "rigorous")]
 mod cmethod;
 #[cfg(feature = "rigorous")]
 mod conical;
@@ -199,8 +201,23 @@ pub struct Plane {
     pub eps_below: C64,
 }
 
-/// Solves the smooth relief `p` by the C-method (curvilinear coordinates: no staircase, so
-/// TM on metals converges fast), joined to its flat layers above order by order, for light
+/// Whether the relief `heights_nm` (one period `period_nm`, samples at `i Λ / S`) has sharp
+/// corners (its direction turning by more than 10 deg at a vertex: a trapezoid, a V-groove),
+/// where [`solve_profile`] takes the harmonics in a stretched coordinate (adaptive spatial
+/// resolution) and needs more of them than on a smooth relief.
+pub fn has_corners(heights_nm: &[f64], period_nm: f64) -> bool {
+    #[cfg(feature = "rigorous")]
+    return !asr::polyline(heights_nm, period_nm).corners().is_empty();
+    #[cfg(not(feature = "rigorous"))]
+    {
+        let _ = (heights_nm, period_nm);
+        false
+    }
+}
+
+/// Solves the relief `p` by the C-method (curvilinear coordinates: no staircase, so TM on
+/// metals converges fast; on a relief with sharp corners in the stretched coordinate of
+/// adaptive spatial resolution, `asr.rs`), joined to its flat layers above order by order, for light
 /// of `lambda_nm` along `d` (unit, `d.z < 0`; in the plane across the grooves, `d.y = 0`, or
 /// from any other azimuth: conical incidence) with harmonics `-m..=m`.
 pub fn solve_profile(
