@@ -548,3 +548,38 @@ fn an_auto_direction_the_solver_takes_whole_traces_nothing() {
     let back = goniospec::accumulate::file::Accumulator::read(&f).unwrap();
     assert_eq!(back.cells, a.cells);
 }
+
+/// Under auto the surface-plasmon warning on a metal grating's total R concerns the cells
+/// the rays take, which the run chooses per cell: the optical disc at 30 deg and 410 nm
+/// (its order 2 at tangential index 1.012, by the plasmon's 1.027) is solved by the
+/// C-method and the run does not warn, where a ray run (`--coherence beamlet`) warns before
+/// it starts.
+#[test]
+fn auto_warns_of_the_plasmon_only_where_rays_take_the_cell() {
+    let run = |coherence: &str| {
+        let out = common::scratch("rig-plasmon").join(format!("{coherence}.gsa"));
+        let (code, _, err) = common::goniospec(&[
+            "simulate",
+            "meshes/optical-disc-track.toml",
+            "--theta-i",
+            "30",
+            "--wavelengths",
+            "400:420:20",
+            "--theta-o-bins",
+            "10",
+            "--rays",
+            "256",
+            "--coherence",
+            coherence,
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert_eq!(code, 0, "{err}");
+        err
+    };
+    let auto = run("auto");
+    assert!(auto.contains("nothing traced"), "{auto}");
+    assert!(!auto.contains("surface plasmon"), "{auto}");
+    let rays = run("beamlet");
+    assert!(rays.contains("surface plasmon"), "{rays}");
+}
