@@ -40,4 +40,5 @@ render_grating() { # name rays
   cp "$TMP/$name.png" "$OUT/$name.png"
 }
 render_grating holographic-foil 512
+render_grating optical-disc-track 512
 ls -la "$OUT"

@@ -177,17 +177,20 @@ pub(super) fn simulate(a: SimulateArgs) -> Result<ExitCode> {
 }
 
 /// Where the method asked for does not hold for `s`: said once, before the run (and after
-/// the settings are known to be valid); returns what was said. Under auto, a grating's
-/// orders meeting a surface plasmon concern the cells that take rays, which the run
-/// chooses per cell: said after the run, where it keeps them (not where the solver took
-/// every cell).
+/// the settings are known to be valid); returns what was said. Under auto, what a
+/// grating does to the rays' total R (its orders meeting a surface plasmon, or a surface
+/// smooth at grazing light) concerns the cells that take rays, which the run chooses per
+/// cell: said after the run, where it keeps them (not where the solver took every cell).
 fn say_before(s: &sample::Sample, cfg: &SimConfig) -> Vec<String> {
     let auto = cfg.coherence == Coherence::Auto;
     let said: Vec<String> =
         sample::validity::findings(s, &goniospec::simulate::validity_context(cfg))
             .into_iter()
             .map(|f| f.message)
-            .filter(|m| !(auto && goniospec::warning_codes::code_of(m) == "grating-orders"))
+            .filter(|m| {
+                let code = goniospec::warning_codes::code_of(m);
+                !(auto && (code == "grating-orders" || code == "mean-plane"))
+            })
             .collect();
     for m in &said {
         let code = goniospec::warning_codes::code_of(m);
