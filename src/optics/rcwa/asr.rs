@@ -35,7 +35,7 @@
 
 /// The stretch's `φ` at the corners: the harmonics resolve `1 / η` times finer there.
 /// On the optical disc (aluminium, 400-700 nm, 0-60 deg) 0.1 reaches the check's 5e-3 at
-/// fewer harmonics than 0.02, 0.05 or 0.2 (at 120 harmonics against 80: 4e-4 to 7e-3,
+/// fewer harmonics than 0.02, 0.05 or 0.2 (at 120 harmonics against 80: 2e-4 to 7e-3,
 /// where 0.02 gives 7e-4 to 1.9e-2), and 1 (no stretch) does not converge by 200.
 pub(super) const ETA: f64 = 0.1;
 
